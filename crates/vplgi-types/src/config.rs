@@ -1,0 +1,159 @@
+//! The parameters of one frame, shared by the CPU and GPU pipelines, the CLI, tests and benches.
+
+use serde::{Deserialize, Serialize};
+
+/// Which point sets are clustered: the paper's ablation (section 4). `None` is the reference:
+/// every shading point against every VPL with its own shadow ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClusterMode {
+    None,
+    Sp,
+    Vpl,
+    Both,
+}
+
+impl ClusterMode {
+    pub fn clusters_sps(self) -> bool {
+        matches!(self, ClusterMode::Sp | ClusterMode::Both)
+    }
+    pub fn clusters_vpls(self) -> bool {
+        matches!(self, ClusterMode::Vpl | ClusterMode::Both)
+    }
+}
+
+/// How the visibility of a shading point's F clusters is combined.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FuzzyMode {
+    /// F = 1: the visibility of the single nearest cluster.
+    Hard,
+    /// Plain mean over the F nearest clusters (Eq. 8).
+    Average,
+    /// Inverse-distance weighted mean over the F nearest clusters (Eq. 9 and 10).
+    Weighted,
+}
+
+/// Everything that determines one frame. Two runs with equal configs and scenes produce
+/// bit-identical images.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameConfig {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples (shading points) per pixel; > 1 jitters them inside the pixel.
+    pub spp: u32,
+    pub seed: u32,
+    /// Number of VPLs created.
+    pub vpls: u32,
+    /// VPLs are deposited at the first `bounces` surfaces a light particle hits.
+    pub bounces: u32,
+    pub cluster: ClusterMode,
+    pub fuzzy: FuzzyMode,
+    /// Fuzziness: how many SP clusters a shading point belongs to (forced to 1 by `Hard`).
+    pub f: u32,
+    pub k_sp: u32,
+    pub k_vpl: u32,
+    /// Downsampling factor gamma of Alg. 1: the k-means iterations run on every gamma-th point.
+    pub gamma: u32,
+    /// K-means iterations of Alg. 1.
+    pub iterations: u32,
+    /// n_t of Eq. 7: points whose normals have a smaller dot product are never in one cluster.
+    pub normal_threshold: f32,
+    /// The geometry term cos*cos/d^2 is clamped at 1/d_min^2 with d_min = this times the scene's
+    /// bounding-box diagonal (removes VPL splotches).
+    pub g_clamp_rel: f32,
+    /// Shadow-ray samples per shading point for area lights (direct light).
+    pub direct_samples: u32,
+}
+
+impl FrameConfig {
+    /// The unclustered reference.
+    pub fn reference() -> Self {
+        FrameConfig {
+            width: 512,
+            height: 512,
+            spp: 1,
+            seed: 1,
+            vpls: 10_000,
+            bounces: 3,
+            cluster: ClusterMode::None,
+            fuzzy: FuzzyMode::Weighted,
+            f: 6,
+            k_sp: 8_000,
+            k_vpl: 1_000,
+            gamma: 4,
+            iterations: 10,
+            normal_threshold: 0.866_025_4, // cos 30 degrees = sqrt(3)/2
+            g_clamp_rel: 0.05,
+            direct_samples: 4,
+        }
+    }
+
+    fn clustered(k_vpl: u32, k_sp: u32) -> Self {
+        FrameConfig { cluster: ClusterMode::Both, k_vpl, k_sp, ..Self::reference() }
+    }
+
+    /// The paper's light setting: 0.75k VPL clusters, 1k SP clusters.
+    pub fn paper_light() -> Self {
+        Self::clustered(750, 1_000)
+    }
+    /// The paper's intermediate setting: 2k VPL clusters, 8k SP clusters.
+    pub fn paper_intermediate() -> Self {
+        Self::clustered(2_000, 8_000)
+    }
+    /// The paper's high-quality setting: 4k VPL clusters, 30k SP clusters.
+    pub fn paper_high() -> Self {
+        Self::clustered(4_000, 30_000)
+    }
+
+    /// The fuzziness actually used: `Hard` means one cluster whatever `f` says.
+    pub fn effective_f(&self) -> u32 {
+        match self.fuzzy {
+            FuzzyMode::Hard => 1,
+            _ => self.f.max(1),
+        }
+    }
+
+    /// Checks ranges; the message names the offending parameter.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("width", self.width),
+            ("height", self.height),
+            ("spp", self.spp),
+            ("bounces", self.bounces),
+            ("k-sp", self.k_sp),
+            ("k-vpl", self.k_vpl),
+            ("gamma", self.gamma),
+            ("F", self.f),
+            ("direct-samples", self.direct_samples),
+        ];
+        for (name, v) in positive {
+            if v == 0 {
+                return Err(format!("{name} must be at least 1"));
+            }
+        }
+        if self.f > MAX_F {
+            return Err(format!("F must be at most {MAX_F} (got {})", self.f));
+        }
+        if (self.width as u64) * (self.height as u64) * (self.spp as u64) > (1 << 28) {
+            return Err("width x height x spp must stay below 2^28 shading points".into());
+        }
+        if !(-1.0..=1.0).contains(&self.normal_threshold) {
+            return Err("normal threshold must be in [-1, 1]".into());
+        }
+        if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
+            return Err("g-clamp must be a finite number >= 0".into());
+        }
+        Ok(())
+    }
+}
+
+/// Largest supported fuzziness F (the per-point index and weight arrays are fixed-size).
+pub const MAX_F: u32 = 16;
+
+impl Default for FrameConfig {
+    /// The paper's Cornell-box operating point: 1k VPL clusters, 8k SP clusters, F = 6 weighted.
+    fn default() -> Self {
+        Self::clustered(1_000, 8_000)
+    }
+}

@@ -1,0 +1,17 @@
+//! Types shared by every vplgi backend.
+//!
+//! * [`pod`]: `#[repr(C)]` plain-old-data records (VPLs, shading points) whose bytes the CPU
+//!   reference and the GPU twin read alike.
+//! * [`rng`]: the counter-based hash RNG keyed by (seed, stream, index). It is written so that
+//!   the same integer operations can be transcribed to WGSL and give bit-identical streams.
+//! * [`sampling`]: the few warps used to turn uniform numbers into directions and points.
+//! * [`config`]: [`FrameConfig`], the parameters of one frame, with the paper's presets.
+
+pub mod config;
+pub mod pod;
+pub mod rng;
+pub mod sampling;
+
+pub use config::{ClusterMode, FrameConfig, FuzzyMode};
+pub use pod::{ShadingPoint, Vpl, MISS};
+pub use rng::{Rng, Stream};

@@ -1,0 +1,72 @@
+//! Plain-old-data records that flow between stages.
+//!
+//! Layouts are chosen to match WGSL storage-buffer layout rules: every `vec3<f32>` is followed by
+//! a 4-byte scalar so that a WGSL `struct { a: vec3<f32>, b: u32, ... }` has the same offsets and
+//! size as the Rust struct.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Marker for "no triangle": a primary ray that left the scene.
+pub const MISS: u32 = u32::MAX;
+
+/// A virtual point light: light that arrived at a diffuse surface and is re-emitted from it
+/// with a cosine lobe.
+///
+/// `flux` is the power the VPL re-emits (incident particle power times the albedo at the hit), so
+/// its radiant intensity is `flux * cos(theta) / pi` around `normal`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Vpl {
+    pub position: [f32; 3],
+    /// Index of the light particle that deposited this VPL.
+    pub path: u32,
+    pub normal: [f32; 3],
+    /// 1 for a VPL at the first surface a particle hit, 2 for the next one, ...
+    pub bounce: u32,
+    pub flux: [f32; 3],
+    pub _pad: u32,
+}
+
+/// The surface seen through one camera sample.
+///
+/// `normal` is the shading normal, turned to face the camera. When `triangle == MISS` the sample
+/// saw the background and every other field is zero.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShadingPoint {
+    pub position: [f32; 3],
+    /// Linear pixel index `y * width + x` this sample belongs to.
+    pub pixel: u32,
+    pub normal: [f32; 3],
+    /// Index of the triangle that was hit, or [`MISS`].
+    pub triangle: u32,
+    /// Diffuse albedo (base colour, texture applied), linear RGB.
+    pub albedo: [f32; 3],
+    pub _pad0: u32,
+    /// Radiance emitted towards the camera (non-zero on area lights).
+    pub emitted: [f32; 3],
+    pub _pad1: u32,
+}
+
+impl ShadingPoint {
+    pub fn is_miss(&self) -> bool {
+        self.triangle == MISS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn layouts_match_wgsl_rules() {
+        assert_eq!(size_of::<Vpl>(), 48);
+        assert_eq!(offset_of!(Vpl, normal), 16);
+        assert_eq!(offset_of!(Vpl, flux), 32);
+        assert_eq!(size_of::<ShadingPoint>(), 64);
+        assert_eq!(offset_of!(ShadingPoint, normal), 16);
+        assert_eq!(offset_of!(ShadingPoint, albedo), 32);
+        assert_eq!(offset_of!(ShadingPoint, emitted), 48);
+    }
+}
