@@ -1,0 +1,83 @@
+//! The scene as the CPU stages see it: Embree's acceleration structure, the light sampler and the
+//! few scale-dependent constants (ray offsets, geometry-term clamp).
+
+use crate::lights::LightSampler;
+use glam::Vec3;
+use vplgi_embree::{Device, EmbreeError};
+use vplgi_scene::Scene;
+
+/// A scene prepared for the CPU stages.
+pub struct CpuScene<'a> {
+    pub scene: &'a Scene,
+    pub rt: vplgi_embree::Scene,
+    pub lights: LightSampler,
+    /// Bounding-box diagonal: the length unit of every relative parameter.
+    pub extent: f32,
+    /// How far ray end points are pushed off their surfaces (1e-4 of the extent).
+    pub eps: f32,
+}
+
+/// What a ray sees where it hits a surface.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub position: Vec3,
+    /// Geometric normal turned to face the ray's origin.
+    pub ng: Vec3,
+    /// Shading normal in the same hemisphere as `ng`.
+    pub ns: Vec3,
+    pub albedo: Vec3,
+    /// Radiance emitted back along the ray (zero unless the ray hit an emitter's front side).
+    pub emitted: Vec3,
+    pub triangle: u32,
+    pub t: f32,
+}
+
+impl<'a> CpuScene<'a> {
+    pub fn new(scene: &'a Scene, device: &Device) -> Result<CpuScene<'a>, EmbreeError> {
+        let rt = vplgi_embree::Scene::new(device, &scene.positions, &scene.indices)?;
+        let extent = scene.extent().max(1e-6);
+        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps: 1e-4 * extent })
+    }
+
+    /// Closest surface along `origin + t dir`, t in (0, inf).
+    pub fn trace(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
+        let hit = self.rt.intersect(origin, dir, 0.0, f32::INFINITY)?;
+        let t = hit.triangle as usize;
+        let [a, b, c] = self.scene.triangle(t);
+        // Interpolating the corners is more accurate than origin + t * dir far from the origin.
+        let position = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
+        let front = self.scene.geometric_normal(t);
+        let facing = front.dot(dir) < 0.0;
+        let ng = if facing { front } else { -front };
+        let mut ns = self.scene.shading_normal(t, hit.u, hit.v);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let emitted = if facing { self.scene.emission(t) } else { Vec3::ZERO };
+        Some(SurfaceHit { position, ng, ns, albedo: self.scene.albedo(t, hit.u, hit.v), emitted, triangle: hit.triangle, t: hit.t })
+    }
+
+    /// Pushes `p` off its surface (normal `n`) towards the side where `toward` lies.
+    #[inline]
+    pub fn offset_toward(&self, p: Vec3, n: Vec3, toward: Vec3) -> Vec3 {
+        let side = if n.dot(toward - p) >= 0.0 { 1.0 } else { -1.0 };
+        p + n * (side * self.eps)
+    }
+
+    /// Visibility between two surface points. Both ends are pushed off their surfaces and the
+    /// segment between the pushed points is tested, so neither end's own surface counts as a
+    /// blocker (SPEC, "shadow-ray endpoints").
+    #[inline]
+    pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
+        let a = self.offset_toward(p, np, q);
+        let b = self.offset_toward(q, nq, p);
+        !self.rt.occluded(a, b - a, 0.0, 1.0)
+    }
+
+    /// Visibility between a surface point and a point in free space (a punctual light).
+    #[inline]
+    pub fn visible_from_surface(&self, p: Vec3, np: Vec3, light: Vec3) -> bool {
+        let a = self.offset_toward(p, np, light);
+        !self.rt.occluded(a, light - a, 0.0, 1.0)
+    }
+}

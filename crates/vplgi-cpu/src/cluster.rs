@@ -1,0 +1,555 @@
+//! Stage 3, `cluster`: grid-accelerated k-means (Alg. 1) and the fuzzy F-nearest assignment
+//! (Alg. 2), used for both shading points and VPLs.
+//!
+//! Rules that make the result well defined (and reproducible by the GPU twin):
+//!
+//! * **Distance** (Eq. 7): Euclidean between positions when the normals' dot product exceeds
+//!   `n_t`, infinite otherwise. Squared distances are summed in the order x, y, z.
+//! * **Ties** go to the lower centroid index, whatever the visiting order.
+//! * **Grid**: one uniform grid for the whole run, laid over the data's bounding box, with a cell
+//!   size chosen from the data so that about two centroids share an occupied cell
+//!   ([`Grid::for_data`]). A point looks at the 27 cells around its own (the paper's
+//!   approximation).
+//! * **No compatible centroid in the 27 cells**: the search widens ring by ring (Chebyshev
+//!   distance 2, 3, ...) and, once something is found, continues until no unvisited ring can hold
+//!   a closer centroid, so the widened answer is exact. If no centroid anywhere has a compatible
+//!   normal, the point takes the nearest centroid by position alone. Both cases are counted.
+//! * **Centroid sums** are fixed-point integers (see [`FixedPoint`]), so they do not depend on
+//!   summation order; a cluster that loses all members keeps its previous centroid.
+//! * **Empty clusters** after the final assignment are dropped, so every reported cluster has a
+//!   member, and its **representative** is the member nearest its centroid (a real surface point).
+
+use glam::Vec3;
+use rayon::prelude::*;
+use vplgi_types::config::MAX_F;
+use vplgi_types::{FuzzyMode, Rng, Stream, MISS};
+
+/// Parameters of one clustering run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterParams {
+    /// Requested number of clusters K.
+    pub k: u32,
+    /// Downsampling factor gamma.
+    pub gamma: u32,
+    pub iterations: u32,
+    /// Clusters per point in the final assignment (1 = hard).
+    pub f: u32,
+    /// How the F clusters of a point are weighted.
+    pub fuzzy: FuzzyMode,
+    /// n_t of Eq. 7.
+    pub normal_threshold: f32,
+    pub seed: u32,
+}
+
+/// The result of clustering M points into K' <= K non-empty clusters.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Clustering {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    /// Index (into the clustered points) of each cluster's representative member.
+    pub representatives: Vec<u32>,
+    /// Number of points whose nearest cluster this is.
+    pub members: Vec<u32>,
+    /// Row stride of `labels` and `weights`.
+    pub f: usize,
+    /// `f` cluster indices per point, nearest first, padded with [`MISS`].
+    pub labels: Vec<u32>,
+    /// `f` weights per point, summing to 1 over the valid labels, 0 for padding.
+    pub weights: Vec<f32>,
+    /// Points whose 27-cell neighbourhood held no compatible centroid (final assignment).
+    pub widened: usize,
+    /// Of those, points that found no compatible centroid anywhere (took the nearest by position).
+    pub incompatible: usize,
+}
+
+impl Clustering {
+    pub fn k(&self) -> usize {
+        self.positions.len()
+    }
+    /// The nearest cluster of point `i`.
+    pub fn hard_label(&self, i: usize) -> u32 {
+        self.labels[i * self.f]
+    }
+}
+
+/// Squared distance, summed x, y, z in that order (the GPU twin keeps this order).
+#[inline]
+fn dist2(a: Vec3, b: Vec3) -> f32 {
+    let dx = a.x - b.x;
+    let dy = a.y - b.y;
+    let dz = a.z - b.z;
+    let mut s = dx * dx;
+    s += dy * dy;
+    s += dz * dz;
+    s
+}
+
+#[inline]
+fn compatible(n: Vec3, m: Vec3, threshold: f32) -> bool {
+    let mut d = n.x * m.x;
+    d += n.y * m.y;
+    d += n.z * m.z;
+    d > threshold
+}
+
+/// A uniform grid over centroid positions, stored as a counting sort: `items[starts[c]..
+/// starts[c + 1]]` are the centroids in cell `c`, in increasing index order.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    pub origin: Vec3,
+    pub cell: f32,
+    pub dims: [i32; 3],
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+/// At most this many cells; the cell size grows to respect it.
+const MAX_CELLS: f64 = (1u64 << 21) as f64;
+
+impl Grid {
+    /// Chooses the grid geometry for clustering `points` into `k` clusters: the cell size is
+    /// adjusted (a few fixed steps, deterministic) until the occupied cells number about k / 2,
+    /// i.e. about two centroids per occupied cell when centroids follow the data. The square-root
+    /// update assumes surface-like data, where occupied cells scale with 1 / cell².
+    /// The grid spans `bounds` (the bounding box of every point that will be searched, so no
+    /// point falls outside it); `sample` drives the cell size.
+    pub fn for_data(bounds: (Vec3, Vec3), sample: &[Vec3], k: usize) -> Grid {
+        let (min, max) = bounds;
+        let points = sample;
+        let ext = (max - min).max(Vec3::splat(1e-12));
+        let target = (k as f64 / 2.0).max(1.0);
+        let mut cell = (ext.x as f64 * ext.y as f64 * ext.z as f64 / k.max(1) as f64).cbrt().max(ext.max_element() as f64 / 1024.0);
+        for _ in 0..4 {
+            cell = cell.max(min_cell(ext));
+            let occupied = occupied_cells(points, min, cell as f32) as f64;
+            cell *= (occupied / target).sqrt().clamp(0.25, 4.0);
+        }
+        let cell = cell.max(min_cell(ext)) as f32;
+        let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
+        Grid { origin: min, cell, dims, starts: Vec::new(), items: Vec::new() }
+    }
+
+    /// Same geometry, filled with `centroids`.
+    pub fn fill(&self, centroids: &[Vec3]) -> Grid {
+        let n_cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
+        let cell_of: Vec<u32> = centroids.iter().map(|&c| self.linear(self.coords(c)) as u32).collect();
+        let mut starts = vec![0u32; n_cells + 1];
+        for &c in &cell_of {
+            starts[c as usize + 1] += 1;
+        }
+        for i in 0..n_cells {
+            starts[i + 1] += starts[i];
+        }
+        let mut cursor = starts.clone();
+        let mut items = vec![0u32; centroids.len()];
+        for (k, &c) in cell_of.iter().enumerate() {
+            items[cursor[c as usize] as usize] = k as u32;
+            cursor[c as usize] += 1;
+        }
+        Grid { starts, items, ..self.clone() }
+    }
+
+    /// Cell coordinates of `p`, clamped into the grid (centroids always lie inside it; points of
+    /// the clustered data too, as the grid spans their bounding box).
+    #[inline]
+    pub fn coords(&self, p: Vec3) -> [i32; 3] {
+        let q = (p - self.origin) / self.cell;
+        [0, 1, 2].map(|a| (q[a].floor() as i32).clamp(0, self.dims[a] - 1))
+    }
+
+    #[inline]
+    fn linear(&self, c: [i32; 3]) -> usize {
+        (c[0] as usize) + self.dims[0] as usize * ((c[1] as usize) + self.dims[1] as usize * c[2] as usize)
+    }
+
+    /// Centroids in cell `c`, or nothing when `c` is outside the grid.
+    #[inline]
+    fn cell_items(&self, c: [i32; 3]) -> &[u32] {
+        if (0..3).any(|a| c[a] < 0 || c[a] >= self.dims[a]) {
+            return &[];
+        }
+        let l = self.linear(c);
+        &self.items[self.starts[l] as usize..self.starts[l + 1] as usize]
+    }
+
+    /// Visits the cells at Chebyshev distance exactly `r` from `c` that lie in the grid (r = 1
+    /// visits all 27 cells of the neighbourhood including `c`), z-major then y then x. Only the
+    /// shell is walked, so a ring costs O(r²) cells.
+    fn visit_ring(&self, c: [i32; 3], r: i32, mut f: impl FnMut(&[u32])) {
+        let lo = |a: usize| (c[a] - r).max(0);
+        let hi = |a: usize| (c[a] + r).min(self.dims[a] - 1);
+        for z in lo(2)..=hi(2) {
+            for y in lo(1)..=hi(1) {
+                let on_shell = r == 1 || (z - c[2]).abs() == r || (y - c[1]).abs() == r;
+                if on_shell {
+                    for x in lo(0)..=hi(0) {
+                        f(self.cell_items([x, y, z]));
+                    }
+                } else {
+                    for x in [c[0] - r, c[0] + r] {
+                        f(self.cell_items([x, y, z]));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Largest ring that still touches the grid from cell `c`.
+    fn max_ring(&self, c: [i32; 3]) -> i32 {
+        (0..3).map(|a| c[a].max(self.dims[a] - 1 - c[a])).max().unwrap_or(0).max(1)
+    }
+
+    /// The `best.len()` nearest compatible centroids of point (`p`, `n`), nearest first (ties:
+    /// lower index), written to `best` as (squared distance, index); returns how many were found
+    /// and how the search ended. This one search serves both the k-means iterations (one entry)
+    /// and the fuzzy assignment (F entries), so its first entry is always the hard label.
+    pub fn search(&self, p: Vec3, n: Vec3, centroids: &[Vec3], normals: &[Vec3], threshold: f32, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
+        let f = best.len();
+        let mut count = 0usize;
+        let consider = |items: &[u32], best: &mut [(f32, u32)], count: &mut usize| {
+            for &k in items {
+                if !compatible(n, normals[k as usize], threshold) {
+                    continue;
+                }
+                let cand = (dist2(p, centroids[k as usize]), k);
+                // Insertion into the sorted list of the f best (Alg. 2, lines 9-17).
+                let mut pos = *count;
+                while pos > 0 && cand < best[pos - 1] {
+                    pos -= 1;
+                }
+                if pos < f {
+                    let end = (*count).min(f - 1);
+                    best.copy_within(pos..end, pos + 1);
+                    best[pos] = cand;
+                    *count = (*count + 1).min(f);
+                }
+            }
+        };
+        let c = self.coords(p);
+        self.visit_ring(c, 1, |items| consider(items, best, &mut count));
+        if count > 0 {
+            return (count, SearchOutcome::Neighbourhood);
+        }
+        let last = self.max_ring(c);
+        for r in 2..=last {
+            self.visit_ring(c, r, |items| consider(items, best, &mut count));
+            // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
+            // so it is at least r cells away: nothing unvisited can beat this answer.
+            if count > 0 && best[0].0.sqrt() <= r as f32 * self.cell {
+                return (count, SearchOutcome::Widened);
+            }
+        }
+        if count > 0 {
+            return (count, SearchOutcome::Widened);
+        }
+        // No centroid anywhere has a compatible normal: nearest by position.
+        let mut nearest = (f32::INFINITY, MISS);
+        for (k, &c) in centroids.iter().enumerate() {
+            let cand = (dist2(p, c), k as u32);
+            if cand < nearest {
+                nearest = cand;
+            }
+        }
+        if nearest.1 == MISS {
+            return (0, SearchOutcome::Incompatible);
+        }
+        best[0] = nearest;
+        (1, SearchOutcome::Incompatible)
+    }
+}
+
+/// How a [`Grid::search`] found its answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SearchOutcome {
+    /// In the 27-cell neighbourhood (the paper's case).
+    Neighbourhood,
+    /// Only after widening the search beyond the 27 cells.
+    Widened,
+    /// No centroid has a compatible normal; nearest by position.
+    Incompatible,
+}
+
+fn min_cell(ext: Vec3) -> f64 {
+    // Keep the cell count under MAX_CELLS.
+    (ext.x as f64 * ext.y as f64 * ext.z as f64 / MAX_CELLS).cbrt().max(ext.max_element() as f64 / 4096.0).max(1e-12)
+}
+
+fn occupied_cells(points: &[Vec3], min: Vec3, cell: f32) -> usize {
+    let mut keys: Vec<u64> = points
+        .par_iter()
+        .map(|&p| {
+            let q = ((p - min) / cell).floor();
+            ((q.x as u64) << 42) | ((q.y as u64) << 21) | (q.z as u64)
+        })
+        .collect();
+    keys.par_sort_unstable();
+    keys.dedup();
+    keys.len()
+}
+
+fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)))
+}
+
+/// Fixed-point format of the centroid sums.
+///
+/// Positions are stored as unsigned 24-bit fractions of the data's bounding box per axis
+/// (resolution 6e-8 of the box), normals as `round(n * 2^24) + 2^24` in [0, 2^25]. A sum of
+/// M points needs 25 + log2(M) bits: 64-bit sums cannot overflow below 2^39 points per
+/// cluster. Means are formed in f32 from the two 32-bit halves of a sum, the same operations a
+/// GPU with 32-bit atomics performs.
+#[derive(Clone, Copy, Debug)]
+pub struct FixedPoint {
+    min: Vec3,
+    ext: Vec3,
+}
+
+const FIX_ONE: f32 = 16_777_216.0; // 2^24
+
+impl FixedPoint {
+    pub fn for_data(points: &[Vec3]) -> FixedPoint {
+        let (min, max) = bounds(points);
+        FixedPoint { min, ext: (max - min).max(Vec3::splat(1e-30)) }
+    }
+
+    #[inline]
+    pub fn quantize(&self, p: Vec3, n: Vec3) -> [u32; 6] {
+        let q = ((p - self.min) / self.ext * FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(FIX_ONE));
+        let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
+        [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| v.round_ties_even() as u32)
+    }
+
+    /// The mean position and (normalised) mean normal of `count` points whose quantised values
+    /// sum to `sums`. Returns `None` for an empty cluster or when the normals cancel out.
+    #[inline]
+    pub fn mean(&self, sums: &[u64; 6], count: u32) -> (Vec3, Option<Vec3>) {
+        let m = sums.map(|s| u64_mean(s, count));
+        let p = self.min + Vec3::new(m[0], m[1], m[2]) / FIX_ONE * self.ext;
+        let n = Vec3::new(m[3] - FIX_ONE, m[4] - FIX_ONE, m[5] - FIX_ONE) / FIX_ONE;
+        (p, n.try_normalize())
+    }
+}
+
+/// `sum / count` in f32 from the two halves of the 64-bit sum.
+#[inline]
+fn u64_mean(sum: u64, count: u32) -> f32 {
+    let hi = (sum >> 32) as u32;
+    let lo = sum as u32;
+    (hi as f32 * 4_294_967_296.0 + lo as f32) / count as f32
+}
+
+/// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11).
+pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], centroids: &[Vec3], cnormals: &[Vec3], threshold: f32) -> Vec<u32> {
+    points
+        .par_iter()
+        .zip(normals)
+        .map(|(&p, &n)| {
+            let mut best = [(f32::INFINITY, MISS)];
+            grid.search(p, n, centroids, cnormals, threshold, &mut best);
+            best[0].1
+        })
+        .collect()
+}
+
+/// Recomputes the centroids from the labels with fixed-point sums (Alg. 1, lines 12-18).
+/// Clusters without members keep their previous centroid. Returns the member counts.
+pub fn update(fix: &FixedPoint, points: &[Vec3], normals: &[Vec3], labels: &[u32], centroids: &mut [Vec3], cnormals: &mut [Vec3]) -> Vec<u32> {
+    let k = centroids.len();
+    let (sums, counts) = points
+        .par_chunks(1 << 14)
+        .zip(normals.par_chunks(1 << 14))
+        .zip(labels.par_chunks(1 << 14))
+        .map(|((ps, ns), ls)| {
+            let mut sums = vec![[0u64; 6]; k];
+            let mut counts = vec![0u32; k];
+            for ((&p, &n), &l) in ps.iter().zip(ns).zip(ls) {
+                if l == MISS {
+                    continue;
+                }
+                let q = fix.quantize(p, n);
+                let s = &mut sums[l as usize];
+                for a in 0..6 {
+                    s[a] += q[a] as u64;
+                }
+                counts[l as usize] += 1;
+            }
+            (sums, counts)
+        })
+        .reduce(
+            || (vec![[0u64; 6]; k], vec![0u32; k]),
+            |(mut sa, mut ca), (sb, cb)| {
+                // Integer addition is associative: any reduction order gives the same sums.
+                for i in 0..k {
+                    for a in 0..6 {
+                        sa[i][a] += sb[i][a];
+                    }
+                    ca[i] += cb[i];
+                }
+                (sa, ca)
+            },
+        );
+    for i in 0..k {
+        if counts[i] > 0 {
+            let (p, n) = fix.mean(&sums[i], counts[i]);
+            centroids[i] = p;
+            if let Some(n) = n {
+                cnormals[i] = n;
+            }
+        }
+    }
+    counts
+}
+
+/// Alg. 1, line 1: one point from each block of `gamma` consecutive points, at a random offset
+/// inside the block (jittered stride). A fixed stride would alias with periodic data, such as
+/// alternating normals.
+pub fn downsample(m: usize, gamma: usize, seed: u32) -> Vec<u32> {
+    (0..m.div_ceil(gamma))
+        .map(|s| {
+            let offset = Rng::new(seed, Stream::Cluster, s as u32 + 1).next_u32() as usize % gamma;
+            ((s * gamma + offset).min(m - 1)) as u32
+        })
+        .collect()
+}
+
+/// The initial centroids: K points spread evenly over the downsampled set with a random offset.
+fn seed_centroids(sample: &[u32], k: usize, seed: u32) -> Vec<u32> {
+    let u = Rng::new(seed, Stream::Cluster, 0).next_f32() as f64;
+    let s = sample.len() as f64;
+    (0..k).map(|i| sample[(((i as f64 + u) * s / k as f64) as usize).min(sample.len() - 1)]).collect()
+}
+
+/// Clusters the points (`positions`, unit `normals`) with Alg. 1 and assigns every point to its
+/// F nearest clusters with Alg. 2.
+pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> Clustering {
+    let m = positions.len();
+    let f = match params.fuzzy {
+        FuzzyMode::Hard => 1,
+        _ => params.f.clamp(1, MAX_F) as usize,
+    };
+    if m == 0 || params.k == 0 {
+        return Clustering { f, ..Default::default() };
+    }
+    let k = (params.k as usize).min(m);
+    // Downsample by gamma, but never below K points.
+    let gamma = (params.gamma as usize).clamp(1, (m / k).max(1));
+    let sample = downsample(m, gamma, params.seed);
+    let sp: Vec<Vec3> = sample.iter().map(|&i| positions[i as usize]).collect();
+    let sn: Vec<Vec3> = sample.iter().map(|&i| normals[i as usize]).collect();
+
+    let seeds = seed_centroids(&sample, k, params.seed);
+    let mut cpos: Vec<Vec3> = seeds.iter().map(|&i| positions[i as usize]).collect();
+    let mut cnor: Vec<Vec3> = seeds.iter().map(|&i| normals[i as usize]).collect();
+    let fix = FixedPoint::for_data(positions);
+    let geometry = Grid::for_data(bounds(positions), &sp, k);
+    let nt = params.normal_threshold;
+    for _ in 0..params.iterations {
+        let grid = geometry.fill(&cpos);
+        let labels = assign(&grid, &sp, &sn, &cpos, &cnor, nt);
+        update(&fix, &sp, &sn, &labels, &mut cpos, &mut cnor);
+    }
+
+    // Final hard assignment of every point; drop the clusters nobody is nearest to.
+    let grid = geometry.fill(&cpos);
+    let hard = assign(&grid, positions, normals, &cpos, &cnor, nt);
+    let mut counts = vec![0u32; k];
+    for &l in &hard {
+        counts[l as usize] += 1;
+    }
+    let mut remap = vec![MISS; k];
+    let mut kept = 0u32;
+    for i in 0..k {
+        if counts[i] > 0 {
+            remap[i] = kept;
+            kept += 1;
+        }
+    }
+    let keep = |v: &[Vec3]| -> Vec<Vec3> { (0..k).filter(|&i| counts[i] > 0).map(|i| v[i]).collect() };
+    let (cpos, cnor) = (keep(&cpos), keep(&cnor));
+    let members: Vec<u32> = counts.iter().copied().filter(|&c| c > 0).collect();
+
+    // Fuzzy assignment (Alg. 2) against the surviving centroids, on a grid of the same geometry:
+    // a point's nearest centroid survived, so its first label equals its hard label.
+    let grid = geometry.fill(&cpos);
+    let rows: Vec<([u32; MAX_F as usize], [f32; MAX_F as usize], SearchOutcome)> = positions
+        .par_iter()
+        .zip(normals)
+        .map(|(&p, &n)| {
+            let mut best = [(f32::INFINITY, MISS); MAX_F as usize];
+            let (count, outcome) = grid.search(p, n, &cpos, &cnor, nt, &mut best[..f]);
+            let mut labels = [MISS; MAX_F as usize];
+            let mut weights = [0f32; MAX_F as usize];
+            for j in 0..count {
+                labels[j] = best[j].1;
+            }
+            fuzzy_weights(&best[..count], params.fuzzy, grid.cell, &mut weights[..count]);
+            (labels, weights, outcome)
+        })
+        .collect();
+    let mut labels = Vec::with_capacity(m * f);
+    let mut weights = Vec::with_capacity(m * f);
+    let (mut widened, mut incompatible) = (0, 0);
+    for (l, w, outcome) in &rows {
+        labels.extend_from_slice(&l[..f]);
+        weights.extend_from_slice(&w[..f]);
+        match outcome {
+            SearchOutcome::Neighbourhood => {}
+            SearchOutcome::Widened => widened += 1,
+            SearchOutcome::Incompatible => {
+                widened += 1;
+                incompatible += 1
+            }
+        }
+    }
+    debug_assert!((0..m).all(|i| labels[i * f] == remap[hard[i] as usize]));
+
+    let representatives = representatives(positions, &labels, f, &cpos);
+    Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible }
+}
+
+/// Normalised weights of a point's clusters (Eq. 10 for `Weighted`: inverse distance; Eq. 8's
+/// plain mean for `Average`). Distances are floored at 1e-4 of a grid cell, so a point sitting on
+/// a centroid gets a large but finite weight.
+fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, cell: f32, out: &mut [f32]) {
+    let floor = 1e-4 * cell;
+    let mut total = 0.0f32;
+    for (w, &(d2, _)) in out.iter_mut().zip(best) {
+        *w = match mode {
+            FuzzyMode::Weighted => 1.0 / d2.sqrt().max(floor),
+            FuzzyMode::Average | FuzzyMode::Hard => 1.0,
+        };
+        total += *w;
+    }
+    for w in out.iter_mut() {
+        *w /= total;
+    }
+}
+
+/// For each cluster, the member (by hard label) nearest the centroid; ties to the lower index.
+fn representatives(positions: &[Vec3], labels: &[u32], f: usize, centroids: &[Vec3]) -> Vec<u32> {
+    let k = centroids.len();
+    positions
+        .par_iter()
+        .enumerate()
+        .fold(
+            || vec![(f32::INFINITY, MISS); k],
+            |mut best, (i, &p)| {
+                let l = labels[i * f] as usize;
+                let cand = (dist2(p, centroids[l]), i as u32);
+                if cand < best[l] {
+                    best[l] = cand;
+                }
+                best
+            },
+        )
+        .reduce(
+            || vec![(f32::INFINITY, MISS); k],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| if y < x { y } else { x }).collect(),
+        )
+        .into_iter()
+        .map(|(_, i)| i)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,250 @@
+use super::*;
+use proptest::prelude::*;
+
+fn params(k: u32, f: u32, fuzzy: FuzzyMode) -> ClusterParams {
+    ClusterParams { k, gamma: 2, iterations: 5, f, fuzzy, normal_threshold: 0.866_025_4, seed: 3 }
+}
+
+/// Points on the six faces of a unit cube (normals outward), like shading points in a room.
+fn cube_surface(n: usize, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng = Rng::new(seed, Stream::Oracle, 0);
+    let mut ps = Vec::new();
+    let mut ns = Vec::new();
+    for i in 0..n {
+        let (u, v) = (rng.next_f32(), rng.next_f32());
+        let axis = i % 3;
+        let side = if (i / 3) % 2 == 0 { 0.0 } else { 1.0 };
+        let mut p = Vec3::ZERO;
+        p[axis] = side;
+        p[(axis + 1) % 3] = u;
+        p[(axis + 2) % 3] = v;
+        let mut nrm = Vec3::ZERO;
+        nrm[axis] = if side == 0.0 { -1.0 } else { 1.0 };
+        ps.push(p);
+        ns.push(nrm);
+    }
+    (ps, ns)
+}
+
+fn brute_nearest(p: Vec3, n: Vec3, cs: &[Vec3], cn: &[Vec3], nt: f32) -> Option<(f32, u32)> {
+    let mut best: Option<(f32, u32)> = None;
+    for k in 0..cs.len() {
+        if compatible(n, cn[k], nt) {
+            let cand = (dist2(p, cs[k]), k as u32);
+            if best.is_none_or(|b| cand < b) {
+                best = Some(cand);
+            }
+        }
+    }
+    best
+}
+
+/// The 27-cell search against an all-pairs search, on surface-like data: the answer must be a
+/// compatible centroid, exact whenever the search had to widen, and the approximation must
+/// rarely differ. The measured disagreement is printed.
+#[test]
+fn grid_search_against_all_pairs() {
+    let mut differ = 0usize;
+    let mut total = 0usize;
+    let mut worst_ratio = 1.0f32;
+    for seed in 0..6 {
+        let (ps, ns) = cube_surface(4000, seed);
+        let (cs, cn) = cube_surface(60 + 40 * seed as usize, seed + 100);
+        let geometry = Grid::for_data(bounds(&ps), &ps, cs.len());
+        let grid = geometry.fill(&cs);
+        for (&p, &n) in ps.iter().zip(&ns) {
+            let mut best = [(f32::INFINITY, MISS)];
+            let (count, outcome) = grid.search(p, n, &cs, &cn, 0.866, &mut best);
+            let brute = brute_nearest(p, n, &cs, &cn, 0.866);
+            total += 1;
+            match brute {
+                None => assert_eq!(outcome, SearchOutcome::Incompatible),
+                Some(b) => {
+                    assert_eq!(count, 1);
+                    assert!(compatible(n, cn[best[0].1 as usize], 0.866), "grid returned an incompatible centroid");
+                    if outcome == SearchOutcome::Widened {
+                        assert_eq!(best[0], b, "a widened search must be exact");
+                    }
+                    if best[0] != b {
+                        differ += 1;
+                        worst_ratio = worst_ratio.max((best[0].0 / b.0).sqrt());
+                    }
+                }
+            }
+        }
+    }
+    let rate = differ as f64 / total as f64;
+    println!("27-cell approximation differs from all-pairs on {differ} of {total} points ({:.3} %), worst distance ratio {worst_ratio:.3}", 100.0 * rate);
+    assert!(rate < 0.01, "27-cell approximation differs too often: {rate}");
+}
+
+#[test]
+fn widened_search_when_neighbourhood_is_empty() {
+    // Centroids at one corner, a point at the far corner: the 27 cells are empty.
+    let cs: Vec<Vec3> = (0..64).map(|i| Vec3::new((i % 4) as f32, ((i / 4) % 4) as f32, (i / 16) as f32) * 0.01).collect();
+    let cn = vec![Vec3::Z; cs.len()];
+    let mut all = cs.clone();
+    all.push(Vec3::splat(10.0));
+    let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs);
+    let mut best = [(f32::INFINITY, MISS)];
+    let (count, outcome) = grid.search(Vec3::splat(10.0), Vec3::Z, &cs, &cn, 0.5, &mut best);
+    assert_eq!((count, outcome), (1, SearchOutcome::Widened));
+    assert_eq!(best[0], brute_nearest(Vec3::splat(10.0), Vec3::Z, &cs, &cn, 0.5).unwrap());
+    // With a normal nobody shares, the nearest by position is taken.
+    let (count, outcome) = grid.search(Vec3::splat(10.0), -Vec3::Z, &cs, &cn, 0.5, &mut best);
+    assert_eq!((count, outcome), (1, SearchOutcome::Incompatible));
+    assert_eq!(best[0].1, 63);
+}
+
+#[test]
+fn centroid_update_does_not_depend_on_point_order() {
+    let (ps, ns) = cube_surface(5000, 9);
+    let labels: Vec<u32> = (0..ps.len() as u32).map(|i| i % 17).collect();
+    let fix = FixedPoint::for_data(&ps);
+    let mut c1 = vec![Vec3::ZERO; 17];
+    let mut n1 = vec![Vec3::Z; 17];
+    update(&fix, &ps, &ns, &labels, &mut c1, &mut n1);
+    let order: Vec<usize> = (0..ps.len()).rev().collect();
+    let ps2: Vec<Vec3> = order.iter().map(|&i| ps[i]).collect();
+    let ns2: Vec<Vec3> = order.iter().map(|&i| ns[i]).collect();
+    let l2: Vec<u32> = order.iter().map(|&i| labels[i]).collect();
+    let mut c2 = vec![Vec3::ZERO; 17];
+    let mut n2 = vec![Vec3::Z; 17];
+    update(&fix, &ps2, &ns2, &l2, &mut c2, &mut n2);
+    assert_eq!(c1, c2);
+    assert_eq!(n1, n2);
+    // And the fixed-point mean is close to the float mean.
+    let mean: Vec3 = ps.iter().zip(&labels).filter(|(_, &l)| l == 0).map(|(p, _)| *p).sum::<Vec3>() / ps.iter().zip(&labels).filter(|(_, &l)| l == 0).count() as f32;
+    assert!((mean - c1[0]).length() < 1e-5, "{mean} vs {}", c1[0]);
+}
+
+#[test]
+fn fixed_point_sums_survive_huge_clusters() {
+    // 2^32 points at the box's far corner would overflow 32-bit sums; 64-bit sums with a 2^25
+    // range per value hold 2^39 of them. Check the mean of such a sum directly.
+    let fix = FixedPoint { min: Vec3::ZERO, ext: Vec3::ONE };
+    let q = fix.quantize(Vec3::ONE, Vec3::Z);
+    let count = u32::MAX;
+    let sums = q.map(|v| v as u64 * count as u64);
+    let (p, n) = fix.mean(&sums, count);
+    assert!((p - Vec3::ONE).length() < 1e-6, "{p}");
+    assert_eq!(n, Some(Vec3::Z));
+}
+
+fn check_invariants(c: &Clustering, ps: &[Vec3], k_requested: u32) {
+    let m = ps.len();
+    assert!(c.k() <= (k_requested as usize).min(m));
+    assert_eq!(c.labels.len(), m * c.f);
+    assert_eq!(c.members.iter().map(|&x| x as usize).sum::<usize>(), m);
+    for i in 0..m {
+        let row = &c.labels[i * c.f..(i + 1) * c.f];
+        let w = &c.weights[i * c.f..(i + 1) * c.f];
+        let valid = row.iter().take_while(|&&l| l != MISS).count();
+        assert!(valid >= 1, "point {i} has no cluster");
+        assert!(row[valid..].iter().all(|&l| l == MISS), "padding must be at the end");
+        assert!(row[..valid].iter().all(|&l| (l as usize) < c.k()));
+        let mut sorted = row[..valid].to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), valid, "labels of point {i} repeat: {row:?}");
+        let d: Vec<f32> = row[..valid].iter().map(|&l| dist2(ps[i], c.positions[l as usize])).collect();
+        assert!(d.windows(2).all(|p| p[0] <= p[1]), "labels of point {i} not ordered by distance: {d:?}");
+        let sum: f32 = w.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-5, "weights of point {i} sum to {sum}");
+        assert!(w[valid..].iter().all(|&x| x == 0.0));
+    }
+    for (k, &r) in c.representatives.iter().enumerate() {
+        assert_eq!(c.hard_label(r as usize), k as u32, "representative of {k} is not a member");
+    }
+}
+
+#[test]
+fn k_at_least_the_number_of_points_gives_one_cluster_per_point() {
+    let (ps, ns) = cube_surface(50, 1);
+    let c = cluster(&ps, &ns, &params(80, 1, FuzzyMode::Hard));
+    assert_eq!(c.k(), 50);
+    check_invariants(&c, &ps, 80);
+    for i in 0..50 {
+        assert_eq!(c.representatives[c.hard_label(i) as usize], i as u32);
+    }
+}
+
+#[test]
+fn coincident_points_share_a_cluster() {
+    let ps = vec![Vec3::new(0.5, 0.5, 0.5); 40];
+    let ns = vec![Vec3::Y; 40];
+    let c = cluster(&ps, &ns, &params(10, 4, FuzzyMode::Weighted));
+    assert_eq!(c.k(), 1, "coincident points: one non-empty cluster");
+    check_invariants(&c, &ps, 10);
+}
+
+#[test]
+fn opposite_normals_never_share_a_cluster_when_avoidable() {
+    // Two coincident sheets with opposite normals (a thin wall seen from both sides).
+    let (mut ps, mut ns) = (Vec::new(), Vec::new());
+    let mut rng = Rng::new(5, Stream::Oracle, 0);
+    for i in 0..2000 {
+        ps.push(Vec3::new(rng.next_f32(), rng.next_f32(), 0.0));
+        ns.push(if i % 2 == 0 { Vec3::Z } else { -Vec3::Z });
+    }
+    let c = cluster(&ps, &ns, &params(40, 6, FuzzyMode::Weighted));
+    check_invariants(&c, &ps, 40);
+    for i in 0..ps.len() {
+        for j in 0..c.f {
+            let l = c.labels[i * c.f + j];
+            if l != MISS {
+                assert!(c.normals[l as usize].dot(ns[i]) > 0.866, "point {i} joined a cluster facing the other way");
+            }
+        }
+    }
+    assert_eq!(c.incompatible, 0);
+}
+
+#[test]
+fn empty_input_and_zero_k() {
+    let c = cluster(&[], &[], &params(10, 6, FuzzyMode::Weighted));
+    assert_eq!(c.k(), 0);
+    assert!(c.labels.is_empty());
+}
+
+#[test]
+fn same_seed_same_clustering_on_one_and_two_threads() {
+    let (ps, ns) = cube_surface(20_000, 2);
+    let p = params(300, 6, FuzzyMode::Weighted);
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| cluster(&ps, &ns, &p));
+    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| cluster(&ps, &ns, &p));
+    assert_eq!(one, two);
+}
+
+fn arb_points() -> impl Strategy<Value = (Vec<Vec3>, Vec<Vec3>)> {
+    prop::collection::vec(
+        (
+            (0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0),
+            prop_oneof![Just(Vec3::X), Just(-Vec3::X), Just(Vec3::Y), Just(Vec3::Z), Just(-Vec3::Z), Just(Vec3::new(0.6, 0.8, 0.0))],
+            0u8..4,
+        ),
+        1..400,
+    )
+    .prop_map(|v| {
+        // Some points are snapped to a coarse lattice so that coincident points occur.
+        v.into_iter()
+            .map(|((x, y, z), n, snap)| {
+                let p = Vec3::new(x, y, z);
+                (if snap == 0 { (p * 4.0).round() / 4.0 } else { p }, n)
+            })
+            .unzip()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Every point gets a cluster; fuzzy rows are distinct, ordered by distance, and their
+    /// weights sum to 1; representatives are members; K is never exceeded.
+    #[test]
+    fn clustering_invariants((ps, ns) in arb_points(), k in 1u32..600, f in 1u32..8, mode in prop_oneof![Just(FuzzyMode::Hard), Just(FuzzyMode::Average), Just(FuzzyMode::Weighted)], seed in 0u32..1000) {
+        let c = cluster(&ps, &ns, &ClusterParams { k, gamma: 3, iterations: 4, f, fuzzy: mode, normal_threshold: 0.866_025_4, seed });
+        check_invariants(&c, &ps, k);
+        if mode == FuzzyMode::Hard { prop_assert_eq!(c.f, 1); }
+    }
+}

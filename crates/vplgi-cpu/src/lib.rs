@@ -1,0 +1,21 @@
+//! The CPU reference of the clustered-VPL pipeline (`../shared/SPEC.md`).
+//!
+//! One module per stage, each exposing a function named after the stage:
+//! [`trace_vpls::trace_vpls`], [`shading_points::shading_points`], [`cluster::cluster`],
+//! [`visibility::visibility`] and [`shade::shade`]; [`pipeline::render`] chains them for one
+//! frame. Every stage is parallel with rayon and deterministic: each item (particle, pixel,
+//! point, matrix row) is a pure function of its inputs and of the counter-based RNG, and all
+//! reductions are either integer sums or fixed-order sequential folds, so 1 and N threads give
+//! bit-identical results.
+
+pub mod cluster;
+pub mod lights;
+pub mod pipeline;
+pub mod shade;
+pub mod shading_points;
+pub mod trace_vpls;
+pub mod visibility;
+
+mod accel;
+pub use accel::{CpuScene, SurfaceHit};
+pub use pipeline::{render, Frame, NoProgress, Progress, StageTimings};

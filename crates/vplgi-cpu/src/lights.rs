@@ -1,0 +1,228 @@
+//! Light sources: emissive triangles (area lights) and punctual lights, with the discrete
+//! distributions used to pick one.
+//!
+//! Light particles choose among *all* lights in proportion to their power. Direct lighting samples
+//! area lights in proportion to their power and evaluates every punctual light with one shadow
+//! ray each (a punctual light cannot be hit by chance).
+
+use glam::Vec3;
+use std::f32::consts::PI;
+use vplgi_scene::{PunctualLight, Scene};
+use vplgi_types::sampling;
+
+/// A discrete distribution over `n` items, sampled by inverting its CDF.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution {
+    cdf: Vec<f32>,
+    pmf: Vec<f32>,
+}
+
+impl Distribution {
+    /// Builds from non-negative weights. Summation is sequential in f64, so the table does not
+    /// depend on threads.
+    pub fn new(weights: &[f32]) -> Distribution {
+        let total: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        if total <= 0.0 {
+            return Distribution::default();
+        }
+        let mut acc = 0.0f64;
+        let mut cdf = Vec::with_capacity(weights.len());
+        for &w in weights {
+            acc += w.max(0.0) as f64;
+            cdf.push((acc / total) as f32);
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        let pmf = weights.iter().map(|&w| (w.max(0.0) as f64 / total) as f32).collect();
+        Distribution { cdf, pmf }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
+    /// Index `i` with probability `pmf(i)`, for `u` in [0, 1). Items of zero weight are never
+    /// returned.
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
+        (i, self.pmf[i])
+    }
+
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+}
+
+/// Scalar power used to choose lights: the mean of the RGB power.
+fn scalar(p: Vec3) -> f32 {
+    (p.x + p.y + p.z) / 3.0
+}
+
+/// A light particle leaving a light.
+#[derive(Clone, Copy, Debug)]
+pub struct Emission {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    /// Power carried, before division by the number of particles.
+    pub power: Vec3,
+    /// Front normal of the emitting surface (zero for punctual lights): the particle must start
+    /// just off it, or its first ray hits the light itself at t = 0.
+    pub surface_normal: Vec3,
+}
+
+/// A point sampled on an area light for direct lighting.
+#[derive(Clone, Copy, Debug)]
+pub struct AreaSample {
+    pub position: Vec3,
+    /// Front normal of the emitting triangle.
+    pub normal: Vec3,
+    pub radiance: Vec3,
+    /// Probability density of the sample with respect to area.
+    pub pdf_area: f32,
+}
+
+pub struct LightSampler {
+    /// Emissive triangles, in triangle order.
+    pub emitters: Vec<u32>,
+    areas: Vec<f32>,
+    /// Over emitters then punctual lights, by power.
+    all: Distribution,
+    /// Over emitters only, by power.
+    area: Distribution,
+    punctual: Vec<PunctualLight>,
+    /// Total emitted power of every light, RGB (W).
+    pub total_power: Vec3,
+}
+
+/// Power of a punctual light: 4 pi I for a point light; for a spot, I times the solid-angle
+/// integral of the glTF falloff, 2 pi [(1 - cos_inner) + (cos_inner - cos_outer) / 3]
+/// (the quadratic ramp integrates to a third of the ring).
+pub fn punctual_power(l: &PunctualLight) -> Vec3 {
+    match *l {
+        PunctualLight::Point { intensity, .. } => intensity * (4.0 * PI),
+        PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => {
+            intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0))
+        }
+    }
+}
+
+impl LightSampler {
+    pub fn new(scene: &Scene) -> LightSampler {
+        let mut emitters = Vec::new();
+        let mut areas = Vec::new();
+        let mut powers = Vec::new();
+        for t in 0..scene.triangle_count() {
+            let le = scene.emission(t);
+            if scalar(le) > 0.0 {
+                let [a, b, c] = scene.triangle(t);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                if area > 0.0 {
+                    emitters.push(t as u32);
+                    areas.push(area);
+                    // A Lambertian emitter of radiance Le and area A emits pi * A * Le.
+                    powers.push(le * (PI * area));
+                }
+            }
+        }
+        let area = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
+        powers.extend(scene.lights.iter().map(punctual_power));
+        let all = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
+        let total_power = powers.iter().fold(Vec3::ZERO, |a, &p| a + p);
+        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), total_power }
+    }
+
+    pub fn has_lights(&self) -> bool {
+        !self.all.is_empty()
+    }
+
+    pub fn punctual(&self) -> &[PunctualLight] {
+        &self.punctual
+    }
+
+    /// Starts a light particle from four uniform numbers and a fifth for the light choice.
+    /// Returns `None` when the scene has no light.
+    pub fn emit(&self, scene: &Scene, u: [f32; 5]) -> Option<Emission> {
+        if self.all.is_empty() {
+            return None;
+        }
+        let (i, pmf) = self.all.sample(u[0]);
+        if i < self.emitters.len() {
+            let t = self.emitters[i] as usize;
+            let [a, b, c] = scene.triangle(t);
+            let (b1, b2) = sampling::uniform_triangle(u[1], u[2]);
+            let n = scene.geometric_normal(t);
+            let origin = a + (b - a) * b1 + (c - a) * b2;
+            // Position pdf 1/A times cosine pdf cos/pi against Le cos: power = pi A Le.
+            let power = scene.emission(t) * (PI * self.areas[i]) / pmf;
+            Some(Emission { origin, dir: sampling::cosine_hemisphere(n, u[3], u[4]), power, surface_normal: n })
+        } else {
+            let light = &self.punctual[i - self.emitters.len()];
+            match *light {
+                PunctualLight::Point { position, intensity } => {
+                    Some(Emission { origin: position, dir: sampling::uniform_sphere(u[3], u[4]), power: intensity * (4.0 * PI) / pmf, surface_normal: Vec3::ZERO })
+                }
+                PunctualLight::Spot { position, direction, intensity, cos_outer, .. } => {
+                    let dir = sampling::uniform_cone(direction, cos_outer, u[3], u[4]);
+                    let inv_pdf = 2.0 * PI * (1.0 - cos_outer);
+                    Some(Emission { origin: position, dir, power: intensity * (light.falloff(dir) * inv_pdf / pmf), surface_normal: Vec3::ZERO })
+                }
+            }
+        }
+    }
+
+    /// A point on an area light chosen by power, or `None` when there is no area light.
+    pub fn sample_area(&self, scene: &Scene, u: [f32; 3]) -> Option<AreaSample> {
+        if self.area.is_empty() {
+            return None;
+        }
+        let (i, pmf) = self.area.sample(u[0]);
+        let t = self.emitters[i] as usize;
+        let [a, b, c] = scene.triangle(t);
+        let (b1, b2) = sampling::uniform_triangle(u[1], u[2]);
+        Some(AreaSample {
+            position: a + (b - a) * b1 + (c - a) * b2,
+            normal: scene.geometric_normal(t),
+            radiance: scene.emission(t),
+            pdf_area: pmf / self.areas[i],
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distribution_follows_weights_and_skips_zeros() {
+        let d = Distribution::new(&[1.0, 0.0, 3.0]);
+        assert_eq!(d.sample(0.0).0, 0);
+        assert_eq!(d.sample(0.2499).0, 0);
+        assert_eq!(d.sample(0.25).0, 2);
+        assert_eq!(d.sample(0.9999).0, 2);
+        assert!((d.pmf(2) - 0.75).abs() < 1e-7);
+        assert!(Distribution::new(&[0.0, 0.0]).is_empty());
+    }
+
+    #[test]
+    fn spot_power_matches_numerical_integral() {
+        let light = PunctualLight::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::Z,
+            intensity: Vec3::ONE,
+            cos_inner: 0.9,
+            cos_outer: 0.6,
+        };
+        // Integrate the falloff over the sphere in cos(theta): dω = 2π d(cos θ).
+        let n = 200_000;
+        let mut acc = 0.0f64;
+        for i in 0..n {
+            let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+            let s = (1.0 - c * c).sqrt();
+            acc += light.falloff(Vec3::new(s as f32, 0.0, c as f32)) as f64;
+        }
+        let numeric = 2.0 * std::f64::consts::PI * acc * 2.0 / n as f64;
+        let analytic = punctual_power(&light).x as f64;
+        assert!((numeric - analytic).abs() < 1e-3 * analytic, "{numeric} vs {analytic}");
+    }
+}

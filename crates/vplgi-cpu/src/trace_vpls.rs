@@ -1,0 +1,100 @@
+//! Stage 1, `trace_vpls`: light particles leave the lights and leave a VPL at every diffuse
+//! surface they hit, up to `bounces` surfaces (SPEC, "VPL tracing").
+//!
+//! Particle `i` uses the random stream (seed, `Stream::LightPath`, i) and nothing else, so its
+//! path does not depend on which thread traces it. Particles are traced in index order in
+//! parallel batches; the first particles whose VPLs reach the requested count are kept (the last
+//! one's path cut short), so the VPL set is deterministic and exactly `count` long. Each VPL's
+//! flux is divided by the number of particles used, which makes the VPL set an unbiased estimate
+//! of the light leaving surfaces after 1..=`bounces` reflections.
+
+use crate::pipeline::Progress;
+use crate::CpuScene;
+use glam::Vec3;
+use rayon::prelude::*;
+use vplgi_types::{sampling, Rng, Stream, Vpl};
+
+/// Russian roulette never keeps more than this share of paths, so paths end in finite time even
+/// in a white furnace.
+const MAX_SURVIVAL: f32 = 0.95;
+
+/// The VPLs of one frame.
+#[derive(Clone, Debug, Default)]
+pub struct VplSet {
+    pub vpls: Vec<Vpl>,
+    /// Number of light particles traced to make them (the estimator's sample count).
+    pub particles: u32,
+}
+
+/// Traces light particle `index`, returning its VPLs with flux not yet divided by the particle
+/// count.
+pub fn trace_particle(cs: &CpuScene, seed: u32, index: u32, bounces: u32) -> Vec<Vpl> {
+    let mut rng = Rng::new(seed, Stream::LightPath, index);
+    let u = [rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32()];
+    let Some(emission) = cs.lights.emit(cs.scene, u) else {
+        return Vec::new();
+    };
+    let mut vpls = Vec::new();
+    let (mut origin, mut dir, mut power) = (emission.origin + emission.surface_normal * cs.eps, emission.dir, emission.power);
+    for bounce in 1..=bounces {
+        let Some(hit) = cs.trace(origin, dir) else {
+            break;
+        };
+        let flux = power * hit.albedo;
+        vpls.push(Vpl { position: hit.position.to_array(), path: index, normal: hit.ns.to_array(), bounce, flux: flux.to_array(), _pad: 0 });
+        if bounce == bounces {
+            break;
+        }
+        // Russian roulette on the albedo; cosine sampling makes the Lambertian weight f cos / pdf
+        // equal to the albedo.
+        let survive = hit.albedo.max_element().min(MAX_SURVIVAL);
+        if survive <= 0.0 || rng.next_f32() >= survive {
+            break;
+        }
+        power = flux / survive;
+        dir = sampling::cosine_hemisphere(hit.ns, rng.next_f32(), rng.next_f32());
+        if dir.dot(hit.ng) <= 0.0 {
+            // The shading normal let the direction dip under the surface.
+            break;
+        }
+        origin = hit.position + hit.ng * cs.eps;
+    }
+    vpls
+}
+
+/// Traces light particles until exactly `count` VPLs exist (or until a particle budget of
+/// `64 * count + 65536` is spent, for scenes whose light mostly escapes).
+pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: &dyn Progress) -> VplSet {
+    let mut set = VplSet::default();
+    if count == 0 || bounces == 0 || !cs.lights.has_lights() {
+        return set;
+    }
+    let budget = (count as u64 * 64 + 65_536).min(u32::MAX as u64) as u32;
+    progress.start("trace_vpls", count as u64);
+    let mut next = 0u32;
+    let mut batch = count.clamp(1024, 1 << 16);
+    'outer: while next < budget {
+        let end = next.saturating_add(batch).min(budget);
+        let paths: Vec<Vec<Vpl>> = (next..end).into_par_iter().map(|i| trace_particle(cs, seed, i, bounces)).collect();
+        for (offset, path) in paths.into_iter().enumerate() {
+            set.particles = next + offset as u32 + 1;
+            for v in path {
+                set.vpls.push(v);
+                if set.vpls.len() == count as usize {
+                    break 'outer;
+                }
+            }
+        }
+        progress.set(set.vpls.len() as u64);
+        next = end;
+        // Size the next batch from the yield so far.
+        let per_particle = (set.vpls.len() as f64 / set.particles.max(1) as f64).max(0.05);
+        batch = (((count as usize - set.vpls.len()) as f64 / per_particle) as u32).clamp(1024, 1 << 20);
+    }
+    progress.finish();
+    let inv = 1.0 / set.particles.max(1) as f32;
+    for v in &mut set.vpls {
+        v.flux = (Vec3::from(v.flux) * inv).to_array();
+    }
+    set
+}

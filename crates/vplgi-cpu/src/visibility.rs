@@ -1,0 +1,94 @@
+//! Stage 4, `visibility`: one shadow ray between every row end point (shading-point cluster
+//! representatives, or shading points themselves when they are not clustered) and every column
+//! end point (VPL cluster representatives, or VPLs), stored as a bit-packed matrix.
+//!
+//! A pair whose surfaces face away from each other gets bit 0 without a ray: light cannot pass
+//! between them (a ray would be blocked by one of the two surfaces), so the ray is saved.
+
+use crate::pipeline::Progress;
+use crate::CpuScene;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// A surface point: one end of a shadow ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Endpoint {
+    pub position: Vec3,
+    pub normal: Vec3,
+}
+
+/// A rows x cols matrix of bits, each row padded to whole 64-bit words.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BitMatrix {
+    pub rows: usize,
+    pub cols: usize,
+    words_per_row: usize,
+    bits: Vec<u64>,
+}
+
+impl BitMatrix {
+    pub fn new(rows: usize, cols: usize) -> BitMatrix {
+        let words_per_row = cols.div_ceil(64);
+        BitMatrix { rows, cols, words_per_row, bits: vec![0; rows * words_per_row] }
+    }
+
+    #[inline]
+    pub fn get(&self, r: usize, c: usize) -> bool {
+        (self.bits[r * self.words_per_row + c / 64] >> (c % 64)) & 1 == 1
+    }
+
+    pub fn set(&mut self, r: usize, c: usize, v: bool) {
+        let w = &mut self.bits[r * self.words_per_row + c / 64];
+        let mask = 1u64 << (c % 64);
+        if v {
+            *w |= mask
+        } else {
+            *w &= !mask
+        }
+    }
+
+    pub fn count_ones(&self) -> u64 {
+        self.bits.iter().map(|w| w.count_ones() as u64).sum()
+    }
+
+    /// Bytes of bit storage.
+    pub fn bytes(&self) -> usize {
+        self.bits.len() * 8
+    }
+}
+
+/// Whether the two surfaces can see each other at all, ignoring blockers.
+#[inline]
+pub fn facing(a: &Endpoint, b: &Endpoint) -> bool {
+    let d = b.position - a.position;
+    a.normal.dot(d) > 0.0 && b.normal.dot(d) < 0.0
+}
+
+/// Fills the visibility matrix; returns it with the number of shadow rays traced.
+pub fn visibility(cs: &CpuScene, rows: &[Endpoint], cols: &[Endpoint], progress: &dyn Progress) -> (BitMatrix, u64) {
+    let mut m = BitMatrix::new(rows.len(), cols.len());
+    if m.words_per_row == 0 {
+        return (m, 0);
+    }
+    progress.start("visibility", rows.len() as u64);
+    let rays: u64 = m
+        .bits
+        .par_chunks_mut(m.words_per_row)
+        .zip(rows)
+        .map(|(words, a)| {
+            let mut rays = 0u64;
+            for (c, b) in cols.iter().enumerate() {
+                if facing(a, b) {
+                    rays += 1;
+                    if cs.visible(a.position, a.normal, b.position, b.normal) {
+                        words[c / 64] |= 1u64 << (c % 64);
+                    }
+                }
+            }
+            progress.inc(1);
+            rays
+        })
+        .sum();
+    progress.finish();
+    (m, rays)
+}

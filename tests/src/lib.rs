@@ -1,0 +1,28 @@
+//! Shared helpers for the cross-crate tests: running the CPU pipeline on a scene at test sizes.
+
+use vplgi_cpu::{CpuScene, Frame, NoProgress};
+use vplgi_scene::Scene;
+use vplgi_types::FrameConfig;
+
+/// A small configuration for tests: the built-in defaults at `size` x `size`.
+pub fn small_config(size: u32, vpls: u32) -> FrameConfig {
+    FrameConfig { width: size, height: size, vpls, k_sp: 400, k_vpl: 200, ..FrameConfig::default() }
+}
+
+/// Renders `scene` with the CPU reference.
+pub fn render(scene: &Scene, cfg: &FrameConfig) -> Frame {
+    let device = vplgi_embree::Device::new(None).expect("Embree device");
+    let cs = CpuScene::new(scene, &device).expect("Embree scene");
+    vplgi_cpu::render(&cs, cfg, &NoProgress)
+}
+
+/// Mean of each channel over all pixels.
+pub fn mean_rgb(pixels: &[[f32; 3]]) -> [f64; 3] {
+    let mut m = [0.0f64; 3];
+    for p in pixels {
+        for c in 0..3 {
+            m[c] += p[c] as f64;
+        }
+    }
+    m.map(|v| v / pixels.len().max(1) as f64)
+}
