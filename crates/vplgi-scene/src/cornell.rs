@@ -1,0 +1,261 @@
+//! The built-in procedural scenes: the Cornell box (the default scene) and a lit plane for
+//! analytic tests. Both are deterministic: the same call always yields the same scene.
+
+use crate::{Camera, Material, PunctualLight, Scene};
+use glam::{Vec2, Vec3};
+
+/// Centre of the short box's footprint on the floor, its half extents and its rotation about y.
+const SHORT_BOX: BoxSpec = BoxSpec { center: Vec3::new(0.35, 0.0, 0.35), half: Vec3::new(0.3, 0.3, 0.3), angle_deg: -18.0 };
+/// The tall box, standing back left like in the classic arrangement.
+const TALL_BOX: BoxSpec = BoxSpec { center: Vec3::new(-0.35, 0.0, -0.3), half: Vec3::new(0.3, 0.6, 0.3), angle_deg: 18.0 };
+/// Half size of the square ceiling light.
+const LIGHT_HALF: f32 = 0.25;
+/// Height of the ceiling light: a little below the ceiling (y = 2) so the two never coincide.
+const LIGHT_Y: f32 = 1.98;
+
+struct BoxSpec {
+    /// Centre of the bottom face (the box stands on the floor).
+    center: Vec3,
+    half: Vec3,
+    angle_deg: f32,
+}
+
+/// The classic Cornell box in a 2 x 2 x 2 room: x in [-1, 1], y in [0, 2], z in [-1, 1], open
+/// towards +z where the camera is. Every triangle's front faces into the room or out of its box.
+pub fn cornell_box() -> Scene {
+    let mut s = Scene { name: "cornell-box".into(), ..Scene::default() };
+    let white = add_material(&mut s, "white", Vec3::splat(0.73), Vec3::ZERO);
+    let red = add_material(&mut s, "red", Vec3::new(0.63, 0.065, 0.05), Vec3::ZERO);
+    let green = add_material(&mut s, "green", Vec3::new(0.14, 0.45, 0.09), Vec3::ZERO);
+    // The classic spectrum-derived radiance (17, 12, 4), doubled: this light covers 1/16 of the
+    // ceiling and sits 2 units from the floor, so directly lit white surfaces reach ~0.5 and
+    // the walls land in the 0.3-1.0 range once indirect light adds up.
+    let light = add_material(&mut s, "light", Vec3::splat(0.78), Vec3::new(34.0, 24.0, 8.0));
+
+    let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 2.0, -1.0, 1.0);
+    let corners = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // Floor, ceiling and back wall: white.
+    add_quad(&mut s, [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y0, z1), corners(x0, y0, z1)], Vec3::Y, white);
+    add_quad(&mut s, [corners(x0, y1, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x0, y1, z1)], -Vec3::Y, white);
+    add_quad(&mut s, [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y1, z0), corners(x0, y1, z0)], Vec3::Z, white);
+    // Left wall red, right wall green.
+    add_quad(&mut s, [corners(x0, y0, z0), corners(x0, y1, z0), corners(x0, y1, z1), corners(x0, y0, z1)], Vec3::X, red);
+    add_quad(&mut s, [corners(x1, y0, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x1, y0, z1)], -Vec3::X, green);
+
+    add_box(&mut s, &SHORT_BOX, white);
+    add_box(&mut s, &TALL_BOX, white);
+
+    let h = LIGHT_HALF;
+    add_quad(
+        &mut s,
+        [Vec3::new(-h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, h), Vec3::new(-h, LIGHT_Y, h)],
+        -Vec3::Y,
+        light,
+    );
+
+    // At z = 3.9 a 40 degree field of view sees 2 * 2.9 * tan(20 deg) = 2.1 units of height at
+    // the opening (z = 1), so the whole 2-unit-high front fills the frame.
+    s.camera = Camera { position: Vec3::new(0.0, 1.0, 3.9), forward: -Vec3::Z, up: Vec3::Y, yfov: 40f32.to_radians() };
+    s
+}
+
+/// A single square floor quad (y = 0, x and z in `[-half_size, half_size]`, front facing +y)
+/// with a grey Lambertian albedo, lit by one point light of radiant intensity `intensity` per
+/// channel at (0, `height`, 0). The camera looks straight down at it. Used by analytic tests:
+/// the floor's direct irradiance is `intensity * h / (h^2 + r^2)^(3/2)`.
+pub fn plane_with_point_light(half_size: f32, height: f32, albedo: f32, intensity: f32) -> Scene {
+    let mut s = Scene { name: "plane-with-point-light".into(), ..Scene::default() };
+    let floor = add_material(&mut s, "floor", Vec3::splat(albedo), Vec3::ZERO);
+    let a = half_size;
+    add_quad(&mut s, [Vec3::new(-a, 0.0, -a), Vec3::new(a, 0.0, -a), Vec3::new(a, 0.0, a), Vec3::new(-a, 0.0, a)], Vec3::Y, floor);
+    s.lights.push(PunctualLight::Point { position: Vec3::new(0.0, height, 0.0), intensity: Vec3::splat(intensity) });
+
+    let yfov = 45f32.to_radians();
+    // Far enough that the plane's half size fits the half field of view, with a 10% margin.
+    let distance = 1.1 * half_size / (0.5 * yfov).tan();
+    // Looking down, "up" in the image must be horizontal; -z keeps +x to the right.
+    s.camera = Camera { position: Vec3::new(0.0, distance, 0.0), forward: -Vec3::Y, up: -Vec3::Z, yfov };
+    s
+}
+
+fn add_material(s: &mut Scene, name: &str, base_color: Vec3, emission: Vec3) -> u32 {
+    s.materials.push(Material { name: name.into(), base_color, base_color_texture: None, emission });
+    (s.materials.len() - 1) as u32
+}
+
+/// Adds the planar quad `c` (corners in cyclic order, either orientation) as two triangles whose
+/// front faces `facing`: the corner order is reversed when its winding points the other way, so
+/// callers only state which side is the front.
+fn add_quad(s: &mut Scene, mut c: [Vec3; 4], facing: Vec3, material: u32) {
+    if (c[1] - c[0]).cross(c[2] - c[0]).dot(facing) < 0.0 {
+        c.reverse();
+    }
+    let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+    let base = s.positions.len() as u32;
+    for p in c {
+        s.positions.push(p);
+        s.normals.push(normal);
+        s.uvs.push(Vec2::ZERO);
+    }
+    s.indices.push([base, base + 1, base + 2]);
+    s.indices.push([base, base + 2, base + 3]);
+    s.material_ids.extend([material, material]);
+}
+
+/// Adds the box's four sides and top, fronts facing outwards. The bottom is left out: it rests
+/// on the floor, where it could never be seen and would only coincide with the floor.
+fn add_box(s: &mut Scene, b: &BoxSpec, material: u32) {
+    let (sin, cos) = b.angle_deg.to_radians().sin_cos();
+    // Local axes of the box, rotated about y.
+    let ax = Vec3::new(cos, 0.0, -sin) * b.half.x;
+    let az = Vec3::new(sin, 0.0, cos) * b.half.z;
+    let up = Vec3::Y * (2.0 * b.half.y);
+    let at = |i: f32, k: f32, top: bool| b.center + ax * i + az * k + if top { up } else { Vec3::ZERO };
+    let centre = b.center + 0.5 * up;
+    let mut face = |corners: [Vec3; 4]| {
+        let mid = 0.25 * corners.iter().copied().sum::<Vec3>();
+        add_quad(s, corners, mid - centre, material);
+    };
+    face([at(-1.0, -1.0, true), at(1.0, -1.0, true), at(1.0, 1.0, true), at(-1.0, 1.0, true)]);
+    for (i0, k0, i1, k1) in [(-1.0, -1.0, 1.0, -1.0), (1.0, -1.0, 1.0, 1.0), (1.0, 1.0, -1.0, 1.0), (-1.0, 1.0, -1.0, -1.0)] {
+        face([at(i0, k0, false), at(i1, k1, false), at(i1, k1, true), at(i0, k0, true)]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn centroid(t: [Vec3; 3]) -> Vec3 {
+        (t[0] + t[1] + t[2]) / 3.0
+    }
+
+    /// True when `p` lies on one of the room's five walls.
+    fn on_room_boundary(p: Vec3) -> bool {
+        let eps = 1e-4;
+        (p.x.abs() - 1.0).abs() < eps || p.y.abs() < eps || (p.y - 2.0).abs() < eps || (p.z + 1.0).abs() < eps
+    }
+
+    #[test]
+    fn validates_and_has_the_expected_size() {
+        let s = cornell_box();
+        assert_eq!(s.validate(), Ok(()));
+        assert_eq!(s.name, "cornell-box");
+        // 5 walls + 2 boxes x 5 faces + 1 light, two triangles each.
+        assert_eq!(s.triangle_count(), 2 * (5 + 10 + 1));
+        let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["white", "red", "green", "light"]);
+        assert!(s.uvs.iter().all(|&uv| uv == Vec2::ZERO));
+        let (min, max) = s.bounds();
+        assert_eq!((min, max), (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0)));
+    }
+
+    #[test]
+    fn is_deterministic() {
+        let (a, b) = (cornell_box(), cornell_box());
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.indices, b.indices);
+        assert_eq!(a.materials, b.materials);
+    }
+
+    #[test]
+    fn every_front_faces_into_the_room_or_out_of_its_box() {
+        let s = cornell_box();
+        let box_centre = |b: &BoxSpec| b.center + Vec3::Y * b.half.y;
+        let (short, tall) = (box_centre(&SHORT_BOX), box_centre(&TALL_BOX));
+        let (mut walls, mut boxes) = (0, 0);
+        for t in 0..s.triangle_count() {
+            let tri = s.triangle(t);
+            let (c, n) = (centroid(tri), s.geometric_normal(t));
+            // Vertex normals are the flat face normals.
+            for &v in &s.indices[t] {
+                assert!((s.normals[v as usize] - n).length() < 1e-5, "triangle {t}: vertex normal differs");
+            }
+            if s.emission(t) != Vec3::ZERO {
+                continue;
+            }
+            if tri.iter().all(|&p| on_room_boundary(p)) && on_room_boundary(c) {
+                assert!(n.dot(Vec3::Y - c) > 0.0, "wall triangle {t} faces away from the room");
+                walls += 1;
+            } else {
+                // The boxes are far apart: the nearer centre is the triangle's own box.
+                let own = if c.distance(short) < c.distance(tall) { short } else { tall };
+                assert!(n.dot(c - own) > 0.0, "box triangle {t} faces into its box");
+                boxes += 1;
+            }
+        }
+        assert_eq!((walls, boxes), (10, 20));
+    }
+
+    #[test]
+    fn the_light_faces_down_and_is_the_only_emitter() {
+        let s = cornell_box();
+        let mut light_area = 0.0;
+        for t in 0..s.triangle_count() {
+            let m = &s.materials[s.material_ids[t] as usize];
+            if m.name == "light" {
+                assert!(s.geometric_normal(t).dot(-Vec3::Y) > 0.999);
+                assert!(s.triangle(t).iter().all(|p| (p.y - LIGHT_Y).abs() < 1e-6));
+                let [a, b, c] = s.triangle(t);
+                light_area += 0.5 * (b - a).cross(c - a).length();
+            }
+        }
+        assert!((light_area - 0.25f32).abs() < 1e-5);
+        for m in &s.materials {
+            assert_eq!(m.emission != Vec3::ZERO, m.name == "light", "material {}", m.name);
+        }
+        assert!(s.lights.is_empty());
+    }
+
+    #[test]
+    fn boxes_stand_inside_the_room_on_the_floor() {
+        let s = cornell_box();
+        for t in 0..s.triangle_count() {
+            for p in s.triangle(t) {
+                assert!(p.x.abs() <= 1.0 && p.z.abs() <= 1.0 && (0.0..=2.0).contains(&p.y));
+            }
+        }
+        // The tall box top is at 1.2, the short box top at 0.6.
+        let max_box_y = (0..s.triangle_count())
+            .flat_map(|t| s.triangle(t))
+            .filter(|p| p.y < 1.9)
+            .map(|p| p.y)
+            .fold(0.0f32, f32::max);
+        assert!((max_box_y - 1.2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn camera_sees_the_opening() {
+        let s = cornell_box();
+        let c = s.camera;
+        assert_eq!(c.position, Vec3::new(0.0, 1.0, 3.9));
+        // Rays through the top and bottom edges of the image pass the opening's plane (z = 1)
+        // just outside the box, so the whole front is in view.
+        for (sy, expect_outside) in [(0.0, 2.0), (100.0, 0.0)] {
+            let d = c.ray_direction(50.0, sy, 100, 100);
+            let p = c.position + d * ((1.0 - c.position.z) / d.z);
+            assert!((p.y - 1.0).abs() > 1.0 && (p.y - expect_outside).abs() < 0.1, "edge ray hits the opening at {p}");
+        }
+    }
+
+    #[test]
+    fn plane_with_point_light_is_a_lit_floor() {
+        let s = plane_with_point_light(2.0, 1.5, 0.5, 10.0);
+        assert_eq!(s.validate(), Ok(()));
+        assert_eq!(s.triangle_count(), 2);
+        for t in 0..2 {
+            assert_eq!(s.geometric_normal(t), Vec3::Y);
+            assert!(s.triangle(t).iter().all(|p| p.y == 0.0 && p.x.abs() <= 2.0 && p.z.abs() <= 2.0));
+        }
+        assert_eq!(s.bounds(), (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 1.5, 2.0)));
+        assert_eq!(s.lights, vec![PunctualLight::Point { position: Vec3::new(0.0, 1.5, 0.0), intensity: Vec3::splat(10.0) }]);
+        assert_eq!(s.albedo(0, 0.2, 0.2), Vec3::splat(0.5));
+        assert_eq!(s.emission(0), Vec3::ZERO);
+        let c = s.camera;
+        assert_eq!((c.forward, c.forward.dot(c.up)), (-Vec3::Y, 0.0));
+        // The image corners see the plane's corners from inside the frame.
+        let d = c.ray_direction(0.0, 0.0, 64, 64);
+        let hit = c.position + d * (c.position.y / -d.y);
+        assert!(hit.x < -2.0 && hit.z < -2.0, "corner ray lands at {hit}");
+    }
+}

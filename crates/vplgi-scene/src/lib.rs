@@ -1,0 +1,272 @@
+//! Scenes: one flat, world-space triangle soup with per-triangle materials, punctual lights and a
+//! camera. Every backend consumes this one representation.
+//!
+//! * [`cornell`]: the built-in procedural Cornell box (the default scene).
+//! * [`gltf_load`]: glTF 2.0 (`.gltf` / `.glb`) loading.
+
+pub mod cornell;
+pub mod gltf_load;
+
+use glam::{Vec2, Vec3};
+use std::path::{Path, PathBuf};
+
+/// A scene ready to render. All geometry is in world space (node transforms applied).
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub name: String,
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals (unit length). Flat normals are computed for meshes that have none.
+    pub normals: Vec<Vec3>,
+    /// Vertex texture coordinates (zero when the mesh has none).
+    pub uvs: Vec<Vec2>,
+    /// Triangles as three vertex indices, counter-clockwise seen from the front.
+    pub indices: Vec<[u32; 3]>,
+    /// Material index per triangle.
+    pub material_ids: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<PunctualLight>,
+    pub camera: Camera,
+}
+
+/// A Lambertian material, optionally emissive.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB base colour factor (alpha ignored).
+    pub base_color: Vec3,
+    /// Index into [`Scene::textures`], multiplied with `base_color`.
+    pub base_color_texture: Option<u32>,
+    /// Emitted radiance, linear RGB (glTF `emissiveFactor` times `KHR_materials_emissive_strength`).
+    /// Emission leaves the front side of the triangle only.
+    pub emission: Vec3,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material { name: "default".into(), base_color: Vec3::splat(0.8), base_color_texture: None, emission: Vec3::ZERO }
+    }
+}
+
+/// An RGB texture in linear space (sRGB decoded at load time).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major texels, row 0 at the top (v = 0).
+    pub texels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// Bilinear lookup with repeat wrapping. `uv` follows glTF: (0,0) is the top-left corner.
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |i: i64, j: i64| -> Vec3 {
+            let i = i.rem_euclid(w) as usize;
+            let j = j.rem_euclid(h) as usize;
+            self.texels[j * self.width as usize + i]
+        };
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = at(x0, y0).lerp(at(x0 + 1, y0), fx);
+        let bottom = at(x0, y0 + 1).lerp(at(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+/// `KHR_lights_punctual` lights. `intensity` is radiant intensity (W/sr per channel), i.e. the
+/// glTF colour times intensity, read as radiometric units.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PunctualLight {
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        /// Unit direction the spot points to.
+        direction: Vec3,
+        intensity: Vec3,
+        /// Cosines of the glTF inner and outer cone angles (`cos_inner >= cos_outer`).
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+}
+
+impl PunctualLight {
+    /// The glTF spot falloff: 1 inside the inner cone, 0 outside the outer cone, a quadratic
+    /// ramp between them. Point lights return 1.
+    pub fn falloff(&self, dir_from_light: Vec3) -> f32 {
+        match *self {
+            PunctualLight::Point { .. } => 1.0,
+            PunctualLight::Spot { direction, cos_inner, cos_outer, .. } => {
+                let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+                let t = ((direction.dot(dir_from_light) - cos_outer) * scale).clamp(0.0, 1.0);
+                t * t
+            }
+        }
+    }
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Unit viewing direction.
+    pub forward: Vec3,
+    /// Unit up vector, orthogonal to `forward`.
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera { position: Vec3::new(0.0, 0.0, 5.0), forward: -Vec3::Z, up: Vec3::Y, yfov: 0.7 }
+    }
+}
+
+impl Camera {
+    /// The primary ray direction through film position (`sx`, `sy`) in pixels, where (0, 0) is
+    /// the top-left corner of the image.
+    pub fn ray_direction(&self, sx: f32, sy: f32, width: u32, height: u32) -> Vec3 {
+        let aspect = width as f32 / height as f32;
+        let tan_half = (0.5 * self.yfov).tan();
+        let right = self.forward.cross(self.up).normalize();
+        let px = (2.0 * sx / width as f32 - 1.0) * tan_half * aspect;
+        let py = (1.0 - 2.0 * sy / height as f32) * tan_half;
+        (self.forward + right * px + self.up * py).normalize()
+    }
+
+    /// A camera that frames the box `[min, max]`, looking along -Z from in front of it.
+    pub fn framing(min: Vec3, max: Vec3) -> Camera {
+        let center = 0.5 * (min + max);
+        let radius = (0.5 * (max - min).length()).max(1e-3);
+        let yfov = 45f32.to_radians();
+        let distance = radius / (0.5 * yfov).sin();
+        Camera { position: center + Vec3::Z * distance, forward: -Vec3::Z, up: Vec3::Y, yfov }
+    }
+}
+
+/// Why a scene could not be loaded. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("{path}: unsupported: {message}")]
+    Unsupported { path: PathBuf, message: String },
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+}
+
+impl Scene {
+    /// Loads a `.gltf` or `.glb` file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        gltf_load::load(path)
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The three corner positions of triangle `t`.
+    pub fn triangle(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[t];
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+    }
+
+    /// Axis-aligned bounds of all vertices referenced by triangles, and of the punctual lights.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        for tri in &self.indices {
+            for &v in tri {
+                let p = self.positions[v as usize];
+                min = min.min(p);
+                max = max.max(p);
+            }
+        }
+        for l in &self.lights {
+            let p = match l {
+                PunctualLight::Point { position, .. } | PunctualLight::Spot { position, .. } => *position,
+            };
+            min = min.min(p);
+            max = max.max(p);
+        }
+        if min.x > max.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (min, max)
+        }
+    }
+
+    /// Length of the bounding-box diagonal: the scene's size for relative parameters.
+    pub fn extent(&self) -> f32 {
+        let (min, max) = self.bounds();
+        (max - min).length()
+    }
+
+    /// Albedo at barycentrics (`b1`, `b2`) of triangle `t`: base colour times texture.
+    pub fn albedo(&self, t: usize, b1: f32, b2: f32) -> Vec3 {
+        let m = &self.materials[self.material_ids[t] as usize];
+        match m.base_color_texture {
+            Some(tex) => {
+                let [a, b, c] = self.indices[t];
+                let uv = self.uvs[a as usize] * (1.0 - b1 - b2) + self.uvs[b as usize] * b1 + self.uvs[c as usize] * b2;
+                m.base_color * self.textures[tex as usize].sample(uv)
+            }
+            None => m.base_color,
+        }
+    }
+
+    /// Interpolated, normalised shading normal at barycentrics (`b1`, `b2`) of triangle `t`.
+    pub fn shading_normal(&self, t: usize, b1: f32, b2: f32) -> Vec3 {
+        let [a, b, c] = self.indices[t];
+        let n = self.normals[a as usize] * (1.0 - b1 - b2) + self.normals[b as usize] * b1 + self.normals[c as usize] * b2;
+        n.try_normalize().unwrap_or_else(|| self.geometric_normal(t))
+    }
+
+    /// Unit geometric normal of triangle `t` from its winding (front side).
+    pub fn geometric_normal(&self, t: usize) -> Vec3 {
+        let [a, b, c] = self.triangle(t);
+        (b - a).cross(c - a).try_normalize().unwrap_or(Vec3::Z)
+    }
+
+    /// Emitted radiance of triangle `t` (front side).
+    pub fn emission(&self, t: usize) -> Vec3 {
+        self.materials[self.material_ids[t] as usize].emission
+    }
+
+    /// Checks internal consistency (index ranges, array lengths, finite values). Loaders call
+    /// this so that a broken file is reported instead of crashing a stage.
+    pub fn validate(&self) -> Result<(), String> {
+        let nv = self.positions.len();
+        if self.normals.len() != nv || self.uvs.len() != nv {
+            return Err(format!("{} positions but {} normals and {} uvs", nv, self.normals.len(), self.uvs.len()));
+        }
+        if self.material_ids.len() != self.indices.len() {
+            return Err("one material id per triangle is required".into());
+        }
+        if let Some(t) = self.indices.iter().position(|tri| tri.iter().any(|&i| i as usize >= nv)) {
+            return Err(format!("triangle {t} refers to a vertex past the {nv} vertices"));
+        }
+        if let Some(t) = self.material_ids.iter().position(|&m| m as usize >= self.materials.len()) {
+            return Err(format!("triangle {t} refers to a missing material"));
+        }
+        if let Some(v) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(format!("vertex {v} has a non-finite position"));
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if let Some(t) = m.base_color_texture {
+                if t as usize >= self.textures.len() {
+                    return Err(format!("material {i} refers to a missing texture"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
