@@ -225,4 +225,60 @@ mod tests {
         let analytic = punctual_power(&light).x as f64;
         assert!((numeric - analytic).abs() < 1e-3 * analytic, "{numeric} vs {analytic}");
     }
+
+    /// χ² goodness of fit of area-light sampling: two emitters of different area and radiance,
+    /// each split into its four midpoint sub-triangles (a quarter of its area each). The expected
+    /// share of an emitter is its power share; inside it, positions must be uniform.
+    #[test]
+    fn area_light_sampling_chi2() {
+        use vplgi_scene::{Material, Scene};
+        use vplgi_types::{Rng, Stream};
+        let mut scene = Scene::default();
+        let tris = [
+            [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)],
+            [Vec3::new(2.0, 0.0, 0.0), Vec3::new(4.0, 0.0, 0.5), Vec3::new(2.0, 0.0, 3.0)],
+        ];
+        for (t, tri) in tris.iter().enumerate() {
+            scene.positions.extend_from_slice(tri);
+            scene.normals.extend_from_slice(&[Vec3::Y; 3]);
+            scene.uvs.extend_from_slice(&[glam::Vec2::ZERO; 3]);
+            let base = 3 * t as u32;
+            scene.indices.push([base, base + 2, base + 1]);
+            scene.material_ids.push(t as u32);
+            scene.materials.push(Material { emission: Vec3::splat(1.0 + 3.0 * t as f32), ..Material::default() });
+        }
+        let sampler = LightSampler::new(&scene);
+        let powers: Vec<f32> = (0..2).map(|t| {
+            let [a, b, c] = scene.triangle(t);
+            0.5 * (b - a).cross(c - a).length() * scene.emission(t).x
+        }).collect();
+        let total: f32 = powers.iter().sum();
+        let mut counts = [0u32; 8];
+        let samples = 100_000;
+        let mut rng = Rng::new(5, Stream::Oracle, 0);
+        for _ in 0..samples {
+            let s = sampler.sample_area(&scene, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
+            let t = if s.position.x < 1.5 { 0 } else { 1 };
+            // Barycentric coordinates on the triangle as indexed: (a, c, b) for the winding above.
+            let [a, b, c] = scene.triangle(t);
+            let (e1, e2, q) = (b - a, c - a, s.position - a);
+            let d = e1.cross(e2);
+            let w1 = q.cross(e2).dot(d) / d.length_squared();
+            let w2 = e1.cross(q).dot(d) / d.length_squared();
+            // Midpoint subdivision: corner triangles where a weight exceeds 1/2, else the middle.
+            let sub = if w1 > 0.5 { 1 } else if w2 > 0.5 { 2 } else if 1.0 - w1 - w2 > 0.5 { 0 } else { 3 };
+            counts[t * 4 + sub] += 1;
+            assert!((s.pdf_area - powers[t] / total / (powers[t] / scene.emission(t).x)).abs() < 1e-4);
+        }
+        let mut chi2 = 0.0f64;
+        for t in 0..2 {
+            let expected = samples as f64 * (powers[t] / total) as f64 / 4.0;
+            for sub in 0..4 {
+                chi2 += (counts[t * 4 + sub] as f64 - expected).powi(2) / expected;
+            }
+        }
+        // 7 degrees of freedom: the 0.999 quantile is 24.3.
+        println!("area-light sampling: chi2 = {chi2:.2} (7 dof, reject above 24.3), counts {counts:?}");
+        assert!(chi2 < 24.3, "chi2 = {chi2}, counts {counts:?}");
+    }
 }

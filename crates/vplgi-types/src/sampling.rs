@@ -83,4 +83,37 @@ mod tests {
             }
         }
     }
+
+    /// χ² goodness of fit of the cosine-weighted hemisphere sampler: 10 bins in cos θ times 8 in
+    /// φ, expected counts from integrating the pdf cos θ / π over each bin,
+    /// (Δφ / 2π) (cos_hi² − cos_lo²), in the local frame of an arbitrary normal.
+    #[test]
+    fn cosine_hemisphere_chi2() {
+        use crate::{Rng, Stream};
+        let n = Vec3::new(-0.3, 0.4, 0.866).normalize();
+        let (t, b) = orthonormal_basis(n);
+        let (nc, nphi) = (10usize, 8usize);
+        let mut counts = vec![0u32; nc * nphi];
+        let samples = 200_000;
+        let mut rng = Rng::new(3, Stream::Oracle, 0);
+        for _ in 0..samples {
+            let d = cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
+            let c = d.dot(n).clamp(0.0, 0.999_999);
+            let phi = d.dot(b).atan2(d.dot(t)).rem_euclid(2.0 * PI);
+            let i = ((c * nc as f32) as usize).min(nc - 1);
+            let j = ((phi / (2.0 * PI) * nphi as f32) as usize).min(nphi - 1);
+            counts[i * nphi + j] += 1;
+        }
+        let mut chi2 = 0.0f64;
+        for i in 0..nc {
+            let (lo, hi) = (i as f64 / nc as f64, (i + 1) as f64 / nc as f64);
+            let expected = samples as f64 * (hi * hi - lo * lo) / nphi as f64;
+            for j in 0..nphi {
+                chi2 += (counts[i * nphi + j] as f64 - expected).powi(2) / expected;
+            }
+        }
+        // 79 degrees of freedom: the 0.999 quantile is 124.8.
+        println!("cosine hemisphere: chi2 = {chi2:.1} (79 dof, reject above 124.8)");
+        assert!(chi2 < 124.8, "chi2 = {chi2}");
+    }
 }
