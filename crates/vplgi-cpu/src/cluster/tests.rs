@@ -1,5 +1,6 @@
 use super::*;
 use proptest::prelude::*;
+use vplgi_types::Rng;
 
 fn params(k: u32, f: u32, fuzzy: FuzzyMode) -> ClusterParams {
     ClusterParams { k, gamma: 2, iterations: 5, f, fuzzy, normal_threshold: 0.866_025_4, seed: 3 }

@@ -1,0 +1,97 @@
+//! Closed-form answers the CPU reference must reproduce.
+
+use glam::Vec3;
+use std::f32::consts::PI;
+use vplgi_cpu::shade::{indirect, VisibilitySource, VplLight};
+use vplgi_cpu::visibility::BitMatrix;
+use vplgi_cpu::{CpuScene, NoProgress};
+use vplgi_scene::cornell::plane_with_point_light;
+use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint};
+
+/// A point light of intensity I at height h over a Lambertian plane of albedo ρ: the radiance at
+/// horizontal distance r is ρ/π · I h / (h² + r²)^{3/2}. With no VPLs the image is exactly that
+/// (up to f32 rounding): checks shading points, direct light and the camera together.
+#[test]
+fn point_light_over_a_plane_matches_the_closed_form() {
+    let (h, rho, intensity) = (1.5f32, 0.6f32, 4.0f32);
+    let scene = plane_with_point_light(2.0, h, rho, intensity);
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let cfg = FrameConfig { width: 32, height: 32, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress);
+    let mut checked = 0;
+    let mut worst = 0.0f32;
+    for (sp, px) in sps.iter().zip(&frame.pixels) {
+        if sp.is_miss() {
+            assert_eq!(*px, [0.0; 3]);
+            continue;
+        }
+        let p = Vec3::from(sp.position);
+        let r2 = p.x * p.x + p.z * p.z;
+        let expected = rho / PI * intensity * h / (h * h + r2).powf(1.5);
+        let rel = (px[0] - expected).abs() / expected;
+        worst = worst.max(rel);
+        checked += 1;
+    }
+    println!("point light over a plane: {checked} pixels, worst relative error {worst:.2e}");
+    assert!(checked > 500, "the plane must fill most of the image");
+    assert!(worst < 1e-4, "worst relative error {worst}");
+}
+
+/// One VPL of flux Φ at height h above a plane, facing down: the indirect radiance at horizontal
+/// distance r is Φ · (ρ/π) · cos θ_p cos θ_v / (π d²) with cos θ_p = cos θ_v = h/d (Eq. 6 with a
+/// Lambertian VPL), below the clamp; above it, G is capped at 1/d_min².
+#[test]
+fn one_vpl_over_a_plane_matches_the_closed_form() {
+    let (h, rho) = (0.8f32, 0.5f32);
+    let flux = Vec3::new(2.0, 1.0, 0.5);
+    let light = VplLight { position: Vec3::new(0.0, h, 0.0), normal: -Vec3::Y, flux };
+    let mut matrix = BitMatrix::new(1, 1);
+    matrix.set(0, 0, true);
+    let row_of = [0u32];
+    let vis = VisibilitySource::Own { matrix: &matrix, row_of: &row_of, first_row: 0 };
+    for r in [0.0f32, 0.3, 1.0, 2.5] {
+        let sp = ShadingPoint { position: [r, 0.0, 0.0], normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
+        let d2 = h * h + r * r;
+        let g = (h * h / d2) / d2;
+        let expected = flux * (rho / PI) * g / PI;
+        let got = indirect(&sp, 0, &[light], &vis, f32::INFINITY);
+        assert!((got - expected).abs().max_element() <= 1e-6 * expected.max_element(), "r = {r}: {got} vs {expected}");
+        // With the clamp at d_min = h the geometry term at r = 0 is exactly 1/h², i.e. unclamped;
+        // at d_min = 2h it is capped at 1/(4h²).
+        let capped = indirect(&sp, 0, &[light], &vis, 1.0 / (4.0 * h * h));
+        let expected_capped = flux * (rho / PI) * g.min(1.0 / (4.0 * h * h)) / PI;
+        assert!((capped - expected_capped).abs().max_element() <= 1e-6 * expected.max_element());
+    }
+    // Invisible: nothing.
+    let blocked = BitMatrix::new(1, 1);
+    let sp = ShadingPoint { normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
+    let vis = VisibilitySource::Own { matrix: &blocked, row_of: &row_of, first_row: 0 };
+    assert_eq!(indirect(&sp, 0, &[light], &vis, f32::INFINITY), Vec3::ZERO);
+}
+
+/// Light particles from a point light over a square: the fraction of the light's power that
+/// reaches the square is its solid angle over 4π, Ω = 4 atan(a² / (h √(2a² + h²))), so with one
+/// bounce the VPLs' total flux is ρ I Ω. The estimate's relative standard deviation is
+/// √((1 − Ω/4π) / N) for N VPLs; the test allows 4 of them.
+#[test]
+fn vpl_flux_from_a_point_light_matches_the_solid_angle() {
+    let (a, h, rho, intensity) = (1.0f32, 0.7f32, 0.5f32, 3.0f32);
+    let scene = plane_with_point_light(a, h, rho, intensity);
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let n = 40_000;
+    let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, 7, n, 1, &NoProgress);
+    assert_eq!(set.vpls.len(), n as usize);
+    let total: f64 = set.vpls.iter().map(|v| v.flux[0] as f64).sum();
+    let omega = 4.0 * ((a * a) as f64 / (h as f64 * ((2.0 * a * a + h * h) as f64).sqrt())).atan();
+    let expected = (rho * intensity) as f64 * omega;
+    let p = omega / (4.0 * std::f64::consts::PI);
+    let sigma = ((1.0 - p) / n as f64).sqrt();
+    let rel = (total - expected) / expected;
+    println!("VPL flux {total:.5} vs ρIΩ = {expected:.5}: {:+.2} σ (σ = {:.2e} relative)", rel / sigma, sigma);
+    assert!(rel.abs() < 4.0 * sigma);
+    // Every VPL lies on the plane, faces up and came from one bounce.
+    assert!(set.vpls.iter().all(|v| v.position[1].abs() < 1e-5 && v.normal == [0.0, 1.0, 0.0] && v.bounce == 1));
+}
