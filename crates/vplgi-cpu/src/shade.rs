@@ -19,6 +19,7 @@ use crate::CpuScene;
 use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
+use vplgi_types::config::MAX_F;
 use vplgi_types::{Rng, ShadingPoint, Stream, MISS};
 
 /// A light for indirect shading: one VPL, or one VPL cluster at its representative.
@@ -67,37 +68,60 @@ pub fn indirect(sp: &ShadingPoint, i: usize, lights: &[VplLight], vis: &Visibili
     let p = Vec3::from(sp.position);
     let n = Vec3::from(sp.normal);
     let brdf = Vec3::from(sp.albedo) / PI;
+    // The visibility source is resolved once per shading point, so the per-light loop is a
+    // monomorphised closure over plain slices.
+    let sum = match *vis {
+        VisibilitySource::Own { matrix, row_of, first_row } => {
+            let row = matrix.row((row_of[i] - first_row) as usize);
+            sum_lights(p, n, lights, g_max, |c| if bit(row, c) { 1.0 } else { 0.0 })
+        }
+        VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f } => {
+            let r = row_of[i] as usize * f;
+            let mut rows: [&[u64]; MAX_F as usize] = [&[]; MAX_F as usize];
+            let mut w = [0.0f32; MAX_F as usize];
+            let mut count = 0;
+            for j in 0..f {
+                if labels[r + j] != MISS {
+                    rows[count] = matrix.row(labels[r + j] as usize);
+                    w[count] = weights[r + j];
+                    count += 1;
+                }
+            }
+            let (rows, w) = (&rows[..count], &w[..count]);
+            sum_lights(p, n, lights, g_max, |c| {
+                let mut v = 0.0;
+                for (row, &wf) in rows.iter().zip(w) {
+                    if bit(row, c) {
+                        v += wf;
+                    }
+                }
+                v
+            })
+        }
+    };
+    sum * brdf
+}
+
+#[inline(always)]
+fn bit(row: &[u64], c: usize) -> bool {
+    (row[c / 64] >> (c % 64)) & 1 == 1
+}
+
+/// Σ_c Φ_c G / π Ṽ(c) over the lights, Ṽ given by `vis`.
+#[inline(always)]
+fn sum_lights(p: Vec3, n: Vec3, lights: &[VplLight], g_max: f32, vis: impl Fn(usize) -> f32) -> Vec3 {
     let mut sum = Vec3::ZERO;
     for (c, l) in lights.iter().enumerate() {
         let g = geometry_term(p, n, l.position, l.normal, g_max);
         if g == 0.0 {
             continue;
         }
-        let v = match *vis {
-            VisibilitySource::Own { matrix, row_of, first_row } => {
-                if matrix.get((row_of[i] - first_row) as usize, c) {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
-            VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f } => {
-                let r = row_of[i] as usize * f;
-                let mut v = 0.0;
-                for j in 0..f {
-                    let k = labels[r + j];
-                    if k != MISS && matrix.get(k as usize, c) {
-                        v += weights[r + j];
-                    }
-                }
-                v
-            }
-        };
+        let v = vis(c);
         if v > 0.0 {
             sum += l.flux * (g / PI * v);
         }
     }
-    sum * brdf
+    sum
 }
 
 /// Direct light at shading point `index`: `samples` shadow rays to points on area lights chosen

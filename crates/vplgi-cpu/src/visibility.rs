@@ -47,6 +47,12 @@ impl BitMatrix {
         }
     }
 
+    /// The words of row `r`.
+    #[inline]
+    pub fn row(&self, r: usize) -> &[u64] {
+        &self.bits[r * self.words_per_row..(r + 1) * self.words_per_row]
+    }
+
     pub fn count_ones(&self) -> u64 {
         self.bits.iter().map(|w| w.count_ones() as u64).sum()
     }
