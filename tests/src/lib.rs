@@ -13,7 +13,7 @@ pub fn small_config(size: u32, vpls: u32) -> FrameConfig {
 pub fn render(scene: &Scene, cfg: &FrameConfig) -> Frame {
     let device = vplgi_embree::Device::new(None).expect("Embree device");
     let cs = CpuScene::new(scene, &device).expect("Embree scene");
-    vplgi_cpu::render(&cs, cfg, &NoProgress)
+    vplgi_cpu::render(&cs, cfg, &NoProgress).expect("valid test configuration")
 }
 
 /// Mean of each channel over all pixels.

@@ -19,7 +19,7 @@ fn point_light_over_a_plane_matches_the_closed_form() {
     let cs = CpuScene::new(&scene, &device).unwrap();
     let cfg = FrameConfig { width: 32, height: 32, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
     let sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
-    let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress);
+    let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
     let mut checked = 0;
     let mut worst = 0.0f32;
     for (sp, px) in sps.iter().zip(&frame.pixels) {

@@ -13,10 +13,10 @@ fn zero_vpls_gives_direct_light_only_in_every_mode() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let base = FrameConfig { width: 20, height: 20, vpls: 0, k_sp: 50, k_vpl: 10, ..FrameConfig::reference() };
-    let reference = vplgi_cpu::render(&cs, &base, &NoProgress);
+    let reference = vplgi_cpu::render(&cs, &base, &NoProgress).unwrap();
     assert!(reference.pixels.iter().any(|p| p[0] > 0.0), "direct light must be visible");
     for mode in MODES {
-        let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: mode, ..base.clone() }, &NoProgress);
+        let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: mode, ..base.clone() }, &NoProgress).unwrap();
         assert_eq!(f.pixels, reference.pixels, "{mode:?}");
         assert_eq!(f.stats.vpl_clusters, 0);
     }
@@ -31,7 +31,7 @@ fn extreme_cluster_counts() {
     for (k_sp, k_vpl, f) in [(1, 1, 6), (10_000, 10_000, 16), (3, 500, 16)] {
         for fuzzy in [FuzzyMode::Hard, FuzzyMode::Average, FuzzyMode::Weighted] {
             let cfg = FrameConfig { width: 16, height: 16, vpls: 300, k_sp, k_vpl, f, fuzzy, cluster: ClusterMode::Both, ..FrameConfig::reference() };
-            let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress);
+            let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
             assert!(frame.stats.sp_clusters >= 1 && frame.stats.sp_clusters <= frame.stats.shading_point_hits.min(k_sp as usize));
             assert!(frame.stats.vpl_clusters >= 1 && frame.stats.vpl_clusters <= 300.min(k_vpl as usize));
             assert!(frame.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
@@ -47,8 +47,8 @@ fn one_cluster_per_point_reproduces_the_reference() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let base = FrameConfig { width: 12, height: 12, vpls: 200, k_sp: 1_000_000, k_vpl: 1_000_000, fuzzy: FuzzyMode::Hard, ..FrameConfig::reference() };
-    let reference = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::None, ..base.clone() }, &NoProgress);
-    let vpl_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Vpl, ..base.clone() }, &NoProgress);
+    let reference = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::None, ..base.clone() }, &NoProgress).unwrap();
+    let vpl_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Vpl, ..base.clone() }, &NoProgress).unwrap();
     // VPL clusters sum their members' flux in a different order than the per-VPL loop, so allow
     // rounding, but nothing more.
     for (a, b) in reference.pixels.iter().zip(&vpl_only.pixels) {
@@ -56,6 +56,28 @@ fn one_cluster_per_point_reproduces_the_reference() {
             assert!((a[c] - b[c]).abs() <= 1e-5 * a[c].max(1e-3), "{a:?} vs {b:?}");
         }
     }
-    let sp_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Sp, ..base.clone() }, &NoProgress);
+    let sp_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Sp, ..base.clone() }, &NoProgress).unwrap();
     assert_eq!(sp_only.pixels, reference.pixels);
+}
+
+/// The library entry point refuses invalid configurations instead of dividing by zero.
+#[test]
+fn render_rejects_invalid_configurations() {
+    let scene = cornell_box();
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let err = vplgi_cpu::render(&cs, &FrameConfig { spp: 0, ..FrameConfig::default() }, &NoProgress).unwrap_err();
+    assert!(err.to_string().contains("spp"), "{err}");
+}
+
+/// Non-finite attributes are rejected by scene validation (a NaN texture coordinate would
+/// otherwise turn every pixel NaN through the VPL fluxes).
+#[test]
+fn scenes_with_non_finite_attributes_are_rejected() {
+    let mut scene = cornell_box();
+    scene.uvs[3].x = f32::NAN;
+    assert!(scene.validate().unwrap_err().contains("texture"));
+    let mut scene = cornell_box();
+    scene.materials[0].emission.y = f32::INFINITY;
+    assert!(scene.validate().is_err());
 }

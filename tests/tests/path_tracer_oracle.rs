@@ -105,9 +105,9 @@ fn one_bounce_path_tracer_agrees_with_the_unclustered_reference() {
     let mut loss = [0.0f64; 3];
     let mut direct_only = [0.0f64; 3];
     for &seed in &seeds {
-        let u = vplgi_cpu::render(&cs, &FrameConfig { seed, g_clamp_rel: 0.0, ..base.clone() }, &vplgi_cpu::NoProgress);
-        let c = vplgi_cpu::render(&cs, &FrameConfig { seed, ..base.clone() }, &vplgi_cpu::NoProgress);
-        let d = vplgi_cpu::render(&cs, &FrameConfig { seed, vpls: 0, ..base.clone() }, &vplgi_cpu::NoProgress);
+        let u = vplgi_cpu::render(&cs, &FrameConfig { seed, g_clamp_rel: 0.0, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
+        let c = vplgi_cpu::render(&cs, &FrameConfig { seed, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
+        let d = vplgi_cpu::render(&cs, &FrameConfig { seed, vpls: 0, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
         let (mu, mc, md) = (vplgi_tests::mean_rgb(&u.pixels), vplgi_tests::mean_rgb(&c.pixels), vplgi_tests::mean_rgb(&d.pixels));
         for ch in 0..3 {
             assert!(mc[ch] <= mu[ch] + 1e-9, "the clamp added energy");

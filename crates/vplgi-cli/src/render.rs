@@ -163,6 +163,7 @@ fn install_interrupt_cleanup(dir: PathBuf) {
 
 pub fn run(args: RenderArgs) -> Result<()> {
     let cfg = args.config();
+    // Checked before any work (render checks again), so a typo fails fast.
     if let Err(e) = cfg.validate() {
         bail!("invalid parameters: {e}");
     }
@@ -185,7 +186,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
 
     let bars = Bars::new();
-    let frame = vplgi_cpu::render(&cs, &cfg, &bars);
+    let frame = vplgi_cpu::render(&cs, &cfg, &bars)?;
 
     let image = vplgi_image::Image { width: frame.width, height: frame.height, pixels: frame.pixels };
     let exr = args.out.join("image.exr");

@@ -13,7 +13,8 @@ pub struct CpuScene<'a> {
     pub lights: LightSampler,
     /// Bounding-box diagonal: the length unit of every relative parameter.
     pub extent: f32,
-    /// How far ray end points are pushed off their surfaces (1e-4 of the extent).
+    /// How far ray end points are pushed off their surfaces (1e-4 of the extent, at least 64
+    /// ulps of the largest coordinate).
     pub eps: f32,
 }
 
@@ -36,7 +37,12 @@ impl<'a> CpuScene<'a> {
     pub fn new(scene: &'a Scene, device: &Device) -> Result<CpuScene<'a>, EmbreeError> {
         let rt = vplgi_embree::Scene::new(device, &scene.positions, &scene.indices)?;
         let extent = scene.extent().max(1e-6);
-        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps: 1e-4 * extent })
+        // 1e-4 of the scene size, but never below ~64 ulps of the largest coordinate, so a small
+        // scene far from the origin does not shadow itself.
+        let (min, max) = scene.bounds();
+        let far = min.abs().max(max.abs()).max_element();
+        let eps = (1e-4 * extent).max(far * 64.0 * f32::EPSILON);
+        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps })
     }
 
     /// Closest surface along `origin + t dir`, t in (0, inf).
@@ -74,10 +80,13 @@ impl<'a> CpuScene<'a> {
         !self.rt.occluded(a, b - a, 0.0, 1.0)
     }
 
-    /// Visibility between a surface point and a point in free space (a punctual light).
+    /// Visibility between a surface point and a point in free space (a punctual light). The
+    /// segment stops eps short of the light, so a light mounted on a surface is not blocked by it.
     #[inline]
     pub fn visible_from_surface(&self, p: Vec3, np: Vec3, light: Vec3) -> bool {
         let a = self.offset_toward(p, np, light);
-        !self.rt.occluded(a, light - a, 0.0, 1.0)
+        let d = light - a;
+        let len = d.length();
+        len > self.eps && !self.rt.occluded(a, d, 0.0, 1.0 - self.eps / len)
     }
 }

@@ -12,8 +12,12 @@
 //!   approximation).
 //! * **No compatible centroid in the 27 cells**: the search widens ring by ring (Chebyshev
 //!   distance 2, 3, ...) and, once something is found, continues until no unvisited ring can hold
-//!   a closer centroid, so the widened answer is exact. If no centroid anywhere has a compatible
-//!   normal, the point takes the nearest centroid by position alone. Both cases are counted.
+//!   a closer centroid, so the widened nearest centroid is exact (further F entries are the best
+//!   among the cells visited). Once the rings would hold more cells than 8x the centroids, all
+//!   centroids are scanned instead. If no centroid anywhere has a compatible normal, the point
+//!   takes the nearest centroid by position alone. Both cases are counted.
+//! * **Weights** (Eq. 10) use the distances to the centroids, as Alg. 2 computes them; Eq. 10's
+//!   text names the representatives, which lie within a fraction of a cell of their centroids.
 //! * **Centroid sums** are fixed-point integers (see [`FixedPoint`]), so they do not depend on
 //!   summation order; a cluster that loses all members keeps its previous centroid.
 //! * **Empty clusters** after the final assignment are dropped, so every reported cluster has a
@@ -232,6 +236,14 @@ impl Grid {
         }
         let last = self.max_ring(c);
         for r in 2..=last {
+            if ((2 * r + 1) as f64).powi(3) > 8.0 * centroids.len() as f64 + 64.0 {
+                // The rings now hold more cells than there are centroids: scanning all
+                // centroids is cheaper, and exact.
+                count = 0;
+                let all: Vec<u32> = (0..centroids.len() as u32).collect();
+                consider(&all, best, &mut count);
+                break;
+            }
             self.visit_ring(c, r, |items| consider(items, best, &mut count));
             // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
             // so it is at least r cells away: nothing unvisited can beat this answer.
@@ -519,6 +531,11 @@ fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, cell: f32, out: &mut [f32
             FuzzyMode::Average | FuzzyMode::Hard => 1.0,
         };
         total += *w;
+    }
+    if !(total.is_finite() && total > 0.0) {
+        // Distances overflowed (coordinates ~1e19 apart): fall back to the plain mean.
+        total = out.len() as f32;
+        out.iter_mut().for_each(|w| *w = 1.0);
     }
     for w in out.iter_mut() {
         *w /= total;

@@ -18,4 +18,4 @@ pub mod visibility;
 
 mod accel;
 pub use accel::{CpuScene, SurfaceHit};
-pub use pipeline::{render, Frame, NoProgress, Progress, StageTimings};
+pub use pipeline::{render, Frame, NoProgress, Progress, RenderError, StageTimings};

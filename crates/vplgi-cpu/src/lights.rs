@@ -34,7 +34,13 @@ impl Distribution {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        let pmf = weights.iter().map(|&w| (w.max(0.0) as f64 / total) as f32).collect();
+        // The probability each item is really drawn with: `sample` receives u = k / 2^24
+        // (`Rng::next_f32`) and picks the first item whose f32 CDF exceeds u, so item i owns
+        // ceil(cdf_i 2^24) - ceil(cdf_{i-1} 2^24) of the 2^24 values. Dividing by this realised
+        // probability instead of the exact weight share keeps the estimators unbiased for tiny
+        // lights (an item below 2^-24 of the total is never drawn and its energy is lost).
+        let grid = |c: f32| (c as f64 * 16_777_216.0).ceil();
+        let pmf = (0..cdf.len()).map(|i| ((grid(cdf[i]) - if i == 0 { 0.0 } else { grid(cdf[i - 1]) }) / 16_777_216.0) as f32).collect();
         Distribution { cdf, pmf }
     }
 
@@ -201,6 +207,11 @@ mod tests {
         assert_eq!(d.sample(0.25).0, 2);
         assert_eq!(d.sample(0.9999).0, 2);
         assert!((d.pmf(2) - 0.75).abs() < 1e-7);
+        assert_eq!(d.pmf(1), 0.0);
+        // A tiny item keeps the probability it is really drawn with on the 2^-24 grid.
+        let tiny = Distribution::new(&[1.0, 1e-9]);
+        let draws = (0..1u32 << 24).filter(|&k| tiny.sample(k as f32 / 16_777_216.0).0 == 1).count();
+        assert_eq!(tiny.pmf(1), draws as f32 / 16_777_216.0);
         assert!(Distribution::new(&[0.0, 0.0]).is_empty());
     }
 

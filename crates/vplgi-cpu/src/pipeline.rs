@@ -97,8 +97,16 @@ pub fn vpl_lights(vpls: &[vplgi_types::Vpl], clusters: Option<&Clustering>) -> V
 /// the matrix to 64 MiB whatever the image size.
 const ROW_CHUNK_BITS: usize = 64 << 23;
 
+/// Why a frame could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("invalid parameters: {0}")]
+    InvalidConfig(String),
+}
+
 /// Renders one frame with the CPU reference.
-pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Frame {
+pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, RenderError> {
+    cfg.validate().map_err(RenderError::InvalidConfig)?;
     let mut t = StageTimings::default();
     let mut stats = FrameStats { scene_extent: cs.extent, ..Default::default() };
 
@@ -208,5 +216,5 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Fram
     t.shade = shade_ms;
     stats.visibility_mrays_per_s = if vis_ms > 0.0 { stats.visibility_rays as f64 / (vis_ms * 1e3) } else { 0.0 };
     t.total = t.trace_vpls + t.shading_points + t.cluster + t.visibility + t.shade;
-    Frame { width: cfg.width, height: cfg.height, pixels, timings: t, stats }
+    Ok(Frame { width: cfg.width, height: cfg.height, pixels, timings: t, stats })
 }

@@ -47,17 +47,37 @@ impl Device {
         let raw = unsafe { sys::rtcNewDevice(config.as_ptr()) };
         if raw.is_null() {
             // SAFETY: rtcGetDeviceError(NULL) returns the error of the last failed device creation.
-            return Err(EmbreeError::Device(unsafe { sys::rtcGetDeviceError(ptr::null_mut()) }));
+            return Err(EmbreeError::Device(error_from_u32(unsafe { raw_device_error(ptr::null_mut()) })));
         }
         Ok(Device { raw })
     }
 
     fn check(&self, what: &'static str) -> Result<(), EmbreeError> {
-        // SAFETY: self.raw is a live device.
-        match unsafe { sys::rtcGetDeviceError(self.raw) } {
-            sys::RTCError::NONE => Ok(()),
-            code => Err(EmbreeError::Call { what, code }),
+        // SAFETY: self.raw is a live device; see `raw_device_error` for why the code is read as u32.
+        match unsafe { raw_device_error(self.raw) } {
+            0 => Ok(()),
+            code => Err(EmbreeError::Call { what, code: error_from_u32(code) }),
         }
+    }
+}
+
+// The 4.4 runtime can return error codes the 4.2 bindings' Rust enum lacks (7, "Level Zero
+// raytracing support missing"); receiving one as that enum would be undefined behaviour. So the
+// code is read as a plain integer and mapped.
+extern "C" {
+    #[link_name = "rtcGetDeviceError"]
+    fn raw_device_error(device: sys::RTCDevice) -> u32;
+}
+
+fn error_from_u32(code: u32) -> sys::RTCError {
+    match code {
+        0 => sys::RTCError::NONE,
+        2 => sys::RTCError::INVALID_ARGUMENT,
+        3 => sys::RTCError::INVALID_OPERATION,
+        4 => sys::RTCError::OUT_OF_MEMORY,
+        5 => sys::RTCError::UNSUPPORTED_CPU,
+        6 => sys::RTCError::CANCELLED,
+        _ => sys::RTCError::UNKNOWN,
     }
 }
 

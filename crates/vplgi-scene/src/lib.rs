@@ -260,6 +260,23 @@ impl Scene {
         if let Some(v) = self.positions.iter().position(|p| !p.is_finite()) {
             return Err(format!("vertex {v} has a non-finite position"));
         }
+        if let Some(v) = self.normals.iter().position(|n| !n.is_finite()) {
+            return Err(format!("vertex {v} has a non-finite normal"));
+        }
+        if let Some(v) = self.uvs.iter().position(|t| !t.is_finite()) {
+            return Err(format!("vertex {v} has non-finite texture coordinates"));
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if !m.base_color.is_finite() || !m.emission.is_finite() || m.emission.min_element() < 0.0 {
+                return Err(format!("material {i} ({}) has a non-finite or negative colour or emission", m.name));
+            }
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let (PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. }) = l;
+            if !position.is_finite() || !intensity.is_finite() || intensity.min_element() < 0.0 {
+                return Err(format!("light {i} has a non-finite position or a non-finite or negative intensity"));
+            }
+        }
         for (i, m) in self.materials.iter().enumerate() {
             if let Some(t) = m.base_color_texture {
                 if t as usize >= self.textures.len() {

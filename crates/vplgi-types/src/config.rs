@@ -138,8 +138,9 @@ impl FrameConfig {
         if (self.width as u64) * (self.height as u64) * (self.spp as u64) > (1 << 28) {
             return Err("width x height x spp must stay below 2^28 shading points".into());
         }
-        if !(-1.0..=1.0).contains(&self.normal_threshold) {
-            return Err("normal threshold must be in [-1, 1]".into());
+        if !(-1.0..1.0).contains(&self.normal_threshold) {
+            // n1 . n2 > 1 never holds: every point would be incompatible with every centroid.
+            return Err("normal threshold must be in [-1, 1)".into());
         }
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
             return Err("g-clamp must be a finite number >= 0".into());
@@ -155,5 +156,27 @@ impl Default for FrameConfig {
     /// The paper's Cornell-box operating point: 1k VPL clusters, 8k SP clusters, F = 6 weighted.
     fn default() -> Self {
         Self::clustered(1_000, 8_000)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate_and_bad_values_are_named() {
+        for c in [FrameConfig::default(), FrameConfig::reference(), FrameConfig::paper_light(), FrameConfig::paper_intermediate(), FrameConfig::paper_high()] {
+            assert_eq!(c.validate(), Ok(()));
+        }
+        let bad = |f: fn(&mut FrameConfig)| {
+            let mut c = FrameConfig::default();
+            f(&mut c);
+            c.validate().unwrap_err()
+        };
+        assert!(bad(|c| c.spp = 0).contains("spp"));
+        assert!(bad(|c| c.f = 17).contains('F'));
+        assert!(bad(|c| c.normal_threshold = 1.0).contains("normal threshold"));
+        assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));
+        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28"));
     }
 }
