@@ -1,6 +1,8 @@
-//! Shared helpers for the cross-crate tests: running the CPU pipeline on a scene at test sizes.
+//! Shared helpers for the cross-crate tests: the CPU pipeline at test sizes, and the GPU
+//! context for differential tests.
 
 use vplgi_cpu::{CpuScene, Frame, NoProgress};
+use vplgi_gpu::GpuContext;
 use vplgi_scene::Scene;
 use vplgi_types::FrameConfig;
 
@@ -25,4 +27,22 @@ pub fn mean_rgb(pixels: &[[f32; 3]]) -> [f64; 3] {
         }
     }
     m.map(|v| v / pixels.len().max(1) as f64)
+}
+
+/// The GPU for a differential test, announced with the adapter's name. Without an adapter the
+/// test fails under CI (`CI=true`) and is skipped loudly elsewhere.
+pub fn gpu(test: &str) -> Option<GpuContext> {
+    match GpuContext::new() {
+        Ok(ctx) => {
+            println!("[{}] {test}", ctx.describe());
+            Some(ctx)
+        }
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true") {
+                panic!("{test}: no GPU adapter under CI: {e}");
+            }
+            eprintln!("\n*** SKIPPED {test}: {e} ***\n");
+            None
+        }
+    }
 }

@@ -13,10 +13,16 @@ pub struct CpuScene<'a> {
     pub lights: LightSampler,
     /// Bounding-box diagonal: the length unit of every relative parameter.
     pub extent: f32,
-    /// How far ray end points are pushed off their surfaces (1e-4 of the extent, at least 64
-    /// ulps of the largest coordinate).
+    /// How far ray end points are pushed off their surfaces ([`Scene::ray_epsilon`]).
     pub eps: f32,
 }
+
+/// Shadow segments start at this fraction of their length, not at 0. A point in a concave corner
+/// (a camera ray that hit exactly the edge where ceiling meets wall) is pushed off its own
+/// surface into the plane of the other one, which the segment then touches at t = 0: whether
+/// such a touch counts differs between ray tracers (Embree no, Möller–Trumbore yes). Starting a
+/// hair later (1e-5 of the segment, well inside the eps offset) makes every backend ignore it.
+pub const SEGMENT_TNEAR: f32 = 1e-5;
 
 /// What a ray sees where it hits a surface.
 #[derive(Clone, Copy, Debug)]
@@ -37,12 +43,7 @@ impl<'a> CpuScene<'a> {
     pub fn new(scene: &'a Scene, device: &Device) -> Result<CpuScene<'a>, EmbreeError> {
         let rt = vplgi_embree::Scene::new(device, &scene.positions, &scene.indices)?;
         let extent = scene.extent().max(1e-6);
-        // 1e-4 of the scene size, but never below ~64 ulps of the largest coordinate, so a small
-        // scene far from the origin does not shadow itself.
-        let (min, max) = scene.bounds();
-        let far = min.abs().max(max.abs()).max_element();
-        let eps = (1e-4 * extent).max(far * 64.0 * f32::EPSILON);
-        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps })
+        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps: scene.ray_epsilon() })
     }
 
     /// Closest surface along `origin + t dir`, t in (0, inf).
@@ -77,7 +78,7 @@ impl<'a> CpuScene<'a> {
     pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
         let a = self.offset_toward(p, np, q);
         let b = self.offset_toward(q, nq, p);
-        !self.rt.occluded(a, b - a, 0.0, 1.0)
+        !self.rt.occluded(a, b - a, SEGMENT_TNEAR, 1.0)
     }
 
     /// Visibility between a surface point and a point in free space (a punctual light). The
@@ -87,6 +88,6 @@ impl<'a> CpuScene<'a> {
         let a = self.offset_toward(p, np, light);
         let d = light - a;
         let len = d.length();
-        len > self.eps && !self.rt.occluded(a, d, 0.0, 1.0 - self.eps / len)
+        len > self.eps && !self.rt.occluded(a, d, SEGMENT_TNEAR, 1.0 - self.eps / len)
     }
 }

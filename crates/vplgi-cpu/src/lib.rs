@@ -17,5 +17,5 @@ pub mod trace_vpls;
 pub mod visibility;
 
 mod accel;
-pub use accel::{CpuScene, SurfaceHit};
+pub use accel::{CpuScene, SurfaceHit, SEGMENT_TNEAR};
 pub use pipeline::{render, Frame, NoProgress, Progress, RenderError, StageTimings};

@@ -210,6 +210,15 @@ impl Scene {
         (max - min).length()
     }
 
+    /// How far ray end points are pushed off their surfaces, shared by every backend: 1e-4 of
+    /// the extent, but never below ~64 ulps of the largest coordinate, so a small scene far from
+    /// the origin does not shadow itself.
+    pub fn ray_epsilon(&self) -> f32 {
+        let (min, max) = self.bounds();
+        let far = min.abs().max(max.abs()).max_element();
+        (1e-4 * self.extent().max(1e-6)).max(far * 64.0 * f32::EPSILON)
+    }
+
     /// Albedo at barycentrics (`b1`, `b2`) of triangle `t`: base colour times texture.
     pub fn albedo(&self, t: usize, b1: f32, b2: f32) -> Vec3 {
         let m = &self.materials[self.material_ids[t] as usize];

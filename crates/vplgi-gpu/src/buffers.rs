@@ -1,0 +1,90 @@
+//! Buffer upload and read-back.
+
+use crate::GpuError;
+use bytemuck::Pod;
+use wgpu::util::DeviceExt;
+
+/// How long a read-back may wait for the device before it counts as lost (lavapipe is slow, but
+/// not this slow).
+const TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
+
+/// A storage buffer holding `data`. Empty data still gets a 16-byte buffer: bindings cannot be
+/// zero-sized.
+pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
+    let bytes: &[u8] = bytemuck::cast_slice(data);
+    let contents = if bytes.is_empty() { &[0u8; 16][..] } else { bytes };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+/// A zeroed storage buffer of `len` elements of `T` (at least 16 bytes).
+pub fn storage_zeroed<T: Pod>(device: &wgpu::Device, label: &str, len: usize) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: ((len * std::mem::size_of::<T>()) as u64).max(16).next_multiple_of(4),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A uniform buffer holding `value`.
+pub fn uniform<T: Pod>(device: &wgpu::Device, label: &str, value: &T) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::bytes_of(value), usage: wgpu::BufferUsages::UNIFORM })
+}
+
+/// Copies the first `len` elements of `buffer` back to the host. Waits with a timeout, so a lost
+/// or hung device becomes an error instead of a hang.
+pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<T>, GpuError> {
+    let size = (len * std::mem::size_of::<T>()) as u64;
+    if size == 0 {
+        return Ok(Vec::new());
+    }
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read-back"),
+        size: size.next_multiple_of(4),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read-back") });
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size.next_multiple_of(4));
+    queue.submit([encoder.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) })
+        .map_err(|e| GpuError::Lost { what: "read-back".into(), message: e.to_string() })?;
+    match rx.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() }),
+        Err(e) => return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() }),
+    }
+    let view = staging.get_mapped_range(..).map_err(|e| GpuError::Lost { what: "read-back".into(), message: e.to_string() })?;
+    let out = bytemuck::cast_slice::<u8, T>(&view[..size as usize]).to_vec();
+    drop(view);
+    staging.unmap();
+    Ok(out)
+}
+
+/// Records one compute dispatch of `pipeline` with `buffers` bound in order at group 0 and
+/// submits it. `groups` is split over y when it exceeds the per-dimension limit; shaders
+/// linearise with `gid.x + gid.y * num_workgroups.x * 64`.
+pub fn dispatch(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer], groups: u32) {
+    let layout = pipeline.get_bind_group_layout(0);
+    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        let max = device.limits().max_compute_workgroups_per_dimension.max(1);
+        let (x, y) = if groups <= max { (groups.max(1), 1) } else { (max, groups.div_ceil(max)) };
+        pass.dispatch_workgroups(x, y, 1);
+    }
+    queue.submit([encoder.finish()]);
+}

@@ -1,0 +1,93 @@
+//! Instance, adapter and device, built once.
+
+use std::sync::{Arc, Mutex};
+
+/// Errors of the GPU backend. None of them panics.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found ({0}); on Debian install a Vulkan driver, e.g. `apt-get install mesa-vulkan-drivers libvulkan1` (lavapipe, a CPU Vulkan)")]
+    NoAdapter(String),
+    #[error("the adapter {adapter} refused a device: {message}")]
+    Device { adapter: String, message: String },
+    #[error("wgpu validation error in {what}: {message}")]
+    Validation { what: String, message: String },
+    #[error("GPU device lost or timed out in {what}: {message}")]
+    Lost { what: String, message: String },
+    #[error("{what} needs {needed} bytes in one storage binding, the adapter allows {limit}")]
+    TooLarge { what: String, needed: u64, limit: u64 },
+}
+
+/// A device ready for the vplgi kernels.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Errors wgpu reported outside an error scope (kept instead of panicking).
+    uncaptured: Arc<Mutex<Vec<String>>>,
+}
+
+impl GpuContext {
+    /// Picks an adapter (Vulkan first; `WGPU_BACKEND` overrides) and opens a device with the
+    /// adapter's own limits.
+    pub fn new() -> Result<GpuContext, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<GpuContext, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                apply_limit_buckets: false,
+            })
+            .await
+            .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("vplgi"),
+                required_features: wgpu::Features::empty(),
+                required_limits: adapter.limits(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| GpuError::Device { adapter: describe(&info), message: e.to_string() })?;
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        Ok(GpuContext { adapter, device, queue, info, uncaptured })
+    }
+
+    /// "Vulkan/llvmpipe (LLVM 15.0.6, 256 bits)": backend and adapter name.
+    pub fn describe(&self) -> String {
+        describe(&self.info)
+    }
+
+    /// Errors wgpu reported outside any error scope since the last call.
+    pub fn take_uncaptured_errors(&self) -> Vec<String> {
+        self.uncaptured.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
+    }
+}
+
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{:?}/{}", info.backend, info.name)
+}
+
+/// Runs `f` inside a validation error scope and turns a captured error into [`GpuError`].
+pub fn validated<T>(device: &wgpu::Device, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let value = f();
+    match pollster::block_on(scope.pop()) {
+        None => Ok(value),
+        Some(e) => Err(GpuError::Validation { what: what.to_string(), message: e.to_string() }),
+    }
+}

@@ -1,0 +1,21 @@
+//! The GPU twin of the CPU reference (`vplgi-cpu`): wgpu compute with WGSL from `shaders/`.
+//!
+//! A [`GpuContext`] (instance, adapter, device, queue, limits) is built once; each stage module
+//! has a run function taking `&wgpu::Device` and `&wgpu::Queue`, so tests inject the device. The
+//! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
+//! ([`shader::compose`]).
+//!
+//! Landed so far: the context, the RNG twin, BVH2 upload and traversal, `shading_points` and
+//! `visibility`. The remaining stages (`trace_vpls`, `cluster`, `shade`) and the chained
+//! pipeline follow.
+
+pub mod buffers;
+pub mod bvh;
+pub mod context;
+pub mod rng;
+pub mod scene;
+pub mod shader;
+pub mod shading_points;
+pub mod visibility;
+
+pub use context::{GpuContext, GpuError};

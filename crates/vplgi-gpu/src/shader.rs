@@ -1,0 +1,121 @@
+//! WGSL sources. WGSL has no `#include`: a stage's module is the shared files of
+//! `shaders/common/` followed by the stage file. Every composed module is validated by naga in a
+//! CPU-only test.
+
+const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
+const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
+const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
+
+/// Shared WGSL files by name.
+pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH)];
+
+/// Stage files: (name, source, the common files it includes, in order).
+pub const STAGES: &[(&str, &str, &[&str])] = &[
+    ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/rng.wgsl"]),
+    ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl"]),
+    ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
+];
+
+/// The composed source of stage `name` (a file name from [`STAGES`]): its common files, then
+/// the stage file.
+pub fn compose(name: &str) -> String {
+    let (_, stage, includes) = STAGES.iter().find(|(n, _, _)| *n == name).unwrap_or_else(|| panic!("unknown stage shader {name}"));
+    let mut src = String::new();
+    for inc in includes.iter() {
+        let text = COMMON.iter().find(|(n, _)| n == inc).map(|(_, t)| *t).unwrap_or_else(|| panic!("unknown common shader {inc}"));
+        src.push_str(&format!("// ---- {inc}\n{text}\n"));
+    }
+    src.push_str(&format!("// ---- {name}\n{stage}\n"));
+    src
+}
+
+/// A compute pipeline for `entry` of stage `name`, with the layout derived from the shader.
+pub fn pipeline(device: &wgpu::Device, name: &str, entry: &str) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(name),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every stage, composed with the common files, parses and validates with naga: no GPU needed.
+    #[test]
+    fn every_wgsl_file_validates() {
+        for (name, _, _) in STAGES {
+            let src = compose(name);
+            let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+        }
+    }
+
+    /// Size and member offsets of a WGSL struct, from naga's layouter.
+    fn wgsl_layout(stage: &str, name: &str) -> (u32, Vec<(String, u32)>) {
+        let src = compose(stage);
+        let module = naga::front::wgsl::parse_str(&src).expect("parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).expect("layout");
+        for (handle, ty) in module.types.iter() {
+            if ty.name.as_deref() == Some(name) {
+                if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                    assert_eq!(layouter[handle].size, *span);
+                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                }
+            }
+        }
+        panic!("struct {name} not found in {stage}");
+    }
+
+    /// Every struct shared between Rust and WGSL has the same size and field offsets on both
+    /// sides.
+    #[test]
+    fn shared_structs_match_their_wgsl_layout() {
+        use std::mem::{offset_of, size_of};
+        use vplgi_types::{ShadingPoint, Vpl};
+        let check = |stage: &str, name: &str, size: usize, offsets: &[(&str, usize)]| {
+            let (wsize, members) = wgsl_layout(stage, name);
+            assert_eq!(wsize as usize, size, "{name}: WGSL size {wsize}, Rust size {size}");
+            for (field, off) in offsets {
+                let m = members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{name}.{field} missing in WGSL"));
+                assert_eq!(m.1 as usize, *off, "{name}.{field}: WGSL offset {}, Rust offset {off}", m.1);
+            }
+        };
+        check("shading_points.wgsl", "ShadingPoint", size_of::<ShadingPoint>(), &[
+            ("position", offset_of!(ShadingPoint, position)),
+            ("pixel", offset_of!(ShadingPoint, pixel)),
+            ("normal", offset_of!(ShadingPoint, normal)),
+            ("triangle", offset_of!(ShadingPoint, triangle)),
+            ("albedo", offset_of!(ShadingPoint, albedo)),
+            ("emitted", offset_of!(ShadingPoint, emitted)),
+        ]);
+        check("shading_points.wgsl", "Vpl", size_of::<Vpl>(), &[
+            ("position", offset_of!(Vpl, position)),
+            ("path", offset_of!(Vpl, path)),
+            ("normal", offset_of!(Vpl, normal)),
+            ("bounce", offset_of!(Vpl, bounce)),
+            ("flux", offset_of!(Vpl, flux)),
+        ]);
+        use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
+        check("shading_points.wgsl", "SceneTri", size_of::<SceneTri>(), &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))]);
+        check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
+        check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8)]);
+        use crate::bvh::BvhTri;
+        use obvhs::bvh2::node::Bvh2Node;
+        check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("e1", offset_of!(BvhTri, e1)), ("e2", offset_of!(BvhTri, e2))]);
+        check("visibility.wgsl", "BvhNode", size_of::<Bvh2Node>(), &[
+            ("prim_count", offset_of!(Bvh2Node, prim_count)),
+            ("first_index", offset_of!(Bvh2Node, first_index)),
+        ]);
+        use crate::visibility::Endpoint;
+        check("visibility.wgsl", "Endpoint", size_of::<Endpoint>(), &[("position", 0), ("normal", offset_of!(Endpoint, normal))]);
+    }
+}

@@ -1,0 +1,76 @@
+//! Stage 2 on the GPU, `shading_points` (`shaders/shading_points.wgsl`), the twin of
+//! `vplgi_cpu::shading_points::shading_points`.
+
+use crate::buffers::{dispatch, read_back, storage_zeroed, uniform};
+use crate::context::validated;
+use crate::scene::GpuScene;
+use crate::shader::pipeline;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use vplgi_types::ShadingPoint;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    cam_pos: [f32; 4],
+    cam_forward: [f32; 4],
+    cam_up: [f32; 4],
+    cam_right: [f32; 4],
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u32,
+    first: u32,
+    count: u32,
+    pad: [u32; 2],
+}
+
+pub struct ShadingPointsKernel {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl ShadingPointsKernel {
+    pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        validated(device, "shading_points pipeline", || ShadingPointsKernel { pipeline: pipeline(device, "shading_points.wgsl", "main") })
+    }
+
+    /// All `width * height * spp` shading points, read back. Output is produced in chunks of at
+    /// most `max_binding_bytes` (the adapter's storage-binding limit unless a test forces less).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, max_binding_bytes: Option<u64>) -> Result<Vec<ShadingPoint>, GpuError> {
+        let total = width as u64 * height as u64 * spp as u64;
+        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size as u64);
+        let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).max(1);
+        let cam = scene.camera;
+        let right = cam.forward.cross(cam.up).normalize();
+        let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+        let mut out = Vec::with_capacity(total as usize);
+        let mut first = 0u64;
+        while first < total {
+            let count = (total - first).min(per_chunk);
+            let params = Params {
+                cam_pos: v4(cam.position, 0.0),
+                cam_forward: v4(cam.forward, 0.0),
+                cam_up: v4(cam.up, 0.0),
+                cam_right: v4(right, (0.5 * cam.yfov).tan()),
+                width,
+                height,
+                spp,
+                seed,
+                first: first as u32,
+                count: count as u32,
+                pad: [0; 2],
+            };
+            let buf = validated(device, "shading_points", || {
+                let p = uniform(device, "shading_points params", &params);
+                let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
+                let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf];
+                dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
+                buf
+            })?;
+            out.extend(read_back::<ShadingPoint>(device, queue, &buf, count as usize)?);
+            first += count;
+        }
+        Ok(out)
+    }
+}

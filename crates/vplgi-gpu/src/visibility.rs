@@ -1,0 +1,80 @@
+//! Stage 4 on the GPU, `visibility` (`shaders/visibility.wgsl`), the twin of
+//! `vplgi_cpu::visibility::visibility`. The result is the CPU's bit matrix as 32-bit words:
+//! row r, column c is bit c % 32 of word `r * words_per_row + c / 32`, with `words_per_row`
+//! twice the CPU's 64-bit words per row, so the bytes are identical.
+
+use crate::buffers::{dispatch, read_back, storage, storage_zeroed, uniform};
+use crate::context::validated;
+use crate::scene::GpuScene;
+use crate::shader::pipeline;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+
+/// A shadow-ray end point (`Endpoint` in `types.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Endpoint {
+    pub position: [f32; 4],
+    pub normal: [f32; 4],
+}
+
+impl Endpoint {
+    pub fn new(position: glam::Vec3, normal: glam::Vec3) -> Endpoint {
+        Endpoint { position: [position.x, position.y, position.z, 0.0], normal: [normal.x, normal.y, normal.z, 0.0] }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    rows: u32,
+    cols: u32,
+    words_per_row: u32,
+    first_row: u32,
+    row_count: u32,
+    eps: f32,
+    pad: [u32; 2],
+}
+
+pub struct VisibilityKernel {
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// 32-bit words per matrix row: the CPU's 64-bit words, doubled.
+pub fn words_per_row(cols: usize) -> usize {
+    cols.div_ceil(64) * 2
+}
+
+impl VisibilityKernel {
+    pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        validated(device, "visibility pipeline", || VisibilityKernel { pipeline: pipeline(device, "visibility.wgsl", "main") })
+    }
+
+    /// The visibility matrix between `rows` and `cols`, read back as 32-bit words. Rows are
+    /// processed in chunks whose words fit `max_binding_bytes` (default: the adapter's limit).
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &[Endpoint], cols: &[Endpoint], max_binding_bytes: Option<u64>) -> Result<Vec<u32>, GpuError> {
+        let wpr = words_per_row(cols.len());
+        let mut out = Vec::with_capacity(rows.len() * wpr);
+        if wpr == 0 || rows.is_empty() {
+            out.resize(rows.len() * wpr, 0);
+            return Ok(out);
+        }
+        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size as u64);
+        let rows_per_chunk = ((limit / 4) as usize / wpr).max(1);
+        let (row_buf, col_buf) = validated(device, "visibility inputs", || (storage(device, "rows", rows), storage(device, "cols", cols)))?;
+        let mut first = 0;
+        while first < rows.len() {
+            let n = (rows.len() - first).min(rows_per_chunk);
+            let params = Params { rows: rows.len() as u32, cols: cols.len() as u32, words_per_row: wpr as u32, first_row: first as u32, row_count: n as u32, eps: scene.eps, pad: [0; 2] };
+            let words = validated(device, "visibility", || {
+                let p = uniform(device, "visibility params", &params);
+                let words = storage_zeroed::<u32>(device, "visibility words", n * wpr);
+                dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, &row_buf, &col_buf, &words], ((n * wpr) as u32).div_ceil(64));
+                words
+            })?;
+            out.extend(read_back::<u32>(device, queue, &words, n * wpr)?);
+            first += n;
+        }
+        Ok(out)
+    }
+}

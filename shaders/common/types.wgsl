@@ -1,0 +1,63 @@
+// Records shared with Rust (vplgi-types/src/pod.rs and vplgi-gpu/src/scene.rs). Each vec3 is
+// followed by a 4-byte scalar, so WGSL and #[repr(C)] Rust agree on offsets (checked by a test).
+
+const MISS: u32 = 0xffffffffu;
+
+struct ShadingPoint {
+    position: vec3<f32>,
+    pixel: u32,
+    normal: vec3<f32>,
+    triangle: u32,
+    albedo: vec3<f32>,
+    pad0: u32,
+    emitted: vec3<f32>,
+    pad1: u32,
+}
+
+struct Vpl {
+    position: vec3<f32>,
+    path: u32,
+    normal: vec3<f32>,
+    bounce: u32,
+    flux: vec3<f32>,
+    pad: u32,
+}
+
+// A surface point at one end of a shadow ray.
+struct Endpoint {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+}
+
+// Per-triangle shading data, indexed by the scene's triangle index.
+struct SceneTri {
+    ng: vec4<f32>,   // xyz = unit front normal, w = bitcast<f32>(material index)
+    n0: vec4<f32>,   // vertex normals
+    n1: vec4<f32>,
+    n2: vec4<f32>,
+    uv01: vec4<f32>, // uv of vertex 0 (xy) and 1 (zw)
+    uv2: vec4<f32>,  // uv of vertex 2 (xy)
+}
+
+struct Material {
+    base_color: vec4<f32>, // w = bitcast<f32>(texture index), MISS when untextured
+    emission: vec4<f32>,
+}
+
+// Where a texture's texels start in the texel array, and its size.
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    pad: u32,
+}
+
+// Pushes p off its surface (normal n) towards the side where `toward` lies
+// (vplgi-cpu CpuScene::offset_toward).
+fn offset_toward(p: vec3<f32>, n: vec3<f32>, toward: vec3<f32>, eps: f32) -> vec3<f32> {
+    var side = -1.0;
+    if (dot(n, toward - p) >= 0.0) {
+        side = 1.0;
+    }
+    return p + n * (side * eps);
+}
