@@ -32,8 +32,9 @@ demo: build
 
 # Tests run on the release profile: rayon code is ~30x slower unoptimised, and the demo's build
 # artifacts are reused.
+# The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 test: setup
-	$(CARGO) test --release --workspace
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) test --release --workspace
 
 clean:
 	$(CARGO) clean

@@ -108,8 +108,7 @@ fn visibility_agrees_three_ways() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let sps = vplgi_cpu::shading_points::shading_points(&cs, 48, 48, 1, 1);
-    let rows: Vec<vplgi_cpu::visibility::Endpoint> =
-        sps.iter().filter(|s| !s.is_miss()).map(|s| vplgi_cpu::visibility::Endpoint { position: s.position.into(), normal: s.normal.into() }).collect();
+    let rows: Vec<vplgi_cpu::visibility::Endpoint> = sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 3, 300, 3, &vplgi_cpu::NoProgress).vpls;
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(|v| vplgi_cpu::visibility::Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
     let (embree, rays) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);

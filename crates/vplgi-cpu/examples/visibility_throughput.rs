@@ -22,7 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let device = vplgi_embree::Device::new(None)?;
     let cs = CpuScene::new(&scene, &device)?;
     let sps = vplgi_cpu::shading_points::shading_points(&cs, 512, 512, 1, 1);
-    let rows: Vec<Endpoint> = sps.iter().step_by(32).filter(|s| !s.is_miss()).map(|s| Endpoint { position: s.position.into(), normal: s.normal.into() }).collect();
+    let rows: Vec<Endpoint> = sps.iter().step_by(32).filter(|s| !s.is_miss()).map(Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 1, 10_000, 3, &NoProgress).vpls;
     let cols: Vec<Endpoint> = vpls.iter().take(1000).map(|v| Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
 

@@ -165,14 +165,7 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
 
     match &sp_clusters {
         Some(c) => {
-            let rows: Vec<Endpoint> = c
-                .representatives
-                .iter()
-                .map(|&r| {
-                    let sp = &sps[hits[r as usize] as usize];
-                    Endpoint { position: sp.position.into(), normal: sp.normal.into() }
-                })
-                .collect();
+            let rows: Vec<Endpoint> = c.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize] as usize])).collect();
             let t0 = Instant::now();
             let (matrix, rays) = visibility(cs, &rows, &cols, progress);
             vis_ms += ms(t0);
@@ -193,13 +186,7 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
                 let end = (px + px_chunk).min(n_pixels);
                 let chunk_hits: Vec<u32> = (px * spp..end * spp).filter(|&i| row_of[i] != MISS).map(|i| i as u32).collect();
                 let first_row = chunk_hits.first().map_or(0, |&i| row_of[i as usize]);
-                let rows: Vec<Endpoint> = chunk_hits
-                    .iter()
-                    .map(|&i| {
-                        let sp = &sps[i as usize];
-                        Endpoint { position: sp.position.into(), normal: sp.normal.into() }
-                    })
-                    .collect();
+                let rows: Vec<Endpoint> = chunk_hits.iter().map(|&i| Endpoint::of(&sps[i as usize])).collect();
                 let t0 = Instant::now();
                 let (matrix, rays) = visibility(cs, &rows, &cols, progress);
                 vis_ms += ms(t0);

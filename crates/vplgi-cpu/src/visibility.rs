@@ -17,6 +17,13 @@ pub struct Endpoint {
     pub normal: Vec3,
 }
 
+impl Endpoint {
+    /// The shading point as a shadow-ray end.
+    pub fn of(sp: &vplgi_types::ShadingPoint) -> Endpoint {
+        Endpoint { position: sp.position.into(), normal: sp.normal.into() }
+    }
+}
+
 /// A rows x cols matrix of bits, each row padded to whole 64-bit words.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BitMatrix {
