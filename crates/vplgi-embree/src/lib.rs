@@ -240,7 +240,7 @@ impl Scene {
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<Hit> {
         let mut rh = RayHit::new(origin, dir, tnear, tfar);
         self.intersect_raw(&mut rh);
-        (rh.hit.geom_id != INVALID_ID).then(|| Hit { t: rh.ray.tfar, triangle: rh.hit.prim_id, u: rh.hit.u, v: rh.hit.v })
+        (rh.hit.geom_id != INVALID_ID).then_some(Hit { t: rh.ray.tfar, triangle: rh.hit.prim_id, u: rh.hit.u, v: rh.hit.v })
     }
 
     /// `rtcIntersect1` on a 4.4-layout ray-hit record.

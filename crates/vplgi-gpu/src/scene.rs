@@ -87,7 +87,7 @@ impl GpuScene {
             infos.push(TextureInfo { offset: texels.len() as u32, width: t.width, height: t.height, pad: 0 });
             texels.extend(t.texels.iter().map(|c| [c.x, c.y, c.z, 1.0]));
         }
-        let limit = device.limits().max_storage_buffer_binding_size as u64;
+        let limit = device.limits().max_storage_buffer_binding_size;
         for (what, bytes) in [
             ("the BVH nodes", (arrays.nodes.len() * 48) as u64),
             ("the BVH triangles", (arrays.tris.len() * std::mem::size_of::<BvhTri>()) as u64),

@@ -39,7 +39,7 @@ impl ShadingPointsKernel {
     #[allow(clippy::too_many_arguments)]
     pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, max_binding_bytes: Option<u64>) -> Result<Vec<ShadingPoint>, GpuError> {
         let total = width as u64 * height as u64 * spp as u64;
-        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size as u64);
+        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size);
         let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).max(1);
         let cam = scene.camera;
         let right = cam.forward.cross(cam.up).normalize();

@@ -59,7 +59,7 @@ impl VisibilityKernel {
             out.resize(rows.len() * wpr, 0);
             return Ok(out);
         }
-        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size as u64);
+        let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size);
         let rows_per_chunk = ((limit / 4) as usize / wpr).max(1);
         let (row_buf, col_buf) = validated(device, "visibility inputs", || (storage(device, "rows", rows), storage(device, "cols", cols)))?;
         let mut first = 0;
