@@ -3,9 +3,6 @@
 // ray ends are pushed off their surfaces and the segment between them is tested (any hit).
 // Words are little-endian halves of the CPU's u64 words, so the bytes are identical.
 
-// vplgi_cpu::SEGMENT_TNEAR: ignore touches at the very start of a segment.
-const SEGMENT_TNEAR: f32 = 1e-5;
-
 struct Params {
     rows: u32,
     cols: u32,
@@ -43,9 +40,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let d = e.position.xyz - a.position.xyz;
         // visibility::facing
         if (dot(a.normal.xyz, d) > 0.0 && dot(e.normal.xyz, d) < 0.0) {
-            let p = offset_toward(a.position.xyz, a.normal.xyz, e.position.xyz, params.eps);
-            let q = offset_toward(e.position.xyz, e.normal.xyz, a.position.xyz, params.eps);
-            if (bvh_trace(p, q - p, SEGMENT_TNEAR, 1.0, true).triangle == NO_HIT) {
+            if (visible(a.position.xyz, a.normal.xyz, e.position.xyz, e.normal.xyz, params.eps)) {
                 bits = bits | (1u << b);
             }
         }

@@ -1,5 +1,5 @@
 // Ray traversal of an obvhs BVH2 (built on the CPU by vplgi-gpu/src/bvh.rs) for closest hit
-// and any hit. Expects these bindings in the including shader:
+// and any hit. A scene without triangles is uploaded as one leaf with an empty box. Expects these bindings in the including shader:
 //   bvh_nodes: array<BvhNode>   obvhs::bvh2::node::Bvh2Node, 48 bytes
 //   bvh_tris:  array<BvhTri>    triangles reordered by the BVH's primitive_indices
 // lavapipe has no ray queries, so traversal is an explicit stack loop.
@@ -80,9 +80,6 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
 // Closest hit along o + t d, t in (tmin, tmax). With any_hit = true, returns the first hit found.
 fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool) -> Hit {
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
-    if (arrayLength(&bvh_nodes) == 0u) {
-        return hit;
-    }
     let inv_d = safe_inverse(d);
     var stack: array<u32, BVH_STACK>;
     var sp = 0u;
@@ -133,4 +130,22 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
         node_index = stack[sp];
     }
     return hit;
+}
+
+// vplgi_cpu::SEGMENT_TNEAR: shadow segments ignore touches at their very start.
+const SEGMENT_TNEAR: f32 = 1e-5;
+
+// CpuScene::visible: both ends pushed off their surfaces, the segment between them tested.
+fn visible(p: vec3<f32>, np: vec3<f32>, q: vec3<f32>, nq: vec3<f32>, eps: f32) -> bool {
+    let a = offset_toward(p, np, q, eps);
+    let b = offset_toward(q, nq, p, eps);
+    return bvh_trace(a, b - a, SEGMENT_TNEAR, 1.0, true).triangle == NO_HIT;
+}
+
+// CpuScene::visible_from_surface: to a point light, stopping eps short of it.
+fn visible_from_surface(p: vec3<f32>, np: vec3<f32>, light: vec3<f32>, eps: f32) -> bool {
+    let a = offset_toward(p, np, light, eps);
+    let d = light - a;
+    let len = length(d);
+    return len > eps && bvh_trace(a, d, SEGMENT_TNEAR, 1.0 - eps / len, true).triangle == NO_HIT;
 }

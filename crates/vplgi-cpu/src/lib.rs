@@ -9,12 +9,14 @@
 //! bit-identical results.
 
 pub mod cluster;
-pub mod lights;
 pub mod pipeline;
 pub mod shade;
 pub mod shading_points;
 pub mod trace_vpls;
 pub mod visibility;
+
+/// Light tables live with the scene so every backend shares them.
+pub use vplgi_scene::lights;
 
 mod accel;
 pub use accel::{CpuScene, SurfaceHit, SEGMENT_TNEAR};

@@ -64,6 +64,11 @@ impl BitMatrix {
         self.bits.iter().map(|w| w.count_ones() as u64).sum()
     }
 
+    /// The 64-bit words, row after row (`cols.div_ceil(64)` per row).
+    pub fn words(&self) -> &[u64] {
+        &self.bits
+    }
+
     /// Bytes of bit storage.
     pub fn bytes(&self) -> usize {
         self.bits.len() * 8

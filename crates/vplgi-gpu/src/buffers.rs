@@ -8,11 +8,13 @@ use wgpu::util::DeviceExt;
 /// not this slow).
 const TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 
-/// A storage buffer holding `data`. Empty data still gets a 16-byte buffer: bindings cannot be
-/// zero-sized.
+/// A storage buffer holding `data`. Empty data gets one zeroed element (at least 16 bytes):
+/// bindings cannot be smaller than their element type. Shaders take counts from their
+/// parameters, never from `arrayLength` of a possibly empty array.
 pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
     let bytes: &[u8] = bytemuck::cast_slice(data);
-    let contents = if bytes.is_empty() { &[0u8; 16][..] } else { bytes };
+    let zeros = vec![0u8; std::mem::size_of::<T>().max(16)];
+    let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
         contents,

@@ -35,7 +35,9 @@ pub struct BvhArrays {
 /// Builds the BVH2 of `scene` and lays its triangles out in leaf order.
 pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
     if scene.triangle_count() == 0 {
-        return Ok(BvhArrays { nodes: Vec::new(), tris: Vec::new(), depth: 0 });
+        // One leaf with an empty (inverted) box: every ray misses it at the root.
+        let empty = obvhs::aabb::Aabb { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+        return Ok(BvhArrays { nodes: vec![Bvh2Node::new(empty, 1, 0)], tris: vec![BvhTri::zeroed()], depth: 1 });
     }
     let tris: Vec<obvhs::triangle::Triangle> = (0..scene.triangle_count())
         .map(|t| {

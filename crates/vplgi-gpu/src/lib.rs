@@ -5,15 +5,17 @@
 //! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
 //! ([`shader::compose`]).
 //!
-//! Landed so far: the context, the RNG twin, BVH2 upload and traversal, `shading_points` and
-//! `visibility`. The remaining stages (`trace_vpls`, `cluster`, `shade`) and the chained
-//! pipeline follow.
+//! Landed so far: the context, the RNG twin, BVH2 upload and traversal, light tables,
+//! `shading_points`, `visibility` and `shade`. The remaining stages (`trace_vpls`, `cluster`) and
+//! the chained pipeline follow.
 
 pub mod buffers;
 pub mod bvh;
 pub mod context;
+pub mod lights;
 pub mod rng;
 pub mod scene;
+pub mod shade;
 pub mod shader;
 pub mod shading_points;
 pub mod visibility;

@@ -5,15 +5,17 @@
 const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
 const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
 const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
+const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
 
 /// Shared WGSL files by name.
-pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH)];
+pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH), ("common/lights.wgsl", LIGHTS)];
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/rng.wgsl"]),
     ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
+    ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
 ];
 
 /// The composed source of stage `name` (a file name from [`STAGES`]): its common files, then
@@ -115,6 +117,11 @@ mod tests {
             ("prim_count", offset_of!(Bvh2Node, prim_count)),
             ("first_index", offset_of!(Bvh2Node, first_index)),
         ]);
+        use crate::lights::{Emitter, Punctual};
+        check("shade.wgsl", "Emitter", size_of::<Emitter>(), &[("v0", 0), ("e1", 16), ("normal", offset_of!(Emitter, normal)), ("radiance", offset_of!(Emitter, radiance))]);
+        check("shade.wgsl", "Punctual", size_of::<Punctual>(), &[("position", 0), ("direction", 16), ("intensity", offset_of!(Punctual, intensity))]);
+        use crate::shade::VplLight;
+        check("shade.wgsl", "VplLight", size_of::<VplLight>(), &[("position", 0), ("normal", 16), ("flux", offset_of!(VplLight, flux))]);
         use crate::visibility::Endpoint;
         check("visibility.wgsl", "Endpoint", size_of::<Endpoint>(), &[("position", 0), ("normal", offset_of!(Endpoint, normal))]);
     }

@@ -3,9 +3,11 @@
 //!
 //! * [`cornell`]: the built-in procedural Cornell box (the default scene).
 //! * [`gltf_load`]: glTF 2.0 (`.gltf` / `.glb`) loading.
+//! * [`lights`]: light-selection tables shared by the backends.
 
 pub mod cornell;
 pub mod gltf_load;
+pub mod lights;
 
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};

@@ -1,5 +1,6 @@
 //! Light sources: emissive triangles (area lights) and punctual lights, with the discrete
-//! distributions used to pick one.
+//! distributions used to pick one. The tables are built once on the host and read by every
+//! backend (the GPU uploads them), so all backends choose lights with the same probabilities.
 //!
 //! Light particles choose among *all* lights in proportion to their power. Direct lighting samples
 //! area lights in proportion to their power and evaluates every punctual light with one shadow
@@ -7,7 +8,7 @@
 
 use glam::Vec3;
 use std::f32::consts::PI;
-use vplgi_scene::{PunctualLight, Scene};
+use crate::{PunctualLight, Scene};
 use vplgi_types::sampling;
 
 /// A discrete distribution over `n` items, sampled by inverting its CDF.
@@ -57,6 +58,16 @@ impl Distribution {
 
     pub fn pmf(&self, i: usize) -> f32 {
         self.pmf[i]
+    }
+
+    /// The CDF table: item i is drawn for u in [cdf[i-1], cdf[i]).
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
+    /// The realised probabilities of every item.
+    pub fn pmfs(&self) -> &[f32] {
+        &self.pmf
     }
 }
 
@@ -144,6 +155,21 @@ impl LightSampler {
 
     pub fn punctual(&self) -> &[PunctualLight] {
         &self.punctual
+    }
+
+    /// Areas of the emitters, in the order of [`LightSampler::emitters`].
+    pub fn areas(&self) -> &[f32] {
+        &self.areas
+    }
+
+    /// The distribution over emitters used for direct light.
+    pub fn area_distribution(&self) -> &Distribution {
+        &self.area
+    }
+
+    /// The distribution over emitters then punctual lights used to start light particles.
+    pub fn all_distribution(&self) -> &Distribution {
+        &self.all
     }
 
     /// Starts a light particle from four uniform numbers and a fifth for the light choice.
@@ -242,7 +268,7 @@ mod tests {
     /// share of an emitter is its power share; inside it, positions must be uniform.
     #[test]
     fn area_light_sampling_chi2() {
-        use vplgi_scene::{Material, Scene};
+        use crate::{Material, Scene};
         use vplgi_types::{Rng, Stream};
         let mut scene = Scene::default();
         let tris = [

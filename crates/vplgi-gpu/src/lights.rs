@@ -1,0 +1,78 @@
+//! Light tables on the device: the host-built `vplgi_scene::lights::LightSampler`, uploaded, so
+//! both backends choose lights with the same realised probabilities.
+
+use crate::buffers::{storage, uniform};
+use bytemuck::{Pod, Zeroable};
+use vplgi_scene::lights::LightSampler;
+use vplgi_scene::{PunctualLight, Scene};
+
+/// `Emitter` in `shaders/common/lights.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Emitter {
+    pub v0: [f32; 4],
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+    pub normal: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+/// `Punctual` in `lights.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Punctual {
+    pub position: [f32; 4],
+    pub direction: [f32; 4],
+    pub intensity: [f32; 4],
+}
+
+pub struct GpuLights {
+    pub counts: wgpu::Buffer,
+    pub emitters: wgpu::Buffer,
+    pub area_table: wgpu::Buffer,
+    pub all_table: wgpu::Buffer,
+    pub punctual: wgpu::Buffer,
+    pub emitter_count: u32,
+    pub punctual_count: u32,
+}
+
+fn table(d: &vplgi_scene::lights::Distribution) -> Vec<[f32; 2]> {
+    d.cdf().iter().zip(d.pmfs()).map(|(&c, &p)| [c, p]).collect()
+}
+
+impl GpuLights {
+    pub fn new(device: &wgpu::Device, scene: &Scene, sampler: &LightSampler) -> GpuLights {
+        let emitters: Vec<Emitter> = sampler
+            .emitters
+            .iter()
+            .zip(sampler.areas())
+            .map(|(&t, &area)| {
+                let [a, b, c] = scene.triangle(t as usize);
+                let (e1, e2) = (b - a, c - a);
+                let n = scene.geometric_normal(t as usize);
+                let le = scene.emission(t as usize);
+                Emitter { v0: [a.x, a.y, a.z, area], e1: [e1.x, e1.y, e1.z, 0.0], e2: [e2.x, e2.y, e2.z, 0.0], normal: [n.x, n.y, n.z, 0.0], radiance: [le.x, le.y, le.z, 0.0] }
+            })
+            .collect();
+        let punctual: Vec<Punctual> = sampler
+            .punctual()
+            .iter()
+            .map(|l| match *l {
+                PunctualLight::Point { position: p, intensity: i } => Punctual { position: [p.x, p.y, p.z, 0.0], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] },
+                PunctualLight::Spot { position: p, direction: d, intensity: i, cos_inner, cos_outer } => {
+                    Punctual { position: [p.x, p.y, p.z, 1.0], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
+                }
+            })
+            .collect();
+        let counts = [emitters.len() as u32, punctual.len() as u32, 0, 0];
+        GpuLights {
+            counts: uniform(device, "light counts", &counts),
+            emitters: storage(device, "emitters", &emitters),
+            area_table: storage(device, "area table", &table(sampler.area_distribution())),
+            all_table: storage(device, "all-light table", &table(sampler.all_distribution())),
+            punctual: storage(device, "punctual lights", &punctual),
+            emitter_count: counts[0],
+            punctual_count: counts[1],
+        }
+    }
+}

@@ -1,0 +1,55 @@
+// Light tables (vplgi_scene::lights::LightSampler, uploaded by vplgi-gpu/src/lights.rs) and the
+// sampling routines of the CPU twin, with the same draws in the same order. Expects bindings:
+//   emitters:  array<Emitter>     emissive triangles
+//   area_table: array<vec2<f32>>  (cdf, realised pmf) over emitters, by power
+//   all_table:  array<vec2<f32>>  (cdf, realised pmf) over emitters then punctual lights
+//   punctual:  array<Punctual>
+// and the counts in `light_counts` (x = emitters, y = punctual lights).
+
+const PI: f32 = 3.14159265358979323846;
+
+struct Emitter {
+    v0: vec4<f32>,        // w = area
+    e1: vec4<f32>,
+    e2: vec4<f32>,
+    normal: vec4<f32>,    // unit front normal
+    radiance: vec4<f32>,
+}
+
+struct Punctual {
+    position: vec4<f32>,  // w = 0 point, 1 spot
+    direction: vec4<f32>, // w = cos_inner
+    intensity: vec4<f32>, // w = cos_outer
+}
+
+// Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
+fn sample_table_area(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = arrayLength(&area_table);
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (area_table[mid].x <= u) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return min(lo, arrayLength(&area_table) - 1u);
+}
+
+fn uniform_triangle(u1: f32, u2: f32) -> vec2<f32> {
+    let s = sqrt(u1);
+    return vec2<f32>(s * (1.0 - u2), s * u2);
+}
+
+// PunctualLight::falloff
+fn punctual_falloff(l: Punctual, dir_from_light: vec3<f32>) -> f32 {
+    if (l.position.w == 0.0) {
+        return 1.0;
+    }
+    let cos_inner = l.direction.w;
+    let cos_outer = l.intensity.w;
+    let scale = 1.0 / max(cos_inner - cos_outer, 1e-3);
+    let t = clamp((dot(l.direction.xyz, dir_from_light) - cos_outer) * scale, 0.0, 1.0);
+    return t * t;
+}

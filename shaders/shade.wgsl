@@ -1,0 +1,155 @@
+// Stage 5, shade (vplgi-cpu/src/shade.rs): per pixel, the mean over its spp shading points of
+// emitted + direct + indirect radiance, indirect by Eq. 6 with the clamped geometry term and
+// the visibility of Eq. 8 / 9-10 (mode 1) or the point's own row (mode 0).
+
+struct Params {
+    spp: u32,
+    seed: u32,
+    direct_samples: u32,
+    light_count: u32,     // VPL lights (VPLs or VPL clusters)
+    f: u32,               // fuzzy row stride (mode 1)
+    mode: u32,            // 0: own row (row_of[i] - first_row), 1: fuzzy clusters
+    first_row: u32,
+    words_per_row: u32,   // u32 words per visibility row
+    first_pixel: u32,
+    pixel_count: u32,
+    g_max: f32,
+    eps: f32,
+}
+
+struct VplLight {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+    flux: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> light_counts: vec4<u32>;
+@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
+@group(0) @binding(5) var<storage, read> area_table: array<vec2<f32>>;
+@group(0) @binding(6) var<storage, read> punctual: array<Punctual>;
+@group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
+@group(0) @binding(8) var<storage, read> row_of: array<u32>;
+@group(0) @binding(9) var<storage, read> vis_words: array<u32>;
+@group(0) @binding(10) var<storage, read> labels: array<u32>;
+@group(0) @binding(11) var<storage, read> weights: array<f32>;
+@group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
+@group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
+
+fn vis_bit(row: u32, c: u32) -> bool {
+    return ((vis_words[row * params.words_per_row + c / 32u] >> (c % 32u)) & 1u) == 1u;
+}
+
+// shade::geometry_term
+fn geometry_term(p: vec3<f32>, np: vec3<f32>, x: vec3<f32>, nx: vec3<f32>) -> f32 {
+    let d = x - p;
+    let d2 = dot(d, d);
+    if (d2 <= 0.0) {
+        return 0.0;
+    }
+    let inv_d = 1.0 / sqrt(d2);
+    let cos_p = dot(np, d) * inv_d;
+    let cos_x = -dot(nx, d) * inv_d;
+    if (cos_p <= 0.0 || cos_x <= 0.0) {
+        return 0.0;
+    }
+    return min(cos_p * cos_x / d2, params.g_max);
+}
+
+// shade::direct
+fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
+    let p = sp.position;
+    let n = sp.normal;
+    var rng = rng_new(params.seed, STREAM_DIRECT, index);
+    var area = vec3<f32>(0.0);
+    for (var s = 0u; s < params.direct_samples; s = s + 1u) {
+        let u0 = rng_next_f32(&rng);
+        let u1 = rng_next_f32(&rng);
+        let u2 = rng_next_f32(&rng);
+        if (light_counts.x == 0u) {
+            break;
+        }
+        let i = sample_table_area(u0);
+        let e = emitters[i];
+        let b = uniform_triangle(u1, u2);
+        let pos = e.v0.xyz + e.e1.xyz * b.x + e.e2.xyz * b.y;
+        let pdf_area = area_table[i].y / e.v0.w;
+        let d = pos - p;
+        let d2 = dot(d, d);
+        let cos_p = dot(n, d);
+        let cos_l = -dot(e.normal.xyz, d);
+        if (d2 <= 0.0 || cos_p <= 0.0 || cos_l <= 0.0) {
+            continue;
+        }
+        if (visible(p, n, pos, e.normal.xyz, params.eps)) {
+            area = area + e.radiance.xyz * (cos_p * cos_l / (d2 * d2) / pdf_area);
+        }
+    }
+    var sum = area / f32(max(params.direct_samples, 1u));
+    for (var k = 0u; k < light_counts.y; k = k + 1u) {
+        let l = punctual[k];
+        let d = l.position.xyz - p;
+        let d2 = dot(d, d);
+        let cos_p = dot(n, d);
+        if (d2 <= 0.0 || cos_p <= 0.0) {
+            continue;
+        }
+        let falloff = punctual_falloff(l, -d / sqrt(d2));
+        if (falloff > 0.0 && visible_from_surface(p, n, l.position.xyz, params.eps)) {
+            sum = sum + l.intensity.xyz * (falloff * cos_p / (d2 * sqrt(d2)));
+        }
+    }
+    return sum * (sp.albedo / PI);
+}
+
+// shade::indirect
+fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
+    let p = sp.position;
+    let n = sp.normal;
+    var sum = vec3<f32>(0.0);
+    for (var c = 0u; c < params.light_count; c = c + 1u) {
+        let l = vpl_lights[c];
+        let g = geometry_term(p, n, l.position.xyz, l.normal.xyz);
+        if (g == 0.0) {
+            continue;
+        }
+        var v = 0.0;
+        if (params.mode == 0u) {
+            if (vis_bit(row_of[i] - params.first_row, c)) {
+                v = 1.0;
+            }
+        } else {
+            let r = row_of[i] * params.f;
+            for (var j = 0u; j < params.f; j = j + 1u) {
+                let k = labels[r + j];
+                if (k != MISS && vis_bit(k, c)) {
+                    v = v + weights[r + j];
+                }
+            }
+        }
+        if (v > 0.0) {
+            sum = sum + l.flux.xyz * (g / PI * v);
+        }
+    }
+    return sum * (sp.albedo / PI);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = gid.x + gid.y * groups.x * 64u;
+    if (local >= params.pixel_count) {
+        return;
+    }
+    let px = params.first_pixel + local;
+    var sum = vec3<f32>(0.0);
+    for (var s = 0u; s < params.spp; s = s + 1u) {
+        let i = px * params.spp + s;
+        let sp = sps[i];
+        if (sp.triangle != MISS) {
+            sum = sum + (sp.emitted + direct(sp, i) + indirect(sp, i));
+        }
+    }
+    out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
+}
