@@ -38,6 +38,21 @@ struct VplLight {
 @group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
 @group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
 
+// Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
+fn sample_table_area(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = arrayLength(&area_table);
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (area_table[mid].x <= u) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return min(lo, arrayLength(&area_table) - 1u);
+}
+
 fn vis_bit(row: u32, c: u32) -> bool {
     return ((vis_words[row * params.words_per_row + c / 32u] >> (c % 32u)) & 1u) == 1u;
 }

@@ -1,12 +1,7 @@
 // Light tables (vplgi_scene::lights::LightSampler, uploaded by vplgi-gpu/src/lights.rs) and the
-// sampling routines of the CPU twin, with the same draws in the same order. Expects bindings:
-//   emitters:  array<Emitter>     emissive triangles
-//   area_table: array<vec2<f32>>  (cdf, realised pmf) over emitters, by power
-//   all_table:  array<vec2<f32>>  (cdf, realised pmf) over emitters then punctual lights
-//   punctual:  array<Punctual>
-// and the counts in `light_counts` (x = emitters, y = punctual lights).
-
-const PI: f32 = 3.14159265358979323846;
+// sampling routines of the CPU twin, with the same draws in the same order. The tables
+// ((cdf, realised pmf) pairs) are searched in the stages that bind them: `area_table` (emitters,
+// by power) in shade.wgsl, `all_table` (emitters then punctual lights) in trace_vpls.wgsl.
 
 struct Emitter {
     v0: vec4<f32>,        // w = area
@@ -20,21 +15,6 @@ struct Punctual {
     position: vec4<f32>,  // w = 0 point, 1 spot
     direction: vec4<f32>, // w = cos_inner
     intensity: vec4<f32>, // w = cos_outer
-}
-
-// Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
-fn sample_table_area(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = arrayLength(&area_table);
-    while (lo < hi) {
-        let mid = (lo + hi) / 2u;
-        if (area_table[mid].x <= u) {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return min(lo, arrayLength(&area_table) - 1u);
 }
 
 fn uniform_triangle(u1: f32, u2: f32) -> vec2<f32> {

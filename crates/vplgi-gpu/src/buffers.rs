@@ -76,8 +76,15 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
 /// submits it. `groups` is split over y when it exceeds the per-dimension limit; shaders
 /// linearise with `gid.x + gid.y * num_workgroups.x * 64`.
 pub fn dispatch(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer], groups: u32) {
+    let bound: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
+    dispatch_bound(device, queue, pipeline, &bound, groups);
+}
+
+/// Like [`dispatch`], with explicit binding numbers: a pipeline whose layout is derived from one
+/// entry point of a multi-entry module only has the bindings that entry point uses.
+pub fn dispatch_bound(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, &wgpu::Buffer)], groups: u32) {
     let layout = pipeline.get_bind_group_layout(0);
-    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() }).collect();
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {

@@ -18,6 +18,7 @@ pub mod scene;
 pub mod shade;
 pub mod shader;
 pub mod shading_points;
+pub mod trace_vpls;
 pub mod visibility;
 
 pub use context::{GpuContext, GpuError};

@@ -6,14 +6,17 @@ const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
 const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
 const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
 const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
+const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
+const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
 
 /// Shared WGSL files by name.
-pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH), ("common/lights.wgsl", LIGHTS)];
+pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH), ("common/lights.wgsl", LIGHTS), ("common/sampling.wgsl", SAMPLING), ("common/surface.wgsl", SURFACE)];
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/rng.wgsl"]),
-    ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl"]),
+    ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl"]),
+    ("trace_vpls.wgsl", include_str!("../../../shaders/trace_vpls.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
     ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
 ];
@@ -33,15 +36,26 @@ pub fn compose(name: &str) -> String {
 
 /// A compute pipeline for `entry` of stage `name`, with the layout derived from the shader.
 pub fn pipeline(device: &wgpu::Device, name: &str, entry: &str) -> wgpu::ComputePipeline {
+    pipelines(device, name, &[entry]).remove(0)
+}
+
+/// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
+/// derived from the bindings its entry point uses.
+pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(name),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
+    entries
+        .iter()
+        .map(|entry| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,0 +1,115 @@
+//! Stage 1 on the GPU, `trace_vpls` (`shaders/trace_vpls.wgsl`), the twin of
+//! `vplgi_cpu::trace_vpls::trace_vpls`: the same particles, the same exact count, the same
+//! normalisation. The VPLs stay on the device; only two counters per batch are read back to
+//! decide whether another batch is needed.
+
+use crate::buffers::{dispatch_bound, read_back, storage_zeroed, uniform};
+use crate::context::validated;
+use crate::lights::GpuLights;
+use crate::scene::GpuScene;
+use crate::shader::pipelines;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use vplgi_types::Vpl;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    seed: u32,
+    bounces: u32,
+    first: u32,
+    count: u32,
+    wanted: u32,
+    kept: u32,
+    eps: f32,
+    pad: u32,
+}
+
+/// VPLs on the device.
+pub struct GpuVpls {
+    /// `count` [`Vpl`]s (at least one element is allocated).
+    pub buffer: wgpu::Buffer,
+    pub count: u32,
+    /// Light particles traced to make them.
+    pub particles: u32,
+}
+
+pub struct TraceVplsKernel {
+    trace: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    compact: wgpu::ComputePipeline,
+    normalize: wgpu::ComputePipeline,
+}
+
+impl TraceVplsKernel {
+    pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        validated(device, "trace_vpls pipelines", || {
+            let mut p = pipelines(device, "trace_vpls.wgsl", &["trace", "scan", "compact", "normalize_flux"]).into_iter();
+            let mut next = || p.next().expect("four entry points");
+            TraceVplsKernel { trace: next(), scan: next(), compact: next(), normalize: next() }
+        })
+    }
+
+    /// Exactly `count` VPLs (fewer only if a budget of `64 count + 65536` particles runs out).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, lights: &GpuLights, seed: u32, count: u32, bounces: u32) -> Result<GpuVpls, GpuError> {
+        let vpls = storage_zeroed::<Vpl>(device, "vpls", count.max(1) as usize);
+        if count == 0 || bounces == 0 || lights.emitter_count + lights.punctual_count == 0 {
+            return Ok(GpuVpls { buffer: vpls, count: 0, particles: 0 });
+        }
+        let budget = (count as u64 * 64 + 65_536).min(u32::MAX as u64) as u32;
+        let limit = device.limits().max_storage_buffer_binding_size as u64;
+        let max_batch = (limit / (bounces as u64 * std::mem::size_of::<Vpl>() as u64)).clamp(1, 1 << 20) as u32;
+        let mut batch = count.clamp(1024, 1 << 16).min(max_batch);
+        let slots = storage_zeroed::<Vpl>(device, "vpl slots", (batch * bounces) as usize);
+        let counts = storage_zeroed::<u32>(device, "vpl counts", batch as usize);
+        let offsets = storage_zeroed::<u32>(device, "vpl offsets", batch as usize);
+        let totals = storage_zeroed::<u32>(device, "vpl totals", 4);
+        let (mut next, mut kept) = (0u32, 0u32);
+        while kept < count && next < budget {
+            let n = batch.min(budget - next);
+            let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, pad: 0 };
+            let batch_total = validated(device, "trace_vpls", || {
+                let p = uniform(device, "trace params", &params);
+                let common = [
+                    (0, &p),
+                    (1, &lights.counts),
+                    (2, &scene.bvh_nodes),
+                    (3, &scene.bvh_tris),
+                    (4, &scene.scene_tris),
+                    (5, &scene.materials),
+                    (6, &scene.texture_infos),
+                    (7, &scene.texels),
+                    (8, &lights.emitters),
+                    (9, &lights.all_table),
+                    (10, &lights.punctual),
+                    (11, &slots),
+                    (12, &counts),
+                ];
+                dispatch_bound(device, queue, &self.trace, &common, n.div_ceil(64));
+                dispatch_bound(device, queue, &self.scan, &[(0, &p), (12, &counts), (13, &offsets), (14, &totals)], 1);
+                p
+            })?;
+            let total = read_back::<u32>(device, queue, &totals, 1)?[0];
+            validated(device, "trace_vpls compact", || {
+                dispatch_bound(device, queue, &self.compact, &[(0, &batch_total), (11, &slots), (12, &counts), (13, &offsets), (14, &totals), (15, &vpls)], n.div_ceil(64))
+            })?;
+            kept += total.min(count - kept);
+            next += n;
+            // Size the next batch from the yield so far, like the CPU.
+            let per_particle = (kept as f64 / next as f64).max(0.05);
+            batch = batch.max((((count - kept) as f64 / per_particle) as u32).clamp(1024, 1 << 20)).min(max_batch);
+            if batch as usize * bounces as usize > slots.size() as usize / std::mem::size_of::<Vpl>() {
+                batch = (slots.size() as usize / std::mem::size_of::<Vpl>() / bounces as usize) as u32;
+            }
+        }
+        let recorded = read_back::<u32>(device, queue, &totals, 2)?[1];
+        let particles = if recorded != 0 { recorded } else { next };
+        let params = Params { seed, bounces, first: 0, count: particles, wanted: count, kept, eps: scene.eps, pad: 0 };
+        validated(device, "trace_vpls normalize", || {
+            let p = uniform(device, "normalize params", &params);
+            dispatch_bound(device, queue, &self.normalize, &[(0, &p), (14, &totals), (15, &vpls)], kept.div_ceil(64));
+        })?;
+        Ok(GpuVpls { buffer: vpls, count: kept, particles })
+    }
+}

@@ -1,0 +1,35 @@
+// The warps of vplgi-types/src/sampling.rs, same operation order.
+
+// Duff et al. 2017 orthonormal basis; `sign` is an exact copysign(1, n.z) (-0.0 gives -1 as in
+// Rust), built from the sign bit.
+fn orthonormal_basis(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = bitcast<f32>((bitcast<u32>(n.z) & 0x80000000u) | 0x3f800000u);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+    return array<vec3<f32>, 2>(t, bt);
+}
+
+fn cosine_hemisphere(n: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
+    let r = sqrt(u1);
+    let phi = 2.0 * PI * u2;
+    let tb = orthonormal_basis(n);
+    let z = sqrt(max(1.0 - u1, 0.0));
+    return normalize(tb[0] * (r * cos(phi)) + tb[1] * (r * sin(phi)) + n * z);
+}
+
+fn uniform_sphere(u1: f32, u2: f32) -> vec3<f32> {
+    let z = 1.0 - 2.0 * u1;
+    let r = sqrt(max(1.0 - z * z, 0.0));
+    let phi = 2.0 * PI * u2;
+    return vec3<f32>(r * cos(phi), r * sin(phi), z);
+}
+
+fn uniform_cone(axis: vec3<f32>, cos_max: f32, u1: f32, u2: f32) -> vec3<f32> {
+    let cos_t = 1.0 - u1 * (1.0 - cos_max);
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let phi = 2.0 * PI * u2;
+    let tb = orthonormal_basis(axis);
+    return normalize(tb[0] * (sin_t * cos(phi)) + tb[1] * (sin_t * sin(phi)) + axis * cos_t);
+}

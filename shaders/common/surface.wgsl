@@ -1,0 +1,69 @@
+// What a ray sees where it hits a surface (vplgi-cpu CpuScene::trace). Expects bindings
+// bvh_tris, scene_tris, materials, texture_infos and texels.
+
+struct Surface {
+    position: vec3<f32>,
+    ng: vec3<f32>,        // geometric normal facing the ray's origin
+    ns: vec3<f32>,        // shading normal in ng's hemisphere
+    albedo: vec3<f32>,
+    emitted: vec3<f32>,   // emission towards the ray's origin (front side only)
+}
+
+fn texel(info: TextureInfo, i: i32, j: i32) -> vec3<f32> {
+    // Repeat wrapping (rem_euclid).
+    let w = i32(info.width);
+    let h = i32(info.height);
+    let x = ((i % w) + w) % w;
+    let y = ((j % h) + h) % h;
+    return texels[info.offset + u32(y * w + x)].xyz;
+}
+
+// vplgi_scene::Texture::sample: bilinear, repeat, (0, 0) at the top-left corner.
+fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
+    let info = texture_infos[t];
+    let x = uv.x * f32(info.width) - 0.5;
+    let y = uv.y * f32(info.height) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let top = mix(texel(info, i, j), texel(info, i + 1, j), fx);
+    let bottom = mix(texel(info, i, j + 1), texel(info, i + 1, j + 1), fx);
+    return mix(top, bottom, fy);
+}
+
+fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
+    let tri = bvh_tris[hit.slot];
+    let st = scene_tris[hit.triangle];
+    let w0 = 1.0 - hit.u - hit.v;
+    var s: Surface;
+    s.position = tri.v0.xyz + tri.e1.xyz * hit.u + tri.e2.xyz * hit.v;
+    let front = st.ng.xyz;
+    let facing = dot(front, dir) < 0.0;
+    s.ng = front;
+    if (!facing) {
+        s.ng = -front;
+    }
+    let n = st.n0.xyz * w0 + st.n1.xyz * hit.u + st.n2.xyz * hit.v;
+    s.ns = s.ng;
+    if (dot(n, n) > 0.0) {
+        s.ns = normalize(n);
+    }
+    if (dot(s.ns, s.ng) < 0.0) {
+        s.ns = -s.ns;
+    }
+    let m = materials[bitcast<u32>(st.ng.w)];
+    s.albedo = m.base_color.xyz;
+    let t = bitcast<u32>(m.base_color.w);
+    if (t != MISS) {
+        let uv = st.uv01.xy * w0 + st.uv01.zw * hit.u + st.uv2.xy * hit.v;
+        s.albedo = s.albedo * sample_texture(t, uv);
+    }
+    s.emitted = vec3<f32>(0.0);
+    if (facing) {
+        s.emitted = m.emission.xyz;
+    }
+    return s;
+}

@@ -1,0 +1,201 @@
+// Stage 1, trace_vpls (vplgi-cpu/src/trace_vpls.rs), in three kernels:
+//   trace:   one thread per light particle; its VPLs go to `bounces` fixed slots, with a count;
+//   scan:    one workgroup turns the counts into exclusive offsets (and the batch total);
+//   compact: copies the VPLs of the batch behind those already kept, up to the requested
+//            count, and records how many particles were used when the count is reached.
+// Particle i uses only the stream (seed, STREAM_LIGHT_PATH, i), so batching does not matter.
+// Fluxes are divided by the particle count by `normalize` once it is known.
+
+struct Params {
+    seed: u32,
+    bounces: u32,
+    first: u32,        // first particle of this batch
+    count: u32,        // particles in this batch
+    wanted: u32,       // VPLs requested in total
+    kept: u32,         // VPLs kept before this batch
+    eps: f32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> light_counts: vec4<u32>;
+@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(4) var<storage, read> scene_tris: array<SceneTri>;
+@group(0) @binding(5) var<storage, read> materials: array<Material>;
+@group(0) @binding(6) var<storage, read> texture_infos: array<TextureInfo>;
+@group(0) @binding(7) var<storage, read> texels: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> emitters: array<Emitter>;
+@group(0) @binding(9) var<storage, read> all_table: array<vec2<f32>>;
+@group(0) @binding(10) var<storage, read> punctual: array<Punctual>;
+@group(0) @binding(11) var<storage, read_write> slots: array<Vpl>;
+@group(0) @binding(12) var<storage, read_write> counts: array<u32>;
+@group(0) @binding(13) var<storage, read_write> offsets: array<u32>;
+// [0] = VPLs in this batch, [1] = particles used once the wanted count is reached (else 0).
+@group(0) @binding(14) var<storage, read_write> totals: array<u32>;
+@group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
+
+const SURVIVAL_MAX: f32 = 0.95;
+
+// Distribution::sample on the all-light table (particles): first item whose CDF exceeds u.
+fn sample_table_all(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = arrayLength(&all_table);
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (all_table[mid].x <= u) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return min(lo, arrayLength(&all_table) - 1u);
+}
+
+
+fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
+@compute @workgroup_size(64)
+fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = thread_index(gid, groups);
+    if (local >= params.count) {
+        return;
+    }
+    let index = params.first + local;
+    var n = 0u;
+    var rng = rng_new(params.seed, STREAM_LIGHT_PATH, index);
+    let u0 = rng_next_f32(&rng);
+    let u1 = rng_next_f32(&rng);
+    let u2 = rng_next_f32(&rng);
+    let u3 = rng_next_f32(&rng);
+    let u4 = rng_next_f32(&rng);
+    if (light_counts.x + light_counts.y > 0u) {
+        // LightSampler::emit
+        let i = sample_table_all(u0);
+        let pmf = all_table[i].y;
+        var origin: vec3<f32>;
+        var dir: vec3<f32>;
+        var power: vec3<f32>;
+        var surface_normal = vec3<f32>(0.0);
+        if (i < light_counts.x) {
+            let e = emitters[i];
+            let b = uniform_triangle(u1, u2);
+            origin = e.v0.xyz + e.e1.xyz * b.x + e.e2.xyz * b.y;
+            power = e.radiance.xyz * (PI * e.v0.w) / pmf;
+            dir = cosine_hemisphere(e.normal.xyz, u3, u4);
+            surface_normal = e.normal.xyz;
+        } else {
+            let l = punctual[i - light_counts.x];
+            origin = l.position.xyz;
+            if (l.position.w == 0.0) {
+                dir = uniform_sphere(u3, u4);
+                power = l.intensity.xyz * (4.0 * PI) / pmf;
+            } else {
+                let cos_outer = l.intensity.w;
+                dir = uniform_cone(l.direction.xyz, cos_outer, u3, u4);
+                let inv_pdf = 2.0 * PI * (1.0 - cos_outer);
+                power = l.intensity.xyz * (punctual_falloff(l, dir) * inv_pdf / pmf);
+            }
+        }
+        origin = origin + surface_normal * params.eps;
+        let inf = bitcast<f32>(0x7f800000u);
+        for (var bounce = 1u; bounce <= params.bounces; bounce = bounce + 1u) {
+            let hit = bvh_trace(origin, dir, 0.0, inf, false);
+            if (hit.triangle == NO_HIT) {
+                break;
+            }
+            let s = surface_at(hit, dir);
+            let flux = power * s.albedo;
+            slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, flux, 0u);
+            n = n + 1u;
+            if (bounce == params.bounces) {
+                break;
+            }
+            let survive = min(max(max(s.albedo.x, s.albedo.y), s.albedo.z), SURVIVAL_MAX);
+            if (survive <= 0.0 || rng_next_f32(&rng) >= survive) {
+                break;
+            }
+            power = flux / survive;
+            let u5 = rng_next_f32(&rng);
+            let u6 = rng_next_f32(&rng);
+            dir = cosine_hemisphere(s.ns, u5, u6);
+            if (dot(dir, s.ng) <= 0.0) {
+                break;
+            }
+            origin = s.position + s.ng * params.eps;
+        }
+    }
+    counts[local] = n;
+}
+
+var<workgroup> partial: array<u32, 256>;
+
+// One workgroup: each thread sums a contiguous chunk of counts, the 256 partial sums are scanned
+// in workgroup memory, then each thread writes exclusive offsets for its chunk.
+@compute @workgroup_size(256)
+fn scan(@builtin(local_invocation_id) lid: vec3<u32>) {
+    let t = lid.x;
+    let chunk = (params.count + 255u) / 256u;
+    let begin = min(t * chunk, params.count);
+    let end = min(begin + chunk, params.count);
+    var s = 0u;
+    for (var i = begin; i < end; i = i + 1u) {
+        s = s + counts[i];
+    }
+    partial[t] = s;
+    workgroupBarrier();
+    // Hillis-Steele inclusive scan over the 256 partial sums.
+    for (var step = 1u; step < 256u; step = step * 2u) {
+        var add = 0u;
+        if (t >= step) {
+            add = partial[t - step];
+        }
+        workgroupBarrier();
+        partial[t] = partial[t] + add;
+        workgroupBarrier();
+    }
+    var running = partial[t] - s;
+    for (var i = begin; i < end; i = i + 1u) {
+        offsets[i] = running;
+        running = running + counts[i];
+    }
+    if (t == 255u) {
+        totals[0] = partial[255];
+    }
+}
+
+@compute @workgroup_size(64)
+fn compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = thread_index(gid, groups);
+    if (local >= params.count) {
+        return;
+    }
+    let room = params.wanted - params.kept;
+    let start = offsets[local];
+    let n = counts[local];
+    for (var b = 0u; b < n; b = b + 1u) {
+        if (start + b < room) {
+            vpls[params.kept + start + b] = slots[local * params.bounces + b];
+        }
+    }
+    // The particle holding the wanted-th VPL closes the set: the particles used are those up to
+    // and including it (its path may be cut short).
+    if (start < room && start + n >= room) {
+        totals[1] = params.first + local + 1u;
+    }
+}
+
+@compute @workgroup_size(64)
+fn normalize_flux(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.kept) {
+        return;
+    }
+    // Particles used: recorded by compact, or (params.count) the whole budget when the scene let
+    // too much light escape to reach the wanted count.
+    let used = select(params.count, totals[1], totals[1] != 0u);
+    let inv = 1.0 / f32(max(used, 1u));
+    vpls[i].flux = vpls[i].flux * inv;
+}
