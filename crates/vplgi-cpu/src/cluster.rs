@@ -26,7 +26,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{FuzzyMode, Rng, Stream, MISS};
+use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
+use vplgi_types::{FuzzyMode, MISS};
 
 /// Parameters of one clustering run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,30 +108,12 @@ pub struct Grid {
     items: Vec<u32>,
 }
 
-/// At most this many cells; the cell size grows to respect it.
-const MAX_CELLS: f64 = (1u64 << 21) as f64;
-
 impl Grid {
-    /// Chooses the grid geometry for clustering `points` into `k` clusters: the cell size is
-    /// adjusted (a few fixed steps, deterministic) until the occupied cells number about k / 2,
-    /// i.e. about two centroids per occupied cell when centroids follow the data. The square-root
-    /// update assumes surface-like data, where occupied cells scale with 1 / cell².
-    /// The grid spans `bounds` (the bounding box of every point that will be searched, so no
-    /// point falls outside it); `sample` drives the cell size.
+    /// The grid geometry of [`vplgi_types::clustering::grid_geometry`] for data spanning
+    /// `bounds`, with occupancy counted on `sample`.
     pub fn for_data(bounds: (Vec3, Vec3), sample: &[Vec3], k: usize) -> Grid {
-        let (min, max) = bounds;
-        let points = sample;
-        let ext = (max - min).max(Vec3::splat(1e-12));
-        let target = (k as f64 / 2.0).max(1.0);
-        let mut cell = (ext.x as f64 * ext.y as f64 * ext.z as f64 / k.max(1) as f64).cbrt().max(ext.max_element() as f64 / 1024.0);
-        for _ in 0..4 {
-            cell = cell.max(min_cell(ext));
-            let occupied = occupied_cells(points, min, cell as f32) as f64;
-            cell *= (occupied / target).sqrt().clamp(0.25, 4.0);
-        }
-        let cell = cell.max(min_cell(ext)) as f32;
-        let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
-        Grid { origin: min, cell, dims, starts: Vec::new(), items: Vec::new() }
+        let g = grid_geometry(bounds.0, bounds.1, k, |cell| occupied_cells(sample, bounds.0, cell));
+        Grid { origin: g.origin, cell: g.cell, dims: g.dims, starts: Vec::new(), items: Vec::new() }
     }
 
     /// Same geometry, filled with `centroids`.
@@ -281,11 +264,6 @@ pub enum SearchOutcome {
     Incompatible,
 }
 
-fn min_cell(ext: Vec3) -> f64 {
-    // Keep the cell count under MAX_CELLS.
-    (ext.x as f64 * ext.y as f64 * ext.z as f64 / MAX_CELLS).cbrt().max(ext.max_element() as f64 / 4096.0).max(1e-12)
-}
-
 fn occupied_cells(points: &[Vec3], min: Vec3, cell: f32) -> usize {
     let mut keys: Vec<u64> = points
         .par_iter()
@@ -299,55 +277,8 @@ fn occupied_cells(points: &[Vec3], min: Vec3, cell: f32) -> usize {
     keys.len()
 }
 
-fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
     points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)))
-}
-
-/// Fixed-point format of the centroid sums.
-///
-/// Positions are stored as unsigned 24-bit fractions of the data's bounding box per axis
-/// (resolution 6e-8 of the box), normals as `round(n * 2^24) + 2^24` in [0, 2^25]. A sum of
-/// M points needs 25 + log2(M) bits: 64-bit sums cannot overflow below 2^39 points per
-/// cluster. Means are formed in f32 from the two 32-bit halves of a sum, the same operations a
-/// GPU with 32-bit atomics performs.
-#[derive(Clone, Copy, Debug)]
-pub struct FixedPoint {
-    min: Vec3,
-    ext: Vec3,
-}
-
-const FIX_ONE: f32 = 16_777_216.0; // 2^24
-
-impl FixedPoint {
-    pub fn for_data(points: &[Vec3]) -> FixedPoint {
-        let (min, max) = bounds(points);
-        FixedPoint { min, ext: (max - min).max(Vec3::splat(1e-30)) }
-    }
-
-    #[inline]
-    pub fn quantize(&self, p: Vec3, n: Vec3) -> [u32; 6] {
-        let q = ((p - self.min) / self.ext * FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(FIX_ONE));
-        let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
-        [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| v.round_ties_even() as u32)
-    }
-
-    /// The mean position and (normalised) mean normal of `count` points whose quantised values
-    /// sum to `sums`. Returns `None` for an empty cluster or when the normals cancel out.
-    #[inline]
-    pub fn mean(&self, sums: &[u64; 6], count: u32) -> (Vec3, Option<Vec3>) {
-        let m = sums.map(|s| u64_mean(s, count));
-        let p = self.min + Vec3::new(m[0], m[1], m[2]) / FIX_ONE * self.ext;
-        let n = Vec3::new(m[3] - FIX_ONE, m[4] - FIX_ONE, m[5] - FIX_ONE) / FIX_ONE;
-        (p, n.try_normalize())
-    }
-}
-
-/// `sum / count` in f32 from the two halves of the 64-bit sum.
-#[inline]
-fn u64_mean(sum: u64, count: u32) -> f32 {
-    let hi = (sum >> 32) as u32;
-    let lo = sum as u32;
-    (hi as f32 * 4_294_967_296.0 + lo as f32) / count as f32
 }
 
 /// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11).
@@ -412,25 +343,6 @@ pub fn update(fix: &FixedPoint, points: &[Vec3], normals: &[Vec3], labels: &[u32
     counts
 }
 
-/// Alg. 1, line 1: one point from each block of `gamma` consecutive points, at a random offset
-/// inside the block (jittered stride). A fixed stride would alias with periodic data, such as
-/// alternating normals.
-pub fn downsample(m: usize, gamma: usize, seed: u32) -> Vec<u32> {
-    (0..m.div_ceil(gamma))
-        .map(|s| {
-            let offset = Rng::new(seed, Stream::Cluster, s as u32 + 1).next_u32() as usize % gamma;
-            ((s * gamma + offset).min(m - 1)) as u32
-        })
-        .collect()
-}
-
-/// The initial centroids: K points spread evenly over the downsampled set with a random offset.
-fn seed_centroids(sample: &[u32], k: usize, seed: u32) -> Vec<u32> {
-    let u = Rng::new(seed, Stream::Cluster, 0).next_f32() as f64;
-    let s = sample.len() as f64;
-    (0..k).map(|i| sample[(((i as f64 + u) * s / k as f64) as usize).min(sample.len() - 1)]).collect()
-}
-
 /// Clusters the points (`positions`, unit `normals`) with Alg. 1 and assigns every point to its
 /// F nearest clusters with Alg. 2.
 pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> Clustering {
@@ -452,7 +364,8 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
     let seeds = seed_centroids(&sample, k, params.seed);
     let mut cpos: Vec<Vec3> = seeds.iter().map(|&i| positions[i as usize]).collect();
     let mut cnor: Vec<Vec3> = seeds.iter().map(|&i| normals[i as usize]).collect();
-    let fix = FixedPoint::for_data(positions);
+    let (lo, hi) = bounds(positions);
+    let fix = FixedPoint::new(lo, hi);
     let geometry = Grid::for_data(bounds(positions), &sp, k);
     let nt = params.normal_threshold;
     for _ in 0..params.iterations {
@@ -517,29 +430,6 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
 
     let representatives = representatives(positions, &labels, f, &cpos);
     Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible }
-}
-
-/// Normalised weights of a point's clusters (Eq. 10 for `Weighted`: inverse distance; Eq. 8's
-/// plain mean for `Average`). Distances are floored at 1e-4 of a grid cell, so a point sitting on
-/// a centroid gets a large but finite weight.
-fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, cell: f32, out: &mut [f32]) {
-    let floor = 1e-4 * cell;
-    let mut total = 0.0f32;
-    for (w, &(d2, _)) in out.iter_mut().zip(best) {
-        *w = match mode {
-            FuzzyMode::Weighted => 1.0 / d2.sqrt().max(floor),
-            FuzzyMode::Average | FuzzyMode::Hard => 1.0,
-        };
-        total += *w;
-    }
-    if !(total.is_finite() && total > 0.0) {
-        // Distances overflowed (coordinates ~1e19 apart): fall back to the plain mean.
-        total = out.len() as f32;
-        out.iter_mut().for_each(|w| *w = 1.0);
-    }
-    for w in out.iter_mut() {
-        *w /= total;
-    }
 }
 
 /// For each cluster, the member (by hard label) nearest the centroid; ties to the lower index.

@@ -6,7 +6,9 @@
 //!   the same integer operations can be transcribed to WGSL and give bit-identical streams.
 //! * [`sampling`]: the few warps used to turn uniform numbers into directions and points.
 //! * [`config`]: [`FrameConfig`], the parameters of one frame, with the paper's presets.
+//! * [`clustering`]: the host-side choices of Alg. 1 and 2 every backend shares.
 
+pub mod clustering;
 pub mod config;
 pub mod pod;
 pub mod rng;

@@ -1,6 +1,7 @@
 use super::*;
 use proptest::prelude::*;
-use vplgi_types::Rng;
+use vplgi_types::clustering::FixedPoint;
+use vplgi_types::{Rng, Stream};
 
 fn params(k: u32, f: u32, fuzzy: FuzzyMode) -> ClusterParams {
     ClusterParams { k, gamma: 2, iterations: 5, f, fuzzy, normal_threshold: 0.866_025_4, seed: 3 }
@@ -101,7 +102,8 @@ fn widened_search_when_neighbourhood_is_empty() {
 fn centroid_update_does_not_depend_on_point_order() {
     let (ps, ns) = cube_surface(5000, 9);
     let labels: Vec<u32> = (0..ps.len() as u32).map(|i| i % 17).collect();
-    let fix = FixedPoint::for_data(&ps);
+    let (lo, hi) = bounds(&ps);
+    let fix = FixedPoint::new(lo, hi);
     let mut c1 = vec![Vec3::ZERO; 17];
     let mut n1 = vec![Vec3::Z; 17];
     update(&fix, &ps, &ns, &labels, &mut c1, &mut n1);

@@ -1,0 +1,132 @@
+//! Host-side pieces of the clustering (Alg. 1 and 2) that every backend shares, so that given
+//! the same data they make the same choices: the downsampled set, the initial centroids, the
+//! grid geometry, the fixed-point format of the centroid sums and the fuzzy weights. Each
+//! backend supplies only the data-parallel work (occupancy counts, assignment, sums).
+
+use crate::{FuzzyMode, Rng, Stream};
+use glam::Vec3;
+
+/// At most about this many grid cells; the cell size grows to respect it.
+pub const MAX_CELLS: f64 = (1u64 << 21) as f64;
+
+/// The uniform grid laid over the data: cell `(i, j, k)` covers
+/// `origin + [i, i+1) x [j, j+1) x [k, k+1) * cell`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridGeometry {
+    pub origin: Vec3,
+    pub cell: f32,
+    pub dims: [i32; 3],
+}
+
+/// Smallest cell size allowed for data of extent `ext`: keeps the cell count near [`MAX_CELLS`]
+/// and at most 4096 cells per axis.
+pub fn min_cell(ext: Vec3) -> f64 {
+    (ext.x as f64 * ext.y as f64 * ext.z as f64 / MAX_CELLS).cbrt().max(ext.max_element() as f64 / 4096.0).max(1e-12)
+}
+
+/// Chooses the grid for clustering data spanning [`min`, `max`] into `k` clusters. The cell size
+/// is adjusted in four fixed steps until the occupied cells number about k / 2, i.e. about two
+/// centroids per occupied cell when centroids follow the data. The square-root update assumes
+/// surface-like data, where occupied cells scale with 1 / cell². `occupied(cell)` counts the
+/// distinct cells `floor((p - min) / cell)` (f32 arithmetic) of the downsampled points.
+pub fn grid_geometry(min: Vec3, max: Vec3, k: usize, mut occupied: impl FnMut(f32) -> usize) -> GridGeometry {
+    let ext = (max - min).max(Vec3::splat(1e-12));
+    let target = (k as f64 / 2.0).max(1.0);
+    let mut cell = (ext.x as f64 * ext.y as f64 * ext.z as f64 / k.max(1) as f64).cbrt().max(ext.max_element() as f64 / 1024.0);
+    for _ in 0..4 {
+        cell = cell.max(min_cell(ext));
+        let occ = occupied(cell as f32) as f64;
+        cell *= (occ / target).sqrt().clamp(0.25, 4.0);
+    }
+    let cell = cell.max(min_cell(ext)) as f32;
+    GridGeometry { origin: min, cell, dims: [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1) }
+}
+
+/// Alg. 1, line 1: one point from each block of `gamma` consecutive points, at a random offset
+/// inside the block (jittered stride). A fixed stride would alias with periodic data, such as
+/// alternating normals.
+pub fn downsample(m: usize, gamma: usize, seed: u32) -> Vec<u32> {
+    (0..m.div_ceil(gamma))
+        .map(|s| {
+            let offset = Rng::new(seed, Stream::Cluster, s as u32 + 1).next_u32() as usize % gamma;
+            ((s * gamma + offset).min(m - 1)) as u32
+        })
+        .collect()
+}
+
+/// The initial centroids: K points spread evenly over the downsampled set with a random offset.
+pub fn seed_centroids(sample: &[u32], k: usize, seed: u32) -> Vec<u32> {
+    let u = Rng::new(seed, Stream::Cluster, 0).next_f32() as f64;
+    let s = sample.len() as f64;
+    (0..k).map(|i| sample[(((i as f64 + u) * s / k as f64) as usize).min(sample.len() - 1)]).collect()
+}
+
+/// Fixed-point format of the centroid sums.
+///
+/// Positions are stored as unsigned 24-bit fractions of the data's bounding box per axis
+/// (resolution 6e-8 of the box), normals as `round(n * 2^24) + 2^24` in [0, 2^25]. A sum of
+/// M points needs 25 + log2(M) bits: 64-bit sums cannot overflow below 2^39 points per
+/// cluster. Means are formed in f32 from the two 32-bit halves of a sum, the operations a GPU
+/// with 32-bit atomics performs (WGSL `round` is ties-to-even like `round_ties_even`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedPoint {
+    pub min: Vec3,
+    pub ext: Vec3,
+}
+
+pub const FIX_ONE: f32 = 16_777_216.0; // 2^24
+
+impl FixedPoint {
+    /// For data spanning [`min`, `max`].
+    pub fn new(min: Vec3, max: Vec3) -> FixedPoint {
+        FixedPoint { min, ext: (max - min).max(Vec3::splat(1e-30)) }
+    }
+
+    #[inline]
+    pub fn quantize(&self, p: Vec3, n: Vec3) -> [u32; 6] {
+        let q = ((p - self.min) / self.ext * FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(FIX_ONE));
+        let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
+        [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| v.round_ties_even() as u32)
+    }
+
+    /// The mean position and (normalised) mean normal of `count` points whose quantised values
+    /// sum to `sums`. The normal is `None` when the normals cancel out.
+    #[inline]
+    pub fn mean(&self, sums: &[u64; 6], count: u32) -> (Vec3, Option<Vec3>) {
+        let m = sums.map(|s| u64_mean(s, count));
+        let p = self.min + Vec3::new(m[0], m[1], m[2]) / FIX_ONE * self.ext;
+        let n = Vec3::new(m[3] - FIX_ONE, m[4] - FIX_ONE, m[5] - FIX_ONE) / FIX_ONE;
+        (p, n.try_normalize())
+    }
+}
+
+/// `sum / count` in f32 from the two halves of the 64-bit sum.
+#[inline]
+pub fn u64_mean(sum: u64, count: u32) -> f32 {
+    let hi = (sum >> 32) as u32;
+    let lo = sum as u32;
+    (hi as f32 * 4_294_967_296.0 + lo as f32) / count as f32
+}
+
+/// Normalised weights of a point's clusters given their squared distances (Eq. 10 for
+/// `Weighted`: inverse distance; Eq. 8's plain mean for `Average`). Distances are floored at
+/// 1e-4 of a grid cell, so a point sitting on a centroid gets a large but finite weight.
+pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, cell: f32, out: &mut [f32]) {
+    let floor = 1e-4 * cell;
+    let mut total = 0.0f32;
+    for (w, &(d2, _)) in out.iter_mut().zip(best) {
+        *w = match mode {
+            FuzzyMode::Weighted => 1.0 / d2.sqrt().max(floor),
+            FuzzyMode::Average | FuzzyMode::Hard => 1.0,
+        };
+        total += *w;
+    }
+    if !(total.is_finite() && total > 0.0) {
+        // Distances overflowed (coordinates ~1e19 apart): fall back to the plain mean.
+        total = out.len() as f32;
+        out.iter_mut().for_each(|w| *w = 1.0);
+    }
+    for w in out.iter_mut() {
+        *w /= total;
+    }
+}
