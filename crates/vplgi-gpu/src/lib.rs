@@ -11,6 +11,7 @@
 
 pub mod buffers;
 pub mod bvh;
+pub mod cluster;
 pub mod context;
 pub mod lights;
 pub mod rng;

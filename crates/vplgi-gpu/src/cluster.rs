@@ -1,0 +1,293 @@
+//! Stage 3 on the GPU, `cluster` (`shaders/cluster.wgsl`), the twin of
+//! `vplgi_cpu::cluster::cluster`: Alg. 1 (grid-accelerated k-means with fixed-point centroid
+//! sums) and Alg. 2 (F nearest clusters with weights), then empty-cluster removal and
+//! representatives. The host makes the same choices as the CPU through
+//! `vplgi_types::clustering` (downsampled set, seeds, grid geometry from occupancy counts,
+//! fixed-point box); the GPU does every per-point and per-centroid step. Read back: the data's
+//! bounding box (6 words), four occupancy counts and the number of surviving clusters.
+
+use crate::buffers::{dispatch_bound, read_back, storage, storage_zeroed, uniform};
+use crate::context::validated;
+use crate::shader::pipelines;
+use crate::visibility::Endpoint;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use vplgi_types::clustering::{downsample, grid_geometry, min_cell, seed_centroids, FixedPoint, GridGeometry, MAX_CELLS};
+use vplgi_types::config::MAX_F;
+use vplgi_types::FuzzyMode;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Default)]
+struct Params {
+    origin: [f32; 4],
+    dims: [i32; 4],
+    fix_min: [f32; 4],
+    fix_ext: [f32; 4],
+    n: u32,
+    k: u32,
+    f: u32,
+    threshold: f32,
+    fuzzy: u32,
+    cells: u32,
+    use_index: u32,
+    pad: u32,
+}
+
+/// Parameters of one clustering run (the twin of `vplgi_cpu::cluster::ClusterParams`).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuClusterParams {
+    pub k: u32,
+    pub gamma: u32,
+    pub iterations: u32,
+    pub f: u32,
+    pub fuzzy: FuzzyMode,
+    pub normal_threshold: f32,
+    pub seed: u32,
+}
+
+/// A grid filled with centroids, on the device.
+pub struct GpuGrid {
+    pub geometry: GridGeometry,
+    /// First ring at which the search scans all centroids instead.
+    pub brute_ring: i32,
+    offsets: wgpu::Buffer,
+    items: wgpu::Buffer,
+}
+
+/// Points assigned to their F nearest clusters.
+pub struct Assignment {
+    /// `f` labels per point, [`vplgi_types::MISS`]-padded.
+    pub labels: wgpu::Buffer,
+    pub weights: wgpu::Buffer,
+    /// Per point: 0 found in the 27 cells, 1 after widening, 2 no compatible centroid.
+    pub outcome: wgpu::Buffer,
+}
+
+/// The result, on the device (the twin of `vplgi_cpu::cluster::Clustering`).
+pub struct GpuClustering {
+    /// `k` centroids as Endpoints.
+    pub centroids: wgpu::Buffer,
+    pub k: u32,
+    pub f: u32,
+    pub labels: wgpu::Buffer,
+    pub weights: wgpu::Buffer,
+    /// `k` point indices.
+    pub representatives: wgpu::Buffer,
+    /// `k` member counts.
+    pub members: wgpu::Buffer,
+    pub outcome: wgpu::Buffer,
+    pub geometry: GridGeometry,
+}
+
+pub struct ClusterKernel {
+    p: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+}
+
+const ENTRIES: [&str; 16] =
+    ["occupancy", "count_bits", "grid_count", "grid_scatter", "assign", "sums_kernel", "finalize", "rep_d2", "rep_index", "scan", "gather", "bounds", "count_labels", "flags", "compact", "outcome_counts"];
+
+/// The ring from which scanning every centroid is cheaper than the rings: the CPU's test
+/// `(2r + 1)^3 > 8K + 64`, evaluated once.
+pub fn brute_ring(k: usize) -> i32 {
+    let mut r = 2;
+    while ((2 * r + 1) as f64).powi(3) <= 8.0 * k as f64 + 64.0 {
+        r += 1;
+    }
+    r
+}
+
+fn groups(n: u32) -> u32 {
+    n.div_ceil(64).max(1)
+}
+
+impl ClusterKernel {
+    pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        validated(device, "cluster pipelines", || {
+            let p = pipelines(device, "cluster.wgsl", &ENTRIES);
+            ClusterKernel { p: ENTRIES.iter().copied().zip(p).collect() }
+        })
+    }
+
+    fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &Params, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+        validated(device, entry, || {
+            let p = uniform(device, "cluster params", params);
+            let mut all: Vec<(u32, &wgpu::Buffer)> = vec![(0, &p)];
+            all.extend_from_slice(bound);
+            let g = if entry == "scan" { 1 } else { groups(threads) };
+            dispatch_bound(device, queue, &self.p[entry], &all, g);
+        })
+    }
+
+    fn grid_params(&self, g: &GridGeometry, brute: i32) -> Params {
+        Params { origin: [g.origin.x, g.origin.y, g.origin.z, g.cell], dims: [g.dims[0], g.dims[1], g.dims[2], brute], ..Default::default() }
+    }
+
+    /// The bounding box of `n` points.
+    pub fn bounds(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, n: u32) -> Result<(Vec3, Vec3), GpuError> {
+        let init = [u32::MAX, u32::MAX, u32::MAX, 0, 0, 0];
+        let keys = storage(device, "bounds", &init);
+        self.run(device, queue, "bounds", &Params { n, ..Default::default() }, &[(1, points), (9, &keys)], n)?;
+        let k = read_back::<u32>(device, queue, &keys, 6)?;
+        let decode = |u: u32| f32::from_bits(if u & 0x8000_0000 != 0 { u & 0x7fff_ffff } else { !u });
+        Ok((Vec3::new(decode(k[0]), decode(k[1]), decode(k[2])), Vec3::new(decode(k[3]), decode(k[4]), decode(k[5]))))
+    }
+
+    /// Distinct cells `floor((p - min) / cell)` among the sample points.
+    fn occupied(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, sample: &wgpu::Buffer, s: u32, min: Vec3, ext: Vec3, cell: f32) -> Result<usize, GpuError> {
+        let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
+        let cells = dims.iter().map(|&d| d as u64).product::<u64>();
+        let words = cells.div_ceil(32) as u32;
+        let bitmap = storage_zeroed::<u32>(device, "occupancy bitmap", words as usize);
+        let total = storage_zeroed::<u32>(device, "occupied", 1);
+        let mut p = self.grid_params(&GridGeometry { origin: min, cell, dims }, 0);
+        p.n = s;
+        p.cells = words;
+        self.run(device, queue, "occupancy", &p, &[(1, points), (2, sample), (9, &bitmap)], s)?;
+        self.run(device, queue, "count_bits", &p, &[(4, &total), (9, &bitmap)], words)?;
+        Ok(read_back::<u32>(device, queue, &total, 1)?[0] as usize)
+    }
+
+    /// Fills the grid `geometry` with `k` centroids (counting sort by cell).
+    pub fn fill_grid(&self, device: &wgpu::Device, queue: &wgpu::Queue, geometry: &GridGeometry, centroids: &wgpu::Buffer, k: u32) -> Result<GpuGrid, GpuError> {
+        let cells = geometry.dims.iter().map(|&d| d as u32).product::<u32>();
+        let brute = brute_ring(k as usize);
+        let mut p = self.grid_params(geometry, brute);
+        p.k = k;
+        let counts = storage_zeroed::<u32>(device, "cell counts", cells as usize);
+        let offsets = storage_zeroed::<u32>(device, "cell offsets", cells as usize + 1);
+        let cursor = storage_zeroed::<u32>(device, "cell cursor", cells as usize);
+        let items = storage_zeroed::<u32>(device, "cell items", k as usize);
+        self.run(device, queue, "grid_count", &p, &[(3, centroids), (4, &counts)], k)?;
+        p.n = cells;
+        self.run(device, queue, "scan", &p, &[(4, &counts), (5, &offsets)], 1)?;
+        self.run(device, queue, "grid_scatter", &p, &[(3, centroids), (5, &offsets), (6, &items), (9, &cursor)], k)?;
+        Ok(GpuGrid { geometry: *geometry, brute_ring: brute, offsets, items })
+    }
+
+    /// Each of `n` points (through `index` when given) gets its `f` nearest compatible
+    /// centroids, with weights for `fuzzy`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn assign(&self, device: &wgpu::Device, queue: &wgpu::Queue, grid: &GpuGrid, points: &wgpu::Buffer, index: Option<&wgpu::Buffer>, n: u32, centroids: &wgpu::Buffer, k: u32, threshold: f32, f: u32, fuzzy: FuzzyMode) -> Result<Assignment, GpuError> {
+        let dummy = storage_zeroed::<u32>(device, "no index", 1);
+        let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
+        (p.n, p.k, p.f, p.threshold, p.use_index) = (n, k, f, threshold, index.is_some() as u32);
+        p.fuzzy = (fuzzy == FuzzyMode::Weighted) as u32;
+        let a = Assignment {
+            labels: storage_zeroed::<u32>(device, "labels", (n * f) as usize),
+            weights: storage_zeroed::<f32>(device, "weights", (n * f) as usize),
+            outcome: storage_zeroed::<u32>(device, "outcome", n as usize),
+        };
+        let b = [(1, points), (2, index.unwrap_or(&dummy)), (3, centroids), (5, &grid.offsets), (6, &grid.items), (7, &a.labels), (8, &a.weights), (10, &a.outcome)];
+        self.run(device, queue, "assign", &p, &b, n)?;
+        Ok(a)
+    }
+
+    /// Recomputes the `k` centroids from the first label of each of `n` points with fixed-point
+    /// sums; clusters without members keep their centroid. Returns the member counts.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(&self, device: &wgpu::Device, queue: &wgpu::Queue, fix: &FixedPoint, points: &wgpu::Buffer, index: Option<&wgpu::Buffer>, n: u32, labels: &wgpu::Buffer, f: u32, centroids: &wgpu::Buffer, k: u32) -> Result<wgpu::Buffer, GpuError> {
+        let dummy = storage_zeroed::<u32>(device, "no index", 1);
+        let p = Params {
+            fix_min: [fix.min.x, fix.min.y, fix.min.z, 0.0],
+            fix_ext: [fix.ext.x, fix.ext.y, fix.ext.z, 0.0],
+            n,
+            k,
+            f,
+            use_index: index.is_some() as u32,
+            ..Default::default()
+        };
+        let sums = storage_zeroed::<u32>(device, "centroid sums", (k * 12) as usize);
+        let counts = storage_zeroed::<u32>(device, "centroid counts", k as usize);
+        self.run(device, queue, "sums_kernel", &p, &[(1, points), (2, index.unwrap_or(&dummy)), (4, &counts), (7, labels), (9, &sums)], n)?;
+        self.run(device, queue, "finalize", &p, &[(3, centroids), (4, &counts), (9, &sums)], k)?;
+        Ok(counts)
+    }
+
+    /// Clusters `m` points (Endpoints on the device) like `vplgi_cpu::cluster::cluster`.
+    pub fn cluster(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, m: u32, params: &GpuClusterParams) -> Result<GpuClustering, GpuError> {
+        let f = match params.fuzzy {
+            FuzzyMode::Hard => 1,
+            _ => params.f.clamp(1, MAX_F),
+        };
+        let k = params.k.min(m);
+        if m == 0 || k == 0 {
+            let e = |name| storage_zeroed::<u32>(device, name, 1);
+            return Ok(GpuClustering {
+                centroids: storage_zeroed::<Endpoint>(device, "centroids", 1),
+                k: 0,
+                f,
+                labels: e("labels"),
+                weights: e("weights"),
+                representatives: e("representatives"),
+                members: e("members"),
+                outcome: e("outcome"),
+                geometry: GridGeometry { origin: Vec3::ZERO, cell: 1.0, dims: [1, 1, 1] },
+            });
+        }
+        let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
+        let sample = downsample(m as usize, gamma, params.seed);
+        let seeds = seed_centroids(&sample, k as usize, params.seed);
+        let s = sample.len() as u32;
+        let sample_buf = storage(device, "sample", &sample);
+        let seed_buf = storage(device, "seeds", &seeds);
+        let centroids = storage_zeroed::<Endpoint>(device, "centroids", k as usize);
+        self.run(device, queue, "gather", &Params { k, ..Default::default() }, &[(1, points), (2, &seed_buf), (3, &centroids)], k)?;
+
+        let (min, max) = self.bounds(device, queue, points, m)?;
+        let ext = (max - min).max(Vec3::splat(1e-12));
+        debug_assert!(min_cell(ext) > 0.0 && MAX_CELLS > 0.0);
+        let mut occ_err = None;
+        let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, points, &sample_buf, s, min, ext, cell) {
+            Ok(c) => c,
+            Err(e) => {
+                occ_err = Some(e);
+                1
+            }
+        });
+        if let Some(e) = occ_err {
+            return Err(e);
+        }
+        let fix = FixedPoint::new(min, max);
+        let nt = params.normal_threshold;
+        for _ in 0..params.iterations {
+            let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
+            let a = self.assign(device, queue, &grid, points, Some(&sample_buf), s, &centroids, k, nt, 1, FuzzyMode::Hard)?;
+            self.update(device, queue, &fix, points, Some(&sample_buf), s, &a.labels, 1, &centroids, k)?;
+        }
+
+        // Final hard assignment; drop clusters nobody is nearest to.
+        let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
+        let hard = self.assign(device, queue, &grid, points, None, m, &centroids, k, nt, 1, FuzzyMode::Hard)?;
+        let counts = storage_zeroed::<u32>(device, "member counts", k as usize);
+        self.run(device, queue, "count_labels", &Params { n: m, k, f: 1, ..Default::default() }, &[(4, &counts), (7, &hard.labels)], m)?;
+        let flags = storage_zeroed::<u32>(device, "flags", k as usize);
+        let remap = storage_zeroed::<u32>(device, "remap", k as usize + 1);
+        self.run(device, queue, "flags", &Params { k, ..Default::default() }, &[(4, &counts), (9, &flags)], k)?;
+        self.run(device, queue, "scan", &Params { n: k, ..Default::default() }, &[(4, &flags), (5, &remap)], 1)?;
+        let kept = read_back::<u32>(device, queue, &remap, k as usize + 1)?[k as usize];
+        let survivors = storage_zeroed::<Endpoint>(device, "surviving centroids", kept as usize);
+        let members = storage_zeroed::<u32>(device, "members", kept as usize);
+        self.run(device, queue, "compact", &Params { k, ..Default::default() }, &[(3, &centroids), (4, &counts), (5, &remap), (6, &members), (11, &survivors)], k)?;
+
+        // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
+        let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
+        let a = self.assign(device, queue, &grid, points, None, m, &survivors, kept, nt, f, params.fuzzy)?;
+
+        // Representatives: per cluster the member nearest the centroid, ties to the lower index.
+        let rep_d2 = storage(device, "rep d2", &vec![u32::MAX; kept as usize]);
+        let reps = storage(device, "representatives", &vec![u32::MAX; kept as usize]);
+        let p = Params { n: m, k: kept, f, ..Default::default() };
+        self.run(device, queue, "rep_d2", &p, &[(1, points), (3, &survivors), (4, &rep_d2), (7, &a.labels)], m)?;
+        self.run(device, queue, "rep_index", &p, &[(1, points), (3, &survivors), (4, &rep_d2), (7, &a.labels), (9, &reps)], m)?;
+        Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, members, outcome: a.outcome, geometry })
+    }
+
+    /// Counts of search outcomes over `n` points: [neighbourhood, widened, incompatible].
+    pub fn outcome_counts(&self, device: &wgpu::Device, queue: &wgpu::Queue, outcome: &wgpu::Buffer, n: u32) -> Result<[u32; 3], GpuError> {
+        let counts = storage_zeroed::<u32>(device, "outcome counts", 3);
+        self.run(device, queue, "outcome_counts", &Params { n, ..Default::default() }, &[(4, &counts), (10, outcome)], n)?;
+        let c = read_back::<u32>(device, queue, &counts, 3)?;
+        Ok([c[0], c[1], c[2]])
+    }
+}
