@@ -17,12 +17,6 @@ struct Params {
     eps: f32,
 }
 
-struct VplLight {
-    position: vec4<f32>,
-    normal: vec4<f32>,
-    flux: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<uniform> light_counts: vec4<u32>;
 @group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;

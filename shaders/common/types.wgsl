@@ -24,6 +24,13 @@ struct Vpl {
     pad: u32,
 }
 
+// A VPL, or a VPL cluster at its representative with its members' summed flux, as a light.
+struct VplLight {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+    flux: vec4<f32>,
+}
+
 // A surface point at one end of a shadow ray.
 struct Endpoint {
     position: vec4<f32>,

@@ -9,6 +9,7 @@ use crate::CpuScene;
 use glam::Vec3;
 use serde::Serialize;
 use std::time::Instant;
+pub use vplgi_types::StageTimings;
 use vplgi_types::{FrameConfig, FuzzyMode, MISS};
 
 /// Progress of long stages. Implementations must be cheap and thread-safe: `inc` is called from
@@ -23,18 +24,6 @@ pub trait Progress: Sync {
 /// Reports nothing.
 pub struct NoProgress;
 impl Progress for NoProgress {}
-
-/// Wall time of each stage, in milliseconds. `total` is the sum of the five stages (the frame);
-/// building the acceleration structure is reported separately by the caller.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct StageTimings {
-    pub trace_vpls: f64,
-    pub shading_points: f64,
-    pub cluster: f64,
-    pub visibility: f64,
-    pub shade: f64,
-    pub total: f64,
-}
 
 /// Counts that describe what a frame did.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -202,6 +191,6 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
     t.visibility = vis_ms;
     t.shade = shade_ms;
     stats.visibility_mrays_per_s = if vis_ms > 0.0 { stats.visibility_rays as f64 / (vis_ms * 1e3) } else { 0.0 };
-    t.total = t.trace_vpls + t.shading_points + t.cluster + t.visibility + t.shade;
+    t.sum();
     Ok(Frame { width: cfg.width, height: cfg.height, pixels, timings: t, stats })
 }

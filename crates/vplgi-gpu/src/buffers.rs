@@ -97,3 +97,17 @@ pub fn dispatch_bound(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgp
     }
     queue.submit([encoder.finish()]);
 }
+
+/// One u32 of `buffer`, at element `index` (for the few counters the host needs).
+pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, index: u64) -> Result<u32, GpuError> {
+    let staging = device.create_buffer(&wgpu::BufferDescriptor { label: Some("word"), size: 4, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read word") });
+    encoder.copy_buffer_to_buffer(buffer, index * 4, &staging, 0, 4);
+    queue.submit([encoder.finish()]);
+    Ok(read_back::<u32>(device, queue, &staging, 1)?[0])
+}
+
+/// Waits until the device has finished all submitted work (stage timing boundaries).
+pub fn sync(device: &wgpu::Device) -> Result<(), GpuError> {
+    device.poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) }).map(|_| ()).map_err(|e| GpuError::Lost { what: "waiting for the device".into(), message: e.to_string() })
+}

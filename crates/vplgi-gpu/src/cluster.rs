@@ -123,6 +123,11 @@ impl ClusterKernel {
         Params { origin: [g.origin.x, g.origin.y, g.origin.z, g.cell], dims: [g.dims[0], g.dims[1], g.dims[2], brute], ..Default::default() }
     }
 
+    /// Exclusive scan of `n` counts into `offsets` (`n + 1` words; the last is the total).
+    pub fn exclusive_scan(&self, device: &wgpu::Device, queue: &wgpu::Queue, counts: &wgpu::Buffer, n: u32, offsets: &wgpu::Buffer) -> Result<(), GpuError> {
+        self.run(device, queue, "scan", &Params { n, ..Default::default() }, &[(4, counts), (5, offsets)], 1)
+    }
+
     /// The bounding box of `n` points.
     pub fn bounds(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, n: u32) -> Result<(Vec3, Vec3), GpuError> {
         let init = [u32::MAX, u32::MAX, u32::MAX, 0, 0, 0];
@@ -134,6 +139,7 @@ impl ClusterKernel {
     }
 
     /// Distinct cells `floor((p - min) / cell)` among the sample points.
+    #[allow(clippy::too_many_arguments)]
     fn occupied(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, sample: &wgpu::Buffer, s: u32, min: Vec3, ext: Vec3, cell: f32) -> Result<usize, GpuError> {
         let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
         let cells = dims.iter().map(|&d| d as u64).product::<u64>();

@@ -5,15 +5,15 @@
 //! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
 //! ([`shader::compose`]).
 //!
-//! Landed so far: the context, the RNG twin, BVH2 upload and traversal, light tables,
-//! `shading_points`, `visibility` and `shade`. The remaining stages (`trace_vpls`, `cluster`) and
-//! the chained pipeline follow.
+//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`], chained on
+//! device buffers by [`pipeline::render`].
 
 pub mod buffers;
 pub mod bvh;
 pub mod cluster;
 pub mod context;
 pub mod lights;
+pub mod pipeline;
 pub mod rng;
 pub mod scene;
 pub mod shade;

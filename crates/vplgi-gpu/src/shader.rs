@@ -19,6 +19,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("trace_vpls.wgsl", include_str!("../../../shaders/trace_vpls.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
     ("cluster.wgsl", include_str!("../../../shaders/cluster.wgsl"), &["common/types.wgsl"]),
+    ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
     ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
 ];
 

@@ -34,6 +34,46 @@ impl ShadingPointsKernel {
         validated(device, "shading_points pipeline", || ShadingPointsKernel { pipeline: pipeline(device, "shading_points.wgsl", "main") })
     }
 
+    /// Shading points `first .. first + count` into a new device buffer.
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch_range(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, first: u64, count: u64) -> Result<wgpu::Buffer, GpuError> {
+        let cam = scene.camera;
+        let right = cam.forward.cross(cam.up).normalize();
+        let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+        let params = Params {
+            cam_pos: v4(cam.position, 0.0),
+            cam_forward: v4(cam.forward, 0.0),
+            cam_up: v4(cam.up, 0.0),
+            cam_right: v4(right, (0.5 * cam.yfov).tan()),
+            width,
+            height,
+            spp,
+            seed,
+            first: first as u32,
+            count: count as u32,
+            pad: [0; 2],
+        };
+        validated(device, "shading_points", || {
+            let p = uniform(device, "shading_points params", &params);
+            let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
+            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf];
+            dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
+            buf
+        })
+    }
+
+    /// All `width * height * spp` shading points in one device buffer, for the chained frame.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_on_device(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32) -> Result<wgpu::Buffer, GpuError> {
+        let total = width as u64 * height as u64 * spp as u64;
+        let bytes = total * std::mem::size_of::<ShadingPoint>() as u64;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(GpuError::TooLarge { what: format!("{total} shading points"), needed: bytes, limit });
+        }
+        self.dispatch_range(device, queue, scene, width, height, spp, seed, 0, total)
+    }
+
     /// All `width * height * spp` shading points, read back. Output is produced in chunks of at
     /// most `max_binding_bytes` (the adapter's storage-binding limit unless a test forces less).
     #[allow(clippy::too_many_arguments)]
@@ -41,33 +81,11 @@ impl ShadingPointsKernel {
         let total = width as u64 * height as u64 * spp as u64;
         let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size);
         let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).max(1);
-        let cam = scene.camera;
-        let right = cam.forward.cross(cam.up).normalize();
-        let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
         let mut out = Vec::with_capacity(total as usize);
         let mut first = 0u64;
         while first < total {
             let count = (total - first).min(per_chunk);
-            let params = Params {
-                cam_pos: v4(cam.position, 0.0),
-                cam_forward: v4(cam.forward, 0.0),
-                cam_up: v4(cam.up, 0.0),
-                cam_right: v4(right, (0.5 * cam.yfov).tan()),
-                width,
-                height,
-                spp,
-                seed,
-                first: first as u32,
-                count: count as u32,
-                pad: [0; 2],
-            };
-            let buf = validated(device, "shading_points", || {
-                let p = uniform(device, "shading_points params", &params);
-                let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
-                let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf];
-                dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
-                buf
-            })?;
+            let buf = self.dispatch_range(device, queue, scene, width, height, spp, seed, first, count)?;
             out.extend(read_back::<ShadingPoint>(device, queue, &buf, count as usize)?);
             first += count;
         }

@@ -58,7 +58,7 @@ impl TraceVplsKernel {
             return Ok(GpuVpls { buffer: vpls, count: 0, particles: 0 });
         }
         let budget = (count as u64 * 64 + 65_536).min(u32::MAX as u64) as u32;
-        let limit = device.limits().max_storage_buffer_binding_size as u64;
+        let limit = device.limits().max_storage_buffer_binding_size;
         let max_batch = (limit / (bounces as u64 * std::mem::size_of::<Vpl>() as u64)).clamp(1, 1 << 20) as u32;
         let mut batch = count.clamp(1024, 1 << 16).min(max_batch);
         let slots = storage_zeroed::<Vpl>(device, "vpl slots", (batch * bounces) as usize);

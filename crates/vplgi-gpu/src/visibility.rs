@@ -50,6 +50,20 @@ impl VisibilityKernel {
         validated(device, "visibility pipeline", || VisibilityKernel { pipeline: pipeline(device, "visibility.wgsl", "main") })
     }
 
+    /// Rows `first_row .. first_row + row_count` of the matrix between the `n_cols` columns and
+    /// the rows in `rows`, as a new device buffer of 32-bit words.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_on_device(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &wgpu::Buffer, n_rows: u32, cols: &wgpu::Buffer, n_cols: u32, first_row: u32, row_count: u32) -> Result<wgpu::Buffer, GpuError> {
+        let wpr = words_per_row(n_cols as usize) as u32;
+        let params = Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row, row_count, eps: scene.eps, pad: [0; 2] };
+        validated(device, "visibility", || {
+            let p = uniform(device, "visibility params", &params);
+            let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
+            dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, rows, cols, &words], (row_count * wpr).div_ceil(64));
+            words
+        })
+    }
+
     /// The visibility matrix between `rows` and `cols`, read back as 32-bit words. Rows are
     /// processed in chunks whose words fit `max_binding_bytes` (default: the adapter's limit).
     pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &[Endpoint], cols: &[Endpoint], max_binding_bytes: Option<u64>) -> Result<Vec<u32>, GpuError> {
@@ -65,13 +79,7 @@ impl VisibilityKernel {
         let mut first = 0;
         while first < rows.len() {
             let n = (rows.len() - first).min(rows_per_chunk);
-            let params = Params { rows: rows.len() as u32, cols: cols.len() as u32, words_per_row: wpr as u32, first_row: first as u32, row_count: n as u32, eps: scene.eps, pad: [0; 2] };
-            let words = validated(device, "visibility", || {
-                let p = uniform(device, "visibility params", &params);
-                let words = storage_zeroed::<u32>(device, "visibility words", n * wpr);
-                dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, &row_buf, &col_buf, &words], ((n * wpr) as u32).div_ceil(64));
-                words
-            })?;
+            let words = self.run_on_device(device, queue, scene, &row_buf, rows.len() as u32, &col_buf, cols.len() as u32, first as u32, n as u32)?;
             out.extend(read_back::<u32>(device, queue, &words, n * wpr)?);
             first += n;
         }

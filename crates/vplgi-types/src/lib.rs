@@ -13,7 +13,9 @@ pub mod config;
 pub mod pod;
 pub mod rng;
 pub mod sampling;
+pub mod timings;
 
 pub use config::{ClusterMode, FrameConfig, FuzzyMode};
 pub use pod::{ShadingPoint, Vpl, MISS};
 pub use rng::{Rng, Stream};
+pub use timings::StageTimings;

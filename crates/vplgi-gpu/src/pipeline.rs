@@ -1,0 +1,212 @@
+//! One frame on the GPU: the five stages chained on device buffers, the twin of
+//! `vplgi_cpu::pipeline::render`. Read back are the final image and a few counters the host
+//! needs to size the next dispatches (VPL batch totals, the data box and occupancy counts of
+//! each clustering, surviving cluster counts, hit counts at chunk boundaries).
+
+use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, sync, uniform};
+use crate::cluster::{ClusterKernel, GpuClusterParams};
+use crate::context::validated;
+use crate::lights::GpuLights;
+use crate::scene::GpuScene;
+use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
+use crate::shader::pipelines;
+use crate::shading_points::ShadingPointsKernel;
+use crate::trace_vpls::TraceVplsKernel;
+use crate::visibility::{words_per_row, Endpoint, VisibilityKernel};
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use serde::Serialize;
+use std::time::Instant;
+use vplgi_scene::lights::LightSampler;
+use vplgi_scene::Scene;
+use vplgi_types::{FrameConfig, FuzzyMode, StageTimings};
+
+/// Every pipeline of the frame, compiled once.
+pub struct GpuKernels {
+    trace: TraceVplsKernel,
+    shading_points: ShadingPointsKernel,
+    cluster: ClusterKernel,
+    visibility: VisibilityKernel,
+    shade: ShadeKernel,
+    frame: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+}
+
+const FRAME_ENTRIES: [&str; 7] = ["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "rep_rows", "light_endpoints"];
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct FrameParams {
+    n: u32,
+    k: u32,
+    pad: [u32; 2],
+}
+
+impl GpuKernels {
+    pub fn new(device: &wgpu::Device) -> Result<GpuKernels, GpuError> {
+        Ok(GpuKernels {
+            trace: TraceVplsKernel::new(device)?,
+            shading_points: ShadingPointsKernel::new(device)?,
+            cluster: ClusterKernel::new(device)?,
+            visibility: VisibilityKernel::new(device)?,
+            shade: ShadeKernel::new(device)?,
+            frame: validated(device, "frame pipelines", || FRAME_ENTRIES.iter().copied().zip(pipelines(device, "frame.wgsl", &FRAME_ENTRIES)).collect())?,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn frame(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+        validated(device, entry, || {
+            let p = uniform(device, "frame params", &FrameParams { n, k, pad: [0; 2] });
+            let mut all = vec![(0, &p)];
+            all.extend_from_slice(bound);
+            dispatch_bound(device, queue, &self.frame[entry], &all, threads.div_ceil(64).max(1));
+        })
+    }
+}
+
+/// Counts that describe what a GPU frame did.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GpuFrameStats {
+    pub vpls: u32,
+    pub light_particles: u32,
+    pub vpl_clusters: u32,
+    pub shading_points: u32,
+    pub shading_point_hits: u32,
+    pub sp_clusters: u32,
+    pub g_clamp_d_min: f32,
+    pub scene_extent: f32,
+}
+
+/// A rendered frame: linear RGB, row-major, row 0 at the top.
+pub struct GpuFrame {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 3]>,
+    pub timings: StageTimings,
+    /// Uploading the scene and building its BVH.
+    pub setup_ms: f64,
+    pub stats: GpuFrameStats,
+}
+
+/// Rows of the visibility matrix shaded at once when shading points are not clustered, as on the
+/// CPU: at most 64 Mi bits per chunk.
+const ROW_CHUNK_BITS: usize = 64 << 23;
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Renders one frame on the GPU.
+pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene: &Scene, cfg: &FrameConfig) -> Result<GpuFrame, GpuError> {
+    cfg.validate().map_err(|e| GpuError::Validation { what: "the frame configuration".into(), message: e })?;
+    let t0 = Instant::now();
+    let gs = GpuScene::new(device, scene)?;
+    let sampler = LightSampler::new(scene);
+    let gl = GpuLights::new(device, scene, &sampler);
+    sync(device)?;
+    let setup_ms = ms(t0);
+    let mut t = StageTimings::default();
+    let extent = scene.extent().max(1e-6);
+    let mut stats = GpuFrameStats { scene_extent: extent, ..Default::default() };
+
+    let t0 = Instant::now();
+    let vset = k.trace.run(device, queue, &gs, &gl, cfg.seed, cfg.vpls, cfg.bounces)?;
+    sync(device)?;
+    t.trace_vpls = ms(t0);
+    (stats.vpls, stats.light_particles) = (vset.count, vset.particles);
+
+    let t0 = Instant::now();
+    let n_sp = cfg.width * cfg.height * cfg.spp;
+    let sps = k.shading_points.run_on_device(device, queue, &gs, cfg.width, cfg.height, cfg.spp, cfg.seed)?;
+    sync(device)?;
+    t.shading_points = ms(t0);
+    stats.shading_points = n_sp;
+
+    let t0 = Instant::now();
+    // Hits: numbered in sample order, with their rows and clustering points.
+    let flags = storage_zeroed::<u32>(device, "hit flags", n_sp as usize);
+    let hit_offsets = storage_zeroed::<u32>(device, "hit offsets", n_sp as usize + 1);
+    k.frame(device, queue, "sp_flags", n_sp, 0, &[(1, &sps), (2, &flags)], n_sp)?;
+    k.cluster.exclusive_scan(device, queue, &flags, n_sp, &hit_offsets)?;
+    let hits = read_word(device, queue, &hit_offsets, n_sp as u64)?;
+    stats.shading_point_hits = hits;
+    let row_of = storage_zeroed::<u32>(device, "row of", n_sp as usize);
+    let hit_points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
+    k.frame(device, queue, "sp_compact", n_sp, 0, &[(1, &sps), (3, &hit_offsets), (4, &row_of), (5, &hit_points)], n_sp)?;
+
+    // Lights for shading: VPL clusters at their representatives, or the VPLs.
+    let n_vpl = vset.count;
+    let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpl > 0 {
+        let pts = storage_zeroed::<Endpoint>(device, "vpl points", n_vpl as usize);
+        k.frame(device, queue, "vpl_endpoints", n_vpl, 0, &[(5, &pts), (6, &vset.buffer)], n_vpl)?;
+        let params = GpuClusterParams { k: cfg.k_vpl, gamma: cfg.gamma, iterations: cfg.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: cfg.normal_threshold, seed: cfg.seed };
+        let c = k.cluster.cluster(device, queue, &pts, n_vpl, &params)?;
+        let lights = storage_zeroed::<VplLight>(device, "cluster lights", c.k as usize);
+        k.frame(device, queue, "cluster_lights", n_vpl, c.k, &[(6, &vset.buffer), (7, &c.labels), (8, &c.representatives), (9, &lights)], c.k)?;
+        stats.vpl_clusters = c.k;
+        (lights, c.k)
+    } else {
+        let lights = storage_zeroed::<VplLight>(device, "vpl lights", n_vpl as usize);
+        k.frame(device, queue, "vpl_lights", n_vpl, 0, &[(6, &vset.buffer), (9, &lights)], n_vpl)?;
+        (lights, n_vpl)
+    };
+    let cols = storage_zeroed::<Endpoint>(device, "light endpoints", n_lights as usize);
+    k.frame(device, queue, "light_endpoints", n_lights, 0, &[(5, &cols), (9, &lights)], n_lights)?;
+
+    let sp_clusters = if cfg.cluster.clusters_sps() && hits > 0 {
+        let params = GpuClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
+        let c = k.cluster.cluster(device, queue, &hit_points, hits, &params)?;
+        let rows = storage_zeroed::<Endpoint>(device, "cluster rows", c.k as usize);
+        k.frame(device, queue, "rep_rows", 0, c.k, &[(5, &hit_points), (8, &c.representatives), (10, &rows)], c.k)?;
+        stats.sp_clusters = c.k;
+        Some((c, rows))
+    } else {
+        None
+    };
+    sync(device)?;
+    t.cluster = ms(t0);
+
+    let d_min = cfg.g_clamp_rel * extent;
+    stats.g_clamp_d_min = d_min;
+    let g_max = if d_min > 0.0 { 1.0 / (d_min * d_min) } else { f32::INFINITY };
+    let n_pixels = cfg.width * cfg.height;
+    let wpr = words_per_row(n_lights as usize) as u32;
+    let mut pixels: Vec<[f32; 3]> = Vec::with_capacity(n_pixels as usize);
+    let to_rgb = |v: Vec<[f32; 4]>| v.into_iter().map(|p| [p[0], p[1], p[2]]);
+    match &sp_clusters {
+        Some((c, rows)) => {
+            let t0 = Instant::now();
+            let words = k.visibility.run_on_device(device, queue, &gs, rows, c.k, &cols, n_lights, 0, c.k)?;
+            sync(device)?;
+            t.visibility += ms(t0);
+            let t0 = Instant::now();
+            let inputs = ShadeInputs { sps: &sps, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f } };
+            let out = k.shade.run(device, queue, &gs, &gl, &inputs, 0..n_pixels, cfg.spp, cfg.seed, cfg.direct_samples, g_max)?;
+            pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, n_pixels as usize)?));
+            t.shade += ms(t0);
+        }
+        None => {
+            let spp = cfg.spp as usize;
+            let px_chunk = (ROW_CHUNK_BITS / (n_lights as usize).max(64) / spp).max(1) as u32;
+            let mut px = 0u32;
+            while px < n_pixels {
+                let end = (px + px_chunk).min(n_pixels);
+                // Hits of this chunk are rows first_row .. last_row (hits are numbered in order).
+                let first_row = read_word(device, queue, &hit_offsets, px as u64 * spp as u64)?;
+                let last_row = read_word(device, queue, &hit_offsets, end as u64 * spp as u64)?;
+                let t0 = Instant::now();
+                let words = k.visibility.run_on_device(device, queue, &gs, &hit_points, hits, &cols, n_lights, first_row, last_row - first_row)?;
+                sync(device)?;
+                t.visibility += ms(t0);
+                let t0 = Instant::now();
+                let inputs = ShadeInputs { sps: &sps, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Own { first_row } };
+                let out = k.shade.run(device, queue, &gs, &gl, &inputs, px..end, cfg.spp, cfg.seed, cfg.direct_samples, g_max)?;
+                pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (end - px) as usize)?));
+                t.shade += ms(t0);
+                px = end;
+            }
+        }
+    }
+    t.sum();
+    Ok(GpuFrame { width: cfg.width, height: cfg.height, pixels, timings: t, setup_ms, stats })
+}

@@ -1,0 +1,113 @@
+// Glue between the stages of the chained GPU frame (vplgi-gpu/src/pipeline.rs), the twin of the
+// bookkeeping in vplgi-cpu/src/pipeline.rs: which shading points hit something and their rows,
+// clustering inputs, lights for shading, visibility rows.
+
+struct Params {
+    n: u32,
+    k: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> sps: array<ShadingPoint>;
+@group(0) @binding(2) var<storage, read_write> flags: array<u32>;
+@group(0) @binding(3) var<storage, read> offsets: array<u32>;
+@group(0) @binding(4) var<storage, read_write> row_of: array<u32>;
+@group(0) @binding(5) var<storage, read_write> endpoints: array<Endpoint>;
+@group(0) @binding(6) var<storage, read> vpls: array<Vpl>;
+@group(0) @binding(7) var<storage, read> labels: array<u32>;
+@group(0) @binding(8) var<storage, read> reps: array<u32>;
+@group(0) @binding(9) var<storage, read_write> lights: array<VplLight>;
+@group(0) @binding(10) var<storage, read_write> rows: array<Endpoint>;
+
+fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
+// 1 for a shading point that hit a surface.
+@compute @workgroup_size(64)
+fn sp_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    flags[i] = select(0u, 1u, sps[i].triangle != MISS);
+}
+
+// Hits, numbered by the scan of the flags: their row and their Endpoint (clustering input).
+@compute @workgroup_size(64)
+fn sp_compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let sp = sps[i];
+    if (sp.triangle == MISS) {
+        row_of[i] = MISS;
+        return;
+    }
+    let r = offsets[i];
+    row_of[i] = r;
+    endpoints[r] = Endpoint(vec4<f32>(sp.position, 0.0), vec4<f32>(sp.normal, 0.0));
+}
+
+// VPLs as clustering points.
+@compute @workgroup_size(64)
+fn vpl_endpoints(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let v = vpls[i];
+    endpoints[i] = Endpoint(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0));
+}
+
+// One light per VPL.
+@compute @workgroup_size(64)
+fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let v = vpls[i];
+    lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(v.flux, 0.0));
+}
+
+// One light per VPL cluster: its representative, carrying the members' flux summed in VPL
+// order (the CPU's order, so the sums agree bit for bit). O(K N), simple and deterministic.
+@compute @workgroup_size(64)
+fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups);
+    if (k >= params.k) {
+        return;
+    }
+    var flux = vec3<f32>(0.0);
+    for (var i = 0u; i < params.n; i = i + 1u) {
+        if (labels[i] == k) {
+            flux = flux + vpls[i].flux;
+        }
+    }
+    let r = vpls[reps[k]];
+    lights[k] = VplLight(vec4<f32>(r.position, 0.0), vec4<f32>(r.normal, 0.0), vec4<f32>(flux, 0.0));
+}
+
+// Visibility rows of the shading-point clusters: their representatives' Endpoints.
+@compute @workgroup_size(64)
+fn rep_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups);
+    if (k >= params.k) {
+        return;
+    }
+    rows[k] = endpoints[reps[k]];
+}
+
+// Visibility columns: the lights' positions and normals.
+@compute @workgroup_size(64)
+fn light_endpoints(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    endpoints[i] = Endpoint(lights[i].position, lights[i].normal);
+}
