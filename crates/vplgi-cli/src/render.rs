@@ -19,6 +19,16 @@ enum ClusterArg {
     None,
 }
 
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum BackendArg {
+    /// The CPU reference (rayon + Embree 4).
+    Cpu,
+    /// The GPU twin (wgpu); on machines without a GPU, Mesa's lavapipe.
+    Gpu,
+    /// The GPU when an adapter exists, else the CPU.
+    Auto,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum FuzzyArg {
     /// Inverse-distance weighted visibility of the F nearest SP clusters (Eq. 9, 10).
@@ -33,6 +43,9 @@ enum FuzzyArg {
 pub struct RenderArgs {
     /// Scene file (.gltf or .glb). Omitted or `cornell-box`: the built-in Cornell box.
     scene: Option<PathBuf>,
+    /// Where the frame runs.
+    #[arg(long, value_enum, default_value = "cpu")]
+    backend: BackendArg,
     /// Which point sets are clustered (the paper's ablation).
     #[arg(long, value_enum, default_value = "both")]
     cluster: ClusterArg,
@@ -177,56 +190,81 @@ pub fn run(args: RenderArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     install_interrupt_cleanup(args.out.clone());
 
-    let t_bvh = Instant::now();
-    let device = vplgi_embree::Device::new(None)?;
-    let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
-    let bvh_ms = t_bvh.elapsed().as_secs_f64() * 1e3;
-    if !cs.lights.has_lights() {
+    let gpu = match args.backend {
+        BackendArg::Cpu => None,
+        BackendArg::Gpu => Some(vplgi_gpu::GpuContext::new()?),
+        BackendArg::Auto => match vplgi_gpu::GpuContext::new() {
+            Ok(ctx) => Some(ctx),
+            Err(e) => {
+                eprintln!("note: no GPU adapter ({e}); rendering on the CPU");
+                None
+            }
+        },
+    };
+    let light_sampler = vplgi_scene::lights::LightSampler::new(&scene);
+    if !light_sampler.has_lights() {
         eprintln!("warning: {source} has no light (no emissive triangle, no punctual light): the image will be black");
     }
+    let (pixels, timings, setup_ms, stats, backend, adapter) = match &gpu {
+        None => {
+            let t_bvh = Instant::now();
+            let device = vplgi_embree::Device::new(None)?;
+            let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+            let bvh_ms = t_bvh.elapsed().as_secs_f64() * 1e3;
+            let frame = vplgi_cpu::render(&cs, &cfg, &Bars::new())?;
+            let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
+            (frame.pixels, frame.timings, bvh_ms, stats, "cpu", serde_json::Value::Null)
+        }
+        Some(ctx) => {
+            eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
+            let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
+            let frame = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?;
+            let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
+            (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", serde_json::Value::String(ctx.describe()))
+        }
+    };
 
-    let bars = Bars::new();
-    let frame = vplgi_cpu::render(&cs, &cfg, &bars)?;
-
-    let image = vplgi_image::Image { width: frame.width, height: frame.height, pixels: frame.pixels };
+    let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels };
     let exr = args.out.join("image.exr");
     let png = args.out.join("image.png");
     let json = args.out.join("report.json");
     vplgi_image::write_exr(&exr, &image)?;
     vplgi_image::write_png(&png, &image, args.exposure)?;
-    let t = frame.timings;
+    let t = timings;
+    let count = |key: &str| stats.get(key).cloned().unwrap_or(serde_json::Value::Null);
     let report = serde_json::json!({
         "vplgi_version": env!("CARGO_PKG_VERSION"),
-        "backend": "cpu",
+        "backend": backend,
+        "adapter": adapter,
         "threads": rayon::current_num_threads(),
         "scene": {
             "source": source,
             "name": scene.name,
-            "emissive_triangles": cs.lights.emitters.len(),
+            "emissive_triangles": light_sampler.emitters.len(),
             "punctual_lights": scene.lights.len(),
-            "extent": cs.extent,
+            "extent": scene.extent(),
         },
         "triangles": scene.triangle_count(),
         "params": cfg,
-        "vpls": frame.stats.vpls,
-        "clusters": { "vpl": frame.stats.vpl_clusters, "sp": frame.stats.sp_clusters },
-        "g_clamp": { "relative": cfg.g_clamp_rel, "d_min": frame.stats.g_clamp_d_min },
-        "stats": frame.stats,
+        "vpls": count("vpls"),
+        "clusters": { "vpl": count("vpl_clusters"), "sp": count("sp_clusters") },
+        "g_clamp": { "relative": cfg.g_clamp_rel, "d_min": count("g_clamp_d_min") },
+        "stats": stats,
         "timings_ms": t,
-        "setup_ms": { "load": load_ms, "build_bvh": bvh_ms },
+        "setup_ms": { "load": load_ms, "scene_build": setup_ms },
         "outputs": { "exr": exr, "png": png },
     });
     write_json(&json, &report)?;
 
     println!(
-        "{} ({} triangles), {}x{}, {} VPLs, clusters: {} VPL / {} SP",
+        "{} ({} triangles), {}x{}, {} VPLs, clusters: {} VPL / {} SP, backend {backend}",
         scene.name,
         scene.triangle_count(),
         cfg.width,
         cfg.height,
-        frame.stats.vpls,
-        frame.stats.vpl_clusters,
-        frame.stats.sp_clusters
+        count("vpls"),
+        count("vpl_clusters"),
+        count("sp_clusters")
     );
     println!(
         "timings (ms): trace_vpls {:.1}, shading_points {:.1}, cluster {:.1}, visibility {:.1}, shade {:.1}, total {:.1}",

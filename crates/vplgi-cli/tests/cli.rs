@@ -156,3 +156,33 @@ fn base64(data: &[u8]) -> String {
     }
     s
 }
+
+/// `--backend gpu` renders through the chained GPU pipeline and names the adapter in the report;
+/// the image is close to the CPU's (see tests/tests/gpu_differential.rs for the exact bounds).
+#[test]
+fn gpu_backend_renders_and_reports_its_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("gpu");
+    let o = vplgi(&["render", "--backend", "gpu", "--width", "32", "--height", "24", "--vpls", "500", "--k-sp", "100", "--k-vpl", "50", "--out", out.to_str().unwrap()]);
+    if !o.status.success() {
+        let err = String::from_utf8_lossy(&o.stderr);
+        if err.contains("no GPU adapter") && std::env::var("CI").map_or(true, |v| v != "true") {
+            eprintln!("\n*** SKIPPED gpu_backend_renders_and_reports_its_adapter: {err} ***\n");
+            return;
+        }
+        panic!("gpu render failed: {err}");
+    }
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["backend"], "gpu");
+    let adapter = report["adapter"].as_str().expect("adapter named");
+    println!("[{adapter}] gpu_backend_renders_and_reports_its_adapter");
+    assert_eq!(report["vpls"], 500);
+    let cpu = dir.path().join("cpu");
+    let o = vplgi(&["render", "--width", "32", "--height", "24", "--vpls", "500", "--k-sp", "100", "--k-vpl", "50", "--out", cpu.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let a = vplgi_image::read_exr(&cpu.join("image.exr")).unwrap();
+    let b = vplgi_image::read_exr(&out.join("image.exr")).unwrap();
+    let m = vplgi_image::compare(&a, &b).unwrap().metrics;
+    println!("gpu vs cpu at 32x24: relMSE {:.2e}, FLIP {:.3}", m.rel_mse, m.flip);
+    assert!(m.flip < 0.05, "{m:?}");
+}
