@@ -49,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         traced = n;
         stage_visible = m.count_ones();
         let t = Instant::now();
-        raw_visible = rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, 0.0, 1.0)).count() as u64;
+        raw_visible = rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, vplgi_cpu::SEGMENT_TNEAR, 1.0)).count() as u64;
         raw.push(t.elapsed().as_secs_f64());
     }
     assert_eq!(traced as usize, rays.len());
