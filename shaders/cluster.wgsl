@@ -4,11 +4,10 @@
 // format. Points and centroids are Endpoints (position, normal).
 //
 //   occupancy, count_bits        cells occupied by the sample for a candidate cell size
-//   grid_count, grid_scatter     counting sort of centroids into cells (after a scan)
+//   grid_count, grid_scatter     counting sort of centroids into cells (around scan.wgsl)
 //   assign                       F nearest compatible centroids (27 cells, widened, fallback)
 //   sums, finalize               fixed-point centroid update with 64-bit sums in u32 pairs
 //   rep_d2, rep_index            representatives: the member nearest its centroid
-//   scan                         exclusive scan of `counts` into `offsets` (one workgroup)
 //   gather, bounds, count_labels, flags, compact, outcome_counts: seeding, the data's box,
 //                                member counts and the removal of empty clusters
 
@@ -357,41 +356,6 @@ fn rep_index(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let d = dist2(points[i].position.xyz, centroids[l].position.xyz);
     if (bitcast<u32>(d) == atomicLoad(&counts[l])) {
         atomicMin(&sums[l], i);
-    }
-}
-
-// ---- exclusive scan of counts[0..n) into offsets[0..n], offsets[n] = total (one workgroup)
-
-var<workgroup> partial: array<u32, 256>;
-
-@compute @workgroup_size(256)
-fn scan(@builtin(local_invocation_id) lid: vec3<u32>) {
-    let t = lid.x;
-    let chunk = (params.n + 255u) / 256u;
-    let begin = min(t * chunk, params.n);
-    let end = min(begin + chunk, params.n);
-    var s = 0u;
-    for (var i = begin; i < end; i = i + 1u) {
-        s = s + atomicLoad(&counts[i]);
-    }
-    partial[t] = s;
-    workgroupBarrier();
-    for (var step = 1u; step < 256u; step = step * 2u) {
-        var add = 0u;
-        if (t >= step) {
-            add = partial[t - step];
-        }
-        workgroupBarrier();
-        partial[t] = partial[t] + add;
-        workgroupBarrier();
-    }
-    var running = partial[t] - s;
-    for (var i = begin; i < end; i = i + 1u) {
-        offsets[i] = running;
-        running = running + atomicLoad(&counts[i]);
-    }
-    if (t == 255u) {
-        offsets[params.n] = partial[255];
     }
 }
 

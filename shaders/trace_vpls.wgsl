@@ -1,6 +1,6 @@
 // Stage 1, trace_vpls (vplgi-cpu/src/trace_vpls.rs), in three kernels:
 //   trace:   one thread per light particle; its VPLs go to `bounces` fixed slots, with a count;
-//   scan:    one workgroup turns the counts into exclusive offsets (and the batch total);
+//   (scan.wgsl turns the counts into exclusive offsets and the batch total);
 //   compact: copies the VPLs of the batch behind those already kept, up to the requested
 //            count, and records how many particles were used when the count is reached.
 // Particle i uses only the stream (seed, STREAM_LIGHT_PATH, i), so batching does not matter.
@@ -31,7 +31,7 @@ struct Params {
 @group(0) @binding(11) var<storage, read_write> slots: array<Vpl>;
 @group(0) @binding(12) var<storage, read_write> counts: array<u32>;
 @group(0) @binding(13) var<storage, read_write> offsets: array<u32>;
-// [0] = VPLs in this batch, [1] = particles used once the wanted count is reached (else 0).
+// [1] = particles used once the wanted count is reached (else 0); [0] unused.
 @group(0) @binding(14) var<storage, read_write> totals: array<u32>;
 @group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
 
@@ -128,42 +128,6 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         }
     }
     counts[local] = n;
-}
-
-var<workgroup> partial: array<u32, 256>;
-
-// One workgroup: each thread sums a contiguous chunk of counts, the 256 partial sums are scanned
-// in workgroup memory, then each thread writes exclusive offsets for its chunk.
-@compute @workgroup_size(256)
-fn scan(@builtin(local_invocation_id) lid: vec3<u32>) {
-    let t = lid.x;
-    let chunk = (params.count + 255u) / 256u;
-    let begin = min(t * chunk, params.count);
-    let end = min(begin + chunk, params.count);
-    var s = 0u;
-    for (var i = begin; i < end; i = i + 1u) {
-        s = s + counts[i];
-    }
-    partial[t] = s;
-    workgroupBarrier();
-    // Hillis-Steele inclusive scan over the 256 partial sums.
-    for (var step = 1u; step < 256u; step = step * 2u) {
-        var add = 0u;
-        if (t >= step) {
-            add = partial[t - step];
-        }
-        workgroupBarrier();
-        partial[t] = partial[t] + add;
-        workgroupBarrier();
-    }
-    var running = partial[t] - s;
-    for (var i = begin; i < end; i = i + 1u) {
-        offsets[i] = running;
-        running = running + counts[i];
-    }
-    if (t == 255u) {
-        totals[0] = partial[255];
-    }
 }
 
 @compute @workgroup_size(64)

@@ -406,7 +406,7 @@ fn cluster_assign_and_update_match_the_cpu() {
 fn cluster_end_to_end_matches_the_cpu() {
     use vplgi_cpu::cluster::{cluster, ClusterParams};
     use vplgi_gpu::buffers::{read_back, storage};
-    use vplgi_gpu::cluster::{ClusterKernel, GpuClusterParams};
+    use vplgi_gpu::cluster::ClusterKernel;
     use vplgi_types::FuzzyMode;
 
     let Some(ctx) = vplgi_tests::gpu("cluster_end_to_end_matches_the_cpu") else { return };
@@ -416,7 +416,7 @@ fn cluster_end_to_end_matches_the_cpu() {
     for (k, f, fuzzy) in [(400u32, 6u32, FuzzyMode::Weighted), (150, 1, FuzzyMode::Hard), (5000, 4, FuzzyMode::Average)] {
         let cpu = cluster(&ps, &ns, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 });
         let pts = storage(&ctx.device, "points", &endpoints(&ps, &ns));
-        let g = kernel.cluster(&ctx.device, &ctx.queue, &pts, m as u32, &GpuClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 }).unwrap();
+        let g = kernel.cluster(&ctx.device, &ctx.queue, &pts, m as u32, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 }).unwrap();
         let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.labels, m * g.f as usize).unwrap();
         let gr: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.representatives, g.k as usize).unwrap();
         let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &g.centroids, g.k as usize).unwrap();

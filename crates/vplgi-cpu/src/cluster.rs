@@ -26,25 +26,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_types::config::MAX_F;
+pub use vplgi_types::clustering::ClusterParams;
 use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
 use vplgi_types::{FuzzyMode, MISS};
-
-/// Parameters of one clustering run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClusterParams {
-    /// Requested number of clusters K.
-    pub k: u32,
-    /// Downsampling factor gamma.
-    pub gamma: u32,
-    pub iterations: u32,
-    /// Clusters per point in the final assignment (1 = hard).
-    pub f: u32,
-    /// How the F clusters of a point are weighted.
-    pub fuzzy: FuzzyMode,
-    /// n_t of Eq. 7.
-    pub normal_threshold: f32,
-    pub seed: u32,
-}
 
 /// The result of clustering M points into K' <= K non-empty clusters.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -8,12 +8,13 @@
 
 use crate::buffers::{dispatch_bound, read_back, storage, storage_zeroed, uniform};
 use crate::context::validated;
+use crate::scan::ScanKernel;
 use crate::shader::pipelines;
 use crate::visibility::Endpoint;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use vplgi_types::clustering::{downsample, grid_geometry, min_cell, seed_centroids, FixedPoint, GridGeometry, MAX_CELLS};
+use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, FixedPoint, GridGeometry};
 use vplgi_types::config::MAX_F;
 use vplgi_types::FuzzyMode;
 
@@ -32,18 +33,6 @@ struct Params {
     cells: u32,
     use_index: u32,
     pad: u32,
-}
-
-/// Parameters of one clustering run (the twin of `vplgi_cpu::cluster::ClusterParams`).
-#[derive(Clone, Copy, Debug)]
-pub struct GpuClusterParams {
-    pub k: u32,
-    pub gamma: u32,
-    pub iterations: u32,
-    pub f: u32,
-    pub fuzzy: FuzzyMode,
-    pub normal_threshold: f32,
-    pub seed: u32,
 }
 
 /// A grid filled with centroids, on the device.
@@ -82,10 +71,11 @@ pub struct GpuClustering {
 
 pub struct ClusterKernel {
     p: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    scan: ScanKernel,
 }
 
-const ENTRIES: [&str; 16] =
-    ["occupancy", "count_bits", "grid_count", "grid_scatter", "assign", "sums_kernel", "finalize", "rep_d2", "rep_index", "scan", "gather", "bounds", "count_labels", "flags", "compact", "outcome_counts"];
+const ENTRIES: [&str; 15] =
+    ["occupancy", "count_bits", "grid_count", "grid_scatter", "assign", "sums_kernel", "finalize", "rep_d2", "rep_index", "gather", "bounds", "count_labels", "flags", "compact", "outcome_counts"];
 
 /// The ring from which scanning every centroid is cheaper than the rings: the CPU's test
 /// `(2r + 1)^3 > 8K + 64`, evaluated once.
@@ -103,9 +93,10 @@ fn groups(n: u32) -> u32 {
 
 impl ClusterKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        let scan = ScanKernel::new(device)?;
         validated(device, "cluster pipelines", || {
             let p = pipelines(device, "cluster.wgsl", &ENTRIES);
-            ClusterKernel { p: ENTRIES.iter().copied().zip(p).collect() }
+            ClusterKernel { p: ENTRIES.iter().copied().zip(p).collect(), scan }
         })
     }
 
@@ -114,18 +105,12 @@ impl ClusterKernel {
             let p = uniform(device, "cluster params", params);
             let mut all: Vec<(u32, &wgpu::Buffer)> = vec![(0, &p)];
             all.extend_from_slice(bound);
-            let g = if entry == "scan" { 1 } else { groups(threads) };
-            dispatch_bound(device, queue, &self.p[entry], &all, g);
+            dispatch_bound(device, queue, &self.p[entry], &all, groups(threads));
         })
     }
 
     fn grid_params(&self, g: &GridGeometry, brute: i32) -> Params {
         Params { origin: [g.origin.x, g.origin.y, g.origin.z, g.cell], dims: [g.dims[0], g.dims[1], g.dims[2], brute], ..Default::default() }
-    }
-
-    /// Exclusive scan of `n` counts into `offsets` (`n + 1` words; the last is the total).
-    pub fn exclusive_scan(&self, device: &wgpu::Device, queue: &wgpu::Queue, counts: &wgpu::Buffer, n: u32, offsets: &wgpu::Buffer) -> Result<(), GpuError> {
-        self.run(device, queue, "scan", &Params { n, ..Default::default() }, &[(4, counts), (5, offsets)], 1)
     }
 
     /// The bounding box of `n` points.
@@ -165,8 +150,7 @@ impl ClusterKernel {
         let cursor = storage_zeroed::<u32>(device, "cell cursor", cells as usize);
         let items = storage_zeroed::<u32>(device, "cell items", k as usize);
         self.run(device, queue, "grid_count", &p, &[(3, centroids), (4, &counts)], k)?;
-        p.n = cells;
-        self.run(device, queue, "scan", &p, &[(4, &counts), (5, &offsets)], 1)?;
+        self.scan.run(device, queue, &counts, cells, &offsets)?;
         self.run(device, queue, "grid_scatter", &p, &[(3, centroids), (5, &offsets), (6, &items), (9, &cursor)], k)?;
         Ok(GpuGrid { geometry: *geometry, brute_ring: brute, offsets, items })
     }
@@ -211,7 +195,7 @@ impl ClusterKernel {
     }
 
     /// Clusters `m` points (Endpoints on the device) like `vplgi_cpu::cluster::cluster`.
-    pub fn cluster(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, m: u32, params: &GpuClusterParams) -> Result<GpuClustering, GpuError> {
+    pub fn cluster(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, m: u32, params: &ClusterParams) -> Result<GpuClustering, GpuError> {
         let f = match params.fuzzy {
             FuzzyMode::Hard => 1,
             _ => params.f.clamp(1, MAX_F),
@@ -242,7 +226,6 @@ impl ClusterKernel {
 
         let (min, max) = self.bounds(device, queue, points, m)?;
         let ext = (max - min).max(Vec3::splat(1e-12));
-        debug_assert!(min_cell(ext) > 0.0 && MAX_CELLS > 0.0);
         let mut occ_err = None;
         let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, points, &sample_buf, s, min, ext, cell) {
             Ok(c) => c,
@@ -270,7 +253,7 @@ impl ClusterKernel {
         let flags = storage_zeroed::<u32>(device, "flags", k as usize);
         let remap = storage_zeroed::<u32>(device, "remap", k as usize + 1);
         self.run(device, queue, "flags", &Params { k, ..Default::default() }, &[(4, &counts), (9, &flags)], k)?;
-        self.run(device, queue, "scan", &Params { n: k, ..Default::default() }, &[(4, &flags), (5, &remap)], 1)?;
+        self.scan.run(device, queue, &flags, k, &remap)?;
         let kept = read_back::<u32>(device, queue, &remap, k as usize + 1)?[k as usize];
         let survivors = storage_zeroed::<Endpoint>(device, "surviving centroids", kept as usize);
         let members = storage_zeroed::<u32>(device, "members", kept as usize);

@@ -15,6 +15,7 @@ pub mod context;
 pub mod lights;
 pub mod pipeline;
 pub mod rng;
+pub mod scan;
 pub mod scene;
 pub mod shade;
 pub mod shader;

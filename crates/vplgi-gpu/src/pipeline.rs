@@ -4,9 +4,10 @@
 //! each clustering, surviving cluster counts, hit counts at chunk boundaries).
 
 use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, sync, uniform};
-use crate::cluster::{ClusterKernel, GpuClusterParams};
+use crate::cluster::ClusterKernel;
 use crate::context::validated;
 use crate::lights::GpuLights;
+use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
 use crate::shader::pipelines;
@@ -19,6 +20,7 @@ use serde::Serialize;
 use std::time::Instant;
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::Scene;
+use vplgi_types::clustering::ClusterParams;
 use vplgi_types::{FrameConfig, FuzzyMode, StageTimings};
 
 /// Every pipeline of the frame, compiled once.
@@ -28,6 +30,7 @@ pub struct GpuKernels {
     cluster: ClusterKernel,
     visibility: VisibilityKernel,
     shade: ShadeKernel,
+    scan: ScanKernel,
     frame: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
 }
 
@@ -49,6 +52,7 @@ impl GpuKernels {
             cluster: ClusterKernel::new(device)?,
             visibility: VisibilityKernel::new(device)?,
             shade: ShadeKernel::new(device)?,
+            scan: ScanKernel::new(device)?,
             frame: validated(device, "frame pipelines", || FRAME_ENTRIES.iter().copied().zip(pipelines(device, "frame.wgsl", &FRAME_ENTRIES)).collect())?,
         })
     }
@@ -127,7 +131,7 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let flags = storage_zeroed::<u32>(device, "hit flags", n_sp as usize);
     let hit_offsets = storage_zeroed::<u32>(device, "hit offsets", n_sp as usize + 1);
     k.frame(device, queue, "sp_flags", n_sp, 0, &[(1, &sps), (2, &flags)], n_sp)?;
-    k.cluster.exclusive_scan(device, queue, &flags, n_sp, &hit_offsets)?;
+    k.scan.run(device, queue, &flags, n_sp, &hit_offsets)?;
     let hits = read_word(device, queue, &hit_offsets, n_sp as u64)?;
     stats.shading_point_hits = hits;
     let row_of = storage_zeroed::<u32>(device, "row of", n_sp as usize);
@@ -139,7 +143,7 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpl > 0 {
         let pts = storage_zeroed::<Endpoint>(device, "vpl points", n_vpl as usize);
         k.frame(device, queue, "vpl_endpoints", n_vpl, 0, &[(5, &pts), (6, &vset.buffer)], n_vpl)?;
-        let params = GpuClusterParams { k: cfg.k_vpl, gamma: cfg.gamma, iterations: cfg.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: cfg.normal_threshold, seed: cfg.seed };
+        let params = ClusterParams { k: cfg.k_vpl, gamma: cfg.gamma, iterations: cfg.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: cfg.normal_threshold, seed: cfg.seed };
         let c = k.cluster.cluster(device, queue, &pts, n_vpl, &params)?;
         let lights = storage_zeroed::<VplLight>(device, "cluster lights", c.k as usize);
         k.frame(device, queue, "cluster_lights", n_vpl, c.k, &[(6, &vset.buffer), (7, &c.labels), (8, &c.representatives), (9, &lights)], c.k)?;
@@ -154,7 +158,7 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     k.frame(device, queue, "light_endpoints", n_lights, 0, &[(5, &cols), (9, &lights)], n_lights)?;
 
     let sp_clusters = if cfg.cluster.clusters_sps() && hits > 0 {
-        let params = GpuClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
+        let params = ClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
         let c = k.cluster.cluster(device, queue, &hit_points, hits, &params)?;
         let rows = storage_zeroed::<Endpoint>(device, "cluster rows", c.k as usize);
         k.frame(device, queue, "rep_rows", 0, c.k, &[(5, &hit_points), (8, &c.representatives), (10, &rows)], c.k)?;

@@ -20,6 +20,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
     ("cluster.wgsl", include_str!("../../../shaders/cluster.wgsl"), &["common/types.wgsl"]),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
+    ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
     ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
 ];
 

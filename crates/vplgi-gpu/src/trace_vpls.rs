@@ -3,8 +3,9 @@
 //! normalisation. The VPLs stay on the device; only two counters per batch are read back to
 //! decide whether another batch is needed.
 
-use crate::buffers::{dispatch_bound, read_back, storage_zeroed, uniform};
+use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, uniform};
 use crate::context::validated;
+use crate::scan::ScanKernel;
 use crate::lights::GpuLights;
 use crate::scene::GpuScene;
 use crate::shader::pipelines;
@@ -36,17 +37,18 @@ pub struct GpuVpls {
 
 pub struct TraceVplsKernel {
     trace: wgpu::ComputePipeline,
-    scan: wgpu::ComputePipeline,
     compact: wgpu::ComputePipeline,
     normalize: wgpu::ComputePipeline,
+    scan: ScanKernel,
 }
 
 impl TraceVplsKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        let scan = ScanKernel::new(device)?;
         validated(device, "trace_vpls pipelines", || {
-            let mut p = pipelines(device, "trace_vpls.wgsl", &["trace", "scan", "compact", "normalize_flux"]).into_iter();
-            let mut next = || p.next().expect("four entry points");
-            TraceVplsKernel { trace: next(), scan: next(), compact: next(), normalize: next() }
+            let mut p = pipelines(device, "trace_vpls.wgsl", &["trace", "compact", "normalize_flux"]).into_iter();
+            let mut next = || p.next().expect("three entry points");
+            TraceVplsKernel { trace: next(), compact: next(), normalize: next(), scan }
         })
     }
 
@@ -63,13 +65,13 @@ impl TraceVplsKernel {
         let mut batch = count.clamp(1024, 1 << 16).min(max_batch);
         let slots = storage_zeroed::<Vpl>(device, "vpl slots", (batch * bounces) as usize);
         let counts = storage_zeroed::<u32>(device, "vpl counts", batch as usize);
-        let offsets = storage_zeroed::<u32>(device, "vpl offsets", batch as usize);
+        let offsets = storage_zeroed::<u32>(device, "vpl offsets", batch as usize + 1);
         let totals = storage_zeroed::<u32>(device, "vpl totals", 4);
         let (mut next, mut kept) = (0u32, 0u32);
         while kept < count && next < budget {
             let n = batch.min(budget - next);
             let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, pad: 0 };
-            let batch_total = validated(device, "trace_vpls", || {
+            let params_buf = validated(device, "trace_vpls", || {
                 let p = uniform(device, "trace params", &params);
                 let common = [
                     (0, &p),
@@ -87,12 +89,12 @@ impl TraceVplsKernel {
                     (12, &counts),
                 ];
                 dispatch_bound(device, queue, &self.trace, &common, n.div_ceil(64));
-                dispatch_bound(device, queue, &self.scan, &[(0, &p), (12, &counts), (13, &offsets), (14, &totals)], 1);
                 p
             })?;
-            let total = read_back::<u32>(device, queue, &totals, 1)?[0];
+            self.scan.run(device, queue, &counts, n, &offsets)?;
+            let total = read_word(device, queue, &offsets, n as u64)?;
             validated(device, "trace_vpls compact", || {
-                dispatch_bound(device, queue, &self.compact, &[(0, &batch_total), (11, &slots), (12, &counts), (13, &offsets), (14, &totals), (15, &vpls)], n.div_ceil(64))
+                dispatch_bound(device, queue, &self.compact, &[(0, &params_buf), (11, &slots), (12, &counts), (13, &offsets), (14, &totals), (15, &vpls)], n.div_ceil(64))
             })?;
             kept += total.min(count - kept);
             next += n;

@@ -6,6 +6,23 @@
 use crate::{FuzzyMode, Rng, Stream};
 use glam::Vec3;
 
+/// Parameters of one clustering run, the same for every backend.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterParams {
+    /// Requested number of clusters K.
+    pub k: u32,
+    /// Downsampling factor gamma.
+    pub gamma: u32,
+    pub iterations: u32,
+    /// Clusters per point in the final assignment (1 = hard).
+    pub f: u32,
+    /// How the F clusters of a point are weighted.
+    pub fuzzy: FuzzyMode,
+    /// n_t of Eq. 7.
+    pub normal_threshold: f32,
+    pub seed: u32,
+}
+
 /// At most about this many grid cells; the cell size grows to respect it.
 pub const MAX_CELLS: f64 = (1u64 << 21) as f64;
 
