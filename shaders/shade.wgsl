@@ -47,9 +47,6 @@ fn sample_table_area(u: f32) -> u32 {
     return min(lo, arrayLength(&area_table) - 1u);
 }
 
-fn vis_bit(row: u32, c: u32) -> bool {
-    return ((vis_words[row * params.words_per_row + c / 32u] >> (c % 32u)) & 1u) == 1u;
-}
 
 // shade::geometry_term
 fn geometry_term(p: vec3<f32>, np: vec3<f32>, x: vec3<f32>, nx: vec3<f32>) -> f32 {
@@ -113,10 +110,32 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     return sum * (sp.albedo / PI);
 }
 
-// shade::indirect
+// shade::indirect. The point's visibility rows (its own, or its F clusters' with weights) are
+// resolved once, and each row's 32-bit word is loaded once per block of 32 lights, instead of
+// F label, weight and word loads per light. Weights are summed in label order, as on the CPU.
 fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
     let p = sp.position;
     let n = sp.normal;
+    var row_base: array<u32, 16>;
+    var row_w: array<f32, 16>;
+    var rows = 0u;
+    if (params.mode == 0u) {
+        row_base[0] = (row_of[i] - params.first_row) * params.words_per_row;
+        row_w[0] = 1.0;
+        rows = 1u;
+    } else {
+        let r = row_of[i] * params.f;
+        for (var j = 0u; j < params.f; j = j + 1u) {
+            let k = labels[r + j];
+            if (k != MISS) {
+                row_base[rows] = k * params.words_per_row;
+                row_w[rows] = weights[r + j];
+                rows = rows + 1u;
+            }
+        }
+    }
+    var words: array<u32, 16>;
+    var block = 0xffffffffu;
     var sum = vec3<f32>(0.0);
     for (var c = 0u; c < params.light_count; c = c + 1u) {
         let l = vpl_lights[c];
@@ -124,18 +143,17 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
         if (g == 0.0) {
             continue;
         }
-        var v = 0.0;
-        if (params.mode == 0u) {
-            if (vis_bit(row_of[i] - params.first_row, c)) {
-                v = 1.0;
+        if (c / 32u != block) {
+            block = c / 32u;
+            for (var j = 0u; j < rows; j = j + 1u) {
+                words[j] = vis_words[row_base[j] + block];
             }
-        } else {
-            let r = row_of[i] * params.f;
-            for (var j = 0u; j < params.f; j = j + 1u) {
-                let k = labels[r + j];
-                if (k != MISS && vis_bit(k, c)) {
-                    v = v + weights[r + j];
-                }
+        }
+        let bit = c % 32u;
+        var v = 0.0;
+        for (var j = 0u; j < rows; j = j + 1u) {
+            if (((words[j] >> bit) & 1u) == 1u) {
+                v = v + row_w[j];
             }
         }
         if (v > 0.0) {
