@@ -5,7 +5,7 @@
 struct Params {
     n: u32,
     k: u32,
-    pad0: u32,
+    first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
     pad1: u32,
 }
 
@@ -25,14 +25,14 @@ fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * 64u;
 }
 
-// 1 for a shading point that hit a surface.
+// 1 for a shading point that hit a surface (sps holds a chunk of samples from params.first).
 @compute @workgroup_size(64)
 fn sp_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
     if (i >= params.n) {
         return;
     }
-    flags[i] = select(0u, 1u, sps[i].triangle != MISS);
+    flags[params.first + i] = select(0u, 1u, sps[i].triangle != MISS);
 }
 
 // Hits, numbered by the scan of the flags: their row and their Endpoint (clustering input).
@@ -43,12 +43,13 @@ fn sp_compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let sp = sps[i];
+    let g = params.first + i;
     if (sp.triangle == MISS) {
-        row_of[i] = MISS;
+        row_of[g] = MISS;
         return;
     }
-    let r = offsets[i];
-    row_of[i] = r;
+    let r = offsets[g];
+    row_of[g] = r;
     endpoints[r] = Endpoint(vec4<f32>(sp.position, 0.0), vec4<f32>(sp.normal, 0.0));
 }
 

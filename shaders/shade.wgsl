@@ -15,6 +15,10 @@ struct Params {
     pixel_count: u32,
     g_max: f32,
     eps: f32,
+    sp_first: u32,        // first sample held by the bound `sps` chunk
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -173,7 +177,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < params.spp; s = s + 1u) {
         let i = px * params.spp + s;
-        let sp = sps[i];
+        let sp = sps[i - params.sp_first];
         if (sp.triangle != MISS) {
             sum = sum + (sp.emitted + direct(sp, i) + indirect(sp, i));
         }

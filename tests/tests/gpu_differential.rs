@@ -199,7 +199,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let cpu_own = shade(&cs, &sps, spp, 0..n_pixels, &lights, &src, g_max, seed, direct);
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
-    let inputs = ShadeInputs { sps: &sps_buf, row_of: &row_buf, words: &words, words_per_row: words_per_row(cols.len()) as u32, vpl_lights: &light_buf, light_count: lights.len() as u32, visibility: Visibility::Own { first_row: 0 } };
+    let inputs = ShadeInputs { sps: &sps_buf, sp_first: 0, row_of: &row_buf, words: &words, words_per_row: words_per_row(cols.len()) as u32, vpl_lights: &light_buf, light_count: lights.len() as u32, visibility: Visibility::Own { first_row: 0 } };
     let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
     let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
@@ -222,6 +222,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let weights = storage(&ctx.device, "weights", &sc.weights);
     let inputs = ShadeInputs {
         sps: &sps_buf,
+        sp_first: 0,
         row_of: &row_buf,
         words: &words_c,
         words_per_row: words_per_row(cols_c.len()) as u32,
@@ -520,5 +521,31 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         // Measured at 40x32: relMSE 5e-5 to 6e-4 on agreeing pixels, whole-image FLIP 0.024-0.028.
         // Measured 0.022 at this size, all of it at edge-tie pixels; the bound is a sanity check.
         assert!(whole.flip <= 0.05, "{cluster:?}/{fuzzy:?}: FLIP {}", whole.flip);
+    }
+}
+
+/// Chunking under forced small limits: a device whose storage bindings are too small for the
+/// frame's shading points (and whose dispatches are limited to 64 workgroups per dimension) must
+/// render the very same image, bit for bit, as the unrestricted device.
+#[test]
+fn frames_are_identical_under_forced_small_limits() {
+    use vplgi_gpu::pipeline::{render, GpuKernels};
+    use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
+
+    let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else { return };
+    let scene = cornell_box();
+    for (cluster, spp) in [(ClusterMode::None, 1), (ClusterMode::Both, 2)] {
+        let cfg = FrameConfig { width: 48, height: 40, spp, vpls: 800, k_sp: 150, k_vpl: 80, cluster, fuzzy: FuzzyMode::Weighted, ..FrameConfig::default() };
+        let n_sp = (cfg.width * cfg.height * cfg.spp) as u64;
+        // Shading points (64 B) need more than one binding; every other array of this frame
+        // (hit points 32 B, labels and weights 24 B per point) fits in one.
+        let limit = n_sp * 64 / 2 - 64 * 7;
+        let small = vplgi_gpu::GpuContext::with_limits(Some(limit), Some(64)).unwrap();
+        assert_eq!(small.device.limits().max_storage_buffer_binding_size, limit);
+        let full = render(&ctx.device, &ctx.queue, &GpuKernels::new(&ctx.device).unwrap(), &scene, &cfg).unwrap();
+        let chunked = render(&small.device, &small.queue, &GpuKernels::new(&small.device).unwrap(), &scene, &cfg).unwrap();
+        println!("{cluster:?}, spp {spp}: binding limit {limit} B for {n_sp} shading points ({} B), 64 workgroups per dimension: images identical: {}", n_sp * 64, full.pixels == chunked.pixels);
+        assert_eq!(full.pixels, chunked.pixels, "{cluster:?}: chunked frame differs");
+        assert!(small.take_uncaptured_errors().is_empty());
     }
 }

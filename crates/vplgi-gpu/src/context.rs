@@ -31,10 +31,17 @@ impl GpuContext {
     /// Picks an adapter (Vulkan first; `WGPU_BACKEND` overrides) and opens a device with the
     /// adapter's own limits.
     pub fn new() -> Result<GpuContext, GpuError> {
-        pollster::block_on(Self::new_async())
+        pollster::block_on(Self::new_async(None, None))
     }
 
-    async fn new_async() -> Result<GpuContext, GpuError> {
+    /// A device whose storage-binding size and workgroups per dimension are forced below the
+    /// adapter's, so tests exercise the chunking paths on small inputs: every stage reads its
+    /// limits from the device.
+    pub fn with_limits(max_binding_bytes: Option<u64>, max_workgroups: Option<u32>) -> Result<GpuContext, GpuError> {
+        pollster::block_on(Self::new_async(max_binding_bytes, max_workgroups))
+    }
+
+    async fn new_async(max_binding_bytes: Option<u64>, max_workgroups: Option<u32>) -> Result<GpuContext, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = instance
             .request_adapter(&wgpu::RequestAdapterOptions {
@@ -46,11 +53,18 @@ impl GpuContext {
             .await
             .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
+        let mut limits = adapter.limits();
+        if let Some(b) = max_binding_bytes {
+            limits.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size.min(b);
+        }
+        if let Some(g) = max_workgroups {
+            limits.max_compute_workgroups_per_dimension = limits.max_compute_workgroups_per_dimension.min(g);
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("vplgi"),
                 required_features: wgpu::Features::empty(),
-                required_limits: adapter.limits(),
+                required_limits: limits,
                 experimental_features: wgpu::ExperimentalFeatures::disabled(),
                 memory_hints: wgpu::MemoryHints::Performance,
                 trace: wgpu::Trace::Off,

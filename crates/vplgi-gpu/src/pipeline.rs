@@ -41,7 +41,8 @@ const FRAME_ENTRIES: [&str; 7] = ["sp_flags", "sp_compact", "vpl_endpoints", "vp
 struct FrameParams {
     n: u32,
     k: u32,
-    pad: [u32; 2],
+    first: u32,
+    pad: u32,
 }
 
 impl GpuKernels {
@@ -59,8 +60,14 @@ impl GpuKernels {
 
     #[allow(clippy::too_many_arguments)]
     fn frame(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+        self.frame_at(device, queue, entry, n, k, 0, bound, threads)
+    }
+
+    /// [`GpuKernels::frame`] on a chunk of shading points starting at sample `first`.
+    #[allow(clippy::too_many_arguments)]
+    fn frame_at(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, first: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
         validated(device, entry, || {
-            let p = uniform(device, "frame params", &FrameParams { n, k, pad: [0; 2] });
+            let p = uniform(device, "frame params", &FrameParams { n, k, first, pad: 0 });
             let mut all = vec![(0, &p)];
             all.extend_from_slice(bound);
             dispatch_bound(device, queue, &self.frame[entry], &all, threads.div_ceil(64).max(1));
@@ -93,7 +100,7 @@ pub struct GpuFrame {
 }
 
 /// Rows of the visibility matrix shaded at once when shading points are not clustered, as on the
-/// CPU: at most 64 Mi bits per chunk.
+/// CPU: at most 64 Mi bits per chunk (and at most one storage binding).
 const ROW_CHUNK_BITS: usize = 64 << 23;
 
 fn ms(t: Instant) -> f64 {
@@ -121,7 +128,17 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
 
     let t0 = Instant::now();
     let n_sp = cfg.width * cfg.height * cfg.spp;
-    let sps = k.shading_points.run_on_device(device, queue, &gs, cfg.width, cfg.height, cfg.spp, cfg.seed)?;
+    // Shading points in chunks of whole pixels that each fit one storage binding.
+    let limit = device.limits().max_storage_buffer_binding_size;
+    let per_chunk = ((limit / std::mem::size_of::<vplgi_types::ShadingPoint>() as u64) as u32 / cfg.spp).max(1) * cfg.spp;
+    let mut sp_chunks: Vec<(u32, u32, wgpu::Buffer)> = Vec::new();
+    let mut first = 0u32;
+    while first < n_sp {
+        let count = (n_sp - first).min(per_chunk);
+        let buf = k.shading_points.dispatch_range(device, queue, &gs, cfg.width, cfg.height, cfg.spp, cfg.seed, first as u64, count as u64)?;
+        sp_chunks.push((first, count, buf));
+        first += count;
+    }
     sync(device)?;
     t.shading_points = ms(t0);
     stats.shading_points = n_sp;
@@ -130,13 +147,17 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     // Hits: numbered in sample order, with their rows and clustering points.
     let flags = storage_zeroed::<u32>(device, "hit flags", n_sp as usize);
     let hit_offsets = storage_zeroed::<u32>(device, "hit offsets", n_sp as usize + 1);
-    k.frame(device, queue, "sp_flags", n_sp, 0, &[(1, &sps), (2, &flags)], n_sp)?;
+    for (first, count, buf) in &sp_chunks {
+        k.frame_at(device, queue, "sp_flags", *count, 0, *first, &[(1, buf), (2, &flags)], *count)?;
+    }
     k.scan.run(device, queue, &flags, n_sp, &hit_offsets)?;
     let hits = read_word(device, queue, &hit_offsets, n_sp as u64)?;
     stats.shading_point_hits = hits;
     let row_of = storage_zeroed::<u32>(device, "row of", n_sp as usize);
     let hit_points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
-    k.frame(device, queue, "sp_compact", n_sp, 0, &[(1, &sps), (3, &hit_offsets), (4, &row_of), (5, &hit_points)], n_sp)?;
+    for (first, count, buf) in &sp_chunks {
+        k.frame_at(device, queue, "sp_compact", *count, 0, *first, &[(1, buf), (3, &hit_offsets), (4, &row_of), (5, &hit_points)], *count)?;
+    }
 
     // Lights for shading: VPL clusters at their representatives, or the VPLs.
     let n_vpl = vset.count;
@@ -177,37 +198,50 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let wpr = words_per_row(n_lights as usize) as u32;
     let mut pixels: Vec<[f32; 3]> = Vec::with_capacity(n_pixels as usize);
     let to_rgb = |v: Vec<[f32; 4]>| v.into_iter().map(|p| [p[0], p[1], p[2]]);
-    match &sp_clusters {
+    // Visibility rows shaded at once: as on the CPU, and within one storage binding.
+    let row_budget = (ROW_CHUNK_BITS as u64 / 32).min(limit / 4) / (wpr.max(1) as u64);
+    let clustered_words = match &sp_clusters {
         Some((c, rows)) => {
             let t0 = Instant::now();
             let words = k.visibility.run_on_device(device, queue, &gs, rows, c.k, &cols, n_lights, 0, c.k)?;
             sync(device)?;
             t.visibility += ms(t0);
-            let t0 = Instant::now();
-            let inputs = ShadeInputs { sps: &sps, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f } };
-            let out = k.shade.run(device, queue, &gs, &gl, &inputs, 0..n_pixels, cfg.spp, cfg.seed, cfg.direct_samples, g_max)?;
-            pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, n_pixels as usize)?));
-            t.shade += ms(t0);
+            Some(words)
         }
-        None => {
-            let spp = cfg.spp as usize;
-            let px_chunk = (ROW_CHUNK_BITS / (n_lights as usize).max(64) / spp).max(1) as u32;
-            let mut px = 0u32;
-            while px < n_pixels {
-                let end = (px + px_chunk).min(n_pixels);
-                // Hits of this chunk are rows first_row .. last_row (hits are numbered in order).
-                let first_row = read_word(device, queue, &hit_offsets, px as u64 * spp as u64)?;
-                let last_row = read_word(device, queue, &hit_offsets, end as u64 * spp as u64)?;
+        None => None,
+    };
+    for (sp_first, sp_count, sp_buf) in &sp_chunks {
+        let spp = cfg.spp;
+        let (chunk_px0, chunk_px1) = (sp_first / spp, (sp_first + sp_count) / spp);
+        match (&sp_clusters, &clustered_words) {
+            (Some((c, _)), Some(words)) => {
                 let t0 = Instant::now();
-                let words = k.visibility.run_on_device(device, queue, &gs, &hit_points, hits, &cols, n_lights, first_row, last_row - first_row)?;
-                sync(device)?;
-                t.visibility += ms(t0);
-                let t0 = Instant::now();
-                let inputs = ShadeInputs { sps: &sps, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Own { first_row } };
-                let out = k.shade.run(device, queue, &gs, &gl, &inputs, px..end, cfg.spp, cfg.seed, cfg.direct_samples, g_max)?;
-                pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (end - px) as usize)?));
+                let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f } };
+                let out = k.shade.run(device, queue, &gs, &gl, &inputs, chunk_px0..chunk_px1, spp, cfg.seed, cfg.direct_samples, g_max)?;
+                pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (chunk_px1 - chunk_px0) as usize)?));
                 t.shade += ms(t0);
-                px = end;
+            }
+            _ => {
+                // Each hit is its own row: visibility and shading proceed in pixel chunks whose
+                // rows fit the budget.
+                let px_chunk = ((row_budget / spp as u64) as u32).max(1);
+                let mut px = chunk_px0;
+                while px < chunk_px1 {
+                    let end = (px + px_chunk).min(chunk_px1);
+                    // Hits of these pixels are rows first_row .. last_row (hits are numbered in order).
+                    let first_row = read_word(device, queue, &hit_offsets, px as u64 * spp as u64)?;
+                    let last_row = read_word(device, queue, &hit_offsets, end as u64 * spp as u64)?;
+                    let t0 = Instant::now();
+                    let words = k.visibility.run_on_device(device, queue, &gs, &hit_points, hits, &cols, n_lights, first_row, last_row - first_row)?;
+                    sync(device)?;
+                    t.visibility += ms(t0);
+                    let t0 = Instant::now();
+                    let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Own { first_row } };
+                    let out = k.shade.run(device, queue, &gs, &gl, &inputs, px..end, spp, cfg.seed, cfg.direct_samples, g_max)?;
+                    pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (end - px) as usize)?));
+                    t.shade += ms(t0);
+                    px = end;
+                }
             }
         }
     }

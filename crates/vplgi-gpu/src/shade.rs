@@ -32,6 +32,8 @@ struct Params {
     pixel_count: u32,
     g_max: f32,
     eps: f32,
+    sp_first: u32,
+    pad: [u32; 3],
 }
 
 /// Where each shading point's visibility comes from (the twin of
@@ -44,7 +46,9 @@ pub enum Visibility<'a> {
 
 /// Device buffers shade reads.
 pub struct ShadeInputs<'a> {
+    /// Shading points from sample `sp_first` on (a chunk, or all of them with `sp_first = 0`).
     pub sps: &'a wgpu::Buffer,
+    pub sp_first: u32,
     pub row_of: &'a wgpu::Buffer,
     pub words: &'a wgpu::Buffer,
     pub words_per_row: u32,
@@ -97,6 +101,8 @@ impl ShadeKernel {
             pixel_count: count,
             g_max,
             eps: scene.eps,
+            sp_first: inputs.sp_first,
+            pad: [0; 3],
         };
         validated(device, "shade", || {
             let p = uniform(device, "shade params", &params);

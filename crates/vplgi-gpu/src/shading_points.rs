@@ -36,7 +36,7 @@ impl ShadingPointsKernel {
 
     /// Shading points `first .. first + count` into a new device buffer.
     #[allow(clippy::too_many_arguments)]
-    fn dispatch_range(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, first: u64, count: u64) -> Result<wgpu::Buffer, GpuError> {
+    pub fn dispatch_range(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, first: u64, count: u64) -> Result<wgpu::Buffer, GpuError> {
         let cam = scene.camera;
         let right = cam.forward.cross(cam.up).normalize();
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
@@ -60,18 +60,6 @@ impl ShadingPointsKernel {
             dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
             buf
         })
-    }
-
-    /// All `width * height * spp` shading points in one device buffer, for the chained frame.
-    #[allow(clippy::too_many_arguments)]
-    pub fn run_on_device(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32) -> Result<wgpu::Buffer, GpuError> {
-        let total = width as u64 * height as u64 * spp as u64;
-        let bytes = total * std::mem::size_of::<ShadingPoint>() as u64;
-        let limit = device.limits().max_storage_buffer_binding_size;
-        if bytes > limit {
-            return Err(GpuError::TooLarge { what: format!("{total} shading points"), needed: bytes, limit });
-        }
-        self.dispatch_range(device, queue, scene, width, height, spp, seed, 0, total)
     }
 
     /// All `width * height * spp` shading points, read back. Output is produced in chunks of at
