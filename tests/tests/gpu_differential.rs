@@ -476,6 +476,9 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         let cpu = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
         let gpu = render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap();
         assert_eq!((gpu.stats.vpl_clusters as usize, gpu.stats.sp_clusters as usize), (cpu.stats.vpl_clusters, cpu.stats.sp_clusters), "{cluster:?}/{fuzzy:?}: cluster counts");
+        if !cluster.clusters_sps() {
+            assert_eq!(gpu.stats.vpl_widened as usize, cpu.stats.vpl_widened, "{cluster:?}: widened VPL searches");
+        }
         // Pixels whose primary rays agree on the triangle in both backends.
         let c_sp = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
         let g_sp = spk.run(&ctx.device, &ctx.queue, &gs, cfg.width, cfg.height, cfg.spp, cfg.seed, None).unwrap();

@@ -84,6 +84,9 @@ pub struct GpuFrameStats {
     pub shading_points: u32,
     pub shading_point_hits: u32,
     pub sp_clusters: u32,
+    /// Shading points / VPLs whose 27-cell neighbourhood had no compatible centroid.
+    pub sp_widened: u32,
+    pub vpl_widened: u32,
     pub g_clamp_d_min: f32,
     pub scene_extent: f32,
 }
@@ -169,6 +172,8 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
         let lights = storage_zeroed::<VplLight>(device, "cluster lights", c.k as usize);
         k.frame(device, queue, "cluster_lights", n_vpl, c.k, &[(6, &vset.buffer), (7, &c.labels), (8, &c.representatives), (9, &lights)], c.k)?;
         stats.vpl_clusters = c.k;
+        let [_, widened, incompatible] = k.cluster.outcome_counts(device, queue, &c.outcome, n_vpl)?;
+        stats.vpl_widened = widened + incompatible;
         (lights, c.k)
     } else {
         let lights = storage_zeroed::<VplLight>(device, "vpl lights", n_vpl as usize);
@@ -184,6 +189,8 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
         let rows = storage_zeroed::<Endpoint>(device, "cluster rows", c.k as usize);
         k.frame(device, queue, "rep_rows", 0, c.k, &[(5, &hit_points), (8, &c.representatives), (10, &rows)], c.k)?;
         stats.sp_clusters = c.k;
+        let [_, widened, incompatible] = k.cluster.outcome_counts(device, queue, &c.outcome, hits)?;
+        stats.sp_widened = widened + incompatible;
         Some((c, rows))
     } else {
         None
