@@ -113,12 +113,7 @@ fn visibility_agrees_three_ways() {
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(|v| vplgi_cpu::visibility::Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
     let (embree, rays) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
 
-    let tris: Vec<obvhs::triangle::Triangle> = (0..scene.triangle_count())
-        .map(|t| {
-            let [a, b, c] = scene.triangle(t);
-            obvhs::triangle::Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
-        })
-        .collect();
+    let tris = vplgi_gpu::bvh::triangles(&scene);
     let mut bt = std::time::Duration::ZERO;
     let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut bt);
 

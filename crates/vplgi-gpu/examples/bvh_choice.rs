@@ -42,12 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let n = rays.len() as f64;
 
-    let tris: Vec<obvhs::triangle::Triangle> = (0..scene.triangle_count())
-        .map(|t| {
-            let [a, b, c] = scene.triangle(t);
-            obvhs::triangle::Triangle { v0: a.into(), v1: b.into(), v2: c.into() }
-        })
-        .collect();
+    let tris = vplgi_gpu::bvh::triangles(&scene);
     let mut bt = std::time::Duration::ZERO;
     let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut bt);
     let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut bt);

@@ -41,12 +41,7 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
         let empty = obvhs::aabb::Aabb { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
         return Ok(BvhArrays { nodes: vec![Bvh2Node::new(empty, 1, 0)], tris: vec![BvhTri::zeroed()], depth: 1 });
     }
-    let tris: Vec<obvhs::triangle::Triangle> = (0..scene.triangle_count())
-        .map(|t| {
-            let [a, b, c] = scene.triangle(t);
-            obvhs::triangle::Triangle { v0: Vec3A::from(a), v1: Vec3A::from(b), v2: Vec3A::from(c) }
-        })
-        .collect();
+    let tris = triangles(scene);
     let mut build_time = std::time::Duration::ZERO;
     let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut build_time);
     let depth = depth(&bvh.nodes);
@@ -63,6 +58,17 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
         })
         .collect();
     Ok(BvhArrays { nodes: bvh.nodes, tris: laid_out, depth })
+}
+
+/// The scene's triangles as obvhs builds and intersects them (also the input of the obvhs CPU
+/// traversal that serves as a third opinion in tests).
+pub fn triangles(scene: &Scene) -> Vec<obvhs::triangle::Triangle> {
+    (0..scene.triangle_count())
+        .map(|t| {
+            let [a, b, c] = scene.triangle(t);
+            obvhs::triangle::Triangle { v0: Vec3A::from(a), v1: Vec3A::from(b), v2: Vec3A::from(c) }
+        })
+        .collect()
 }
 
 /// Largest number of nodes the traversal can have pending: the tree depth.
