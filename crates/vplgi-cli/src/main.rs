@@ -1,5 +1,6 @@
 //! `vplgi`: render scenes with the clustered-VPL pipeline and compare images.
 
+mod bench;
 mod compare;
 mod progress;
 mod render;
@@ -24,6 +25,9 @@ enum Command {
     /// Compare a test image with a reference: prints MSE, relMSE and FLIP, writes
     /// DIR/compare.json and a false-colour FLIP error map DIR/error_map.png.
     Compare(compare::CompareArgs),
+    /// Time configurations the paper's way (each rendered --runs times; every stage the mean of
+    /// its --best smallest times); writes DIR/bench.json and DIR/bench.md.
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -31,6 +35,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Bench(args) => bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -186,3 +186,28 @@ fn gpu_backend_renders_and_reports_its_adapter() {
     println!("gpu vs cpu at 32x24: relMSE {:.2e}, FLIP {:.3}", m.rel_mse, m.flip);
     assert!(m.flip < 0.05, "{m:?}");
 }
+
+/// `vplgi bench` times each configuration the paper's way and writes JSON and Markdown.
+#[test]
+fn bench_writes_json_and_markdown() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench");
+    let o = vplgi(&["bench", "--width", "24", "--height", "20", "--vpls", "300", "--runs", "3", "--best", "2", "--config", "reference", "light", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("bench.json")).unwrap()).unwrap();
+    let configs = j["configs"].as_array().unwrap();
+    assert_eq!(configs.len(), 2);
+    for c in configs {
+        assert_eq!(c["runs_ms"].as_array().unwrap().len(), 3);
+        let runs: Vec<f64> = c["runs_ms"].as_array().unwrap().iter().map(|r| r["total"].as_f64().unwrap()).collect();
+        let mut sorted = runs.clone();
+        sorted.sort_by(f64::total_cmp);
+        let expected = (sorted[0] + sorted[1]) / 2.0;
+        assert!((c["timings_ms"]["total"].as_f64().unwrap() - expected).abs() < 1e-9, "total is the mean of the 2 best runs");
+    }
+    let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
+    assert!(md.contains("| Reference |") && md.contains("| Light | 750 / 1000 |"), "{md}");
+    // Bad arguments are refused.
+    let o = vplgi(&["bench", "--runs", "2", "--best", "3", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+}
