@@ -35,6 +35,8 @@ struct Params {
 @group(0) @binding(11) var<storage, read> weights: array<f32>;
 @group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
 @group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(14) var<storage, read> bvh_nodes_hi: array<BvhNode>;
+@group(0) @binding(15) var<storage, read> bvh_tris_hi: array<BvhTri>;
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
 fn sample_table_area(u: f32) -> u32 {

@@ -25,6 +25,9 @@ struct Params {
 @group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
 @group(0) @binding(6) var<storage, read> texels: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> out: array<ShadingPoint>;
+@group(0) @binding(8) var<storage, read> bvh_nodes_hi: array<BvhNode>;
+@group(0) @binding(9) var<storage, read> bvh_tris_hi: array<BvhTri>;
+@group(0) @binding(10) var<storage, read> scene_tris_hi: array<SceneTri>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

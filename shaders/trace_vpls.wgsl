@@ -34,6 +34,9 @@ struct Params {
 // [1] = particles used once the wanted count is reached (else 0); [0] unused.
 @group(0) @binding(14) var<storage, read_write> totals: array<u32>;
 @group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
+@group(0) @binding(16) var<storage, read> bvh_nodes_hi: array<BvhNode>;
+@group(0) @binding(17) var<storage, read> bvh_tris_hi: array<BvhTri>;
+@group(0) @binding(18) var<storage, read> scene_tris_hi: array<SceneTri>;
 
 const SURVIVAL_MAX: f32 = 0.95;
 

@@ -1,8 +1,28 @@
 // Ray traversal of an obvhs BVH2 (built on the CPU by vplgi-gpu/src/bvh.rs) for closest hit
-// and any hit. A scene without triangles is uploaded as one leaf with an empty box. Expects these bindings in the including shader:
-//   bvh_nodes: array<BvhNode>   obvhs::bvh2::node::Bvh2Node, 48 bytes
-//   bvh_tris:  array<BvhTri>    triangles reordered by the BVH's primitive_indices
+// and any hit. A scene without triangles is uploaded as one leaf with an empty box. Expects these
+// bindings in the including shader:
+//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  obvhs::bvh2::node::Bvh2Node, 48 bytes
+//   bvh_tris, bvh_tris_hi:   array<BvhTri>   triangles reordered by the BVH's primitive_indices
+// Each array is paged over two bindings so it may exceed one storage binding: element i lives
+// in the first page if i < the page size (an override set from the device limit), else in `_hi`.
 // lavapipe has no ray queries, so traversal is an explicit stack loop.
+
+override BVH_NODE_PAGE: u32 = 4294967295u;
+override BVH_TRI_PAGE: u32 = 4294967295u;
+
+fn bvh_node(i: u32) -> BvhNode {
+    if (i < BVH_NODE_PAGE) {
+        return bvh_nodes[i];
+    }
+    return bvh_nodes_hi[i - BVH_NODE_PAGE];
+}
+
+fn bvh_tri(i: u32) -> BvhTri {
+    if (i < BVH_TRI_PAGE) {
+        return bvh_tris[i];
+    }
+    return bvh_tris_hi[i - BVH_TRI_PAGE];
+}
 
 struct BvhNode {
     min: vec4<f32>,      // xyz = box minimum (glam Vec3A: 16 bytes)
@@ -85,14 +105,14 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
     var sp = 0u;
     var node_index = 0u;
     let inf = bitcast<f32>(0x7f800000u);
-    if (intersect_box(bvh_nodes[0], o, inv_d, tmin, hit.t) == inf) {
+    if (intersect_box(bvh_node(0u), o, inv_d, tmin, hit.t) == inf) {
         return hit;
     }
     loop {
-        let node = bvh_nodes[node_index];
+        let node = bvh_node(node_index);
         if (node.prim_count > 0u) {
             for (var i = node.first_index; i < node.first_index + node.prim_count; i = i + 1u) {
-                let tri = bvh_tris[i];
+                let tri = bvh_tri(i);
                 let r = intersect_tri(tri, o, d, tmin, hit.t);
                 if (r.x < hit.t) {
                     hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, i);
@@ -103,8 +123,8 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
             }
         } else {
             let a = node.first_index;
-            let ta = intersect_box(bvh_nodes[a], o, inv_d, tmin, hit.t);
-            let tb = intersect_box(bvh_nodes[a + 1u], o, inv_d, tmin, hit.t);
+            let ta = intersect_box(bvh_node(a), o, inv_d, tmin, hit.t);
+            let tb = intersect_box(bvh_node(a + 1u), o, inv_d, tmin, hit.t);
             if (ta != inf || tb != inf) {
                 // Visit the nearer child first; push the other if it is hit too.
                 var near_child = a;

@@ -1,5 +1,15 @@
 // What a ray sees where it hits a surface (vplgi-cpu CpuScene::trace). Expects bindings
-// bvh_tris, scene_tris, materials, texture_infos and texels.
+// bvh_tris(_hi), scene_tris, scene_tris_hi (paged like the BVH arrays), materials,
+// texture_infos and texels.
+
+override SCENE_TRI_PAGE: u32 = 4294967295u;
+
+fn scene_tri(i: u32) -> SceneTri {
+    if (i < SCENE_TRI_PAGE) {
+        return scene_tris[i];
+    }
+    return scene_tris_hi[i - SCENE_TRI_PAGE];
+}
 
 struct Surface {
     position: vec3<f32>,
@@ -35,8 +45,8 @@ fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
 }
 
 fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
-    let tri = bvh_tris[hit.slot];
-    let st = scene_tris[hit.triangle];
+    let tri = bvh_tri(hit.slot);
+    let st = scene_tri(hit.triangle);
     let w0 = 1.0 - hit.u - hit.v;
     var s: Surface;
     s.position = tri.v0.xyz + tri.e1.xyz * hit.u + tri.e2.xyz * hit.v;

@@ -1,7 +1,7 @@
 //! A scene on the device: BVH, per-triangle shading data, materials and textures.
 
 use crate::buffers::storage;
-use crate::bvh::{self, BvhTri};
+use crate::bvh;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_scene::Scene;
@@ -37,11 +37,16 @@ pub struct TextureInfo {
     pub pad: u32,
 }
 
-/// Device buffers of a scene, uploaded once.
+/// Device buffers of a scene, uploaded once. The three arrays that grow with the triangle count
+/// are paged over two bindings each (`_hi` holds what does not fit the first; see
+/// `shaders/common/bvh.wgsl`), so a scene may need up to twice the storage-binding size per array.
 pub struct GpuScene {
     pub bvh_nodes: wgpu::Buffer,
+    pub bvh_nodes_hi: wgpu::Buffer,
     pub bvh_tris: wgpu::Buffer,
+    pub bvh_tris_hi: wgpu::Buffer,
     pub scene_tris: wgpu::Buffer,
+    pub scene_tris_hi: wgpu::Buffer,
     pub materials: wgpu::Buffer,
     pub texture_infos: wgpu::Buffer,
     pub texels: wgpu::Buffer,
@@ -88,20 +93,20 @@ impl GpuScene {
             texels.extend(t.texels.iter().map(|c| [c.x, c.y, c.z, 1.0]));
         }
         let limit = device.limits().max_storage_buffer_binding_size;
-        for (what, bytes) in [
-            ("the BVH nodes", (arrays.nodes.len() * 48) as u64),
-            ("the BVH triangles", (arrays.tris.len() * std::mem::size_of::<BvhTri>()) as u64),
-            ("the triangle shading data", (tris.len() * std::mem::size_of::<SceneTri>()) as u64),
-            ("the texels", (texels.len() * 16) as u64),
-        ] {
-            if bytes > limit {
-                return Err(GpuError::TooLarge { what: what.into(), needed: bytes, limit });
-            }
+        let texel_bytes = (texels.len() * 16) as u64;
+        if texel_bytes > limit {
+            return Err(GpuError::TooLarge { what: "the texels".into(), needed: texel_bytes, limit });
         }
+        let (bvh_nodes, bvh_nodes_hi) = paged(device, "bvh nodes", &arrays.nodes)?;
+        let (bvh_tris, bvh_tris_hi) = paged(device, "bvh tris", &arrays.tris)?;
+        let (scene_tris, scene_tris_hi) = paged(device, "scene tris", &tris)?;
         Ok(GpuScene {
-            bvh_nodes: storage(device, "bvh nodes", &arrays.nodes),
-            bvh_tris: storage(device, "bvh tris", &arrays.tris),
-            scene_tris: storage(device, "scene tris", &tris),
+            bvh_nodes,
+            bvh_nodes_hi,
+            bvh_tris,
+            bvh_tris_hi,
+            scene_tris,
+            scene_tris_hi,
             materials: storage(device, "materials", &materials),
             texture_infos: storage(device, "texture infos", &infos),
             texels: storage(device, "texels", &texels),
@@ -110,4 +115,21 @@ impl GpuScene {
             triangles: scene.triangle_count(),
         })
     }
+}
+
+/// Elements of `T` per page: as many as one storage binding of this device holds. The shaders'
+/// page-size overrides are set from the same function (`shader::pipelines`).
+pub fn page_len<T>(device: &wgpu::Device) -> u64 {
+    device.limits().max_storage_buffer_binding_size / std::mem::size_of::<T>() as u64
+}
+
+/// `data` over two bindings: the first page, then the rest (at most one more page).
+fn paged<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+    let page = page_len::<T>(device) as usize;
+    if data.len() > 2 * page {
+        let size = std::mem::size_of::<T>() as u64;
+        return Err(GpuError::TooLarge { what: format!("{label} (two pages)"), needed: data.len() as u64 * size, limit: 2 * page as u64 * size });
+    }
+    let split = data.len().min(page);
+    Ok((storage(device, label, &data[..split]), storage(device, label, &data[split..])))
 }

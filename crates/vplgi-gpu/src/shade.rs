@@ -122,6 +122,8 @@ impl ShadeKernel {
                 weights,
                 inputs.vpl_lights,
                 &out,
+                &scene.bvh_nodes_hi,
+                &scene.bvh_tris_hi,
             ];
             dispatch(device, queue, &self.pipeline, &bindings, count.div_ceil(64));
             out

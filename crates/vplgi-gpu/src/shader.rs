@@ -2,6 +2,8 @@
 //! `shaders/common/` followed by the stage file. Every composed module is validated by naga in a
 //! CPU-only test.
 
+use crate::scene::page_len;
+
 const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
 const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
 const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
@@ -42,10 +44,25 @@ pub fn pipeline(device: &wgpu::Device, name: &str, entry: &str) -> wgpu::Compute
     pipelines(device, name, &[entry]).remove(0)
 }
 
+/// The page-size overrides of the paged scene arrays a stage reads, from the device's limits.
+fn page_constants(device: &wgpu::Device, name: &str) -> Vec<(&'static str, f64)> {
+    let includes = STAGES.iter().find(|(n, _, _)| *n == name).map(|(_, _, i)| *i).unwrap_or(&[]);
+    let mut c = Vec::new();
+    if includes.contains(&"common/bvh.wgsl") {
+        c.push(("BVH_NODE_PAGE", page_len::<obvhs::bvh2::node::Bvh2Node>(device).min(u32::MAX as u64) as f64));
+        c.push(("BVH_TRI_PAGE", page_len::<crate::bvh::BvhTri>(device).min(u32::MAX as u64) as f64));
+    }
+    if includes.contains(&"common/surface.wgsl") {
+        c.push(("SCENE_TRI_PAGE", page_len::<crate::scene::SceneTri>(device).min(u32::MAX as u64) as f64));
+    }
+    c
+}
+
 /// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
 /// derived from the bindings its entry point uses.
 pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) });
+    let constants = page_constants(device, name);
     entries
         .iter()
         .map(|entry| {
@@ -54,7 +71,7 @@ pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgp
                 layout: None,
                 module: &module,
                 entry_point: Some(entry),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
                 cache: None,
             })
         })

@@ -56,7 +56,7 @@ impl ShadingPointsKernel {
         validated(device, "shading_points", || {
             let p = uniform(device, "shading_points params", &params);
             let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
-            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf];
+            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf, &scene.bvh_nodes_hi, &scene.bvh_tris_hi, &scene.scene_tris_hi];
             dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
             buf
         })

@@ -87,6 +87,9 @@ impl TraceVplsKernel {
                     (10, &lights.punctual),
                     (11, &slots),
                     (12, &counts),
+                    (16, &scene.bvh_nodes_hi),
+                    (17, &scene.bvh_tris_hi),
+                    (18, &scene.scene_tris_hi),
                 ];
                 dispatch_bound(device, queue, &self.trace, &common, n.div_ceil(64));
                 p

@@ -59,7 +59,7 @@ impl VisibilityKernel {
         validated(device, "visibility", || {
             let p = uniform(device, "visibility params", &params);
             let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
-            dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, rows, cols, &words], (row_count * wpr).div_ceil(64));
+            dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, rows, cols, &words, &scene.bvh_nodes_hi, &scene.bvh_tris_hi], (row_count * wpr).div_ceil(64));
             words
         })
     }
