@@ -220,7 +220,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
             let frame = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?;
             let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
-            (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", serde_json::Value::String(ctx.describe()))
+            let adapter = serde_json::json!({ "name": ctx.describe(), "device_type": format!("{:?}", ctx.info.device_type), "features": ctx.notable_features() });
+            (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", adapter)
         }
     };
 

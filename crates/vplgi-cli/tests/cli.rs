@@ -174,7 +174,8 @@ fn gpu_backend_renders_and_reports_its_adapter() {
     }
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["backend"], "gpu");
-    let adapter = report["adapter"].as_str().expect("adapter named");
+    let adapter = report["adapter"]["name"].as_str().expect("adapter named");
+    assert!(report["adapter"]["features"].is_array());
     println!("[{adapter}] gpu_backend_renders_and_reports_its_adapter");
     assert_eq!(report["vpls"], 500);
     let cpu = dir.path().join("cpu");

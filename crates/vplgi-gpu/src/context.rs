@@ -23,6 +23,9 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
+    /// What the adapter offers beyond the WebGPU baseline. The kernels need none of it; timestamp
+    /// queries and 64-bit atomics are what the performance work can use where present.
+    pub features: wgpu::Features,
     /// Errors wgpu reported outside an error scope (kept instead of panicking).
     uncaptured: Arc<Mutex<Vec<String>>>,
 }
@@ -78,12 +81,28 @@ impl GpuContext {
                 v.push(e.to_string());
             }
         }));
-        Ok(GpuContext { adapter, device, queue, info, uncaptured })
+        let features = adapter.features();
+        Ok(GpuContext { adapter, device, queue, info, features, uncaptured })
     }
 
     /// "Vulkan/llvmpipe (LLVM 15.0.6, 256 bits)": backend and adapter name.
     pub fn describe(&self) -> String {
         describe(&self.info)
+    }
+
+    /// The optional features that matter to vplgi, by name, for reports.
+    pub fn notable_features(&self) -> Vec<&'static str> {
+        [
+            (wgpu::Features::TIMESTAMP_QUERY, "timestamp-query"),
+            (wgpu::Features::SHADER_INT64, "shader-int64"),
+            (wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS, "shader-int64-atomics"),
+            (wgpu::Features::SUBGROUP, "subgroups"),
+            (wgpu::Features::EXPERIMENTAL_RAY_QUERY, "ray-query"),
+        ]
+        .into_iter()
+        .filter(|(f, _)| self.features.contains(*f))
+        .map(|(_, name)| name)
+        .collect()
     }
 
     /// Errors wgpu reported outside any error scope since the last call.
