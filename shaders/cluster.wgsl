@@ -42,10 +42,6 @@ struct Params {
 @group(0) @binding(10) var<storage, read_write> outcome: array<u32>;     // per point: 0, 1 widened, 2 incompatible
 @group(0) @binding(11) var<storage, read_write> compacted: array<Endpoint>;
 
-fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
-}
-
 fn dist2(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let dx = a.x - b.x;
     let dy = a.y - b.y;

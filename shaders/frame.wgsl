@@ -21,10 +21,6 @@ struct Params {
 @group(0) @binding(9) var<storage, read_write> lights: array<VplLight>;
 @group(0) @binding(10) var<storage, read_write> rows: array<Endpoint>;
 
-fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
-}
-
 // 1 for a shading point that hit a surface (sps holds a chunk of samples from params.first).
 @compute @workgroup_size(64)
 fn sp_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

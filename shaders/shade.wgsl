@@ -171,7 +171,7 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let local = gid.x + gid.y * groups.x * 64u;
+    let local = thread_index(gid, groups);
     if (local >= params.pixel_count) {
         return;
     }

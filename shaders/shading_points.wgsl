@@ -31,7 +31,7 @@ struct Params {
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let local = gid.x + gid.y * groups.x * 64u;
+    let local = thread_index(gid, groups);
     if (local >= params.count) {
         return;
     }

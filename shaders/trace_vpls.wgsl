@@ -56,10 +56,6 @@ fn sample_table_all(u: f32) -> u32 {
 }
 
 
-fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
-}
-
 @compute @workgroup_size(64)
 fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let local = thread_index(gid, groups);

@@ -25,7 +25,7 @@ struct Params {
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let id = gid.x + gid.y * groups.x * 64u;
+    let id = thread_index(gid, groups);
     if (id >= params.row_count * params.words_per_row) {
         return;
     }

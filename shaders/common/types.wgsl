@@ -60,6 +60,12 @@ struct TextureInfo {
     pad: u32,
 }
 
+// The invocation's item index. Dispatches of more workgroups than one dimension allows are split
+// over y by vplgi_gpu::buffers::dispatch (64 invocations per workgroup everywhere).
+fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
 // Pushes p off its surface (normal n) towards the side where `toward` lies
 // (vplgi-cpu CpuScene::offset_toward).
 fn offset_toward(p: vec3<f32>, n: vec3<f32>, toward: vec3<f32>, eps: f32) -> vec3<f32> {

@@ -74,7 +74,7 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
 
 /// Records one compute dispatch of `pipeline` with `buffers` bound in order at group 0 and
 /// submits it. `groups` is split over y when it exceeds the per-dimension limit; shaders
-/// linearise with `gid.x + gid.y * num_workgroups.x * 64`.
+/// linearise with `thread_index` (shaders/common/types.wgsl).
 pub fn dispatch(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer], groups: u32) {
     let bound: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
     dispatch_bound(device, queue, pipeline, &bound, groups);

@@ -16,7 +16,7 @@ pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
-    ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/rng.wgsl"]),
+    ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/types.wgsl", "common/rng.wgsl"]),
     ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl"]),
     ("trace_vpls.wgsl", include_str!("../../../shaders/trace_vpls.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
