@@ -1,7 +1,9 @@
 // Stage 3, cluster (vplgi-cpu/src/cluster.rs) on the GPU: the data-parallel parts of Alg. 1 and
 // Alg. 2. The host (vplgi-gpu/src/cluster.rs) sequences the entry points and makes the choices
 // shared with the CPU (vplgi_types::clustering): downsampled set, seeds, grid geometry, fixed-point
-// format. Points and centroids are Endpoints (position, normal).
+// format. Points and centroids are Endpoints (position, normal). Per-point arrays (points,
+// labels, weights, outcome) are bound as windows of at most one storage binding (buffers.rs,
+// Window); per-point entry points see the window's points as 0 .. n.
 //
 //   occupancy, count_bits        cells occupied by the sample for a candidate cell size
 //   grid_count, grid_scatter     counting sort of centroids into cells (around scan.wgsl)
@@ -25,13 +27,13 @@ struct Params {
     threshold: f32,         // n_t of Eq. 7
     fuzzy: u32,             // 0 hard/average weights (plain mean), 1 inverse distance
     cells: u32,             // cells of the grid (or bitmap words)
-    use_index: u32,         // 1: point i is points[index[i]] (the downsampled set)
-    pad1: u32,
+    first: u32,             // global index of the bound window's first point
+    window: u32,            // points in the bound window (gather)
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> points: array<Endpoint>;
-@group(0) @binding(2) var<storage, read> index: array<u32>;          // sample: point indices
+@group(0) @binding(2) var<storage, read> index: array<u32>;          // gather: point indices
 @group(0) @binding(3) var<storage, read_write> centroids: array<Endpoint>;
 @group(0) @binding(4) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> offsets: array<u32>;
@@ -68,7 +70,7 @@ fn cell_linear(c: vec3<i32>) -> u32 {
     return u32(c.x) + u32(params.dims.x) * (u32(c.y) + u32(params.dims.y) * u32(c.z));
 }
 
-// ---- occupancy of a candidate cell size (params.origin.w), over the sample (params.n)
+// ---- occupancy of a candidate cell size (params.origin.w), over the sample points (params.n)
 
 @compute @workgroup_size(64)
 fn occupancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -76,7 +78,7 @@ fn occupancy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (s >= params.n) {
         return;
     }
-    let p = points[index[s]].position.xyz;
+    let p = points[s].position.xyz;
     let q = vec3<u32>(floor((p - params.origin.xyz) / params.origin.w));
     let lin = q.x + u32(params.dims.x) * (q.y + u32(params.dims.y) * q.z);
     atomicOr(&sums[lin / 32u], 1u << (lin % 32u));
@@ -217,18 +219,13 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     return 2u;
 }
 
-// Points: all of them, or the downsampled set (point i is points[index[i]]) when use_index = 1.
 @compute @workgroup_size(64)
 fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
     if (i >= params.n) {
         return;
     }
-    var pi = i;
-    if (params.use_index == 1u) {
-        pi = index[i];
-    }
-    let pt = points[pi];
+    let pt = points[i];
     let how = search(pt.position.xyz, pt.normal.xyz);
     outcome[i] = how;
     // fuzzy_weights: inverse distance (floored at 1e-4 cell) or plain mean, normalised.
@@ -280,11 +277,7 @@ fn sums_kernel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     if (l == MISS) {
         return;
     }
-    var pi = i;
-    if (params.use_index == 1u) {
-        pi = index[i];
-    }
-    let pt = points[pi];
+    let pt = points[i];
     let q = clamp((pt.position.xyz - params.fix_min.xyz) / params.fix_ext.xyz * FIX_ONE, vec3<f32>(0.0), vec3<f32>(FIX_ONE));
     let m = clamp(clamp(pt.normal.xyz, vec3<f32>(-1.0), vec3<f32>(1.0)) * FIX_ONE + FIX_ONE, vec3<f32>(0.0), vec3<f32>(2.0 * FIX_ONE));
     let qu = vec3<u32>(round(q));
@@ -351,20 +344,26 @@ fn rep_index(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let l = labels[i * params.f];
     let d = dist2(points[i].position.xyz, centroids[l].position.xyz);
     if (bitcast<u32>(d) == atomicLoad(&counts[l])) {
-        atomicMin(&sums[l], i);
+        atomicMin(&sums[l], params.first + i);
     }
 }
 
 // ---- small helpers
 
-// centroids[k] = points[index[k]] (the seeds).
+// centroids[t] = points[index[t]] for the indices that fall in the bound window of points
+// (params.first .. + params.window); `index` and `centroids` are windows of params.n items.
+// The host runs every pair of output and point windows (seeds, the downsampled set,
+// representatives' rows).
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = thread_index(gid, groups);
-    if (k >= params.k) {
+    let t = thread_index(gid, groups);
+    if (t >= params.n) {
         return;
     }
-    centroids[k] = points[index[k]];
+    let p = index[t];
+    if (p >= params.first && p - params.first < params.window) {
+        centroids[t] = points[p - params.first];
+    }
 }
 
 // Bounds of the points as order-preserving u32 keys: sums[0..3] = min, sums[3..6] = max.

@@ -1,12 +1,16 @@
 // Glue between the stages of the chained GPU frame (vplgi-gpu/src/pipeline.rs), the twin of the
 // bookkeeping in vplgi-cpu/src/pipeline.rs: which shading points hit something and their rows,
-// clustering inputs, lights for shading, visibility rows.
+// clustering inputs, lights for shading, visibility columns.
 
 struct Params {
     n: u32,
     k: u32,
     first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
+    hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
+    hit_count: u32,  // hits in that window
+    pad0: u32,
     pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -19,7 +23,6 @@ struct Params {
 @group(0) @binding(7) var<storage, read> labels: array<u32>;
 @group(0) @binding(8) var<storage, read> reps: array<u32>;
 @group(0) @binding(9) var<storage, read_write> lights: array<VplLight>;
-@group(0) @binding(10) var<storage, read_write> rows: array<Endpoint>;
 
 // 1 for a shading point that hit a surface (sps holds a chunk of samples from params.first).
 @compute @workgroup_size(64)
@@ -31,7 +34,8 @@ fn sp_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     flags[params.first + i] = select(0u, 1u, sps[i].triangle != MISS);
 }
 
-// Hits, numbered by the scan of the flags: their row and their Endpoint (clustering input).
+// Hits, numbered by the scan of the flags: their row and their Endpoint (clustering input), for
+// the hits inside the bound window of `endpoints` (the host runs every chunk x window pair).
 @compute @workgroup_size(64)
 fn sp_compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -46,7 +50,9 @@ fn sp_compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let r = offsets[g];
     row_of[g] = r;
-    endpoints[r] = Endpoint(vec4<f32>(sp.position, 0.0), vec4<f32>(sp.normal, 0.0));
+    if (r >= params.hit_first && r - params.hit_first < params.hit_count) {
+        endpoints[r - params.hit_first] = Endpoint(vec4<f32>(sp.position, 0.0), vec4<f32>(sp.normal, 0.0));
+    }
 }
 
 // VPLs as clustering points.
@@ -87,16 +93,6 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
     let r = vpls[reps[k]];
     lights[k] = VplLight(vec4<f32>(r.position, 0.0), vec4<f32>(r.normal, 0.0), vec4<f32>(flux, 0.0));
-}
-
-// Visibility rows of the shading-point clusters: their representatives' Endpoints.
-@compute @workgroup_size(64)
-fn rep_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let k = thread_index(gid, groups);
-    if (k >= params.k) {
-        return;
-    }
-    rows[k] = endpoints[reps[k]];
 }
 
 // Visibility columns: the lights' positions and normals.

@@ -130,7 +130,8 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
         row_w[0] = 1.0;
         rows = 1u;
     } else {
-        let r = row_of[i] * params.f;
+        // labels and weights are bound from hit params.first_row on (a window).
+        let r = (row_of[i] - params.first_row) * params.f;
         for (var j = 0u; j < params.f; j = j + 1u) {
             let k = labels[r + j];
             if (k != MISS) {

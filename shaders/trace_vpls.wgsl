@@ -24,7 +24,7 @@ struct Params {
 @group(0) @binding(4) var<storage, read> scene_tris: array<SceneTri>;
 @group(0) @binding(5) var<storage, read> materials: array<Material>;
 @group(0) @binding(6) var<storage, read> texture_infos: array<TextureInfo>;
-@group(0) @binding(7) var<storage, read> texels: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> texels: array<u32>;
 @group(0) @binding(8) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(9) var<storage, read> all_table: array<vec2<f32>>;
 @group(0) @binding(10) var<storage, read> punctual: array<Punctual>;
@@ -36,7 +36,12 @@ struct Params {
 @group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(16) var<storage, read> bvh_nodes_hi: array<BvhNode>;
 @group(0) @binding(17) var<storage, read> bvh_tris_hi: array<BvhTri>;
-@group(0) @binding(18) var<storage, read> scene_tris_hi: array<SceneTri>;
+@group(0) @binding(18) var<storage, read> scene_tris_1: array<SceneTri>;
+@group(0) @binding(19) var<storage, read> texels_1: array<u32>;
+@group(0) @binding(20) var<storage, read> texels_2: array<u32>;
+@group(0) @binding(21) var<storage, read> texels_3: array<u32>;
+@group(0) @binding(22) var<storage, read> scene_tris_2: array<SceneTri>;
+@group(0) @binding(23) var<storage, read> scene_tris_3: array<SceneTri>;
 
 const SURVIVAL_MAX: f32 = 0.95;
 

@@ -7,7 +7,7 @@ struct Params {
     rows: u32,
     cols: u32,
     words_per_row: u32,   // u32 words per row (twice the CPU's u64 words)
-    first_row: u32,       // first row of this dispatch (chunking)
+    first_row: u32,       // first row of this dispatch in the bound window of `rows`
     row_count: u32,       // rows in this dispatch
     eps: f32,
     pad0: u32,

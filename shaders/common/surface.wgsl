@@ -1,14 +1,18 @@
 // What a ray sees where it hits a surface (vplgi-cpu CpuScene::trace). Expects bindings
-// bvh_tris(_hi), scene_tris, scene_tris_hi (paged like the BVH arrays), materials,
-// texture_infos and texels.
+// bvh_tris(_hi), the per-triangle shading data in four pages scene_tris, scene_tris_1 .. _3,
+// materials, texture_infos and the texel words in four pages texels, texels_1 .. _3
+// (vplgi-gpu/src/scene.rs). Page sizes are overrides set from the device limit.
 
 override SCENE_TRI_PAGE: u32 = 4294967295u;
 
 fn scene_tri(i: u32) -> SceneTri {
-    if (i < SCENE_TRI_PAGE) {
-        return scene_tris[i];
+    let k = i % SCENE_TRI_PAGE;
+    switch i / SCENE_TRI_PAGE {
+        case 0u: { return scene_tris[k]; }
+        case 1u: { return scene_tris_1[k]; }
+        case 2u: { return scene_tris_2[k]; }
+        default: { return scene_tris_3[k]; }
     }
-    return scene_tris_hi[i - SCENE_TRI_PAGE];
 }
 
 struct Surface {
@@ -19,13 +23,37 @@ struct Surface {
     emitted: vec3<f32>,   // emission towards the ray's origin (front side only)
 }
 
+override TEXEL_PAGE: u32 = 4294967295u;
+
+fn texel_word(i: u32) -> u32 {
+    let k = i % TEXEL_PAGE;
+    switch i / TEXEL_PAGE {
+        case 0u: { return texels[k]; }
+        case 1u: { return texels_1[k]; }
+        case 2u: { return texels_2[k]; }
+        default: { return texels_3[k]; }
+    }
+}
+
+// Words 0 .. 256 are the linear values of the 8-bit sRGB codes (vplgi_scene::srgb8_table), so
+// 8-bit textures decode to exactly the CPU's texels.
+fn srgb8(code: u32) -> f32 {
+    return bitcast<f32>(texel_word(code & 255u));
+}
+
 fn texel(info: TextureInfo, i: i32, j: i32) -> vec3<f32> {
     // Repeat wrapping (rem_euclid).
     let w = i32(info.width);
     let h = i32(info.height);
     let x = ((i % w) + w) % w;
     let y = ((j % h) + h) % h;
-    return texels[info.offset + u32(y * w + x)].xyz;
+    let t = u32(y * w + x);
+    if (info.format == 0u) {
+        let c = texel_word(info.offset + t);
+        return vec3<f32>(srgb8(c), srgb8(c >> 8u), srgb8(c >> 16u));
+    }
+    let o = info.offset + 3u * t;
+    return vec3<f32>(bitcast<f32>(texel_word(o)), bitcast<f32>(texel_word(o + 1u)), bitcast<f32>(texel_word(o + 2u)));
 }
 
 // vplgi_scene::Texture::sample: bilinear, repeat, (0, 0) at the top-left corner.

@@ -54,10 +54,10 @@ struct Material {
 
 // Where a texture's texels start in the texel array, and its size.
 struct TextureInfo {
-    offset: u32,
+    offset: u32,          // first texel word (texel_word in surface.wgsl)
     width: u32,
     height: u32,
-    pad: u32,
+    format: u32,          // 0: one word of 8-bit sRGB codes per texel, 1: three f32 words
 }
 
 // The invocation's item index. Dispatches of more workgroups than one dimension allows are split

@@ -223,7 +223,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words_per_row: words_per_row(cols_c.len()) as u32,
         vpl_lights: &light_buf_c,
         light_count: lights_c.len() as u32,
-        visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32 },
+        visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 } },
     };
     let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
     let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
@@ -357,7 +357,7 @@ fn cluster_assign_and_update_match_the_cpu() {
     let cents = storage(&ctx.device, "centroids", &endpoints(&c.positions, &c.normals));
     let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
     let ggrid = kernel.fill_grid(&ctx.device, &ctx.queue, &geometry, &cents, c.k() as u32).unwrap();
-    let a = kernel.assign(&ctx.device, &ctx.queue, &ggrid, &pts, None, m as u32, &cents, c.k() as u32, 0.866, f as u32, FuzzyMode::Weighted).unwrap();
+    let a = kernel.assign(&ctx.device, &ctx.queue, &ggrid, &pts, m as u32, &cents, c.k() as u32, 0.866, f as u32, FuzzyMode::Weighted).unwrap();
     let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &a.labels, m * f).unwrap();
     let gw: Vec<f32> = read_back(&ctx.device, &ctx.queue, &a.weights, m * f).unwrap();
     let (mut hard_same, mut set_same, mut max_w) = (0, 0, 0.0f32);
@@ -383,7 +383,7 @@ fn cluster_assign_and_update_match_the_cpu() {
     let (mut cp, mut cn) = (c.positions.clone(), c.normals.clone());
     let cpu_counts = update(&fix, &ps, &ns, &hard, &mut cp, &mut cn);
     let labels = storage(&ctx.device, "labels", &hard);
-    let gcounts = kernel.update(&ctx.device, &ctx.queue, &fix, &pts, None, m as u32, &labels, 1, &cents, c.k() as u32).unwrap();
+    let gcounts = kernel.update(&ctx.device, &ctx.queue, &fix, &pts, m as u32, &labels, 1, &cents, c.k() as u32).unwrap();
     let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &cents, c.k()).unwrap();
     let gcount: Vec<u32> = read_back(&ctx.device, &ctx.queue, &gcounts, c.k()).unwrap();
     assert_eq!(gcount, cpu_counts);
@@ -524,7 +524,9 @@ fn whole_frames_match_the_cpu_in_every_mode() {
 
 /// Chunking under forced small limits: a device whose storage bindings are too small for the
 /// frame's shading points (and whose dispatches are limited to 64 workgroups per dimension) must
-/// render the very same image, bit for bit, as the unrestricted device.
+/// render the very same image, bit for bit, as the unrestricted device. At the tighter limit the
+/// per-point arrays (hit points, clustering labels, weights and search outcomes) need several
+/// windows too, and so do the visibility rows of unclustered shading points.
 #[test]
 fn frames_are_identical_under_forced_small_limits() {
     use vplgi_gpu::pipeline::{render, GpuKernels};
@@ -532,25 +534,44 @@ fn frames_are_identical_under_forced_small_limits() {
 
     let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else { return };
     let scene = cornell_box();
-    for (cluster, spp) in [(ClusterMode::None, 1), (ClusterMode::Both, 2)] {
+    let kernels = GpuKernels::new(&ctx.device).unwrap();
+    for (cluster, spp, tight) in [(ClusterMode::None, 1, false), (ClusterMode::Both, 2, false), (ClusterMode::None, 2, true), (ClusterMode::Both, 2, true), (ClusterMode::Sp, 2, true)] {
         let cfg = FrameConfig { width: 48, height: 40, spp, vpls: 800, k_sp: 150, k_vpl: 80, cluster, fuzzy: FuzzyMode::Weighted, ..FrameConfig::default() };
         let n_sp = (cfg.width * cfg.height * cfg.spp) as u64;
-        // Shading points (64 B) need more than one binding; every other array of this frame
-        // (hit points 32 B, labels and weights 24 B per point) fits in one.
-        let limit = n_sp * 64 / 2 - 64 * 7;
+        let full = render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap();
+        let hits = full.stats.shading_point_hits as u64;
+        let label_bytes = hits * 4 * cfg.effective_f() as u64;
+        let limit = if tight {
+            // Hit points (32 B each) need three or more windows, labels and weights two or more;
+            // the 800 VPLs (48 B each) still fit one binding.
+            let limit = 40 << 10;
+            assert!(hits * 32 > 2 * limit && label_bytes > limit, "{hits} hits do not exercise the windows");
+            limit
+        } else {
+            // Shading points (64 B) need more than one binding, every other array fits in one.
+            let limit = n_sp * 64 / 2 - 64 * 7;
+            assert!(hits * 32 <= limit && label_bytes <= limit);
+            limit
+        };
         let small = vplgi_gpu::GpuContext::with_limits(Some(limit), Some(64)).unwrap();
         assert_eq!(small.device.limits().max_storage_buffer_binding_size, limit);
-        let full = render(&ctx.device, &ctx.queue, &GpuKernels::new(&ctx.device).unwrap(), &scene, &cfg).unwrap();
         let chunked = render(&small.device, &small.queue, &GpuKernels::new(&small.device).unwrap(), &scene, &cfg).unwrap();
-        println!("{cluster:?}, spp {spp}: binding limit {limit} B for {n_sp} shading points ({} B), 64 workgroups per dimension: images identical: {}", n_sp * 64, full.pixels == chunked.pixels);
-        assert_eq!(full.pixels, chunked.pixels, "{cluster:?}: chunked frame differs");
+        println!(
+            "{cluster:?}, spp {spp}: binding limit {limit} B for {n_sp} shading points ({} B), {hits} hit points ({} B), labels {label_bytes} B, 64 workgroups per dimension: images identical: {}",
+            n_sp * 64,
+            hits * 32,
+            full.pixels == chunked.pixels
+        );
+        assert!(full.pixels.iter().any(|p| p[0] > 0.0));
+        assert_eq!(full.pixels, chunked.pixels, "{cluster:?} (limit {limit} B): chunked frame differs");
         assert!(small.take_uncaptured_errors().is_empty());
     }
 }
 
-/// Scene arrays paged over two bindings: a cluttered scene whose per-triangle shading data
-/// exceeds one (forced) binding renders the same frame, bit for bit, as on the
-/// unrestricted device; past two bindings the backend refuses with a clear error.
+/// Scene arrays paged over several bindings: a cluttered scene whose BVH nodes and BVH triangles
+/// each need two (forced) bindings, and its per-triangle shading data three or four, renders the
+/// same frame, bit for bit, as on the unrestricted device; past the pages the backend refuses
+/// with a clear error.
 #[test]
 fn scene_arrays_are_paged_under_forced_small_limits() {
     use vplgi_gpu::pipeline::{render, GpuKernels};
@@ -572,27 +593,115 @@ fn scene_arrays_are_paged_under_forced_small_limits() {
     }
     scene.validate().unwrap();
     let t = scene.triangle_count() as u64;
-    // Per-triangle shading data is 96 B: at 0.6 x that per triangle it needs two pages, while
-    // BVH triangles (48 B), BVH nodes (obvhs collapses leaves: ~0.65 nodes of 48 B per triangle
-    // here) and every per-frame array fit in one. The BVH arrays page through the same `paged`
-    // helper and the same WGSL accessor pattern, but this test cannot make them need a second
-    // page without also pushing the shading data past two.
-    let limit = (t * 96 * 6 / 10).next_multiple_of(16);
+    let arrays = vplgi_gpu::bvh::build(&scene).unwrap();
+    let (node_bytes, tri_bytes, shading_bytes) = (arrays.nodes.len() as u64 * 48, arrays.tris.len() as u64 * 48, t * 96);
+    // A binding smaller than each BVH array (obvhs collapses leaves: ~0.65 nodes per triangle
+    // here) that still holds half of each, and a quarter of the shading data.
+    let limit = (arrays.nodes.len().div_ceil(2) as u64 * 48).max(arrays.tris.len().div_ceil(2) as u64 * 48).max(t.div_ceil(4) * 96) + 96;
+    assert!(limit < node_bytes && limit < tri_bytes && shading_bytes > 2 * limit, "the arrays do not need their pages");
     let small = vplgi_gpu::GpuContext::with_limits(Some(limit), None).unwrap();
     for cluster in [ClusterMode::None, ClusterMode::Both] {
         let cfg = FrameConfig { width: 24, height: 24, vpls: 300, k_sp: 60, k_vpl: 40, cluster, fuzzy: FuzzyMode::Weighted, ..FrameConfig::default() };
         let full = render(&ctx.device, &ctx.queue, &GpuKernels::new(&ctx.device).unwrap(), &scene, &cfg).unwrap();
         let paged = render(&small.device, &small.queue, &GpuKernels::new(&small.device).unwrap(), &scene, &cfg).unwrap();
-        println!("{cluster:?}: {t} triangles, binding limit {limit} B (shading data {} B): images identical: {}", t * 96, full.pixels == paged.pixels);
+        println!(
+            "{cluster:?}: {t} triangles, binding limit {limit} B (BVH nodes {node_bytes} B, BVH triangles {tri_bytes} B, shading data {shading_bytes} B): images identical: {}",
+            full.pixels == paged.pixels
+        );
         assert!(full.pixels.iter().any(|p| p[0] > 0.0));
         assert_eq!(full.pixels, paged.pixels, "{cluster:?}: paged frame differs");
     }
-    // Beyond two pages: a clear error, not a panic.
+    // Beyond the pages: a clear error, not a panic.
     let tiny = vplgi_gpu::GpuContext::with_limits(Some(limit / 4), None).unwrap();
     let cfg = FrameConfig { width: 8, height: 8, vpls: 10, cluster: ClusterMode::None, ..FrameConfig::default() };
     match render(&tiny.device, &tiny.queue, &GpuKernels::new(&tiny.device).unwrap(), &scene, &cfg) {
-        Err(vplgi_gpu::GpuError::TooLarge { what, .. }) => println!("refused past two pages: {what}"),
+        Err(e @ vplgi_gpu::GpuError::TooLarge { .. }) => println!("refused past the pages: {e}"),
         Err(e) => panic!("unexpected error {e}"),
-        Ok(_) => panic!("a scene past two pages per array was accepted"),
+        Ok(_) => panic!("a scene past its pages was accepted"),
     }
+}
+
+/// Textures: an 8-bit sRGB texture is stored as its codes and decoded through the table both
+/// backends share, a float texture as f32 words, and the texel words are paged over four
+/// bindings. Shading points on a plane whose UVs repeat both textures must see the CPU's albedo,
+/// and the same albedo, bit for bit, on a device whose bindings force the texel words over three
+/// pages.
+///
+/// The textures are random 16x16-texel blocks: where the four texels of a bilinear lookup are
+/// equal, the albedo does not depend on the hit point, so it must match to rounding (the SPEC's
+/// 1e-6); elsewhere it moves with the barycentrics (positions agree to ~1e-7), by at most the
+/// largest texel step times the UV error.
+#[test]
+fn textures_match_the_cpu_and_are_paged() {
+    use vplgi_gpu::scene::{texel_words, TEXELS_F32, TEXELS_SRGB8};
+    use vplgi_scene::{Material, Texture};
+
+    let Some(ctx) = vplgi_tests::gpu("textures_match_the_cpu_and_are_paged") else { return };
+    let table = vplgi_scene::srgb8_table();
+    let mut rng = Rng::new(11, Stream::Oracle, 0);
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
+    // UVs repeat the textures a few times, offset so texel edges do not meet pixel centres.
+    let uvs: Vec<glam::Vec2> = scene.positions.iter().map(|p| glam::Vec2::new(p.x * 1.7 + 0.13, p.z * 1.3 - 0.41)).collect();
+    scene.uvs = uvs;
+    let blocks = |w: u32, h: u32, value: &mut dyn FnMut() -> f32| {
+        let per_block: Vec<Vec3> = (0..w.div_ceil(16) * h.div_ceil(16)).map(|_| Vec3::new(value(), value(), value())).collect();
+        Texture { width: w, height: h, texels: (0..w * h).map(|i| per_block[((i / w / 16) * w.div_ceil(16) + (i % w) / 16) as usize]).collect() }
+    };
+    let coded = blocks(512, 384, &mut || table[(rng.next_u32() % 256) as usize]);
+    let mut rng2 = Rng::new(12, Stream::Oracle, 0);
+    let float = blocks(208, 160, &mut || rng2.next_f32());
+    scene.textures = vec![coded, float];
+    scene.materials[0].base_color = Vec3::ONE;
+    scene.materials[0].base_color_texture = Some(0);
+    scene.materials.push(Material { name: "float texture".into(), base_color: Vec3::ONE, base_color_texture: Some(1), emission: Vec3::ZERO });
+    scene.material_ids[1] = 1;
+    scene.validate().unwrap();
+
+    let (words, infos) = texel_words(&scene);
+    assert_eq!(infos.iter().map(|i| i.format).collect::<Vec<_>>(), [TEXELS_SRGB8, TEXELS_F32]);
+    let bytes = words.len() as u64 * 4;
+    // Three pages of texel words (every other array of this frame fits one binding).
+    let limit = (bytes * 2 / 5).next_multiple_of(16);
+    assert!(bytes > 2 * limit && bytes <= 3 * limit);
+    let small = vplgi_gpu::GpuContext::with_limits(Some(limit), None).unwrap();
+
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let (w, h) = (64, 64);
+    let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, 1, 5);
+    let render = |c: &vplgi_gpu::GpuContext| {
+        let gs = GpuScene::new(&c.device, &scene).unwrap();
+        ShadingPointsKernel::new(&c.device).unwrap().run(&c.device, &c.queue, &gs, w, h, 1, 5, None).unwrap()
+    };
+    let gpu = render(&ctx);
+    let paged = render(&small);
+    let (mut compared, mut exact, mut max_err) = (0usize, 0usize, 0.0f32);
+    let mut albedos = std::collections::HashSet::new();
+    for (a, b) in cpu.iter().zip(&gpu) {
+        if a.is_miss() || a.triangle != b.triangle {
+            continue;
+        }
+        compared += 1;
+        let err = (Vec3::from(a.albedo) - Vec3::from(b.albedo)).abs().max_element();
+        exact += (err <= 1e-6) as usize;
+        max_err = max_err.max(err);
+        albedos.insert(b.albedo.map(f32::to_bits));
+    }
+    let same_paged = gpu.iter().zip(&paged).filter(|(a, b)| a.albedo == b.albedo && a.triangle == b.triangle).count();
+    println!(
+        "textures ({bytes} B of texel words): {compared} shading points, {} distinct albedos; within 1e-6 of the CPU {exact} ({:.1} %), max difference {max_err:.2e}; \
+         texel words over three pages ({limit} B bindings): {same_paged}/{} identical",
+        albedos.len(),
+        100.0 * exact as f64 / compared as f64,
+        gpu.len()
+    );
+    // The plane fills 83 % of the view (the camera keeps a 10 % margin).
+    assert!(compared >= (w * h) as usize * 3 / 4, "only {compared} comparable shading points");
+    assert!(albedos.len() > 200, "the textures were not sampled");
+    // A lookup inside a block: its 4 texels are equal. With 16-texel blocks, (15/16)^2 = 88 % of
+    // lookups are, less the points where the UV error crosses a texel edge.
+    assert!(exact as f64 >= 0.8 * compared as f64, "only {exact} of {compared} albedos match to 1e-6");
+    // Texel steps are at most 1; UVs differ by ~1e-7 relative of 1.7 repeats of 512 texels.
+    assert!(max_err <= 2e-3, "albedo differs by {max_err}");
+    assert_eq!(same_paged, gpu.len(), "paged texel words read differently");
 }

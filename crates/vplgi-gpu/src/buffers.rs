@@ -22,11 +22,12 @@ pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::
     })
 }
 
-/// A zeroed storage buffer of `len` elements of `T` (at least 16 bytes).
+/// A zeroed storage buffer of `len` elements of `T` (at least one element and 16 bytes, like
+/// [`storage`]).
 pub fn storage_zeroed<T: Pod>(device: &wgpu::Device, label: &str, len: usize) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
-        size: ((len * std::mem::size_of::<T>()) as u64).max(16).next_multiple_of(4),
+        size: ((len.max(1) * std::mem::size_of::<T>()) as u64).max(16).next_multiple_of(4),
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
@@ -83,8 +84,15 @@ pub fn dispatch(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::Com
 /// Like [`dispatch`], with explicit binding numbers: a pipeline whose layout is derived from one
 /// entry point of a multi-entry module only has the bindings that entry point uses.
 pub fn dispatch_bound(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, &wgpu::Buffer)], groups: u32) {
+    let whole: Vec<(u32, wgpu::BufferBinding)> = buffers.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+    dispatch_windows(device, queue, pipeline, &whole, groups);
+}
+
+/// Like [`dispatch_bound`], with any buffer bindings, e.g. [`Window`]s of per-item arrays
+/// larger than one binding.
+pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, wgpu::BufferBinding)], groups: u32) {
     let layout = pipeline.get_bind_group_layout(0);
-    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() }).collect();
+    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: wgpu::BindingResource::Buffer(b.clone()) }).collect();
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {
@@ -110,4 +118,68 @@ pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buff
 /// Waits until the device has finished all submitted work (stage timing boundaries).
 pub fn sync(device: &wgpu::Device) -> Result<(), GpuError> {
     device.poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) }).map(|_| ()).map_err(|e| GpuError::Lost { what: "waiting for the device".into(), message: e.to_string() })
+}
+
+/// Windows start on multiples of this many elements: 64 elements of at least 4 bytes are 256
+/// bytes, the largest storage offset alignment wgpu allows.
+pub const WINDOW_ALIGN: u64 = 64;
+
+/// A run of items `first .. first + count` of per-item arrays that may be larger than one
+/// storage binding (points, their labels and weights). Windows start on a multiple of
+/// [`WINDOW_ALIGN`] items, so every array of the run can be bound at its own byte offset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub first: u64,
+    pub count: u64,
+}
+
+impl Window {
+    /// The whole run of `n` items in windows of at most `limit` bytes for the widest array
+    /// (`item_bytes` per item); at least [`WINDOW_ALIGN`] items each. Empty for `n = 0`.
+    pub fn split(n: u64, item_bytes: u64, limit: u64) -> Vec<Window> {
+        let per = ((limit / item_bytes.max(1)) / WINDOW_ALIGN).max(1) * WINDOW_ALIGN;
+        (0..n.div_ceil(per)).map(|i| Window { first: i * per, count: per.min(n - i * per) }).collect()
+    }
+
+    /// The smallest window holding items `first .. end`: it starts at the aligned item at or
+    /// below `first`, which shaders subtract as the window's `first`.
+    pub fn covering(first: u64, end: u64) -> Window {
+        let start = first - first % WINDOW_ALIGN;
+        Window { first: start, count: end.max(first) - start }
+    }
+
+    /// This window of `buffer`, whose items are `per_item` elements of `T`. An empty window
+    /// binds the buffer's first item (buffers here hold at least one), which nothing reads.
+    pub fn of<'a, T>(&self, buffer: &'a wgpu::Buffer, per_item: u64) -> wgpu::BufferBinding<'a> {
+        let item = (per_item * std::mem::size_of::<T>() as u64).max(4);
+        if self.count == 0 {
+            return wgpu::BufferBinding { buffer, offset: 0, size: std::num::NonZeroU64::new(item) };
+        }
+        wgpu::BufferBinding { buffer, offset: self.first * item, size: std::num::NonZeroU64::new(self.count * item) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_cover_the_run_once_and_start_aligned() {
+        for (n, item, limit) in [(0u64, 32u64, 1024u64), (1, 32, 1024), (1000, 32, 4096), (1000, 64, 100), (5000, 4, 1 << 20)] {
+            let w = Window::split(n, item, limit);
+            let mut next = 0;
+            for x in &w {
+                assert_eq!(x.first, next, "gap or overlap at {x:?}");
+                assert_eq!(x.first % WINDOW_ALIGN, 0);
+                assert!(x.count > 0);
+                // Within the limit unless the limit is below one aligned group of items.
+                assert!(x.count * item <= limit.max(WINDOW_ALIGN * item), "{x:?} exceeds {limit} B");
+                next += x.count;
+            }
+            assert_eq!(next, n);
+        }
+        let c = Window::covering(130, 200);
+        assert_eq!((c.first, c.count), (128, 72));
+        assert_eq!(Window::covering(64, 64).count, 0);
+    }
 }

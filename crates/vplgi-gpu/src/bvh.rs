@@ -46,7 +46,7 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
     let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut build_time);
     let depth = depth(&bvh.nodes);
     if depth > STACK_DEPTH {
-        return Err(GpuError::TooLarge { what: format!("the BVH (depth {depth})"), needed: depth as u64, limit: STACK_DEPTH as u64 });
+        return Err(GpuError::TooLarge { what: "the BVH's depth (the WGSL traversal stack)".into(), needed: depth as u64, limit: STACK_DEPTH as u64 });
     }
     let laid_out = bvh
         .primitive_indices

@@ -5,8 +5,12 @@
 //! `vplgi_types::clustering` (downsampled set, seeds, grid geometry from occupancy counts,
 //! fixed-point box); the GPU does every per-point and per-centroid step. Read back: the data's
 //! bounding box (6 words), four occupancy counts and the number of surviving clusters.
+//!
+//! Per-point arrays (points, labels, weights, search outcomes) may be larger than one storage
+//! binding: every per-point step runs over [`Window`]s of them, and gathers by index (seeds, the
+//! downsampled set, representatives) run over every pair of output and point windows.
 
-use crate::buffers::{dispatch_bound, read_back, storage, storage_zeroed, uniform};
+use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::shader::pipelines;
@@ -31,8 +35,8 @@ struct Params {
     threshold: f32,
     fuzzy: u32,
     cells: u32,
-    use_index: u32,
-    pad: u32,
+    first: u32,
+    window: u32,
 }
 
 /// A grid filled with centroids, on the device.
@@ -101,12 +105,37 @@ impl ClusterKernel {
     }
 
     fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &Params, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+        let whole: Vec<(u32, wgpu::BufferBinding)> = bound.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+        self.run_windows(device, queue, entry, params, &whole, threads)
+    }
+
+    fn run_windows(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &Params, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
         validated(device, entry, || {
             let p = uniform(device, "cluster params", params);
-            let mut all: Vec<(u32, &wgpu::Buffer)> = vec![(0, &p)];
+            let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
-            dispatch_bound(device, queue, &self.p[entry], &all, groups(threads));
+            dispatch_windows(device, queue, &self.p[entry], &all, groups(threads));
         })
+    }
+
+    /// Windows of `n` points whose widest per-point array (an Endpoint, or `f` labels) fits one
+    /// storage binding.
+    fn windows(device: &wgpu::Device, n: u32, f: u32) -> Vec<Window> {
+        let item = (4 * f as u64).max(std::mem::size_of::<Endpoint>() as u64);
+        Window::split(n as u64, item, device.limits().max_storage_buffer_binding_size)
+    }
+
+    /// `out[t] = points[index[t]]` for `t < n` (Endpoints), over `m` points.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather(&self, device: &wgpu::Device, queue: &wgpu::Queue, out: &wgpu::Buffer, index: &wgpu::Buffer, n: u32, points: &wgpu::Buffer, m: u32) -> Result<(), GpuError> {
+        for wo in Self::windows(device, n, 1) {
+            for wi in Self::windows(device, m, 1) {
+                let p = Params { n: wo.count as u32, first: wi.first as u32, window: wi.count as u32, ..Default::default() };
+                let b = [(1, wi.of::<Endpoint>(points, 1)), (2, wo.of::<u32>(index, 1)), (3, wo.of::<Endpoint>(out, 1))];
+                self.run_windows(device, queue, "gather", &p, &b, wo.count as u32)?;
+            }
+        }
+        Ok(())
     }
 
     fn grid_params(&self, g: &GridGeometry, brute: i32) -> Params {
@@ -117,24 +146,29 @@ impl ClusterKernel {
     pub fn bounds(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, n: u32) -> Result<(Vec3, Vec3), GpuError> {
         let init = [u32::MAX, u32::MAX, u32::MAX, 0, 0, 0];
         let keys = storage(device, "bounds", &init);
-        self.run(device, queue, "bounds", &Params { n, ..Default::default() }, &[(1, points), (9, &keys)], n)?;
+        for w in Self::windows(device, n, 1) {
+            let b = [(1, w.of::<Endpoint>(points, 1)), (9, keys.as_entire_buffer_binding())];
+            self.run_windows(device, queue, "bounds", &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+        }
         let k = read_back::<u32>(device, queue, &keys, 6)?;
         let decode = |u: u32| f32::from_bits(if u & 0x8000_0000 != 0 { u & 0x7fff_ffff } else { !u });
         Ok((Vec3::new(decode(k[0]), decode(k[1]), decode(k[2])), Vec3::new(decode(k[3]), decode(k[4]), decode(k[5]))))
     }
 
-    /// Distinct cells `floor((p - min) / cell)` among the sample points.
+    /// Distinct cells `floor((p - min) / cell)` among the `s` sample points.
     #[allow(clippy::too_many_arguments)]
-    fn occupied(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, sample: &wgpu::Buffer, s: u32, min: Vec3, ext: Vec3, cell: f32) -> Result<usize, GpuError> {
+    fn occupied(&self, device: &wgpu::Device, queue: &wgpu::Queue, sample: &wgpu::Buffer, s: u32, min: Vec3, ext: Vec3, cell: f32) -> Result<usize, GpuError> {
         let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
         let cells = dims.iter().map(|&d| d as u64).product::<u64>();
         let words = cells.div_ceil(32) as u32;
         let bitmap = storage_zeroed::<u32>(device, "occupancy bitmap", words as usize);
         let total = storage_zeroed::<u32>(device, "occupied", 1);
         let mut p = self.grid_params(&GridGeometry { origin: min, cell, dims }, 0);
-        p.n = s;
         p.cells = words;
-        self.run(device, queue, "occupancy", &p, &[(1, points), (2, sample), (9, &bitmap)], s)?;
+        for w in Self::windows(device, s, 1) {
+            p.n = w.count as u32;
+            self.run_windows(device, queue, "occupancy", &p, &[(1, w.of::<Endpoint>(sample, 1)), (9, bitmap.as_entire_buffer_binding())], w.count as u32)?;
+        }
         self.run(device, queue, "count_bits", &p, &[(4, &total), (9, &bitmap)], words)?;
         Ok(read_back::<u32>(device, queue, &total, 1)?[0] as usize)
     }
@@ -155,41 +189,47 @@ impl ClusterKernel {
         Ok(GpuGrid { geometry: *geometry, brute_ring: brute, offsets, items })
     }
 
-    /// Each of `n` points (through `index` when given) gets its `f` nearest compatible
-    /// centroids, with weights for `fuzzy`.
+    /// Each of `n` points gets its `f` nearest compatible centroids, with weights for `fuzzy`.
     #[allow(clippy::too_many_arguments)]
-    pub fn assign(&self, device: &wgpu::Device, queue: &wgpu::Queue, grid: &GpuGrid, points: &wgpu::Buffer, index: Option<&wgpu::Buffer>, n: u32, centroids: &wgpu::Buffer, k: u32, threshold: f32, f: u32, fuzzy: FuzzyMode) -> Result<Assignment, GpuError> {
-        let dummy = storage_zeroed::<u32>(device, "no index", 1);
+    pub fn assign(&self, device: &wgpu::Device, queue: &wgpu::Queue, grid: &GpuGrid, points: &wgpu::Buffer, n: u32, centroids: &wgpu::Buffer, k: u32, threshold: f32, f: u32, fuzzy: FuzzyMode) -> Result<Assignment, GpuError> {
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
-        (p.n, p.k, p.f, p.threshold, p.use_index) = (n, k, f, threshold, index.is_some() as u32);
+        (p.k, p.f, p.threshold) = (k, f, threshold);
         p.fuzzy = (fuzzy == FuzzyMode::Weighted) as u32;
         let a = Assignment {
             labels: storage_zeroed::<u32>(device, "labels", (n * f) as usize),
             weights: storage_zeroed::<f32>(device, "weights", (n * f) as usize),
             outcome: storage_zeroed::<u32>(device, "outcome", n as usize),
         };
-        let b = [(1, points), (2, index.unwrap_or(&dummy)), (3, centroids), (5, &grid.offsets), (6, &grid.items), (7, &a.labels), (8, &a.weights), (10, &a.outcome)];
-        self.run(device, queue, "assign", &p, &b, n)?;
+        let f64 = f as u64;
+        for w in Self::windows(device, n, f) {
+            p.n = w.count as u32;
+            let b = [
+                (1, w.of::<Endpoint>(points, 1)),
+                (3, centroids.as_entire_buffer_binding()),
+                (5, grid.offsets.as_entire_buffer_binding()),
+                (6, grid.items.as_entire_buffer_binding()),
+                (7, w.of::<u32>(&a.labels, f64)),
+                (8, w.of::<f32>(&a.weights, f64)),
+                (10, w.of::<u32>(&a.outcome, 1)),
+            ];
+            self.run_windows(device, queue, "assign", &p, &b, w.count as u32)?;
+        }
         Ok(a)
     }
 
     /// Recomputes the `k` centroids from the first label of each of `n` points with fixed-point
     /// sums; clusters without members keep their centroid. Returns the member counts.
     #[allow(clippy::too_many_arguments)]
-    pub fn update(&self, device: &wgpu::Device, queue: &wgpu::Queue, fix: &FixedPoint, points: &wgpu::Buffer, index: Option<&wgpu::Buffer>, n: u32, labels: &wgpu::Buffer, f: u32, centroids: &wgpu::Buffer, k: u32) -> Result<wgpu::Buffer, GpuError> {
-        let dummy = storage_zeroed::<u32>(device, "no index", 1);
-        let p = Params {
-            fix_min: [fix.min.x, fix.min.y, fix.min.z, 0.0],
-            fix_ext: [fix.ext.x, fix.ext.y, fix.ext.z, 0.0],
-            n,
-            k,
-            f,
-            use_index: index.is_some() as u32,
-            ..Default::default()
-        };
+    pub fn update(&self, device: &wgpu::Device, queue: &wgpu::Queue, fix: &FixedPoint, points: &wgpu::Buffer, n: u32, labels: &wgpu::Buffer, f: u32, centroids: &wgpu::Buffer, k: u32) -> Result<wgpu::Buffer, GpuError> {
+        let mut p = Params { fix_min: [fix.min.x, fix.min.y, fix.min.z, 0.0], fix_ext: [fix.ext.x, fix.ext.y, fix.ext.z, 0.0], n, k, f, ..Default::default() };
         let sums = storage_zeroed::<u32>(device, "centroid sums", (k * 12) as usize);
         let counts = storage_zeroed::<u32>(device, "centroid counts", k as usize);
-        self.run(device, queue, "sums_kernel", &p, &[(1, points), (2, index.unwrap_or(&dummy)), (4, &counts), (7, labels), (9, &sums)], n)?;
+        for w in Self::windows(device, n, f) {
+            p.n = w.count as u32;
+            let b = [(1, w.of::<Endpoint>(points, 1)), (4, counts.as_entire_buffer_binding()), (7, w.of::<u32>(labels, f as u64)), (9, sums.as_entire_buffer_binding())];
+            self.run_windows(device, queue, "sums_kernel", &p, &b, w.count as u32)?;
+        }
+        p.n = n;
         self.run(device, queue, "finalize", &p, &[(3, centroids), (4, &counts), (9, &sums)], k)?;
         Ok(counts)
     }
@@ -219,15 +259,16 @@ impl ClusterKernel {
         let sample = downsample(m as usize, gamma, params.seed);
         let seeds = seed_centroids(&sample, k as usize, params.seed);
         let s = sample.len() as u32;
-        let sample_buf = storage(device, "sample", &sample);
-        let seed_buf = storage(device, "seeds", &seeds);
+        // The downsampled set is gathered once, so the iterations read it as plain points.
+        let sample_points = storage_zeroed::<Endpoint>(device, "sample points", s as usize);
+        self.gather(device, queue, &sample_points, &storage(device, "sample", &sample), s, points, m)?;
         let centroids = storage_zeroed::<Endpoint>(device, "centroids", k as usize);
-        self.run(device, queue, "gather", &Params { k, ..Default::default() }, &[(1, points), (2, &seed_buf), (3, &centroids)], k)?;
+        self.gather(device, queue, &centroids, &storage(device, "seeds", &seeds), k, points, m)?;
 
         let (min, max) = self.bounds(device, queue, points, m)?;
         let ext = (max - min).max(Vec3::splat(1e-12));
         let mut occ_err = None;
-        let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, points, &sample_buf, s, min, ext, cell) {
+        let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, &sample_points, s, min, ext, cell) {
             Ok(c) => c,
             Err(e) => {
                 occ_err = Some(e);
@@ -241,15 +282,18 @@ impl ClusterKernel {
         let nt = params.normal_threshold;
         for _ in 0..params.iterations {
             let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-            let a = self.assign(device, queue, &grid, points, Some(&sample_buf), s, &centroids, k, nt, 1, FuzzyMode::Hard)?;
-            self.update(device, queue, &fix, points, Some(&sample_buf), s, &a.labels, 1, &centroids, k)?;
+            let a = self.assign(device, queue, &grid, &sample_points, s, &centroids, k, nt, 1, FuzzyMode::Hard)?;
+            self.update(device, queue, &fix, &sample_points, s, &a.labels, 1, &centroids, k)?;
         }
 
         // Final hard assignment; drop clusters nobody is nearest to.
         let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-        let hard = self.assign(device, queue, &grid, points, None, m, &centroids, k, nt, 1, FuzzyMode::Hard)?;
+        let hard = self.assign(device, queue, &grid, points, m, &centroids, k, nt, 1, FuzzyMode::Hard)?;
         let counts = storage_zeroed::<u32>(device, "member counts", k as usize);
-        self.run(device, queue, "count_labels", &Params { n: m, k, f: 1, ..Default::default() }, &[(4, &counts), (7, &hard.labels)], m)?;
+        for w in Self::windows(device, m, 1) {
+            let p = Params { n: w.count as u32, k, f: 1, ..Default::default() };
+            self.run_windows(device, queue, "count_labels", &p, &[(4, counts.as_entire_buffer_binding()), (7, w.of::<u32>(&hard.labels, 1))], w.count as u32)?;
+        }
         let flags = storage_zeroed::<u32>(device, "flags", k as usize);
         let remap = storage_zeroed::<u32>(device, "remap", k as usize + 1);
         self.run(device, queue, "flags", &Params { k, ..Default::default() }, &[(4, &counts), (9, &flags)], k)?;
@@ -261,21 +305,37 @@ impl ClusterKernel {
 
         // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
         let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
-        let a = self.assign(device, queue, &grid, points, None, m, &survivors, kept, nt, f, params.fuzzy)?;
+        let a = self.assign(device, queue, &grid, points, m, &survivors, kept, nt, f, params.fuzzy)?;
 
         // Representatives: per cluster the member nearest the centroid, ties to the lower index.
         let rep_d2 = storage(device, "rep d2", &vec![u32::MAX; kept as usize]);
         let reps = storage(device, "representatives", &vec![u32::MAX; kept as usize]);
-        let p = Params { n: m, k: kept, f, ..Default::default() };
-        self.run(device, queue, "rep_d2", &p, &[(1, points), (3, &survivors), (4, &rep_d2), (7, &a.labels)], m)?;
-        self.run(device, queue, "rep_index", &p, &[(1, points), (3, &survivors), (4, &rep_d2), (7, &a.labels), (9, &reps)], m)?;
+        let windows = Self::windows(device, m, f);
+        for entry in ["rep_d2", "rep_index"] {
+            for w in &windows {
+                let p = Params { n: w.count as u32, k: kept, f, first: w.first as u32, ..Default::default() };
+                let b = [
+                    (1, w.of::<Endpoint>(points, 1)),
+                    (3, survivors.as_entire_buffer_binding()),
+                    (4, rep_d2.as_entire_buffer_binding()),
+                    (7, w.of::<u32>(&a.labels, f as u64)),
+                    (9, reps.as_entire_buffer_binding()),
+                ];
+                // rep_d2 does not use binding 9.
+                let b = if entry == "rep_d2" { &b[..4] } else { &b[..] };
+                self.run_windows(device, queue, entry, &p, b, w.count as u32)?;
+            }
+        }
         Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, members, outcome: a.outcome, geometry })
     }
 
     /// Counts of search outcomes over `n` points: [neighbourhood, widened, incompatible].
     pub fn outcome_counts(&self, device: &wgpu::Device, queue: &wgpu::Queue, outcome: &wgpu::Buffer, n: u32) -> Result<[u32; 3], GpuError> {
         let counts = storage_zeroed::<u32>(device, "outcome counts", 3);
-        self.run(device, queue, "outcome_counts", &Params { n, ..Default::default() }, &[(4, &counts), (10, outcome)], n)?;
+        for w in Self::windows(device, n, 1) {
+            let b = [(4, counts.as_entire_buffer_binding()), (10, w.of::<u32>(outcome, 1))];
+            self.run_windows(device, queue, "outcome_counts", &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+        }
         let c = read_back::<u32>(device, queue, &counts, 3)?;
         Ok([c[0], c[1], c[2]])
     }

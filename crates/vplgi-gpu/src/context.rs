@@ -13,7 +13,8 @@ pub enum GpuError {
     Validation { what: String, message: String },
     #[error("GPU device lost or timed out in {what}: {message}")]
     Lost { what: String, message: String },
-    #[error("{what} needs {needed} bytes in one storage binding, the adapter allows {limit}")]
+    /// `what` names the quantity and its unit.
+    #[error("{what}: {needed} needed, this adapter allows {limit} (use --backend cpu, or a smaller input)")]
     TooLarge { what: String, needed: u64, limit: u64 },
 }
 

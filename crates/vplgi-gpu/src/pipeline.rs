@@ -3,7 +3,7 @@
 //! needs to size the next dispatches (VPL batch totals, the data box and occupancy counts of
 //! each clustering, surviving cluster counts, hit counts at chunk boundaries).
 
-use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, sync, uniform};
+use crate::buffers::{dispatch_windows, read_back, read_word, storage_zeroed, sync, uniform, Window, WINDOW_ALIGN};
 use crate::cluster::ClusterKernel;
 use crate::context::validated;
 use crate::lights::GpuLights;
@@ -34,15 +34,17 @@ pub struct GpuKernels {
     frame: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
 }
 
-const FRAME_ENTRIES: [&str; 7] = ["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "rep_rows", "light_endpoints"];
+const FRAME_ENTRIES: [&str; 6] = ["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "light_endpoints"];
 
 #[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
+#[derive(Clone, Copy, Default, Pod, Zeroable)]
 struct FrameParams {
     n: u32,
     k: u32,
     first: u32,
-    pad: u32,
+    hit_first: u32,
+    hit_count: u32,
+    pad: [u32; 3],
 }
 
 impl GpuKernels {
@@ -60,17 +62,17 @@ impl GpuKernels {
 
     #[allow(clippy::too_many_arguments)]
     fn frame(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
-        self.frame_at(device, queue, entry, n, k, 0, bound, threads)
+        let whole: Vec<(u32, wgpu::BufferBinding)> = bound.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+        self.frame_with(device, queue, entry, &FrameParams { n, k, ..Default::default() }, &whole, threads)
     }
 
-    /// [`GpuKernels::frame`] on a chunk of shading points starting at sample `first`.
-    #[allow(clippy::too_many_arguments)]
-    fn frame_at(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, first: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+    /// [`GpuKernels::frame`] with all parameters and any bindings (chunks, windows).
+    fn frame_with(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &FrameParams, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
         validated(device, entry, || {
-            let p = uniform(device, "frame params", &FrameParams { n, k, first, pad: 0 });
-            let mut all = vec![(0, &p)];
+            let p = uniform(device, "frame params", params);
+            let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
-            dispatch_bound(device, queue, &self.frame[entry], &all, threads.div_ceil(64).max(1));
+            dispatch_windows(device, queue, &self.frame[entry], &all, threads.div_ceil(64).max(1));
         })
     }
 }
@@ -110,6 +112,25 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// Arrays of the frame that are bound whole: the per-sample hit flags, offsets and rows (4 B per
+/// sample) must fit one storage binding, and every per-point array (hit points, labels and
+/// weights: at most 64 B per point, bound in windows) one buffer. Checked before any work, so an
+/// oversized frame is a clear error.
+fn check_frame_size(device: &wgpu::Device, cfg: &FrameConfig) -> Result<(), GpuError> {
+    let l = device.limits();
+    let n_sp = cfg.width as u64 * cfg.height as u64 * cfg.spp as u64;
+    let what = format!("a {}x{} frame at {} spp", cfg.width, cfg.height, cfg.spp);
+    let per_sample = (n_sp + 1) * 4;
+    if per_sample > l.max_storage_buffer_binding_size {
+        return Err(GpuError::TooLarge { what: format!("bytes of per-sample hit offsets of {what} in one storage binding"), needed: per_sample, limit: l.max_storage_buffer_binding_size });
+    }
+    let per_point = n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);
+    if per_point > l.max_buffer_size {
+        return Err(GpuError::TooLarge { what: format!("bytes of per-point labels of {what} in one buffer"), needed: per_point, limit: l.max_buffer_size });
+    }
+    Ok(())
+}
+
 /// Renders one frame on the GPU.
 pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene: &Scene, cfg: &FrameConfig) -> Result<GpuFrame, GpuError> {
     cfg.validate().map_err(|e| GpuError::Validation { what: "the frame configuration".into(), message: e })?;
@@ -131,9 +152,13 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
 
     let t0 = Instant::now();
     let n_sp = cfg.width * cfg.height * cfg.spp;
-    // Shading points in chunks of whole pixels that each fit one storage binding.
     let limit = device.limits().max_storage_buffer_binding_size;
-    let per_chunk = ((limit / std::mem::size_of::<vplgi_types::ShadingPoint>() as u64) as u32 / cfg.spp).max(1) * cfg.spp;
+    check_frame_size(device, cfg)?;
+    // Shading points in chunks of whole pixels that each fit one storage binding, less one
+    // window alignment: shade binds the chunk's hits' labels and weights (at most 64 B per hit,
+    // like a shading point) from the aligned hit at or below the chunk's first.
+    let sp_bytes = std::mem::size_of::<vplgi_types::ShadingPoint>() as u64;
+    let per_chunk = (((limit / sp_bytes).saturating_sub(WINDOW_ALIGN) as u32) / cfg.spp).max(1) * cfg.spp;
     let mut sp_chunks: Vec<(u32, u32, wgpu::Buffer)> = Vec::new();
     let mut first = 0u32;
     while first < n_sp {
@@ -151,15 +176,21 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let flags = storage_zeroed::<u32>(device, "hit flags", n_sp as usize);
     let hit_offsets = storage_zeroed::<u32>(device, "hit offsets", n_sp as usize + 1);
     for (first, count, buf) in &sp_chunks {
-        k.frame_at(device, queue, "sp_flags", *count, 0, *first, &[(1, buf), (2, &flags)], *count)?;
+        let p = FrameParams { n: *count, first: *first, ..Default::default() };
+        k.frame_with(device, queue, "sp_flags", &p, &[(1, buf.as_entire_buffer_binding()), (2, flags.as_entire_buffer_binding())], *count)?;
     }
     k.scan.run(device, queue, &flags, n_sp, &hit_offsets)?;
     let hits = read_word(device, queue, &hit_offsets, n_sp as u64)?;
     stats.shading_point_hits = hits;
     let row_of = storage_zeroed::<u32>(device, "row of", n_sp as usize);
     let hit_points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
+    let hit_windows = Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, limit);
     for (first, count, buf) in &sp_chunks {
-        k.frame_at(device, queue, "sp_compact", *count, 0, *first, &[(1, buf), (3, &hit_offsets), (4, &row_of), (5, &hit_points)], *count)?;
+        for w in &hit_windows {
+            let p = FrameParams { n: *count, first: *first, hit_first: w.first as u32, hit_count: w.count as u32, ..Default::default() };
+            let b = [(1, buf.as_entire_buffer_binding()), (3, hit_offsets.as_entire_buffer_binding()), (4, row_of.as_entire_buffer_binding()), (5, w.of::<Endpoint>(&hit_points, 1))];
+            k.frame_with(device, queue, "sp_compact", &p, &b, *count)?;
+        }
     }
 
     // Lights for shading: VPL clusters at their representatives, or the VPLs.
@@ -186,8 +217,9 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let sp_clusters = if cfg.cluster.clusters_sps() && hits > 0 {
         let params = ClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
         let c = k.cluster.cluster(device, queue, &hit_points, hits, &params)?;
+        // Visibility rows of the clusters: their representatives' Endpoints.
         let rows = storage_zeroed::<Endpoint>(device, "cluster rows", c.k as usize);
-        k.frame(device, queue, "rep_rows", 0, c.k, &[(5, &hit_points), (8, &c.representatives), (10, &rows)], c.k)?;
+        k.cluster.gather(device, queue, &rows, &c.representatives, c.k, &hit_points, hits)?;
         stats.sp_clusters = c.k;
         let [_, widened, incompatible] = k.cluster.outcome_counts(device, queue, &c.outcome, hits)?;
         stats.sp_widened = widened + incompatible;
@@ -205,8 +237,9 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let wpr = words_per_row(n_lights as usize) as u32;
     let mut pixels: Vec<[f32; 3]> = Vec::with_capacity(n_pixels as usize);
     let to_rgb = |v: Vec<[f32; 4]>| v.into_iter().map(|p| [p[0], p[1], p[2]]);
-    // Visibility rows shaded at once: as on the CPU, and within one storage binding.
-    let row_budget = (ROW_CHUNK_BITS as u64 / 32).min(limit / 4) / (wpr.max(1) as u64);
+    // Visibility rows shaded at once: as on the CPU, with their words within one storage
+    // binding, and their Endpoints too (bound from the aligned row at or below the first).
+    let row_budget = ((ROW_CHUNK_BITS as u64 / 32).min(limit / 4) / (wpr.max(1) as u64)).min((limit / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN));
     let clustered_words = match &sp_clusters {
         Some((c, rows)) => {
             let t0 = Instant::now();
@@ -222,8 +255,13 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
         let (chunk_px0, chunk_px1) = (sp_first / spp, (sp_first + sp_count) / spp);
         match (&sp_clusters, &clustered_words) {
             (Some((c, _)), Some(words)) => {
+                // The chunk's hits (numbered in sample order) and their labels and weights.
+                let h0 = read_word(device, queue, &hit_offsets, *sp_first as u64)?;
+                let h1 = read_word(device, queue, &hit_offsets, (sp_first + sp_count) as u64)?;
                 let t0 = Instant::now();
-                let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f } };
+                let window = Window::covering(h0 as u64, h1 as u64);
+                let visibility = Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window };
+                let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility };
                 let out = k.shade.run(device, queue, &gs, &gl, &inputs, chunk_px0..chunk_px1, spp, cfg.seed, cfg.direct_samples, g_max)?;
                 pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (chunk_px1 - chunk_px0) as usize)?));
                 t.shade += ms(t0);

@@ -27,29 +27,67 @@ pub struct GpuMaterial {
     pub emission: [f32; 4],
 }
 
-/// `TextureInfo` in `types.wgsl`.
+/// `TextureInfo` in `types.wgsl`: where a texture's texels start in the texel words, and how
+/// they are stored.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct TextureInfo {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    pub pad: u32,
+    pub format: u32,
 }
 
-/// Device buffers of a scene, uploaded once. The three arrays that grow with the triangle count
-/// are paged over two bindings each (`_hi` holds what does not fit the first; see
-/// `shaders/common/bvh.wgsl`), so a scene may need up to twice the storage-binding size per array.
+/// A texture whose every texel is exactly an 8-bit sRGB code's linear value (what 8-bit images
+/// decode to) is stored as the codes, one word per texel, and decoded through the table at the
+/// start of the texel words; any other texture as three f32 words per texel.
+pub const TEXELS_SRGB8: u32 = 0;
+pub const TEXELS_F32: u32 = 1;
+
+/// Texel words are paged over this many storage bindings (`texels`, `texels_1` ..), and the
+/// shaders' `texel_word` reads them with the `TEXEL_PAGE` override as page size.
+pub const TEXEL_PAGES: usize = 4;
+
+/// Pages of per-triangle shading data (`scene_tris`, `scene_tris_1` ..; `scene_tri` in
+/// `surface.wgsl`): at 96 bytes per triangle, twice the BVH arrays' size per triangle, so it gets
+/// twice their pages and the BVH arrays are the first to run out.
+pub const SCENE_TRI_PAGES: usize = 4;
+
+/// The texel words of all textures: the 256-entry decode table (f32 bits), then each texture's
+/// texels, and their infos.
+pub fn texel_words(scene: &Scene) -> (Vec<u32>, Vec<TextureInfo>) {
+    let table = vplgi_scene::srgb8_table();
+    let code: std::collections::HashMap<u32, u32> = table.iter().enumerate().map(|(i, v)| (v.to_bits(), i as u32)).collect();
+    let mut words: Vec<u32> = table.iter().map(|v| v.to_bits()).collect();
+    let mut infos = Vec::new();
+    for t in &scene.textures {
+        let codes: Option<Vec<u32>> = t.texels.iter().map(|c| Some(code.get(&c.x.to_bits())? | code.get(&c.y.to_bits())? << 8 | code.get(&c.z.to_bits())? << 16)).collect();
+        let format = if codes.is_some() { TEXELS_SRGB8 } else { TEXELS_F32 };
+        infos.push(TextureInfo { offset: words.len() as u32, width: t.width, height: t.height, format });
+        match codes {
+            Some(c) => words.extend(c),
+            None => words.extend(t.texels.iter().flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])),
+        }
+    }
+    (words, infos)
+}
+
+/// Device buffers of a scene, uploaded once. Arrays that grow with the scene are read at random
+/// (by traversal, by hit triangle, by texel) and so are paged over several bindings, read
+/// through WGSL accessors whose page size is an override set from the device limit: BVH nodes
+/// and BVH triangles over two (`_hi` holds what does not fit the first; see
+/// `shaders/common/bvh.wgsl`), the per-triangle shading data (twice their size) over
+/// [`SCENE_TRI_PAGES`], texel words over [`TEXEL_PAGES`] (`shaders/common/surface.wgsl`).
 pub struct GpuScene {
     pub bvh_nodes: wgpu::Buffer,
     pub bvh_nodes_hi: wgpu::Buffer,
     pub bvh_tris: wgpu::Buffer,
     pub bvh_tris_hi: wgpu::Buffer,
-    pub scene_tris: wgpu::Buffer,
-    pub scene_tris_hi: wgpu::Buffer,
+    pub scene_tris: [wgpu::Buffer; SCENE_TRI_PAGES],
     pub materials: wgpu::Buffer,
     pub texture_infos: wgpu::Buffer,
-    pub texels: wgpu::Buffer,
+    /// [`TEXEL_PAGES`] pages of texel words ([`texel_words`]).
+    pub texels: [wgpu::Buffer; TEXEL_PAGES],
     /// Ray offset, identical to the CPU's ([`Scene::ray_epsilon`]).
     pub eps: f32,
     pub camera: vplgi_scene::Camera,
@@ -86,30 +124,20 @@ impl GpuScene {
                 emission: [m.emission.x, m.emission.y, m.emission.z, 0.0],
             })
             .collect();
-        let mut infos = Vec::new();
-        let mut texels: Vec<[f32; 4]> = Vec::new();
-        for t in &scene.textures {
-            infos.push(TextureInfo { offset: texels.len() as u32, width: t.width, height: t.height, pad: 0 });
-            texels.extend(t.texels.iter().map(|c| [c.x, c.y, c.z, 1.0]));
-        }
-        let limit = device.limits().max_storage_buffer_binding_size;
-        let texel_bytes = (texels.len() * 16) as u64;
-        if texel_bytes > limit {
-            return Err(GpuError::TooLarge { what: "the texels".into(), needed: texel_bytes, limit });
-        }
+        let (words, infos) = texel_words(scene);
+        let texels = pages::<u32, TEXEL_PAGES>(device, "texel words", &words)?;
         let (bvh_nodes, bvh_nodes_hi) = paged(device, "bvh nodes", &arrays.nodes)?;
         let (bvh_tris, bvh_tris_hi) = paged(device, "bvh tris", &arrays.tris)?;
-        let (scene_tris, scene_tris_hi) = paged(device, "scene tris", &tris)?;
+        let scene_tris = pages::<SceneTri, SCENE_TRI_PAGES>(device, "scene tris", &tris)?;
         Ok(GpuScene {
             bvh_nodes,
             bvh_nodes_hi,
             bvh_tris,
             bvh_tris_hi,
             scene_tris,
-            scene_tris_hi,
             materials: storage(device, "materials", &materials),
             texture_infos: storage(device, "texture infos", &infos),
-            texels: storage(device, "texels", &texels),
+            texels,
             eps: scene.ray_epsilon(),
             camera: scene.camera,
             triangles: scene.triangle_count(),
@@ -125,11 +153,17 @@ pub fn page_len<T>(device: &wgpu::Device) -> u64 {
 
 /// `data` over two bindings: the first page, then the rest (at most one more page).
 fn paged<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
-    let page = page_len::<T>(device) as usize;
-    if data.len() > 2 * page {
+    let [lo, hi] = pages::<T, 2>(device, label, data)?;
+    Ok((lo, hi))
+}
+
+/// `data` over `N` bindings of [`page_len`] elements each (unused pages hold one zeroed
+/// element).
+fn pages<T: bytemuck::Pod, const N: usize>(device: &wgpu::Device, label: &str, data: &[T]) -> Result<[wgpu::Buffer; N], GpuError> {
+    let page = (page_len::<T>(device) as usize).max(1);
+    if data.len() > N * page {
         let size = std::mem::size_of::<T>() as u64;
-        return Err(GpuError::TooLarge { what: format!("{label} (two pages)"), needed: data.len() as u64 * size, limit: 2 * page as u64 * size });
+        return Err(GpuError::TooLarge { what: format!("bytes of {label} in {N} storage bindings"), needed: data.len() as u64 * size, limit: (N * page) as u64 * size });
     }
-    let split = data.len().min(page);
-    Ok((storage(device, label, &data[..split]), storage(device, label, &data[split..])))
+    Ok(std::array::from_fn(|i| storage(device, label, &data[(i * page).min(data.len())..((i + 1) * page).min(data.len())])))
 }

@@ -1,6 +1,6 @@
 //! Stage 5 on the GPU, `shade` (`shaders/shade.wgsl`), the twin of `vplgi_cpu::shade::shade`.
 
-use crate::buffers::{dispatch, storage_zeroed, uniform};
+use crate::buffers::{dispatch_windows, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::lights::GpuLights;
 use crate::scene::GpuScene;
@@ -38,10 +38,11 @@ struct Params {
 
 /// Where each shading point's visibility comes from (the twin of
 /// `vplgi_cpu::shade::VisibilitySource`): its own row of `words` (row `row_of[i] - first_row`),
-/// or its `f` clusters' rows with `labels` and `weights`.
+/// or its `f` clusters' rows with `labels` and `weights` (`f` per hit), of which the hits in
+/// `window` are bound: it must hold every hit of the shaded pixels.
 pub enum Visibility<'a> {
     Own { first_row: u32 },
-    Fuzzy { labels: &'a wgpu::Buffer, weights: &'a wgpu::Buffer, f: u32 },
+    Fuzzy { labels: &'a wgpu::Buffer, weights: &'a wgpu::Buffer, f: u32, window: Window },
 }
 
 /// Device buffers shade reads.
@@ -85,8 +86,8 @@ impl ShadeKernel {
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {
-            Visibility::Own { first_row } => (0, first_row, 1, &dummy, &dummy),
-            Visibility::Fuzzy { labels, weights, f } => (1, 0, f, labels, weights),
+            Visibility::Own { first_row } => (0, first_row, 1, dummy.as_entire_buffer_binding(), dummy.as_entire_buffer_binding()),
+            Visibility::Fuzzy { labels, weights, f, window } => (1, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64)),
         };
         let params = Params {
             spp,
@@ -107,7 +108,7 @@ impl ShadeKernel {
         validated(device, "shade", || {
             let p = uniform(device, "shade params", &params);
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
-            let bindings = [
+            let whole = [
                 &p,
                 &lights.counts,
                 &scene.bvh_nodes,
@@ -118,14 +119,14 @@ impl ShadeKernel {
                 inputs.sps,
                 inputs.row_of,
                 inputs.words,
-                labels,
-                weights,
-                inputs.vpl_lights,
-                &out,
-                &scene.bvh_nodes_hi,
-                &scene.bvh_tris_hi,
             ];
-            dispatch(device, queue, &self.pipeline, &bindings, count.div_ceil(64));
+            let mut bindings: Vec<(u32, wgpu::BufferBinding)> = whole.iter().enumerate().map(|(i, b)| (i as u32, b.as_entire_buffer_binding())).collect();
+            bindings.push((10, labels));
+            bindings.push((11, weights));
+            for (i, b) in [(12, inputs.vpl_lights), (13, &out), (14, &scene.bvh_nodes_hi), (15, &scene.bvh_tris_hi)] {
+                bindings.push((i, b.as_entire_buffer_binding()));
+            }
+            dispatch_windows(device, queue, &self.pipeline, &bindings, count.div_ceil(64));
             out
         })
     }

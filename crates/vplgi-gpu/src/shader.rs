@@ -54,6 +54,7 @@ fn page_constants(device: &wgpu::Device, name: &str) -> Vec<(&'static str, f64)>
     }
     if includes.contains(&"common/surface.wgsl") {
         c.push(("SCENE_TRI_PAGE", page_len::<crate::scene::SceneTri>(device).min(u32::MAX as u64) as f64));
+        c.push(("TEXEL_PAGE", page_len::<u32>(device).min(u32::MAX as u64) as f64));
     }
     c
 }
@@ -143,7 +144,7 @@ mod tests {
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         check("shading_points.wgsl", "SceneTri", size_of::<SceneTri>(), &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))]);
         check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
-        check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8)]);
+        check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8), ("format", 12)]);
         use crate::bvh::BvhTri;
         use obvhs::bvh2::node::Bvh2Node;
         check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("e1", offset_of!(BvhTri, e1)), ("e2", offset_of!(BvhTri, e2))]);

@@ -56,7 +56,9 @@ impl ShadingPointsKernel {
         validated(device, "shading_points", || {
             let p = uniform(device, "shading_points params", &params);
             let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
-            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, &scene.scene_tris, &scene.materials, &scene.texture_infos, &scene.texels, &buf, &scene.bvh_nodes_hi, &scene.bvh_tris_hi, &scene.scene_tris_hi];
+            let [t0, t1, t2, t3] = &scene.texels;
+            let [s0, s1, s2, s3] = &scene.scene_tris;
+            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, s0, &scene.materials, &scene.texture_infos, t0, &buf, &scene.bvh_nodes_hi, &scene.bvh_tris_hi, s1, t1, t2, t3, s2, s3];
             dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
             buf
         })

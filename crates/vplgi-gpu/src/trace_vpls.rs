@@ -78,10 +78,10 @@ impl TraceVplsKernel {
                     (1, &lights.counts),
                     (2, &scene.bvh_nodes),
                     (3, &scene.bvh_tris),
-                    (4, &scene.scene_tris),
+                    (4, &scene.scene_tris[0]),
                     (5, &scene.materials),
                     (6, &scene.texture_infos),
-                    (7, &scene.texels),
+                    (7, &scene.texels[0]),
                     (8, &lights.emitters),
                     (9, &lights.all_table),
                     (10, &lights.punctual),
@@ -89,7 +89,12 @@ impl TraceVplsKernel {
                     (12, &counts),
                     (16, &scene.bvh_nodes_hi),
                     (17, &scene.bvh_tris_hi),
-                    (18, &scene.scene_tris_hi),
+                    (18, &scene.scene_tris[1]),
+                    (19, &scene.texels[1]),
+                    (20, &scene.texels[2]),
+                    (21, &scene.texels[3]),
+                    (22, &scene.scene_tris[2]),
+                    (23, &scene.scene_tris[3]),
                 ];
                 dispatch_bound(device, queue, &self.trace, &common, n.div_ceil(64));
                 p

@@ -3,7 +3,7 @@
 //! row r, column c is bit c % 32 of word `r * words_per_row + c / 32`, with `words_per_row`
 //! twice the CPU's 64-bit words per row, so the bytes are identical.
 
-use crate::buffers::{dispatch, read_back, storage, storage_zeroed, uniform};
+use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::pipeline;
@@ -55,11 +55,19 @@ impl VisibilityKernel {
     #[allow(clippy::too_many_arguments)]
     pub fn run_on_device(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &wgpu::Buffer, n_rows: u32, cols: &wgpu::Buffer, n_cols: u32, first_row: u32, row_count: u32) -> Result<wgpu::Buffer, GpuError> {
         let wpr = words_per_row(n_cols as usize) as u32;
-        let params = Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row, row_count, eps: scene.eps, pad: [0; 2] };
+        // Rows are bound from the aligned row at or below first_row, so that `rows` may be
+        // larger than one binding.
+        let window = Window::covering(first_row as u64, (first_row + row_count) as u64);
+        let params = Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row: first_row - window.first as u32, row_count, eps: scene.eps, pad: [0; 2] };
         validated(device, "visibility", || {
             let p = uniform(device, "visibility params", &params);
             let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
-            dispatch(device, queue, &self.pipeline, &[&p, &scene.bvh_nodes, &scene.bvh_tris, rows, cols, &words, &scene.bvh_nodes_hi, &scene.bvh_tris_hi], (row_count * wpr).div_ceil(64));
+            let mut b: Vec<(u32, wgpu::BufferBinding)> = [&p, &scene.bvh_nodes, &scene.bvh_tris].iter().enumerate().map(|(i, x)| (i as u32, x.as_entire_buffer_binding())).collect();
+            b.push((3, window.of::<Endpoint>(rows, 1)));
+            for (i, x) in [(4, cols), (5, &words), (6, &scene.bvh_nodes_hi), (7, &scene.bvh_tris_hi)] {
+                b.push((i, x.as_entire_buffer_binding()));
+            }
+            dispatch_windows(device, queue, &self.pipeline, &b, (row_count * wpr).div_ceil(64));
             words
         })
     }

@@ -11,7 +11,7 @@
 //! accessor and buffer-view ranges and types once its JSON validation passed, and asserts or
 //! panics on inconsistent ones, so everything it would slice or unwrap is checked here first.
 
-use crate::{Camera, Material, PunctualLight, Scene, SceneError, Texture};
+use crate::{srgb_to_linear, Camera, Material, PunctualLight, Scene, SceneError, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -597,15 +597,6 @@ impl Loader<'_> {
     }
 }
 
-/// The sRGB EOTF (IEC 61966-2-1): encoded value in [0, 1] to linear.
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
 /// Decodes an image to linear RGB texels. 8- and 16-bit data is sRGB-encoded (glTF base colour
 /// textures always are); float data can only come from formats that store linear values. Grey
 /// images spread over all three channels; alpha is dropped.
@@ -632,7 +623,7 @@ fn linear_texture(data: &gltf::image::Data) -> Result<Texture, String> {
         return Err(format!("{} bytes of pixels for a {w}x{h} {:?} image", data.pixels.len(), data.format));
     }
     // Decoding 8-bit data through a table is exact and avoids millions of powf calls.
-    let table: Vec<f32> = (0..=255u8).map(|v| srgb_to_linear(v as f32 / 255.0)).collect();
+    let table = crate::srgb8_table();
     let channel = |c: &[u8]| -> f32 {
         match bytes_per_channel {
             1 => table[c[0] as usize],

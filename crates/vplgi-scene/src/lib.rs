@@ -60,6 +60,22 @@ pub struct Texture {
     pub texels: Vec<Vec3>,
 }
 
+/// The sRGB EOTF (IEC 61966-2-1): encoded value in [0, 1] to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Linear values of the 256 8-bit sRGB codes. Loaders decode 8-bit images through it, and the
+/// GPU backend stores such textures as the codes and decodes them through the same table, so
+/// both backends see identical texels at a quarter of the memory.
+pub fn srgb8_table() -> [f32; 256] {
+    std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0))
+}
+
 impl Texture {
     /// Bilinear lookup with repeat wrapping. `uv` follows glTF: (0,0) is the top-left corner.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
