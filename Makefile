@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test clean
+.PHONY: all setup build demo test bench clean
 
 all: build
 
@@ -33,8 +33,16 @@ demo: build
 # Tests run on the release profile: rayon code is ~30x slower unoptimised, and the demo's build
 # artifacts are reused.
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
+# The second line smoke-runs every criterion bench once at tiny sizes (proof that they work, not
+# a measurement).
 test: setup
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) test --release --workspace
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" VPLGI_BENCH_SMOKE=1 $(CARGO) test --release -p vplgi-benches --benches
+
+# Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores
+# with lavapipe). One stage: make bench BENCH=visibility
+bench: setup
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH))
 
 clean:
 	$(CARGO) clean

@@ -1,6 +1,6 @@
 //! One frame of the CPU reference: the five stages chained, timed, with progress reporting.
 
-use crate::cluster::{cluster, ClusterParams, Clustering};
+use crate::cluster::{cluster, Clustering};
 use crate::shade::{shade, VisibilitySource, VplLight};
 use crate::shading_points::shading_points;
 use crate::trace_vpls::trace_vpls;
@@ -10,7 +10,7 @@ use glam::Vec3;
 use serde::Serialize;
 use std::time::Instant;
 pub use vplgi_types::StageTimings;
-use vplgi_types::{FrameConfig, FuzzyMode, MISS};
+use vplgi_types::{FrameConfig, MISS};
 
 /// Progress of long stages. Implementations must be cheap and thread-safe: `inc` is called from
 /// rayon workers.
@@ -125,14 +125,12 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
     let vpl_clusters = cfg.cluster.clusters_vpls().then(|| {
         let pos: Vec<Vec3> = vset.vpls.iter().map(|v| v.position.into()).collect();
         let nor: Vec<Vec3> = vset.vpls.iter().map(|v| v.normal.into()).collect();
-        let params = ClusterParams { k: cfg.k_vpl, gamma: cfg.gamma, iterations: cfg.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: cfg.normal_threshold, seed: cfg.seed };
-        cluster(&pos, &nor, &params)
+        cluster(&pos, &nor, &cfg.vpl_cluster_params())
     });
     let sp_clusters = cfg.cluster.clusters_sps().then(|| {
         let pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
         let nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
-        let params = ClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
-        cluster(&pos, &nor, &params)
+        cluster(&pos, &nor, &cfg.sp_cluster_params())
     });
     let lights = vpl_lights(&vset.vpls, vpl_clusters.as_ref());
     progress.finish();

@@ -95,13 +95,18 @@ pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &w
     let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: wgpu::BindingResource::Buffer(b.clone()) }).collect();
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    let timed = crate::timing::pass_queries(device);
     {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+        let timestamp_writes = timed.as_ref().map(|t| wgpu::ComputePassTimestampWrites { query_set: &t.set, beginning_of_pass_write_index: Some(0), end_of_pass_write_index: Some(1) });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind, &[]);
         let max = device.limits().max_compute_workgroups_per_dimension.max(1);
         let (x, y) = if groups <= max { (groups.max(1), 1) } else { (max, groups.div_ceil(max)) };
         pass.dispatch_workgroups(x, y, 1);
+    }
+    if let Some(t) = timed {
+        t.finish(&mut encoder);
     }
     queue.submit([encoder.finish()]);
 }

@@ -67,7 +67,9 @@ impl GpuContext {
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("vplgi"),
-                required_features: wgpu::Features::empty(),
+                // Timestamp queries time the benches' GPU passes (`timing`); nothing else needs
+                // more than the WebGPU baseline.
+                required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
                 required_limits: limits,
                 experimental_features: wgpu::ExperimentalFeatures::disabled(),
                 memory_hints: wgpu::MemoryHints::Performance,

@@ -20,6 +20,7 @@ pub mod scene;
 pub mod shade;
 pub mod shader;
 pub mod shading_points;
+pub mod timing;
 pub mod trace_vpls;
 pub mod visibility;
 

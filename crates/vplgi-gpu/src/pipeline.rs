@@ -20,8 +20,7 @@ use serde::Serialize;
 use std::time::Instant;
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::Scene;
-use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{FrameConfig, FuzzyMode, StageTimings};
+use vplgi_types::{FrameConfig, StageTimings};
 
 /// Every pipeline of the frame, compiled once.
 pub struct GpuKernels {
@@ -198,8 +197,7 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpl > 0 {
         let pts = storage_zeroed::<Endpoint>(device, "vpl points", n_vpl as usize);
         k.frame(device, queue, "vpl_endpoints", n_vpl, 0, &[(5, &pts), (6, &vset.buffer)], n_vpl)?;
-        let params = ClusterParams { k: cfg.k_vpl, gamma: cfg.gamma, iterations: cfg.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: cfg.normal_threshold, seed: cfg.seed };
-        let c = k.cluster.cluster(device, queue, &pts, n_vpl, &params)?;
+        let c = k.cluster.cluster(device, queue, &pts, n_vpl, &cfg.vpl_cluster_params())?;
         let lights = storage_zeroed::<VplLight>(device, "cluster lights", c.k as usize);
         k.frame(device, queue, "cluster_lights", n_vpl, c.k, &[(6, &vset.buffer), (7, &c.labels), (8, &c.representatives), (9, &lights)], c.k)?;
         stats.vpl_clusters = c.k;
@@ -215,8 +213,7 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     k.frame(device, queue, "light_endpoints", n_lights, 0, &[(5, &cols), (9, &lights)], n_lights)?;
 
     let sp_clusters = if cfg.cluster.clusters_sps() && hits > 0 {
-        let params = ClusterParams { k: cfg.k_sp, gamma: cfg.gamma, iterations: cfg.iterations, f: cfg.effective_f(), fuzzy: cfg.fuzzy, normal_threshold: cfg.normal_threshold, seed: cfg.seed.wrapping_add(1) };
-        let c = k.cluster.cluster(device, queue, &hit_points, hits, &params)?;
+        let c = k.cluster.cluster(device, queue, &hit_points, hits, &cfg.sp_cluster_params())?;
         // Visibility rows of the clusters: their representatives' Endpoints.
         let rows = storage_zeroed::<Endpoint>(device, "cluster rows", c.k as usize);
         k.cluster.gather(device, queue, &rows, &c.representatives, c.k, &hit_points, hits)?;

@@ -114,6 +114,24 @@ impl FrameConfig {
         }
     }
 
+    /// The clustering of the VPLs (hard, K_VPL clusters), as every backend runs it.
+    pub fn vpl_cluster_params(&self) -> crate::clustering::ClusterParams {
+        crate::clustering::ClusterParams { k: self.k_vpl, gamma: self.gamma, iterations: self.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: self.normal_threshold, seed: self.seed }
+    }
+
+    /// The clustering of the shading points (F-fuzzy, K_SP clusters), as every backend runs it.
+    pub fn sp_cluster_params(&self) -> crate::clustering::ClusterParams {
+        crate::clustering::ClusterParams {
+            k: self.k_sp,
+            gamma: self.gamma,
+            iterations: self.iterations,
+            f: self.effective_f(),
+            fuzzy: self.fuzzy,
+            normal_threshold: self.normal_threshold,
+            seed: self.seed.wrapping_add(1),
+        }
+    }
+
     /// Checks ranges; the message names the offending parameter.
     pub fn validate(&self) -> Result<(), String> {
         let positive = [

@@ -1,0 +1,39 @@
+//! Stage 3, `cluster`: the frame's two clusterings (VPLs into K_VPL hard clusters, hit shading
+//! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use vplgi_benches::{configure, sizes, Gpu, Inputs};
+use vplgi_cpu::cluster::cluster;
+use vplgi_gpu::cluster::ClusterKernel;
+
+fn cluster_stage(c: &mut Criterion) {
+    let mut group = c.benchmark_group("cluster");
+    configure(&mut group);
+    let gpu = Gpu::new("cluster");
+    let kernel = gpu.as_ref().map(|g| ClusterKernel::new(&g.ctx.device).expect("cluster pipelines"));
+    for size in sizes() {
+        let inputs = Inputs::new(&size.cfg);
+        let (sp, vpl) = (inputs.cfg.sp_cluster_params(), inputs.cfg.vpl_cluster_params());
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
+            b.iter(|| {
+                let v = cluster(&inputs.vpl_points.0, &inputs.vpl_points.1, &vpl);
+                let s = cluster(&inputs.sp_points.0, &inputs.sp_points.1, &sp);
+                (v.k(), s.k())
+            })
+        });
+        if let (Some(g), Some(k)) = (&gpu, &kernel) {
+            let (vpl_buf, sp_buf) = (g.endpoints(&inputs.vpl_points), g.endpoints(&inputs.sp_points));
+            let (n_vpl, n_sp) = (inputs.vpl_points.0.len() as u32, inputs.sp_points.0.len() as u32);
+            let run = || {
+                k.cluster(&g.ctx.device, &g.ctx.queue, &vpl_buf, n_vpl, &vpl).expect("cluster VPLs");
+                k.cluster(&g.ctx.device, &g.ctx.queue, &sp_buf, n_sp, &sp).expect("cluster shading points");
+            };
+            run();
+            group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, cluster_stage);
+criterion_main!(benches);
