@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test bench clean
+.PHONY: all setup build demo test bench perf-report clean
 
 all: build
 
@@ -43,6 +43,14 @@ test: setup
 # with lavapipe). One stage: make bench BENCH=visibility
 bench: setup
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH))
+
+# vplgi side by side with faiss-cpu (k-means), raw Embree (visibility), its GPU backend and its
+# unclustered reference, in one run: docs/PERFORMANCE.md. About 10 minutes. faiss-cpu is
+# installed from PyPI under target/ (nothing system-wide).
+PERF_PY := target/perf-python
+perf-report: build
+	@test -d $(PERF_PY)/faiss || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(PERF_PY) "faiss-cpu==1.15.1" "numpy<3"
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" PYTHONPATH=$(PERF_PY) $(CARGO) run --release -p vplgi-benches --bin perf_report -- --out docs/PERFORMANCE.md
 
 clean:
 	$(CARGO) clean

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what vplgi needs on a fresh Debian 12 machine, idempotently:
 #   * libclang-dev (embree4-sys runs bindgen), mesa-vulkan-drivers + libvulkan1 (lavapipe, for the GPU backend)
+#   * fonts-dejavu-core (the text of `vplgi sweep`'s PNG charts)
 #   * the Embree 4.4 runtime, taken from the embreex wheel on PyPI (Debian 12 only packages Embree 3).
 # The Embree libraries go to $VPLGI_EMBREE_DIR (default /usr/local/lib/vplgi-embree4) and are registered with
 # ldconfig, so every binary, test and bench finds them without rpath tricks.
@@ -14,7 +15,7 @@ TBB_SONAME="libtbb-dcf63f8c.so.12"
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
-apt_packages=(libclang-dev mesa-vulkan-drivers libvulkan1 python3-pip unzip)
+apt_packages=(libclang-dev mesa-vulkan-drivers libvulkan1 python3-pip unzip fonts-dejavu-core)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -2,8 +2,10 @@
 
 mod bench;
 mod compare;
+mod plot;
 mod progress;
 mod render;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -28,6 +30,10 @@ enum Command {
     /// Time configurations the paper's way (each rendered --runs times; every stage the mean of
     /// its --best smallest times); writes DIR/bench.json and DIR/bench.md.
     Bench(bench::BenchArgs),
+    /// The paper's Figures 7, 9 and 11 for a scene: frame time split by stage and image error
+    /// (MSE, FLIP) as the cluster counts vary, as PNG and SVG charts, plus a contact sheet of
+    /// every configuration's image and error map; writes into DIR.
+    Sweep(sweep::SweepArgs),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +42,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Sweep(args) => sweep::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

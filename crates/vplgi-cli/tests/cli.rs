@@ -212,3 +212,71 @@ fn bench_writes_json_and_markdown() {
     let o = vplgi(&["bench", "--runs", "2", "--best", "3", "--out", out.to_str().unwrap()]);
     assert!(!o.status.success());
 }
+
+/// `vplgi sweep` makes the three figures (PNG and SVG, against MSE and FLIP), the contact sheet
+/// and sweep.json, whose errors fall as clusters are added (more clusters approximate the
+/// reference better); reusing the written reference gives the same errors.
+#[test]
+fn sweep_writes_figures_contact_sheet_and_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let common = ["--width", "40", "--height", "40", "--vpls", "1500", "--sp-clusters", "60,600", "--vpl-clusters", "30,400"];
+    let mut args = vec!["sweep", "--out", out.to_str().unwrap()];
+    args.extend_from_slice(&common);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "sweep failed: {}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("contact_sheet.png"), "the output names the pictures: {stdout}");
+    for fig in ["fig7", "fig9", "fig11"] {
+        for metric in ["mse", "flip"] {
+            for ext in ["png", "svg"] {
+                let f = out.join(format!("{fig}-{metric}.{ext}"));
+                assert!(f.metadata().map(|m| m.len() > 1000).unwrap_or(false), "{} missing or empty", f.display());
+            }
+        }
+    }
+    let sheet = image::open(out.join("contact_sheet.png")).expect("contact sheet decodes");
+    assert!(sheet.width() > 400 && sheet.height() > 200);
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sweep.json")).unwrap()).unwrap();
+    let configs = report["configs"].as_array().unwrap();
+    // 2 (Fig. 7) + 2 (Fig. 9) + 2 x 2 (Fig. 11).
+    assert_eq!(configs.len(), 8);
+    let mse = |label: &str| configs.iter().find(|c| c["label"] == label).unwrap()["mse"].as_f64().unwrap();
+    for c in configs {
+        assert!(out.join("configs").join(c["label"].as_str().unwrap()).join("error_map.png").is_file());
+        assert!(c["timings_ms"]["total"].as_f64().unwrap() > 0.0);
+    }
+    assert!(mse("fig7-sp600") < mse("fig7-sp60"), "more SP clusters must lower the error");
+    assert!(mse("fig9-vpl400") < mse("fig9-vpl30"), "more VPL clusters must lower the error");
+    assert!(mse("fig11-sp600-vpl400") < mse("fig11-sp60-vpl30"));
+
+    // The same sweep against the reference it wrote: identical errors, no reference time.
+    let again = dir.path().join("again");
+    let reference = out.join("reference/image.exr");
+    let mut args = vec!["sweep", "--figure", "7", "--reference", reference.to_str().unwrap(), "--out", again.to_str().unwrap()];
+    args.extend_from_slice(&common);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "sweep --reference failed: {}", String::from_utf8_lossy(&o.stderr));
+    let second: serde_json::Value = serde_json::from_slice(&std::fs::read(again.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(second["configs"].as_array().unwrap().len(), 2);
+    assert_eq!(second["configs"][0]["mse"], configs[0]["mse"]);
+    assert!(second["reference"]["total_ms"].is_null());
+}
+
+#[test]
+fn sweep_rejects_bad_input_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let o = vplgi(&["sweep", "--sp-clusters", "100,0", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--sp-clusters"), "{}", String::from_utf8_lossy(&o.stderr));
+    // A reference of another size names the file and both sizes.
+    let refdir = dir.path().join("ref");
+    render(&refdir, &["--cluster", "none"]);
+    let exr = refdir.join("image.exr");
+    let o = vplgi(&["sweep", "--reference", exr.to_str().unwrap(), "--width", "32", "--height", "32", "--vpls", "500", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("image.exr") && err.contains("48x40") && err.contains("32x32"), "{err}");
+    assert!(!out.join("sweep.json").exists(), "no half-written outputs");
+}

@@ -7,17 +7,17 @@ use crate::{check_buffer_len, write_rgb8_png, Comparison, ImageError};
 /// Writes the per-pixel FLIP error of `cmp` as a PNG in FLIP's magma colour map (black = no
 /// error, through purple and orange, to pale yellow = error 1), atomically.
 pub fn write_error_map(path: &Path, cmp: &Comparison) -> Result<(), ImageError> {
-    // The fields are public: check them, because nv-flip panics on a short buffer.
-    check_buffer_len(
-        path.display().to_string(),
-        cmp.width,
-        cmp.height,
-        1,
-        cmp.flip_error.len(),
-    )?;
-    let map = nv_flip::FlipImageFloat::with_data(cmp.width, cmp.height, &cmp.flip_error);
-    let rgb = map.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+    let rgb = error_map_rgb8(&path.display().to_string(), cmp)?;
     write_rgb8_png(path, cmp.width, cmp.height, &rgb)
+}
+
+/// The per-pixel FLIP error of `cmp` in FLIP's magma colour map, as 8-bit RGB rows (`what` names
+/// the comparison in errors).
+pub fn error_map_rgb8(what: &str, cmp: &Comparison) -> Result<Vec<u8>, ImageError> {
+    // The fields are public: check them, because nv-flip panics on a short buffer.
+    check_buffer_len(what.to_string(), cmp.width, cmp.height, 1, cmp.flip_error.len())?;
+    let map = nv_flip::FlipImageFloat::with_data(cmp.width, cmp.height, &cmp.flip_error);
+    Ok(map.apply_color_lut(&nv_flip::magma_lut()).to_vec())
 }
 
 #[cfg(test)]

@@ -1,0 +1,31 @@
+//! `perf_report --quick` runs end to end (small sizes) and writes every section, with numbers.
+
+use std::process::Command;
+
+#[test]
+fn quick_perf_report_writes_every_section() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("PERFORMANCE.md");
+    // faiss is not installed for the tests: --quick reports without it.
+    let o = Command::new(env!("CARGO_BIN_EXE_perf_report")).args(["--quick", "--out", out.to_str().unwrap()]).output().expect("run perf_report");
+    assert!(o.status.success(), "perf_report failed: {}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(&out).unwrap();
+    for section in ["## k-means against faiss-cpu", "## visibility against raw Embree", "## GPU against CPU, per stage", "## Clustered against the reference", "--quick"] {
+        assert!(md.contains(section), "missing {section:?} in:\n{md}");
+    }
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("perf/perf.json")).unwrap()).unwrap();
+    let rows = json["kmeans"]["rows"].as_array().unwrap();
+    let cpu: Vec<&serde_json::Value> = rows.iter().filter(|r| r["name"].as_str().unwrap().contains("CPU")).collect();
+    assert_eq!(cpu.len(), 2, "{rows:?}");
+    // Uniform points in K cube-like cells of side K^(-1/3): MSE = 3 axes x side^2 / 12.
+    let ideal = 256f64.powf(-2.0 / 3.0) / 4.0;
+    for r in rows {
+        let mse = r["mse"].as_f64().unwrap();
+        assert!(mse > 0.8 * ideal && mse < 1.3 * ideal, "{}: MSE {mse}, ideal cells give {ideal}", r["name"]);
+    }
+    assert!(json["visibility"]["percent_of_raw"].as_f64().unwrap() > 0.0);
+    assert!(json["approximation"]["speedup"].as_f64().unwrap() > 1.0, "clustering must be faster than the reference");
+    for png in ["reference.png", "clustered.png", "error_map.png"] {
+        assert!(dir.path().join("perf").join(png).is_file(), "{png} missing");
+    }
+}

@@ -1,0 +1,284 @@
+//! `vplgi sweep`: the paper's Figures 7, 9 and 11 for a scene. Figure 7 varies the number of
+//! shading-point clusters (VPLs unclustered), Figure 9 the number of VPL clusters (shading points
+//! unclustered), Figure 11 both. Each is drawn as PNG and SVG charts (stage times and image error,
+//! against MSE and against FLIP); every configuration's image and FLIP error map go into one
+//! contact sheet, and every number into sweep.json.
+
+use crate::plot::{contact_sheet, heatmap, stacked_bars, Bar, Tile};
+use crate::render::{load_scene, write_json};
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
+use vplgi_types::{ClusterMode, FrameConfig, StageTimings};
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
+enum Figure {
+    /// Time and error against the number of shading-point clusters (`--cluster sp`).
+    #[value(name = "7")]
+    Seven,
+    /// Time and error against the number of VPL clusters (`--cluster vpl`).
+    #[value(name = "9")]
+    Nine,
+    /// Time and error over both counts (`--cluster both`).
+    #[value(name = "11")]
+    Eleven,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Backend {
+    Cpu,
+    Gpu,
+}
+
+#[derive(Args)]
+pub struct SweepArgs {
+    /// Scene file (.gltf or .glb). Omitted or `cornell-box`: the built-in Cornell box.
+    scene: Option<PathBuf>,
+    /// Figures to make.
+    #[arg(long = "figure", value_enum, num_args = 1.., default_values = ["7", "9", "11"])]
+    figures: Vec<Figure>,
+    /// Shading-point cluster counts (Figures 7 and 11), comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [2000u32, 4000, 8000, 16000, 30000])]
+    sp_clusters: Vec<u32>,
+    /// VPL cluster counts (Figures 9 and 11), comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [500u32, 1000, 1500, 2000, 2500])]
+    vpl_clusters: Vec<u32>,
+    /// Where the clustered frames run. The reference is always rendered by the CPU reference.
+    #[arg(long, value_enum, default_value = "cpu")]
+    backend: Backend,
+    /// Renders per configuration; stage times are the median over them.
+    #[arg(long, default_value_t = 1)]
+    runs: usize,
+    /// The unclustered reference (an EXR of the same size) instead of rendering one.
+    #[arg(long, value_name = "EXR")]
+    reference: Option<PathBuf>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Number of VPLs.
+    #[arg(long, default_value_t = 10_000)]
+    vpls: u32,
+    /// Fuzziness F (shading-point clusters per shading point).
+    #[arg(short = 'F', default_value_t = 6, value_parser = clap::value_parser!(u32).range(1..=16))]
+    f: u32,
+    /// Seed of every random decision.
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Output directory: sweep.json, fig*.png/svg, contact_sheet.png, configs/*/.
+    #[arg(long, value_name = "DIR", default_value = "out/sweep")]
+    out: PathBuf,
+}
+
+/// One configuration of a figure.
+struct Config {
+    figure: Figure,
+    label: String,
+    cfg: FrameConfig,
+}
+
+/// What a configuration measured.
+struct Measured {
+    timings: StageTimings,
+    mse: f64,
+    rel_mse: f64,
+    flip: f64,
+    tile: Tile,
+}
+
+fn stages(t: &StageTimings) -> Vec<(&'static str, f64)> {
+    vec![("trace_vpls", t.trace_vpls), ("shading_points", t.shading_points), ("cluster", t.cluster), ("visibility", t.visibility), ("shade", t.shade)]
+}
+
+fn median_timings(runs: &[StageTimings]) -> StageTimings {
+    let m = |f: fn(&StageTimings) -> f64| {
+        let mut v: Vec<f64> = runs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    StageTimings { trace_vpls: m(|t| t.trace_vpls), shading_points: m(|t| t.shading_points), cluster: m(|t| t.cluster), visibility: m(|t| t.visibility), shade: m(|t| t.shade), total: m(|t| t.total) }
+}
+
+fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
+    let mut out = Vec::new();
+    for &figure in &args.figures {
+        match figure {
+            Figure::Seven => out.extend(args.sp_clusters.iter().map(|&k| Config { figure, label: format!("fig7-sp{k}"), cfg: FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() } })),
+            Figure::Nine => out.extend(args.vpl_clusters.iter().map(|&k| Config { figure, label: format!("fig9-vpl{k}"), cfg: FrameConfig { cluster: ClusterMode::Vpl, k_vpl: k, ..base.clone() } })),
+            Figure::Eleven => {
+                for &s in &args.sp_clusters {
+                    for &v in &args.vpl_clusters {
+                        out.push(Config { figure, label: format!("fig11-sp{s}-vpl{v}"), cfg: FrameConfig { cluster: ClusterMode::Both, k_sp: s, k_vpl: v, ..base.clone() } });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Renders frames on the chosen backend.
+enum Renderer<'a> {
+    Cpu(&'a vplgi_cpu::CpuScene<'a>),
+    Gpu(Box<(vplgi_gpu::GpuContext, vplgi_gpu::pipeline::GpuKernels)>, &'a vplgi_scene::Scene),
+}
+
+impl Renderer<'_> {
+    fn render(&self, cfg: &FrameConfig) -> Result<(Vec<[f32; 3]>, StageTimings)> {
+        Ok(match self {
+            Renderer::Cpu(cs) => {
+                let f = vplgi_cpu::render(cs, cfg, &vplgi_cpu::NoProgress)?;
+                (f.pixels, f.timings)
+            }
+            Renderer::Gpu(gpu, scene) => {
+                let (ctx, k) = gpu.as_ref();
+                let f = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, k, scene, cfg)?;
+                (f.pixels, f.timings)
+            }
+        })
+    }
+}
+
+pub fn run(args: SweepArgs) -> Result<()> {
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    for (name, list) in [("--sp-clusters", &args.sp_clusters), ("--vpl-clusters", &args.vpl_clusters)] {
+        if list.is_empty() || list.contains(&0) {
+            bail!("{name} needs one or more counts above 0");
+        }
+    }
+    let base = FrameConfig { width: args.width, height: args.height, vpls: args.vpls, f: args.f, seed: args.seed, ..FrameConfig::default() };
+    let configs = configs(&args, &base);
+    for c in &configs {
+        c.cfg.validate().map_err(|e| anyhow::anyhow!("configuration {}: {e}", c.label))?;
+    }
+    crate::plot::ensure_font()?;
+    let (scene, source) = load_scene(args.scene.as_deref())?;
+    let given = match &args.reference {
+        Some(path) => {
+            let img = vplgi_image::read_exr(path)?;
+            if (img.width, img.height) != (args.width, args.height) {
+                bail!("{}: the reference is {}x{}, the sweep renders {}x{} (set --width/--height)", path.display(), img.width, img.height, args.width, args.height);
+            }
+            Some(img)
+        }
+        None => None,
+    };
+    std::fs::create_dir_all(args.out.join("configs")).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    let device = vplgi_embree::Device::new(None)?;
+    let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+
+    // The reference: given, or rendered by the CPU reference (and kept beside the sweep).
+    let (reference, reference_ms) = match given {
+        Some(img) => (img, None),
+        None => {
+            eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", args.width, args.height, args.vpls);
+            let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::None, ..base.clone() }, &crate::progress::Bars::new())?;
+            let img = Image { width: args.width, height: args.height, pixels: f.pixels };
+            std::fs::create_dir_all(args.out.join("reference"))?;
+            vplgi_image::write_exr(&args.out.join("reference/image.exr"), &img)?;
+            vplgi_image::write_png(&args.out.join("reference/image.png"), &img, 1.0)?;
+            (img, Some(f.timings.total))
+        }
+    };
+    // The reference time belongs on the charts only when it was measured on the sweep's backend.
+    let reference_line = if args.backend == Backend::Cpu { reference_ms } else { None };
+
+    let renderer = match args.backend {
+        Backend::Cpu => Renderer::Cpu(&cs),
+        Backend::Gpu => {
+            let ctx = vplgi_gpu::GpuContext::new()?;
+            eprintln!("clustered frames on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
+            let k = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
+            Renderer::Gpu(Box::new((ctx, k)), &scene)
+        }
+    };
+    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(configs.len() as u64) } else { ProgressBar::hidden() };
+    if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let mut measured = Vec::new();
+    for c in &configs {
+        bar.set_message(c.label.clone());
+        if bar.is_hidden() {
+            eprintln!("sweep: {} ({} of {})", c.label, measured.len() + 1, configs.len());
+        }
+        let mut runs = Vec::new();
+        let mut pixels = Vec::new();
+        for _ in 0..args.runs {
+            let (p, t) = renderer.render(&c.cfg)?;
+            runs.push(t);
+            pixels = p;
+        }
+        let img = Image { width: args.width, height: args.height, pixels };
+        let cmp = compare(&reference, &img)?;
+        let dir = args.out.join("configs").join(&c.label);
+        std::fs::create_dir_all(&dir)?;
+        vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
+        vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
+        vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
+        let timings = median_timings(&runs);
+        let tile = Tile { label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total, cmp.metrics.mse, cmp.metrics.flip), width: img.width, height: img.height, image: tonemap_srgb8(&img, 1.0), error_map: error_map_rgb8(&c.label, &cmp)? };
+        measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let backend = if args.backend == Backend::Gpu { " (GPU)" } else { "" };
+    let of = |f: Figure| -> Vec<(&Config, &Measured)> { configs.iter().zip(&measured).filter(|(c, _)| c.figure == f).collect() };
+    let mut charts = Vec::new();
+    for (metric, name) in [("mse", "MSE"), ("flip", "FLIP")] {
+        let err = |m: &Measured| if metric == "mse" { m.mse } else { m.flip };
+        for (fig, what, x_desc) in [(Figure::Seven, "shading-point clusters (VPLs unclustered)", "shading-point clusters"), (Figure::Nine, "VPL clusters (shading points unclustered)", "VPL clusters")] {
+            let rows = of(fig);
+            if rows.is_empty() {
+                continue;
+            }
+            let bars: Vec<Bar> = rows.iter().map(|(c, m)| Bar { label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(), stages: stages(&m.timings), error: err(m) }).collect();
+            let n = if fig == Figure::Seven { 7 } else { 9 };
+            let stem = args.out.join(format!("fig{n}-{metric}"));
+            stacked_bars(&stem, &format!("{}: time and {name} against {what}{backend}", scene.name), x_desc, &bars, name, reference_line)?;
+            charts.push(stem.with_extension("png"));
+        }
+        let rows = of(Figure::Eleven);
+        if !rows.is_empty() {
+            let (ns, nv) = (args.sp_clusters.len(), args.vpl_clusters.len());
+            let grid = |f: &dyn Fn(&Measured) -> f64| -> Vec<Vec<f64>> { (0..ns).map(|j| (0..nv).map(|i| f(rows[j * nv + i].1)).collect()).collect() };
+            let stem = args.out.join(format!("fig11-{metric}"));
+            heatmap(&stem, &format!("{}: frame time and {name} over both cluster counts{backend}", scene.name), &args.vpl_clusters, &args.sp_clusters, &grid(&|m| m.timings.total), &grid(&|m| err(m)), name)?;
+            charts.push(stem.with_extension("png"));
+        }
+    }
+    let tiles: Vec<Tile> = measured.iter().map(|m| Tile { label: m.tile.label.clone(), width: m.tile.width, height: m.tile.height, image: m.tile.image.clone(), error_map: m.tile.error_map.clone() }).collect();
+    let sheet = args.out.join("contact_sheet.png");
+    contact_sheet(&sheet, &tiles, 3, 240)?;
+
+    let report = json!({
+        "vplgi_version": env!("CARGO_PKG_VERSION"),
+        "scene": { "source": source, "name": scene.name, "triangles": scene.triangle_count() },
+        "backend": if args.backend == Backend::Gpu { "gpu" } else { "cpu" },
+        "runs": args.runs,
+        "base": base,
+        "reference": { "exr": args.reference.clone().unwrap_or_else(|| args.out.join("reference/image.exr")), "total_ms": reference_ms, "backend": "cpu" },
+        "configs": configs.iter().zip(&measured).map(|(c, m)| json!({
+            "label": c.label, "figure": format!("{:?}", c.figure).to_lowercase(), "cluster": c.cfg.cluster, "k_sp": c.cfg.k_sp, "k_vpl": c.cfg.k_vpl,
+            "timings_ms": m.timings, "mse": m.mse, "rel_mse": m.rel_mse, "flip": m.flip,
+            "image": args.out.join("configs").join(&c.label).join("image.png"), "error_map": args.out.join("configs").join(&c.label).join("error_map.png"),
+        })).collect::<Vec<_>>(),
+    });
+    write_json(&args.out.join("sweep.json"), &report)?;
+    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len(), scene.name, args.width, args.height, args.vpls);
+    println!("charts (PNG, and SVG beside each):");
+    for c in &charts {
+        println!("  {}", c.display());
+    }
+    println!("contact sheet: {}\nnumbers: {}", sheet.display(), args.out.join("sweep.json").display());
+    Ok(())
+}
