@@ -1,8 +1,9 @@
 //! Stage 3, `cluster`: the frame's two clusterings (VPLs into K_VPL hard clusters, hit shading
-//! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points.
+//! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points; and `kmeans`, the
+//! k-means problem `make perf-report` compares with faiss (1M uniform points, K = 8,192).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use vplgi_benches::{configure, sizes, Gpu, Inputs};
+use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
 use vplgi_cpu::cluster::cluster;
 use vplgi_gpu::cluster::ClusterKernel;
 
@@ -32,6 +33,9 @@ fn cluster_stage(c: &mut Criterion) {
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
         }
     }
+    let (n, k, iterations) = kmeans_size();
+    let (ps, ns, params) = kmeans_problem(n, k, iterations);
+    group.bench_function(BenchmarkId::new("cpu", "kmeans"), |b| b.iter(|| cluster(&ps, &ns, &params).k()));
     group.finish();
 }
 

@@ -44,6 +44,28 @@ pub fn sizes() -> Vec<Size> {
     vec![Size { name: "small", cfg: small }, Size { name: "paper", cfg: large }]
 }
 
+/// The k-means comparison with faiss (`make perf-report`): `n` positions uniform in the unit cube
+/// with unit normals, and the parameters that make `cluster` plain Euclidean k-means on all of
+/// them: gamma 1, and Eq. 7's normal test disabled (it is `dot > threshold`, and a dot product is
+/// never below -1).
+pub fn kmeans_problem(n: usize, k: u32, iterations: u32) -> (Vec<Vec3>, Vec<Vec3>, vplgi_types::clustering::ClusterParams) {
+    let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 0);
+    let ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
+    let ns: Vec<Vec3> = (0..n).map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32())).collect();
+    let params = vplgi_types::clustering::ClusterParams { k, gamma: 1, iterations, f: 1, fuzzy: vplgi_types::FuzzyMode::Hard, normal_threshold: -2.0, seed: 7 };
+    (ps, ns, params)
+}
+
+/// The k-means problem's size: 1,000,000 points, K = 8,192, 10 iterations (20,000 / 256 / 3
+/// under [`smoke`]).
+pub fn kmeans_size() -> (usize, u32, u32) {
+    if smoke() {
+        (20_000, 256, 3)
+    } else {
+        (1_000_000, 8192, 10)
+    }
+}
+
 /// Few samples: a paper-size GPU stage on lavapipe takes seconds per run.
 pub fn configure(group: &mut BenchmarkGroup<WallTime>) {
     group.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(5));

@@ -339,14 +339,14 @@ fn cluster_assign_and_update_match_the_cpu() {
     let m = ps.len();
     // Centroids from a CPU clustering: realistic, and shared by both sides.
     let c = cluster(&ps, &ns, &ClusterParams { k: 300, gamma: 2, iterations: 3, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 3 });
-    let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions);
+    let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
     let f = 6usize;
     let (cpu_labels, cpu_w): (Vec<Vec<u32>>, Vec<Vec<f32>>) = ps
         .iter()
         .zip(&ns)
         .map(|(&p, &n)| {
             let mut best = [(f32::INFINITY, vplgi_types::MISS); 6];
-            let (count, _) = grid.search(p, n, &c.positions, &c.normals, 0.866, &mut best);
+            let (count, _) = grid.search(p, n, 0.866, &mut best);
             let mut w = [0.0f32; 6];
             vplgi_types::clustering::fuzzy_weights(&best[..count], FuzzyMode::Weighted, grid.cell, &mut w[..count]);
             (best.iter().map(|b| b.1).collect(), w.to_vec())

@@ -26,7 +26,7 @@ use vplgi_cpu::cluster::cluster;
 use vplgi_cpu::visibility::{facing, visibility, Endpoint};
 use vplgi_cpu::{CpuScene, NoProgress};
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{FrameConfig, FuzzyMode, Rng, StageTimings, Stream};
+use vplgi_types::{FrameConfig, StageTimings};
 
 #[derive(Parser)]
 #[command(about = "Measures vplgi against faiss-cpu, raw Embree, its own GPU backend and its unclustered reference; writes a Markdown report")]
@@ -86,11 +86,8 @@ struct Kmeans {
 }
 
 fn kmeans(opts: &Opts, km: &Kmeans, gpu: Option<&vplgi_gpu::GpuContext>, dir: &Path) -> Result<Value> {
-    let mut rng = Rng::new(2026, Stream::Oracle, 0);
-    let ps: Vec<Vec3> = (0..km.n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
-    let ns: Vec<Vec3> = (0..km.n).map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32())).collect();
-    // Eq. 7's normal test off: every centroid is compatible (the test is `dot > threshold`).
-    let params = |gamma| ClusterParams { k: km.k, gamma, iterations: km.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: -2.0, seed: 7 };
+    let (ps, ns, plain) = vplgi_benches::kmeans_problem(km.n, km.k, km.iterations);
+    let params = |gamma| ClusterParams { gamma, ..plain };
     let mut rows = Vec::new();
 
     let points_file = dir.join("kmeans-points.f32");

@@ -97,6 +97,10 @@ pub struct RenderArgs {
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
+    /// With `--backend gpu`: time every GPU kernel with timestamp queries, print them by cost and
+    /// add them to report.json as `gpu_profile`.
+    #[arg(long)]
+    profile: bool,
     /// Exposure applied before tonemapping the PNG.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -180,6 +184,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Err(e) = cfg.validate() {
         bail!("invalid parameters: {e}");
     }
+    if args.profile && args.backend == BackendArg::Cpu {
+        bail!("--profile times GPU kernels: use it with --backend gpu (CPU stage times are in every report.json)");
+    }
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("configuring the thread pool")?;
     }
@@ -205,6 +212,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if !light_sampler.has_lights() {
         eprintln!("warning: {source} has no light (no emissive triangle, no punctual light): the image will be black");
     }
+    let mut profile = None;
     let (pixels, timings, setup_ms, stats, backend, adapter) = match &gpu {
         None => {
             let t_bvh = Instant::now();
@@ -218,7 +226,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Some(ctx) => {
             eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
             let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
-            let frame = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?;
+            let frame = if args.profile {
+                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg))?;
+                match by_kernel {
+                    Some(k) => profile = Some(k),
+                    None => eprintln!("note: {} has no timestamp queries: no kernel profile", ctx.describe()),
+                }
+                frame?
+            } else {
+                vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?
+            };
             let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
             let adapter = serde_json::json!({ "name": ctx.describe(), "device_type": format!("{:?}", ctx.info.device_type), "features": ctx.notable_features() });
             (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", adapter)
@@ -253,6 +270,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "stats": stats,
         "timings_ms": t,
         "setup_ms": { "load": load_ms, "scene_build": setup_ms },
+        "gpu_profile": profile.as_ref().map(|p| p.iter().map(|k| serde_json::json!({ "kernel": k.kernel, "passes": k.passes, "device_ms": k.time.as_secs_f64() * 1e3 })).collect::<Vec<_>>()),
         "outputs": { "exr": exr, "png": png },
     });
     write_json(&json, &report)?;
@@ -271,6 +289,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "timings (ms): trace_vpls {:.1}, shading_points {:.1}, cluster {:.1}, visibility {:.1}, shade {:.1}, total {:.1}",
         t.trace_vpls, t.shading_points, t.cluster, t.visibility, t.shade, t.total
     );
+    if let Some(p) = &profile {
+        let total: f64 = p.iter().map(|k| k.time.as_secs_f64()).sum();
+        println!("GPU kernels by device time (timestamp queries; {:.1} ms in all):", total * 1e3);
+        println!("  {:>10} {:>6} {:>7}  kernel", "ms", "%", "passes");
+        for k in p {
+            let ms = k.time.as_secs_f64() * 1e3;
+            println!("  {ms:>10.1} {:>5.1}% {:>7}  {}", 100.0 * ms / (total * 1e3).max(1e-9), k.passes, k.kernel);
+        }
+    }
     println!("wrote {}\n      {}\n      {}", exr.display(), png.display(), json.display());
     Ok(())
 }

@@ -82,7 +82,10 @@ fn compatible(n: Vec3, m: Vec3, threshold: f32) -> bool {
 }
 
 /// A uniform grid over centroid positions, stored as a counting sort: `items[starts[c]..
-/// starts[c + 1]]` are the centroids in cell `c`, in increasing index order.
+/// starts[c + 1]]` are the centroids in cell `c`, in increasing index order. Each item carries a
+/// copy of its centroid's position and normal, so a search reads the cells it visits as
+/// contiguous memory; the cells of one grid row are contiguous too, so the 27-cell
+/// neighbourhood is 9 runs of items.
 #[derive(Clone, Debug)]
 pub struct Grid {
     pub origin: Vec3,
@@ -90,6 +93,11 @@ pub struct Grid {
     pub dims: [i32; 3],
     starts: Vec<u32>,
     items: Vec<u32>,
+    item_positions: Vec<Vec3>,
+    item_normals: Vec<Vec3>,
+    /// The centroids by index (for a search that starts from a known centroid).
+    centroids: Vec<Vec3>,
+    centroid_normals: Vec<Vec3>,
 }
 
 impl Grid {
@@ -97,11 +105,11 @@ impl Grid {
     /// `bounds`, with occupancy counted on `sample`.
     pub fn for_data(bounds: (Vec3, Vec3), sample: &[Vec3], k: usize) -> Grid {
         let g = grid_geometry(bounds.0, bounds.1, k, |cell| occupied_cells(sample, bounds.0, cell));
-        Grid { origin: g.origin, cell: g.cell, dims: g.dims, starts: Vec::new(), items: Vec::new() }
+        Grid { origin: g.origin, cell: g.cell, dims: g.dims, starts: Vec::new(), items: Vec::new(), item_positions: Vec::new(), item_normals: Vec::new(), centroids: Vec::new(), centroid_normals: Vec::new() }
     }
 
-    /// Same geometry, filled with `centroids`.
-    pub fn fill(&self, centroids: &[Vec3]) -> Grid {
+    /// Same geometry, filled with the centroids (`centroids`, `normals`).
+    pub fn fill(&self, centroids: &[Vec3], normals: &[Vec3]) -> Grid {
         let n_cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
         let cell_of: Vec<u32> = centroids.iter().map(|&c| self.linear(self.coords(c)) as u32).collect();
         let mut starts = vec![0u32; n_cells + 1];
@@ -117,7 +125,9 @@ impl Grid {
             items[cursor[c as usize] as usize] = k as u32;
             cursor[c as usize] += 1;
         }
-        Grid { starts, items, ..self.clone() }
+        let item_positions = items.iter().map(|&k| centroids[k as usize]).collect();
+        let item_normals = items.iter().map(|&k| normals[k as usize]).collect();
+        Grid { starts, items, item_positions, item_normals, centroids: centroids.to_vec(), centroid_normals: normals.to_vec(), ..self.clone() }
     }
 
     /// Cell coordinates of `p`, clamped into the grid (centroids always lie inside it; points of
@@ -125,7 +135,17 @@ impl Grid {
     #[inline]
     pub fn coords(&self, p: Vec3) -> [i32; 3] {
         let q = (p - self.origin) / self.cell;
-        [0, 1, 2].map(|a| (q[a].floor() as i32).clamp(0, self.dims[a] - 1))
+        // floor() as i32 without the libm call baseline x86-64 makes of floor(): the same value
+        // for every f32, NaN included (0).
+        let floor = |x: f32| {
+            let i = x as i32;
+            if (i as f32) > x {
+                i - 1
+            } else {
+                i
+            }
+        };
+        [floor(q.x).clamp(0, self.dims[0] - 1), floor(q.y).clamp(0, self.dims[1] - 1), floor(q.z).clamp(0, self.dims[2] - 1)]
     }
 
     #[inline]
@@ -133,32 +153,27 @@ impl Grid {
         (c[0] as usize) + self.dims[0] as usize * ((c[1] as usize) + self.dims[1] as usize * c[2] as usize)
     }
 
-    /// Centroids in cell `c`, or nothing when `c` is outside the grid.
+    /// The item range of cells `x0..=x1` of row (`y`, `z`), all inside the grid.
     #[inline]
-    fn cell_items(&self, c: [i32; 3]) -> &[u32] {
-        if (0..3).any(|a| c[a] < 0 || c[a] >= self.dims[a]) {
-            return &[];
-        }
-        let l = self.linear(c);
-        &self.items[self.starts[l] as usize..self.starts[l + 1] as usize]
+    fn row_items(&self, x0: i32, x1: i32, y: i32, z: i32) -> std::ops::Range<usize> {
+        self.starts[self.linear([x0, y, z])] as usize..self.starts[self.linear([x1, y, z]) + 1] as usize
     }
 
-    /// Visits the cells at Chebyshev distance exactly `r` from `c` that lie in the grid (r = 1
-    /// visits all 27 cells of the neighbourhood including `c`), z-major then y then x. Only the
-    /// shell is walked, so a ring costs O(r²) cells.
-    fn visit_ring(&self, c: [i32; 3], r: i32, mut f: impl FnMut(&[u32])) {
+    /// Visits the cells at Chebyshev distance exactly `r` >= 2 from `c` that lie in the grid, as
+    /// item ranges (a run of cells of one row is one range). Only the shell is walked, so a ring
+    /// costs O(r²) cells.
+    fn visit_ring(&self, c: [i32; 3], r: i32, mut f: impl FnMut(std::ops::Range<usize>)) {
         let lo = |a: usize| (c[a] - r).max(0);
         let hi = |a: usize| (c[a] + r).min(self.dims[a] - 1);
         for z in lo(2)..=hi(2) {
             for y in lo(1)..=hi(1) {
-                let on_shell = r == 1 || (z - c[2]).abs() == r || (y - c[1]).abs() == r;
-                if on_shell {
-                    for x in lo(0)..=hi(0) {
-                        f(self.cell_items([x, y, z]));
-                    }
+                if (z - c[2]).abs() == r || (y - c[1]).abs() == r {
+                    f(self.row_items(lo(0), hi(0), y, z));
                 } else {
                     for x in [c[0] - r, c[0] + r] {
-                        f(self.cell_items([x, y, z]));
+                        if x >= 0 && x < self.dims[0] {
+                            f(self.row_items(x, x, y, z));
+                        }
                     }
                 }
             }
@@ -174,15 +189,52 @@ impl Grid {
     /// lower index), written to `best` as (squared distance, index); returns how many were found
     /// and how the search ended. This one search serves both the k-means iterations (one entry)
     /// and the fuzzy assignment (F entries), so its first entry is always the hard label.
-    pub fn search(&self, p: Vec3, n: Vec3, centroids: &[Vec3], normals: &[Vec3], threshold: f32, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
+    pub fn search(&self, p: Vec3, n: Vec3, threshold: f32, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
+        self.search_from(p, n, self.coords(p), threshold, best, None)
+    }
+
+    /// [`Grid::search`] for the nearest centroid, knowing a candidate: centroid `hint` (the
+    /// point's label in the previous k-means iteration). The answer is the same; only cells that
+    /// cannot hold anything as near as the candidate are skipped, so most of the 27 are.
+    pub fn search_near(&self, p: Vec3, n: Vec3, threshold: f32, hint: u32) -> (u32, SearchOutcome) {
+        let mut best = [(f32::INFINITY, MISS)];
+        let pc = self.coords(p);
+        let start = self.centroids.get(hint as usize).and_then(|&c| {
+            let cc = self.coords(c);
+            let near = (0..3).all(|a| (cc[a] - pc[a]).abs() <= 1);
+            (near && compatible(n, self.centroid_normals[hint as usize], threshold)).then(|| (dist2(p, c), hint))
+        });
+        let (count, outcome) = self.search_from(p, n, pc, threshold, &mut best, start);
+        (if count > 0 { best[0].1 } else { MISS }, outcome)
+    }
+
+    /// The search, with `best` starting as `start` (a compatible centroid of the 27-cell
+    /// neighbourhood) if given. In the neighbourhood, cells farther from the point than the
+    /// current F-th best cannot change the answer and are skipped. The bound of a neighbour cell
+    /// is the point's distance to the shared faces; it is lowered by 1e-4 cell against rounding
+    /// in [`Grid::coords`] and compared with a relative margin of 1e-5, so only cells that
+    /// cannot even tie are skipped (ties go to the lower index).
+    fn search_from(&self, p: Vec3, n: Vec3, c: [i32; 3], threshold: f32, best: &mut [(f32, u32)], start: Option<(f32, u32)>) -> (usize, SearchOutcome) {
         let f = best.len();
         let mut count = 0usize;
-        let consider = |items: &[u32], best: &mut [(f32, u32)], count: &mut usize| {
-            for &k in items {
-                if !compatible(n, normals[k as usize], threshold) {
+        if let Some(s) = start {
+            best[0] = s;
+            count = 1;
+        }
+        let consider = |items: std::ops::Range<usize>, best: &mut [(f32, u32)], count: &mut usize| {
+            for t in items {
+                if !compatible(n, self.item_normals[t], threshold) {
                     continue;
                 }
-                let cand = (dist2(p, centroids[k as usize]), k);
+                let cand = (dist2(p, self.item_positions[t]), self.items[t]);
+                if f == 1 {
+                    // The k-means iterations: only the nearest (ties to the lower index).
+                    if *count == 0 || cand < best[0] {
+                        best[0] = cand;
+                        *count = 1;
+                    }
+                    continue;
+                }
                 // Insertion into the sorted list of the f best (Alg. 2, lines 9-17).
                 let mut pos = *count;
                 while pos > 0 && cand < best[pos - 1] {
@@ -196,19 +248,40 @@ impl Grid {
                 }
             }
         };
-        let c = self.coords(p);
-        self.visit_ring(c, 1, |items| consider(items, best, &mut count));
+        // Squared gaps to the lower and upper neighbour cells along each axis (0 for the own).
+        let q = (p - self.origin) / self.cell;
+        let gaps = |a: usize| {
+            let below = ((q[a] - c[a] as f32) - 1e-4).max(0.0) * self.cell;
+            let above = ((c[a] as f32 + 1.0 - q[a]) - 1e-4).max(0.0) * self.cell;
+            [below * below, 0.0, above * above]
+        };
+        let (gx, gy, gz) = (gaps(0), gaps(1), gaps(2));
+        // The point's own row first, then the rows sharing a face with it, then the diagonal ones.
+        const ROWS: [(i32, i32); 9] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
+        for (dy, dz) in ROWS {
+            let (y, z) = (c[1] + dy, c[2] + dz);
+            if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
+                continue;
+            }
+            let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
+            let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
+            if row > limit {
+                continue;
+            }
+            let x0 = if c[0] > 0 && row + gx[0] <= limit { c[0] - 1 } else { c[0] };
+            let x1 = if c[0] + 1 < self.dims[0] && row + gx[2] <= limit { c[0] + 1 } else { c[0] };
+            consider(self.row_items(x0, x1, y, z), best, &mut count);
+        }
         if count > 0 {
             return (count, SearchOutcome::Neighbourhood);
         }
         let last = self.max_ring(c);
         for r in 2..=last {
-            if ((2 * r + 1) as f64).powi(3) > 8.0 * centroids.len() as f64 + 64.0 {
+            if ((2 * r + 1) as f64).powi(3) > 8.0 * self.items.len() as f64 + 64.0 {
                 // The rings now hold more cells than there are centroids: scanning all
                 // centroids is cheaper, and exact.
                 count = 0;
-                let all: Vec<u32> = (0..centroids.len() as u32).collect();
-                consider(&all, best, &mut count);
+                consider(0..self.items.len(), best, &mut count);
                 break;
             }
             self.visit_ring(c, r, |items| consider(items, best, &mut count));
@@ -223,8 +296,8 @@ impl Grid {
         }
         // No centroid anywhere has a compatible normal: nearest by position.
         let mut nearest = (f32::INFINITY, MISS);
-        for (k, &c) in centroids.iter().enumerate() {
-            let cand = (dist2(p, c), k as u32);
+        for (&k, &c) in self.items.iter().zip(&self.item_positions) {
+            let cand = (dist2(p, c), k);
             if cand < nearest {
                 nearest = cand;
             }
@@ -265,16 +338,14 @@ pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
     points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)))
 }
 
-/// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11).
-pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], centroids: &[Vec3], cnormals: &[Vec3], threshold: f32) -> Vec<u32> {
+/// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11). `previous`
+/// labels (of the last iteration) only speed the search up: the labels are the same.
+pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], threshold: f32, previous: Option<&[u32]>) -> Vec<u32> {
     points
         .par_iter()
         .zip(normals)
-        .map(|(&p, &n)| {
-            let mut best = [(f32::INFINITY, MISS)];
-            grid.search(p, n, centroids, cnormals, threshold, &mut best);
-            best[0].1
-        })
+        .enumerate()
+        .map(|(i, (&p, &n))| grid.search_near(p, n, threshold, previous.map_or(MISS, |l| l[i])).0)
         .collect()
 }
 
@@ -352,15 +423,18 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
     let fix = FixedPoint::new(lo, hi);
     let geometry = Grid::for_data(bounds(positions), &sp, k);
     let nt = params.normal_threshold;
+    let mut labels: Option<Vec<u32>> = None;
     for _ in 0..params.iterations {
-        let grid = geometry.fill(&cpos);
-        let labels = assign(&grid, &sp, &sn, &cpos, &cnor, nt);
-        update(&fix, &sp, &sn, &labels, &mut cpos, &mut cnor);
+        let grid = geometry.fill(&cpos, &cnor);
+        let l = assign(&grid, &sp, &sn, nt, labels.as_deref());
+        update(&fix, &sp, &sn, &l, &mut cpos, &mut cnor);
+        labels = Some(l);
     }
 
-    // Final hard assignment of every point; drop the clusters nobody is nearest to.
-    let grid = geometry.fill(&cpos);
-    let hard = assign(&grid, positions, normals, &cpos, &cnor, nt);
+    // Final hard assignment of every point; drop the clusters nobody is nearest to. Without
+    // downsampling the last iteration's labels are every point's.
+    let grid = geometry.fill(&cpos, &cnor);
+    let hard = assign(&grid, positions, normals, nt, labels.as_deref().filter(|l| l.len() == m));
     let mut counts = vec![0u32; k];
     for &l in &hard {
         counts[l as usize] += 1;
@@ -379,13 +453,13 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
 
     // Fuzzy assignment (Alg. 2) against the surviving centroids, on a grid of the same geometry:
     // a point's nearest centroid survived, so its first label equals its hard label.
-    let grid = geometry.fill(&cpos);
+    let grid = geometry.fill(&cpos, &cnor);
     let rows: Vec<([u32; MAX_F as usize], [f32; MAX_F as usize], SearchOutcome)> = positions
         .par_iter()
         .zip(normals)
         .map(|(&p, &n)| {
             let mut best = [(f32::INFINITY, MISS); MAX_F as usize];
-            let (count, outcome) = grid.search(p, n, &cpos, &cnor, nt, &mut best[..f]);
+            let (count, outcome) = grid.search(p, n, nt, &mut best[..f]);
             let mut labels = [MISS; MAX_F as usize];
             let mut weights = [0f32; MAX_F as usize];
             for j in 0..count {

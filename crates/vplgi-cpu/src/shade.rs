@@ -36,6 +36,32 @@ impl VplLight {
     }
 }
 
+/// The lights of [`shade`] as arrays of components, made once per call: the per-light loop of
+/// [`indirect`] then runs over blocks of 64 lights (one visibility word) in straight-line code
+/// that the compiler vectorises.
+#[derive(Clone, Debug, Default)]
+pub struct LightArrays {
+    position: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+    flux: [Vec<f32>; 3],
+}
+
+impl LightArrays {
+    pub fn new(lights: &[VplLight]) -> LightArrays {
+        let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
+        let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
+        LightArrays { position: three(|l| l.position), normal: three(|l| l.normal), flux: three(|l| l.flux) }
+    }
+
+    pub fn len(&self) -> usize {
+        self.position[0].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// Where a shading point's visibility of each VPL light comes from.
 #[derive(Clone, Copy, Debug)]
 pub enum VisibilitySource<'a> {
@@ -64,7 +90,7 @@ pub fn geometry_term(p: Vec3, np: Vec3, x: Vec3, nx: Vec3, g_max: f32) -> f32 {
 }
 
 /// Indirect radiance at shading point `i` (Eq. 6).
-pub fn indirect(sp: &ShadingPoint, i: usize, lights: &[VplLight], vis: &VisibilitySource, g_max: f32) -> Vec3 {
+pub fn indirect(sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
     let p = Vec3::from(sp.position);
     let n = Vec3::from(sp.normal);
     let brdf = Vec3::from(sp.albedo) / PI;
@@ -73,7 +99,10 @@ pub fn indirect(sp: &ShadingPoint, i: usize, lights: &[VplLight], vis: &Visibili
     let sum = match *vis {
         VisibilitySource::Own { matrix, row_of, first_row } => {
             let row = matrix.row((row_of[i] - first_row) as usize);
-            sum_lights(p, n, lights, g_max, |c| if bit(row, c) { 1.0 } else { 0.0 })
+            sum_lights(p, n, lights, g_max, |word, v| {
+                v.fill(0.0);
+                add_bits(v, row[word], 1.0);
+            })
         }
         VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f } => {
             let r = row_of[i] as usize * f;
@@ -88,37 +117,82 @@ pub fn indirect(sp: &ShadingPoint, i: usize, lights: &[VplLight], vis: &Visibili
                 }
             }
             let (rows, w) = (&rows[..count], &w[..count]);
-            sum_lights(p, n, lights, g_max, |c| {
-                let mut v = 0.0;
+            // Ṽ is the sum of the weights of the rows whose bit is set, in label order. Adding
+            // 0 for a clear bit leaves the sum unchanged, so this equals the branching sum.
+            sum_lights(p, n, lights, g_max, |word, v| {
+                v.fill(0.0);
                 for (row, &wf) in rows.iter().zip(w) {
-                    if bit(row, c) {
-                        v += wf;
-                    }
+                    add_bits(v, row[word], wf);
                 }
-                v
             })
         }
     };
     sum * brdf
 }
 
+/// `v[k] += w` for every set bit k of `bits` (and += 0 for the others, which changes nothing).
+/// Each 32-bit half is tested against a table of lane masks: 32-bit lanes vectorise on baseline
+/// x86-64, where per-lane 64-bit shifts and compares do not.
 #[inline(always)]
-fn bit(row: &[u64], c: usize) -> bool {
-    (row[c / 64] >> (c % 64)) & 1 == 1
+fn add_bits(v: &mut [f32; 64], bits: u64, w: f32) {
+    const LANE: [u32; 32] = {
+        let mut t = [0u32; 32];
+        let mut k = 0;
+        while k < 32 {
+            t[k] = 1 << k;
+            k += 1;
+        }
+        t
+    };
+    let (lo, hi) = (bits as u32, (bits >> 32) as u32);
+    let (v_lo, v_hi) = v.split_at_mut(32);
+    for k in 0..32 {
+        v_lo[k] += if lo & LANE[k] != 0 { w } else { 0.0 };
+    }
+    for k in 0..32 {
+        v_hi[k] += if hi & LANE[k] != 0 { w } else { 0.0 };
+    }
 }
 
-/// Σ_c Φ_c G / π Ṽ(c) over the lights, Ṽ given by `vis`.
+/// Σ_c Φ_c G / π Ṽ(c) over the lights in order, Ṽ of the 64 lights of visibility word `w`
+/// written by `vis(w, ..)`.
+///
+/// Per block of 64 lights: G (exactly [`geometry_term`]'s arithmetic, with the zero cases
+/// selected instead of branched to), then Ṽ, then the sum in light order. A light with G = 0 or
+/// Ṽ = 0 adds +0, which leaves the sum unchanged, so the result is bit-identical to skipping it,
+/// as the GPU twin does. Only the final sum is sequential; the rest vectorises.
 #[inline(always)]
-fn sum_lights(p: Vec3, n: Vec3, lights: &[VplLight], g_max: f32, vis: impl Fn(usize) -> f32) -> Vec3 {
+fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize, &mut [f32; 64])) -> Vec3 {
+    let [px, py, pz] = &l.position;
+    let [nx, ny, nz] = &l.normal;
+    let [fx, fy, fz] = &l.flux;
     let mut sum = Vec3::ZERO;
-    for (c, l) in lights.iter().enumerate() {
-        let g = geometry_term(p, n, l.position, l.normal, g_max);
-        if g == 0.0 {
-            continue;
+    let mut g = [0.0f32; 64];
+    let mut v = [0.0f32; 64];
+    for (word, base) in (0..l.len()).step_by(64).enumerate() {
+        let len = (l.len() - base).min(64);
+        for (k, gk) in g[..len].iter_mut().enumerate() {
+            let c = base + k;
+            let (dx, dy, dz) = (px[c] - p.x, py[c] - p.y, pz[c] - p.z);
+            let d2 = (dx * dx) + (dy * dy) + (dz * dz);
+            let inv_d = 1.0 / d2.sqrt();
+            let cos_p = ((n.x * dx) + (n.y * dy) + (n.z * dz)) * inv_d;
+            let cos_x = -((nx[c] * dx) + (ny[c] * dy) + (nz[c] * dz)) * inv_d;
+            // `f32::min` without its NaN handling (g_max is never NaN, and a NaN G is
+            // discarded below), so it compiles to one minps: the same value in every case.
+            let g = cos_p * cos_x / d2;
+            let g = if g < g_max { g } else { g_max };
+            *gk = if d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0 { g } else { 0.0 };
         }
-        let v = vis(c);
-        if v > 0.0 {
-            sum += l.flux * (g / PI * v);
+        vis(word, &mut v);
+        for (gk, vk) in g[..len].iter_mut().zip(&v[..len]) {
+            *gk = *gk / PI * vk;
+        }
+        for (k, gk) in g[..len].iter().enumerate() {
+            let c = base + k;
+            sum.x += fx[c] * gk;
+            sum.y += fy[c] * gk;
+            sum.z += fz[c] * gk;
         }
     }
     sum
@@ -169,7 +243,7 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
 
 /// Radiance of shading point `i`: emitted + direct + indirect (zero for a miss).
 #[allow(clippy::too_many_arguments)]
-pub fn shade_point(cs: &CpuScene, sps: &[ShadingPoint], i: usize, lights: &[VplLight], vis: &VisibilitySource, g_max: f32, seed: u32, direct_samples: u32) -> Vec3 {
+pub fn shade_point(cs: &CpuScene, sps: &[ShadingPoint], i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32, seed: u32, direct_samples: u32) -> Vec3 {
     let sp = &sps[i];
     if sp.triangle == MISS {
         return Vec3::ZERO;
@@ -193,6 +267,8 @@ pub fn shade(
 ) -> Vec<[f32; 3]> {
     use rayon::prelude::*;
     let spp = spp as usize;
+    let lights = LightArrays::new(lights);
+    let lights = &lights;
     pixels
         .into_par_iter()
         .map(|px| {

@@ -121,7 +121,7 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 /// Runs `f` inside a validation error scope and turns a captured error into [`GpuError`].
 pub fn validated<T>(device: &wgpu::Device, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let value = f();
+    let value = crate::timing::in_kernel(what, f);
     match pollster::block_on(scope.pop()) {
         None => Ok(value),
         Some(e) => Err(GpuError::Validation { what: what.to_string(), message: e.to_string() }),

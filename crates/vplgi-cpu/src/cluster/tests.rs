@@ -53,10 +53,10 @@ fn grid_search_against_all_pairs() {
         let (ps, ns) = cube_surface(4000, seed);
         let (cs, cn) = cube_surface(60 + 40 * seed as usize, seed + 100);
         let geometry = Grid::for_data(bounds(&ps), &ps, cs.len());
-        let grid = geometry.fill(&cs);
+        let grid = geometry.fill(&cs, &cn);
         for (&p, &n) in ps.iter().zip(&ns) {
             let mut best = [(f32::INFINITY, MISS)];
-            let (count, outcome) = grid.search(p, n, &cs, &cn, 0.866, &mut best);
+            let (count, outcome) = grid.search(p, n, 0.866, &mut best);
             let brute = brute_nearest(p, n, &cs, &cn, 0.866);
             total += 1;
             match brute {
@@ -87,13 +87,13 @@ fn widened_search_when_neighbourhood_is_empty() {
     let cn = vec![Vec3::Z; cs.len()];
     let mut all = cs.clone();
     all.push(Vec3::splat(10.0));
-    let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs);
+    let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
     let mut best = [(f32::INFINITY, MISS)];
-    let (count, outcome) = grid.search(Vec3::splat(10.0), Vec3::Z, &cs, &cn, 0.5, &mut best);
+    let (count, outcome) = grid.search(Vec3::splat(10.0), Vec3::Z, 0.5, &mut best);
     assert_eq!((count, outcome), (1, SearchOutcome::Widened));
     assert_eq!(best[0], brute_nearest(Vec3::splat(10.0), Vec3::Z, &cs, &cn, 0.5).unwrap());
     // With a normal nobody shares, the nearest by position is taken.
-    let (count, outcome) = grid.search(Vec3::splat(10.0), -Vec3::Z, &cs, &cn, 0.5, &mut best);
+    let (count, outcome) = grid.search(Vec3::splat(10.0), -Vec3::Z, 0.5, &mut best);
     assert_eq!((count, outcome), (1, SearchOutcome::Incompatible));
     assert_eq!(best[0].1, 63);
 }
@@ -249,5 +249,50 @@ proptest! {
         let c = cluster(&ps, &ns, &ClusterParams { k, gamma: 3, iterations: 4, f, fuzzy: mode, normal_threshold: 0.866_025_4, seed });
         check_invariants(&c, &ps, k);
         if mode == FuzzyMode::Hard { prop_assert_eq!(c.f, 1); }
+    }
+}
+
+/// A search that starts from a hint (the previous label) and skips cells by their distance
+/// bound gives the answer of the plain search, for every kind of hint (the answer itself, any
+/// centroid, a far or incompatible one, none), and keeps ties going to the lower index.
+#[test]
+fn hinted_search_equals_the_plain_search() {
+    let mut compared = 0;
+    for seed in 0..4 {
+        let (ps, ns) = cube_surface(3000, seed);
+        let (cs, cn) = cube_surface(150 + 50 * seed as usize, seed + 50);
+        let grid = Grid::for_data(bounds(&ps), &ps, cs.len()).fill(&cs, &cn);
+        let mut rng = Rng::new(seed, Stream::Oracle, 1);
+        for (&p, &n) in ps.iter().zip(&ns) {
+            let mut best = [(f32::INFINITY, MISS)];
+            let (count, outcome) = grid.search(p, n, 0.866, &mut best);
+            let plain = if count > 0 { best[0].1 } else { MISS };
+            // The oracle of the paper's approximation, without grid runs or distance bounds:
+            // the nearest compatible centroid whose cell is one of the 27 around the point's.
+            let pc = grid.coords(p);
+            let oracle = (0..cs.len())
+                .filter(|&k| compatible(n, cn[k], 0.866) && (0..3).all(|a| (grid.coords(cs[k])[a] - pc[a]).abs() <= 1))
+                .map(|k| (dist2(p, cs[k]), k as u32))
+                .fold(None, |b: Option<(f32, u32)>, c| if b.is_none_or(|b| c < b) { Some(c) } else { b });
+            if outcome == SearchOutcome::Neighbourhood {
+                assert_eq!(Some(best[0]), oracle, "point {p}");
+            }
+            for hint in [plain, rng.next_u32() % cs.len() as u32, rng.next_u32() % cs.len() as u32, MISS] {
+                assert_eq!(grid.search_near(p, n, 0.866, hint), (plain, outcome), "point {p}, hint {hint}");
+                compared += 1;
+            }
+        }
+    }
+    println!("hinted search: {compared} searches identical to the plain search");
+
+    // Exact ties: four centroids at the same distance 0.25 (exact in binary) around a point,
+    // the highest index nearest the grid origin's corner of the point's cell.
+    let p = Vec3::splat(0.5);
+    let cs = vec![Vec3::new(0.5, 0.75, 0.5), Vec3::new(0.25, 0.5, 0.5), Vec3::new(0.5, 0.25, 0.5), Vec3::new(0.75, 0.5, 0.5)];
+    let cn = vec![Vec3::Z; 4];
+    let data: Vec<Vec3> = (0..64).map(|i| Vec3::new((i % 4) as f32 / 3.0, ((i / 4) % 4) as f32 / 3.0, (i / 16) as f32 / 3.0)).collect();
+    let grid = Grid::for_data(bounds(&data), &data, cs.len()).fill(&cs, &cn);
+    for hint in [0, 1, 2, 3, MISS] {
+        assert_eq!(grid.search_near(p, Vec3::Z, 0.5, hint).0, 0, "hint {hint}: the tie goes to the lowest index");
     }
 }
