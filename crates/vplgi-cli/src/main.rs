@@ -5,6 +5,7 @@ mod compare;
 mod plot;
 mod progress;
 mod render;
+mod scene;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -34,6 +35,8 @@ enum Command {
     /// (MSE, FLIP) as the cluster counts vary, as PNG and SVG charts, plus a contact sheet of
     /// every configuration's image and error map; writes into DIR.
     Sweep(sweep::SweepArgs),
+    /// Procedural scenes at the paper's scale: `vplgi scene generate NAME` writes a .glb.
+    Scene(scene::SceneArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Sweep(args) => sweep::run(args),
+        Command::Scene(args) => scene::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

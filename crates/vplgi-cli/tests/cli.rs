@@ -280,3 +280,28 @@ fn sweep_rejects_bad_input_before_any_work() {
     assert!(err.contains("image.exr") && err.contains("48x40") && err.contains("32x32"), "{err}");
     assert!(!out.join("sweep.json").exists(), "no half-written outputs");
 }
+
+/// `vplgi scene generate` writes a .glb that `vplgi render` loads and lights.
+#[test]
+fn generated_scenes_render() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["conference", "living-room", "cornell-fine"] {
+        let glb = dir.path().join(format!("{name}.glb"));
+        let o = vplgi(&["scene", "generate", name, "--triangles", "20000", "--out", glb.to_str().unwrap()]);
+        assert!(o.status.success(), "generate {name}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stdout).contains(glb.to_str().unwrap()));
+        let out = dir.path().join(name);
+        let o = vplgi(&["render", glb.to_str().unwrap(), "--width", "32", "--height", "24", "--vpls", "400", "--k-sp", "100", "--k-vpl", "40", "--out", out.to_str().unwrap()]);
+        assert!(o.status.success(), "render {name}: {}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        let t = report["triangles"].as_u64().unwrap();
+        assert!((16_000..=25_000).contains(&t), "{name}: {t} triangles");
+        assert!(report["scene"]["emissive_triangles"].as_u64().unwrap() > 0);
+        let img = vplgi_image::read_exr(&out.join("image.exr")).unwrap();
+        let mean: f32 = img.pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / img.pixels.len() as f32;
+        assert!(mean > 0.01, "{name} renders black");
+    }
+    let o = vplgi(&["scene", "generate", "cathedral"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("conference"), "the error lists the scenes");
+}

@@ -2,11 +2,14 @@
 //! camera. Every backend consumes this one representation.
 //!
 //! * [`cornell`]: the built-in procedural Cornell box (the default scene).
-//! * [`gltf_load`]: glTF 2.0 (`.gltf` / `.glb`) loading.
+//! * [`generate`]: procedural scenes at the paper's scale (`vplgi scene generate`).
+//! * [`gltf_load`]: glTF 2.0 (`.gltf` / `.glb`) loading; [`gltf_write`]: `.glb` writing.
 //! * [`lights`]: light-selection tables shared by the backends.
 
 pub mod cornell;
+pub mod generate;
 pub mod gltf_load;
+pub mod gltf_write;
 pub mod lights;
 
 use glam::{Vec2, Vec3};

@@ -1,0 +1,173 @@
+//! Writing a scene as binary glTF 2.0 (`.glb`), for the procedural scenes: one mesh with one
+//! primitive per material (all sharing one vertex buffer of positions, normals and texture
+//! coordinates, u32 indices), Lambertian materials with emission
+//! (`KHR_materials_emissive_strength` above 1), `KHR_lights_punctual` lights and the camera.
+//! Textures are not written (the generators make none): such a scene is refused.
+
+use crate::{PunctualLight, Scene};
+use glam::{Mat3, Quat, Vec3};
+use serde_json::{json, Value};
+
+/// The `.glb` bytes of `scene`.
+pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
+    if !scene.textures.is_empty() {
+        return Err(format!("{} has textures, which the glTF writer does not write", scene.name));
+    }
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| -> usize {
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
+        bin.extend_from_slice(bytes);
+        views.len() - 1
+    };
+    let floats = |v: &mut dyn Iterator<Item = f32>| -> Vec<u8> { v.flat_map(f32::to_le_bytes).collect() };
+    let n = scene.positions.len();
+    let (lo, hi) = scene.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)));
+    let pos_view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), 34962);
+    accessors.push(json!({"bufferView": pos_view, "componentType": 5126, "count": n, "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
+    let nrm_view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|p| p.to_array())), 34962);
+    accessors.push(json!({"bufferView": nrm_view, "componentType": 5126, "count": n, "type": "VEC3"}));
+    let uv_view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|p| p.to_array())), 34962);
+    accessors.push(json!({"bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2"}));
+    let mut primitives = Vec::new();
+    for m in 0..scene.materials.len() as u32 {
+        let idx: Vec<u8> = scene.indices.iter().zip(&scene.material_ids).filter(|(_, &id)| id == m).flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes())).collect();
+        if idx.is_empty() {
+            continue;
+        }
+        let view = push_view(&mut bin, &idx, 34963);
+        accessors.push(json!({"bufferView": view, "componentType": 5125, "count": idx.len() / 4, "type": "SCALAR"}));
+        primitives.push(json!({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": accessors.len() - 1, "material": m}));
+    }
+    let materials: Vec<Value> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let strength = m.emission.max_element();
+            let mut v = json!({
+                "name": m.name,
+                "pbrMetallicRoughness": {"baseColorFactor": [m.base_color.x, m.base_color.y, m.base_color.z, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+            });
+            if strength > 0.0 {
+                let (factor, s) = if strength > 1.0 { (m.emission / strength, strength) } else { (m.emission, 1.0) };
+                v["emissiveFactor"] = json!(factor.to_array());
+                if s > 1.0 {
+                    v["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": s}});
+                }
+            }
+            v
+        })
+        .collect();
+    // The camera node: glTF cameras look down their local -z with +y up.
+    let c = scene.camera;
+    let z = -c.forward.normalize();
+    let x = c.up.cross(z).normalize();
+    let y = z.cross(x);
+    let rotation = Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize();
+    let mut nodes = vec![json!({"name": scene.name, "mesh": 0}), json!({"name": "camera", "camera": 0, "translation": c.position.to_array(), "rotation": rotation.to_array()})];
+    let mut lights = Vec::new();
+    for l in &scene.lights {
+        // Radiant intensity per channel = colour x intensity (the loader's reading).
+        let (position, intensity, extra) = match l {
+            PunctualLight::Point { position, intensity } => (position, intensity, json!({"type": "point"})),
+            PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => {
+                let z = -direction.normalize();
+                let x = if z.x.abs() < 0.9 { Vec3::X } else { Vec3::Y }.cross(z).normalize();
+                let rot = Quat::from_mat3(&Mat3::from_cols(x, z.cross(x), z)).normalize();
+                nodes.push(json!({"name": "spot", "rotation": rot.to_array(), "translation": position.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
+                let spot = json!({"type": "spot", "spot": {"innerConeAngle": cos_inner.clamp(-1.0, 1.0).acos(), "outerConeAngle": cos_outer.clamp(-1.0, 1.0).acos()}});
+                lights.push(light_json(intensity, spot));
+                continue;
+            }
+        };
+        nodes.push(json!({"name": "light", "translation": position.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
+        lights.push(light_json(intensity, extra));
+    }
+    let mut used = vec!["KHR_materials_emissive_strength"];
+    let mut doc = json!({
+        "asset": {"version": "2.0", "generator": concat!("vplgi ", env!("CARGO_PKG_VERSION"))},
+        "scene": 0,
+        "scenes": [{"name": scene.name, "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": [{"name": scene.name, "primitives": primitives}],
+        "materials": materials,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": c.yfov, "znear": 0.01}}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    if !lights.is_empty() {
+        used.push("KHR_lights_punctual");
+        doc["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
+    }
+    doc["extensionsUsed"] = json!(used);
+    let mut text = serde_json::to_vec(&doc).map_err(|e| e.to_string())?;
+    text.resize(text.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    Ok(out)
+}
+
+fn light_json(intensity: &Vec3, mut light: Value) -> Value {
+    let i = intensity.max_element().max(1e-30);
+    light["color"] = json!((*intensity / i).to_array());
+    light["intensity"] = json!(i);
+    light
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Written and loaded again, a generated scene has the same geometry (bit for bit),
+    /// materials (emission to rounding), lights and camera.
+    #[test]
+    fn generated_scenes_survive_a_glb_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut scenes: Vec<Scene> = crate::generate::GENERATORS.iter().map(|(name, _, _)| crate::generate::generate(name, 15_000).unwrap()).collect();
+        scenes.push(crate::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0));
+        for s in scenes {
+            let path = dir.path().join(format!("{}.glb", s.name));
+            std::fs::write(&path, glb(&s).unwrap()).unwrap();
+            let back = Scene::load(&path).unwrap();
+            assert_eq!(back.triangle_count(), s.triangle_count(), "{}", s.name);
+            // Triangles come back grouped by material: compare as sets of corner positions.
+            let tris = |x: &Scene| {
+                let mut v: Vec<[u32; 9]> = (0..x.triangle_count()).map(|t| {
+                    let [a, b, c] = x.triangle(t);
+                    let mut k = [0u32; 9];
+                    for (i, p) in [a, b, c].iter().enumerate() {
+                        for j in 0..3 {
+                            k[3 * i + j] = p[j].to_bits();
+                        }
+                    }
+                    k
+                }).collect();
+                v.sort_unstable();
+                v
+            };
+            assert_eq!(tris(&back), tris(&s), "{}: geometry changed", s.name);
+            assert_eq!(back.materials.len(), s.materials.len());
+            for (a, b) in back.materials.iter().zip(&s.materials) {
+                assert_eq!(a.base_color, b.base_color);
+                assert!((a.emission - b.emission).abs().max_element() <= 1e-5 * b.emission.max_element().max(1.0), "{} vs {}", a.emission, b.emission);
+            }
+            assert_eq!(back.lights.len(), s.lights.len());
+            assert!((back.camera.position - s.camera.position).length() < 1e-5);
+            assert!((back.camera.forward - s.camera.forward).length() < 1e-5, "{}: camera {:?} vs {:?}", s.name, back.camera, s.camera);
+            assert!((back.camera.yfov - s.camera.yfov).abs() < 1e-6);
+        }
+    }
+}
