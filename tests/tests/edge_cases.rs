@@ -81,3 +81,25 @@ fn scenes_with_non_finite_attributes_are_rejected() {
     scene.materials[0].emission.y = f32::INFINITY;
     assert!(scene.validate().is_err());
 }
+
+/// An unclustered frame rendered as row tiles is the whole frame, bit for bit, at 1 and 3
+/// samples per pixel; a clustered frame refuses to be tiled.
+#[test]
+fn row_tiles_of_a_reference_equal_the_whole_frame() {
+    let scene = vplgi_scene::cornell::cornell_box();
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = vplgi_cpu::CpuScene::new(&scene, &device).unwrap();
+    for spp in [1, 3] {
+        let cfg = vplgi_types::FrameConfig { width: 24, height: 18, spp, vpls: 300, cluster: vplgi_types::ClusterMode::None, ..Default::default() };
+        let whole = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
+        let mut tiled = Vec::new();
+        for rows in [0..7, 7..8, 8..18] {
+            let t = vplgi_cpu::render_rows(&cs, &cfg, rows.clone(), &vplgi_cpu::NoProgress).unwrap();
+            assert_eq!((t.width, t.height), (24, rows.end - rows.start));
+            tiled.extend(t.pixels);
+        }
+        assert_eq!(tiled, whole.pixels, "spp {spp}: tiles differ from the whole frame");
+    }
+    let clustered = vplgi_types::FrameConfig { width: 24, height: 18, vpls: 300, ..Default::default() };
+    assert!(vplgi_cpu::render_rows(&cs, &clustered, 0..9, &vplgi_cpu::NoProgress).is_err());
+}

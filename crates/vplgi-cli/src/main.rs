@@ -4,6 +4,7 @@ mod bench;
 mod compare;
 mod plot;
 mod progress;
+mod reference;
 mod render;
 mod scene;
 mod sweep;
@@ -37,6 +38,13 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Procedural scenes at the paper's scale: `vplgi scene generate NAME` writes a .glb.
     Scene(scene::SceneArgs),
+    /// Render an unclustered reference as the mean and per-pixel variance of several seeds:
+    /// DIR/mean.exr, DIR/variance.exr, DIR/mean.png and the sidecar DIR/reference.json.
+    /// --tile I/N renders a band of rows, for several machines or a job array.
+    Reference(reference::ReferenceArgs),
+    /// Join the folders of a reference's tiles (vplgi reference --tile I/N) into one reference,
+    /// bit-identical to rendering it in one run.
+    Merge(reference::MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +55,8 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Scene(args) => scene::run(args),
+        Command::Reference(args) => reference::run(args),
+        Command::Merge(args) => reference::merge(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

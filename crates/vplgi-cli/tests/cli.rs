@@ -305,3 +305,68 @@ fn generated_scenes_render() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("conference"), "the error lists the scenes");
 }
+
+/// `vplgi reference`: the mean and variance of independent unclustered renders (checked against
+/// `vplgi render --cluster none --seed S` of each seed), and tiles that `vplgi merge` joins into
+/// exactly the single run; incomplete or mismatched tiles are refused.
+#[test]
+fn reference_tiles_merge_into_the_single_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &str| dir.path().join(x).to_str().unwrap().to_string();
+    let common = ["--width", "24", "--height", "16", "--vpls", "300", "--seeds", "3"];
+    let run = |extra: &[&str]| {
+        let mut a = vec!["reference"];
+        a.extend_from_slice(&common);
+        a.extend_from_slice(extra);
+        let o = vplgi(&a);
+        assert!(o.status.success(), "reference {extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--out", &p("whole")]);
+    for t in ["1/3", "2/3", "3/3"] {
+        run(&["--tile", t, "--out", &p(&format!("tile{}", &t[..1]))]);
+    }
+    // Tiles in any order.
+    let o = vplgi(&["merge", &p("tile3"), &p("tile1"), &p("tile2"), "--out", &p("merged")]);
+    assert!(o.status.success(), "merge: {}", String::from_utf8_lossy(&o.stderr));
+    let read = |d: &str, f: &str| vplgi_image::read_exr(&dir.path().join(d).join(f)).unwrap().pixels;
+    assert_eq!(read("merged", "mean.exr"), read("whole", "mean.exr"), "merged mean differs from the single run");
+    assert_eq!(read("merged", "variance.exr"), read("whole", "variance.exr"));
+    let sidecar: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("whole/reference.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["seeds"], serde_json::json!([1, 2, 3]));
+    assert_eq!(sidecar["scene"]["hash"].as_str().unwrap().len(), 16);
+    assert!(sidecar["wall_time_s"].as_f64().unwrap() > 0.0);
+
+    // The oracle: each seed rendered on its own.
+    let renders: Vec<Vec<[f32; 3]>> = (1..=3)
+        .map(|seed| {
+            let out = p(&format!("seed{seed}"));
+            let s = seed.to_string();
+            let o = vplgi(&["render", "--cluster", "none", "--width", "24", "--height", "16", "--vpls", "300", "--seed", &s, "--out", &out]);
+            assert!(o.status.success());
+            vplgi_image::read_exr(&Path::new(&out).join("image.exr")).unwrap().pixels
+        })
+        .collect();
+    let (mean, var) = (read("whole", "mean.exr"), read("whole", "variance.exr"));
+    let mut max_err = 0.0f64;
+    for i in 0..mean.len() {
+        for c in 0..3 {
+            let xs: Vec<f64> = renders.iter().map(|r| r[i][c] as f64).collect();
+            let m = xs.iter().sum::<f64>() / 3.0;
+            let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 2.0;
+            // The files hold f32: compare to the f32 rounding's precision.
+            max_err = max_err.max((mean[i][c] as f64 - m).abs() / m.abs().max(1e-3)).max((var[i][c] as f64 - v).abs() / v.abs().max(1e-3));
+        }
+    }
+    assert!(max_err < 1e-6, "mean/variance differ from the per-seed renders by {max_err} (relative)");
+    assert!(var.iter().any(|v| v[0] > 0.0), "independent seeds must vary somewhere");
+
+    // A missing tile, and tiles of different references, are refused.
+    let o = vplgi(&["merge", &p("tile1"), &p("tile3"), "--out", &p("bad")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("exactly once"), "{}", String::from_utf8_lossy(&o.stderr));
+    run(&["--tile", "2/3", "--first-seed", "7", "--out", &p("other2")]);
+    let o = vplgi(&["merge", &p("tile1"), &p("other2"), &p("tile3"), "--out", &p("bad")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("different references"));
+    assert!(!dir.path().join("bad").exists(), "no output from a refused merge");
+    let o = vplgi(&["reference", "--seeds", "1", "--out", &p("one")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("at least 2 seeds"));
+}

@@ -20,4 +20,4 @@ pub use vplgi_scene::lights;
 
 mod accel;
 pub use accel::{CpuScene, SurfaceHit, SEGMENT_TNEAR};
-pub use pipeline::{render, Frame, NoProgress, Progress, RenderError, StageTimings};
+pub use pipeline::{render, render_rows, Frame, NoProgress, Progress, RenderError, StageTimings};

@@ -2,7 +2,7 @@
 
 use crate::cluster::{cluster, Clustering};
 use crate::shade::{shade, VisibilitySource, VplLight};
-use crate::shading_points::shading_points;
+use crate::shading_points::{shading_points, shading_points_of};
 use crate::trace_vpls::trace_vpls;
 use crate::visibility::{visibility, Endpoint};
 use crate::CpuScene;
@@ -95,7 +95,22 @@ pub enum RenderError {
 
 /// Renders one frame with the CPU reference.
 pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, RenderError> {
+    render_rows(cs, cfg, 0..cfg.height, progress)
+}
+
+/// Renders image rows `rows` of an unclustered frame (`--cluster none`): each pixel bit-identical
+/// to the whole frame's, since without clustering a pixel depends only on the VPLs (traced in
+/// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
+/// tiles; clustered frames cannot be (their clusters depend on the whole image).
+pub fn render_rows(cs: &CpuScene, cfg: &FrameConfig, rows: std::ops::Range<u32>, progress: &dyn Progress) -> Result<Frame, RenderError> {
     cfg.validate().map_err(RenderError::InvalidConfig)?;
+    if rows.start >= rows.end || rows.end > cfg.height {
+        return Err(RenderError::InvalidConfig(format!("rows {}..{} of a {}-row image", rows.start, rows.end, cfg.height)));
+    }
+    let tile = rows.start > 0 || rows.end < cfg.height;
+    if tile && cfg.cluster != vplgi_types::ClusterMode::None {
+        return Err(RenderError::InvalidConfig("only unclustered frames (--cluster none) can be rendered in tiles".into()));
+    }
     let mut t = StageTimings::default();
     let mut stats = FrameStats { scene_extent: cs.extent, ..Default::default() };
 
@@ -107,7 +122,17 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
 
     let t0 = Instant::now();
     progress.start("shading_points", 1);
-    let sps = shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    // Samples outside the rows stay misses: indices stay global (the RNG streams use them).
+    let (px0, px1) = ((rows.start * cfg.width) as usize, (rows.end * cfg.width) as usize);
+    let spp = cfg.spp as usize;
+    let sps = if tile {
+        let mut all = vec![vplgi_types::ShadingPoint { triangle: MISS, ..Default::default() }; (cfg.width * cfg.height) as usize * spp];
+        let part = shading_points_of(cs, cfg.width, cfg.height, cfg.spp, cfg.seed, (px0 * spp) as u32..(px1 * spp) as u32);
+        all[px0 * spp..px1 * spp].copy_from_slice(&part);
+        all
+    } else {
+        shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed)
+    };
     progress.finish();
     t.shading_points = ms(t0);
     stats.shading_points = sps.len();
@@ -145,8 +170,7 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
     let g_max = if d_min > 0.0 { 1.0 / (d_min * d_min) } else { f32::INFINITY };
     let cols: Vec<Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
     let n_pixels = (cfg.width * cfg.height) as usize;
-    let spp = cfg.spp as usize;
-    let mut pixels = Vec::with_capacity(n_pixels);
+    let mut pixels = Vec::with_capacity(px1 - px0);
     let mut vis_ms = 0.0;
     let mut shade_ms = 0.0;
 
@@ -168,9 +192,9 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
             // Each shading point is its own row: visibility and shading proceed in pixel chunks
             // so the matrix stays small.
             let px_chunk = (ROW_CHUNK_BITS / cols.len().max(64) / spp).max(1);
-            let mut px = 0;
-            while px < n_pixels {
-                let end = (px + px_chunk).min(n_pixels);
+            let mut px = px0;
+            while px < px1 {
+                let end = (px + px_chunk).min(px1);
                 let chunk_hits: Vec<u32> = (px * spp..end * spp).filter(|&i| row_of[i] != MISS).map(|i| i as u32).collect();
                 let first_row = chunk_hits.first().map_or(0, |&i| row_of[i as usize]);
                 let rows: Vec<Endpoint> = chunk_hits.iter().map(|&i| Endpoint::of(&sps[i as usize])).collect();
@@ -190,5 +214,5 @@ pub fn render(cs: &CpuScene, cfg: &FrameConfig, progress: &dyn Progress) -> Resu
     t.shade = shade_ms;
     stats.visibility_mrays_per_s = if vis_ms > 0.0 { stats.visibility_rays as f64 / (vis_ms * 1e3) } else { 0.0 };
     t.sum();
-    Ok(Frame { width: cfg.width, height: cfg.height, pixels, timings: t, stats })
+    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats })
 }

@@ -19,8 +19,14 @@ pub fn film_position(index: u32, width: u32, spp: u32, seed: u32) -> (f32, f32) 
 }
 
 pub fn shading_points(cs: &CpuScene, width: u32, height: u32, spp: u32, seed: u32) -> Vec<ShadingPoint> {
+    shading_points_of(cs, width, height, spp, seed, 0..width * height * spp)
+}
+
+/// The shading points of samples `samples` only (a tile of the image); each is the same as in
+/// the whole frame.
+pub fn shading_points_of(cs: &CpuScene, width: u32, height: u32, spp: u32, seed: u32, samples: std::ops::Range<u32>) -> Vec<ShadingPoint> {
     let camera = cs.scene.camera;
-    (0..width * height * spp)
+    samples
         .into_par_iter()
         .map(|i| {
             let (sx, sy) = film_position(i, width, spp, seed);

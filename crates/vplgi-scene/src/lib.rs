@@ -225,6 +225,55 @@ impl Scene {
         }
     }
 
+    /// A 64-bit FNV-1a hash of everything that affects a render (geometry, materials, texels,
+    /// lights, camera), as recorded beside reference images: equal hashes, same scene.
+    pub fn content_hash(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bits: u32| {
+            for b in bits.to_le_bytes() {
+                h ^= b as u64;
+                h = h.wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        let v3 = |v: Vec3, eat: &mut dyn FnMut(u32)| v.to_array().iter().for_each(|x| eat(x.to_bits()));
+        for p in self.positions.iter().chain(&self.normals) {
+            v3(*p, &mut eat);
+        }
+        self.uvs.iter().for_each(|t| t.to_array().iter().for_each(|x| eat(x.to_bits())));
+        self.indices.iter().flatten().chain(&self.material_ids).for_each(|&i| eat(i));
+        for m in &self.materials {
+            v3(m.base_color, &mut eat);
+            v3(m.emission, &mut eat);
+            eat(m.base_color_texture.unwrap_or(u32::MAX));
+        }
+        for t in &self.textures {
+            eat(t.width);
+            eat(t.height);
+            t.texels.iter().for_each(|c| v3(*c, &mut eat));
+        }
+        for l in &self.lights {
+            match l {
+                PunctualLight::Point { position, intensity } => {
+                    v3(*position, &mut eat);
+                    v3(*intensity, &mut eat);
+                }
+                PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => {
+                    v3(*position, &mut eat);
+                    v3(*direction, &mut eat);
+                    v3(*intensity, &mut eat);
+                    eat(cos_inner.to_bits());
+                    eat(cos_outer.to_bits());
+                }
+            }
+        }
+        let c = self.camera;
+        v3(c.position, &mut eat);
+        v3(c.forward, &mut eat);
+        v3(c.up, &mut eat);
+        eat(c.yfov.to_bits());
+        h
+    }
+
     /// Length of the bounding-box diagonal: the scene's size for relative parameters.
     pub fn extent(&self) -> f32 {
         let (min, max) = self.bounds();
