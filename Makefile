@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test bench perf-report clean
+.PHONY: all setup build demo test bench perf-report references clean
 
 all: build
 
@@ -51,6 +51,21 @@ PERF_PY := target/perf-python
 perf-report: build
 	@test -d $(PERF_PY)/faiss || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(PERF_PY) "faiss-cpu==1.15.1" "numpy<3"
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" PYTHONPATH=$(PERF_PY) $(CARGO) run --release -p vplgi-benches --bin perf_report -- --out docs/PERFORMANCE.md
+
+# The small references the regression tests compare against (tests/tests/regression.rs), made
+# with the CPU reference: 128x128, 1,000 VPLs, 16 seeds, for the built-in Cornell box and the
+# two generated rooms (20,000 triangles). Say why they change: make references WHY="..."
+REF_DIR := fixtures/references
+REF_ARGS := --width 128 --height 128 --vpls 1000 --seeds 16
+references: build
+	@test -n "$(WHY)" || { echo 'say why the references change: make references WHY="..."'; exit 1; }
+	mkdir -p target/fixture-scenes
+	$(VPLGI) scene generate conference --triangles 20000 --out target/fixture-scenes/conference.glb
+	$(VPLGI) scene generate living-room --triangles 20000 --out target/fixture-scenes/living-room.glb
+	$(VPLGI) reference $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/cornell-box
+	$(VPLGI) reference target/fixture-scenes/conference.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/conference
+	$(VPLGI) reference target/fixture-scenes/living-room.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/living-room
+	rm -f $(REF_DIR)/*/mean.png
 
 clean:
 	$(CARGO) clean

@@ -49,6 +49,9 @@ pub struct ReferenceArgs {
     /// `vplgi merge`; the result is bit-identical to rendering all rows at once.
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
+    /// Why this reference was made (recorded in reference.json; `make references` requires it).
+    #[arg(long)]
+    why: Option<String>,
     /// Output directory: mean.exr, variance.exr, mean.png, reference.json.
     #[arg(long, value_name = "DIR", default_value = "out/reference")]
     out: PathBuf,
@@ -140,6 +143,7 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         "height": args.height,
         "tile": if count > 1 { json!({ "index": index, "count": count, "rows": [rows.start, rows.end] }) } else { Value::Null },
         "wall_time_s": wall,
+        "why": args.why,
         "threads": rayon::current_num_threads(),
         "files": { "mean": "mean.exr", "variance": "variance.exr" },
         "variance": "per-pixel sample variance (divided by seeds - 1) of the per-seed renders; the mean's variance is this divided by the number of seeds",

@@ -8,6 +8,7 @@ mod atomic;
 mod errormap;
 mod io;
 mod metrics;
+pub mod regression;
 
 use std::path::PathBuf;
 
