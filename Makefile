@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test bench perf-report references clean
+.PHONY: all setup build demo test bench perf-report references results clean
 
 all: build
 
@@ -66,6 +66,11 @@ references: build
 	$(VPLGI) reference target/fixture-scenes/conference.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/conference
 	$(VPLGI) reference target/fixture-scenes/living-room.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/living-room
 	rm -f $(REF_DIR)/*/mean.png
+
+# The paper's table on the three generated scenes at the paper's resolutions and VPL counts:
+# docs/RESULTS.md. About 30 minutes on 2 cores (the unclustered references dominate).
+results: build
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md
 
 clean:
 	$(CARGO) clean

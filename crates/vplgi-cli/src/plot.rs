@@ -289,27 +289,12 @@ pub fn contact_sheet(path: &Path, tiles: &[Tile], columns: usize, thumb: u32) ->
 }
 
 /// Box-filters `src` (w x h RGB) into the `dst` rectangle at `at` of size `to`.
-fn blit_scaled(dst: &mut [u8], dst_w: u32, at: (u32, u32), to: (u32, u32), src: &[u8], (w, h): (u32, u32)) {
+fn blit_scaled(dst: &mut [u8], dst_w: u32, at: (u32, u32), to: (u32, u32), src: &[u8], size: (u32, u32)) {
+    let scaled = vplgi_image::resize_rgb8(src, size, to);
     for y in 0..to.1 {
-        let (sy0, sy1) = (y as u64 * h as u64 / to.1 as u64, ((y as u64 + 1) * h as u64 / to.1 as u64).max(y as u64 * h as u64 / to.1 as u64 + 1));
-        for x in 0..to.0 {
-            let (sx0, sx1) = (x as u64 * w as u64 / to.0 as u64, ((x as u64 + 1) * w as u64 / to.0 as u64).max(x as u64 * w as u64 / to.0 as u64 + 1));
-            let mut sum = [0u64; 3];
-            let mut n = 0;
-            for sy in sy0..sy1.min(h as u64) {
-                for sx in sx0..sx1.min(w as u64) {
-                    let i = ((sy * w as u64 + sx) * 3) as usize;
-                    for c in 0..3 {
-                        sum[c] += src[i + c] as u64;
-                    }
-                    n += 1;
-                }
-            }
-            let o = (((at.1 + y) * dst_w + at.0 + x) * 3) as usize;
-            for c in 0..3 {
-                dst[o + c] = (sum[c] / n.max(1)) as u8;
-            }
-        }
+        let o = (((at.1 + y) * dst_w + at.0) * 3) as usize;
+        let row = (y * to.0 * 3) as usize;
+        dst[o..o + (to.0 * 3) as usize].copy_from_slice(&scaled[row..row + (to.0 * 3) as usize]);
     }
 }
 

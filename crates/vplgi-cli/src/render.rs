@@ -141,6 +141,13 @@ impl RenderArgs {
     }
 }
 
+/// Peak resident memory of this process so far (Linux `VmHWM`), in MiB.
+pub fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib: f64 = status.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
 /// Loads the scene named on the command line, or the built-in Cornell box.
 pub fn load_scene(path: Option<&Path>) -> Result<(vplgi_scene::Scene, String)> {
     match path {
@@ -270,6 +277,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "stats": stats,
         "timings_ms": t,
         "setup_ms": { "load": load_ms, "scene_build": setup_ms },
+        // The whole process: scene, acceleration structure, frame buffers (and the GPU driver's).
+        "peak_rss_mib": peak_rss_mib(),
         "gpu_profile": profile.as_ref().map(|p| p.iter().map(|k| serde_json::json!({ "kernel": k.kernel, "passes": k.passes, "device_ms": k.time.as_secs_f64() * 1e3 })).collect::<Vec<_>>()),
         "outputs": { "exr": exr, "png": png },
     });

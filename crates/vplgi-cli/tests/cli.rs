@@ -34,6 +34,7 @@ fn render_writes_image_png_and_report() {
         assert!(report["timings_ms"][stage].as_f64().is_some(), "timings_ms.{stage} missing");
     }
     assert!(report["g_clamp"]["d_min"].as_f64().unwrap() > 0.0);
+    assert!(report["peak_rss_mib"].as_f64().unwrap() > 1.0, "peak memory is reported");
     // No temporary files are left behind.
     let names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     assert_eq!(names.len(), 3, "unexpected files: {names:?}");
