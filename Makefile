@@ -68,9 +68,10 @@ references: build
 	rm -f $(REF_DIR)/*/mean.png
 
 # The paper's table on the three generated scenes at the paper's resolutions and VPL counts:
-# docs/RESULTS.md. About 30 minutes on 2 cores (the unclustered references dominate).
+# docs/RESULTS.md. About 30 minutes on 2 cores (the unclustered references dominate). CPU only:
+# lavapipe takes over 10 minutes per frame here; RESULTS_ARGS=--gpu or --gpu-all add GPU frames.
 results: build
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
 
 clean:
 	$(CARGO) clean
