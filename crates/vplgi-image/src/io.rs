@@ -172,6 +172,34 @@ pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
     })
 }
 
+/// `src` (`w` x `h` 8-bit RGB rows) resized to `to` by averaging the source pixels each target
+/// pixel covers (at least one): thumbnails and contact sheets.
+pub fn resize_rgb8(src: &[u8], (w, h): (u32, u32), to: (u32, u32)) -> Vec<u8> {
+    let span = |i: u32, n: u32, of: u32| {
+        let a = i as u64 * of as u64 / n as u64;
+        (a, ((i as u64 + 1) * of as u64 / n as u64).max(a + 1).min(of as u64))
+    };
+    let mut out = Vec::with_capacity((to.0 * to.1 * 3) as usize);
+    for y in 0..to.1 {
+        let (y0, y1) = span(y, to.1, h);
+        for x in 0..to.0 {
+            let (x0, x1) = span(x, to.0, w);
+            let mut sum = [0u64; 3];
+            for sy in y0..y1 {
+                for sx in x0..x1 {
+                    let i = ((sy * w as u64 + sx) * 3) as usize;
+                    for c in 0..3 {
+                        sum[c] += src[i + c] as u64;
+                    }
+                }
+            }
+            let n = ((y1 - y0) * (x1 - x0)).max(1);
+            out.extend(sum.map(|s| (s / n) as u8));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -358,30 +386,3 @@ mod tests {
     }
 }
 
-/// `src` (`w` x `h` 8-bit RGB rows) resized to `to` by averaging the source pixels each target
-/// pixel covers (at least one): thumbnails and contact sheets.
-pub fn resize_rgb8(src: &[u8], (w, h): (u32, u32), to: (u32, u32)) -> Vec<u8> {
-    let span = |i: u32, n: u32, of: u32| {
-        let a = i as u64 * of as u64 / n as u64;
-        (a, ((i as u64 + 1) * of as u64 / n as u64).max(a + 1).min(of as u64))
-    };
-    let mut out = Vec::with_capacity((to.0 * to.1 * 3) as usize);
-    for y in 0..to.1 {
-        let (y0, y1) = span(y, to.1, h);
-        for x in 0..to.0 {
-            let (x0, x1) = span(x, to.0, w);
-            let mut sum = [0u64; 3];
-            for sy in y0..y1 {
-                for sx in x0..x1 {
-                    let i = ((sy * w as u64 + sx) * 3) as usize;
-                    for c in 0..3 {
-                        sum[c] += src[i + c] as u64;
-                    }
-                }
-            }
-            let n = ((y1 - y0) * (x1 - x0)).max(1);
-            out.extend(sum.map(|s| (s / n) as u8));
-        }
-    }
-    out
-}
