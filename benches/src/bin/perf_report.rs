@@ -186,13 +186,9 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
            "stage_mrays": rays.len() as f64 / s / 1e6, "raw_mrays": rays.len() as f64 / r / 1e6, "percent_of_raw": 100.0 * r / s})
 }
 
-fn stage_list(t: &StageTimings) -> [(&'static str, f64); 6] {
-    [("trace_vpls", t.trace_vpls), ("shading_points", t.shading_points), ("cluster", t.cluster), ("visibility", t.visibility), ("shade", t.shade), ("total", t.total)]
-}
-
-fn median_timings(runs: &[StageTimings]) -> StageTimings {
-    let m = |f: fn(&StageTimings) -> f64| median(runs.iter().map(f).collect());
-    StageTimings { trace_vpls: m(|t| t.trace_vpls), shading_points: m(|t| t.shading_points), cluster: m(|t| t.cluster), visibility: m(|t| t.visibility), shade: m(|t| t.shade), total: m(|t| t.total) }
+/// The stages and the total, by name.
+fn stage_list(t: &StageTimings) -> Vec<(&'static str, f64)> {
+    t.stages().into_iter().chain([("total", t.total)]).collect()
 }
 
 fn image(w: u32, h: u32, pixels: Vec<[f32; 3]>) -> vplgi_image::Image {
@@ -242,8 +238,8 @@ fn main() -> Result<()> {
             gpu_runs.push(vplgi_gpu::pipeline::render(&g.device, &g.queue, k, &scene, &clustered)?.timings);
         }
     }
-    let cpu_t = median_timings(&cpu_runs);
-    let gpu_t = (!gpu_runs.is_empty()).then(|| median_timings(&gpu_runs));
+    let cpu_t = StageTimings::median(&cpu_runs);
+    let gpu_t = (!gpu_runs.is_empty()).then(|| StageTimings::median(&gpu_runs));
     report["backends"] = json!({
         "config": {"width": clustered.width, "height": clustered.height, "vpls": clustered.vpls, "k_vpl": clustered.k_vpl, "k_sp": clustered.k_sp},
         "runs": runs,

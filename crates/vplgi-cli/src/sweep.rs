@@ -92,19 +92,6 @@ struct Measured {
     tile: Tile,
 }
 
-fn stages(t: &StageTimings) -> Vec<(&'static str, f64)> {
-    vec![("trace_vpls", t.trace_vpls), ("shading_points", t.shading_points), ("cluster", t.cluster), ("visibility", t.visibility), ("shade", t.shade)]
-}
-
-fn median_timings(runs: &[StageTimings]) -> StageTimings {
-    let m = |f: fn(&StageTimings) -> f64| {
-        let mut v: Vec<f64> = runs.iter().map(f).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    StageTimings { trace_vpls: m(|t| t.trace_vpls), shading_points: m(|t| t.shading_points), cluster: m(|t| t.cluster), visibility: m(|t| t.visibility), shade: m(|t| t.shade), total: m(|t| t.total) }
-}
-
 fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
     let mut out = Vec::new();
     for &figure in &args.figures {
@@ -224,7 +211,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
         vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
         vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
-        let timings = median_timings(&runs);
+        let timings = StageTimings::median(&runs);
         let tile = Tile { label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total, cmp.metrics.mse, cmp.metrics.flip), width: img.width, height: img.height, image: tonemap_srgb8(&img, 1.0), error_map: error_map_rgb8(&c.label, &cmp)? };
         measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
         bar.inc(1);
@@ -241,7 +228,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
             if rows.is_empty() {
                 continue;
             }
-            let bars: Vec<Bar> = rows.iter().map(|(c, m)| Bar { label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(), stages: stages(&m.timings), error: err(m) }).collect();
+            let bars: Vec<Bar> = rows.iter().map(|(c, m)| Bar { label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(), stages: m.timings.stages().to_vec(), error: err(m) }).collect();
             let n = if fig == Figure::Seven { 7 } else { 9 };
             let stem = args.out.join(format!("fig{n}-{metric}"));
             stacked_bars(&stem, &format!("{}: time and {name} against {what}{backend}", scene.name), x_desc, &bars, name, reference_line)?;
