@@ -32,20 +32,57 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let r = params.first_row + id / params.words_per_row;
     let w = id % params.words_per_row;
     let a = rows[r];
+    // The word's columns; words past the last column (the CPU's u64 padding) stay 0.
+    let last = select(0u, min(32u, params.cols - w * 32u), w * 32u < params.cols);
+    // The 32 segments are chained in one loop whose state is (b, node): when one segment's
+    // traversal ends, the next starts in the same iteration count, so a SIMD lane that finished
+    // does not idle until the slowest lane of its group finishes the same segment (bvh.wgsl).
+    // Each segment is CpuScene::visible: both ends pushed off their surfaces, any hit in
+    // (SEGMENT_TNEAR, 1).
     var bits = 0u;
-    for (var b = 0u; b < 32u; b = b + 1u) {
-        let c = w * 32u + b;
-        if (c >= params.cols) {
-            break;
-        }
-        let e = cols[c];
-        let d = e.position.xyz - a.position.xyz;
-        // visibility::facing
-        if (dot(a.normal.xyz, d) > 0.0 && dot(e.normal.xyz, d) < 0.0) {
-            if (visible(a.position.xyz, a.normal.xyz, e.position.xyz, e.normal.xyz, params.eps)) {
-                bits = bits | (1u << b);
+    var b = 0u;                 // the column bit in flight, or the next to start
+    var node = BVH_END;         // BVH_END: no segment in flight
+    var o = vec3<f32>(0.0);
+    var d = vec3<f32>(0.0);
+    var inv_d = vec3<f32>(0.0);
+    loop {
+        if (node == BVH_END) {
+            // Start the next pair that faces (visibility::facing); the others get 0 without a ray.
+            loop {
+                if (b >= last) {
+                    break;
+                }
+                let e = cols[w * 32u + b];
+                let ae = e.position.xyz - a.position.xyz;
+                if (dot(a.normal.xyz, ae) > 0.0 && dot(e.normal.xyz, ae) < 0.0) {
+                    o = offset_toward(a.position.xyz, a.normal.xyz, e.position.xyz, params.eps);
+                    d = offset_toward(e.position.xyz, e.normal.xyz, a.position.xyz, params.eps) - o;
+                    inv_d = safe_inverse(d);
+                    node = 0u;
+                    break;
+                }
+                b = b + 1u;
+            }
+            if (node == BVH_END) {
+                break;
             }
         }
+        let n = bvh_node(node);
+        var next = n.skip;
+        var blocked = false;
+        if (hits_box(n, o, inv_d, SEGMENT_TNEAR, 1.0)) {
+            if (n.leaf == 0u) {
+                next = node + 1u;
+            } else if (leaf_blocks(n.leaf, o, d, SEGMENT_TNEAR, 1.0)) {
+                blocked = true;
+                next = BVH_END;
+            }
+        }
+        if (next == BVH_END) {
+            bits = bits | select(1u << b, 0u, blocked);
+            b = b + 1u;
+        }
+        node = next;
     }
     words[id] = bits;
 }

@@ -1,36 +1,40 @@
-// Ray traversal of an obvhs BVH2 (built on the CPU by vplgi-gpu/src/bvh.rs) for closest hit
-// and any hit. A scene without triangles is uploaded as one leaf with an empty box. Expects these
-// bindings in the including shader:
-//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  obvhs::bvh2::node::Bvh2Node, 48 bytes
+// Stackless ray traversal of a threaded obvhs BVH2 (built on the CPU and threaded by
+// vplgi-gpu/src/bvh.rs) for closest hit and any hit. Nodes are in depth-first preorder: an inner
+// node's first child is the next node, and `skip` leads past the node's subtree, taken when the
+// ray misses the box or after a leaf. A ray's traversal state is one node index: no stack array
+// per invocation, and visibility.wgsl can chain its rays without waiting for other lanes.
+// A scene without triangles is uploaded as one leaf with an empty box. Expects these bindings in
+// the including shader:
+//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  vplgi_gpu::bvh::BvhNode, 32 bytes
 //   bvh_tris, bvh_tris_hi:   array<BvhTri>   triangles reordered by the BVH's primitive_indices
 // Each array is paged over two bindings so it may exceed one storage binding: element i lives
 // in the first page if i < the page size (an override set from the device limit), else in `_hi`.
-// lavapipe has no ray queries, so traversal is an explicit stack loop.
 
 override BVH_NODE_PAGE: u32 = 4294967295u;
 override BVH_TRI_PAGE: u32 = 4294967295u;
+// false when the scene's BVH fits the first pages: the branches below fold away
+// (vplgi_gpu::shader::RayPipeline).
+override BVH_PAGED: bool = true;
 
 fn bvh_node(i: u32) -> BvhNode {
-    if (i < BVH_NODE_PAGE) {
+    if (!BVH_PAGED || i < BVH_NODE_PAGE) {
         return bvh_nodes[i];
     }
     return bvh_nodes_hi[i - BVH_NODE_PAGE];
 }
 
 fn bvh_tri(i: u32) -> BvhTri {
-    if (i < BVH_TRI_PAGE) {
+    if (!BVH_PAGED || i < BVH_TRI_PAGE) {
         return bvh_tris[i];
     }
     return bvh_tris_hi[i - BVH_TRI_PAGE];
 }
 
 struct BvhNode {
-    min: vec4<f32>,      // xyz = box minimum (glam Vec3A: 16 bytes)
-    max: vec4<f32>,      // xyz = box maximum
-    prim_count: u32,     // 0 for an inner node
-    first_index: u32,    // first child (inner) or first primitive slot (leaf)
-    meta1: u32,
-    meta2: u32,
+    min: vec3<f32>,
+    skip: u32,           // the node after this subtree in preorder, or BVH_END
+    max: vec3<f32>,
+    leaf: u32,           // 0: inner node; else first triangle slot << LEAF_COUNT_BITS | count
 }
 
 struct BvhTri {
@@ -48,7 +52,8 @@ struct Hit {
 }
 
 const NO_HIT: u32 = 0xffffffffu;
-const BVH_STACK: u32 = 64u;
+const BVH_END: u32 = 0xffffffffu;      // vplgi_gpu::bvh::END
+const LEAF_COUNT_BITS: u32 = 4u;       // vplgi_gpu::bvh::LEAF_COUNT_BITS
 
 // Möller–Trumbore; returns (t, u, v), t = inf when missed or outside (tmin, tmax).
 fn intersect_tri(tri: BvhTri, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
@@ -76,17 +81,13 @@ fn intersect_tri(tri: BvhTri, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) 
     return vec3<f32>(t, u, v);
 }
 
-// Entry distance into the box, or inf when the ray segment misses it.
-fn intersect_box(node: BvhNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> f32 {
-    let inf = bitcast<f32>(0x7f800000u);
-    let t0 = (node.min.xyz - o) * inv_d;
-    let t1 = (node.max.xyz - o) * inv_d;
+// Whether the ray segment (tmin, tmax) touches the node's box.
+fn hits_box(node: BvhNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+    let t0 = (node.min - o) * inv_d;
+    let t1 = (node.max - o) * inv_d;
     let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), tmin));
     let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), tmax));
-    if (near <= far) {
-        return near;
-    }
-    return inf;
+    return near <= far;
 }
 
 fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
@@ -101,55 +102,46 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
 fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool) -> Hit {
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
     let inv_d = safe_inverse(d);
-    var stack: array<u32, BVH_STACK>;
-    var sp = 0u;
-    var node_index = 0u;
-    let inf = bitcast<f32>(0x7f800000u);
-    if (intersect_box(bvh_node(0u), o, inv_d, tmin, hit.t) == inf) {
-        return hit;
-    }
+    var i = 0u;
     loop {
-        let node = bvh_node(node_index);
-        if (node.prim_count > 0u) {
-            for (var i = node.first_index; i < node.first_index + node.prim_count; i = i + 1u) {
-                let tri = bvh_tri(i);
-                let r = intersect_tri(tri, o, d, tmin, hit.t);
-                if (r.x < hit.t) {
-                    hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, i);
-                    if (any_hit) {
-                        return hit;
+        if (i == BVH_END) {
+            break;
+        }
+        let node = bvh_node(i);
+        var next = node.skip;
+        if (hits_box(node, o, inv_d, tmin, hit.t)) {
+            if (node.leaf == 0u) {
+                next = i + 1u;
+            } else {
+                let first = node.leaf >> LEAF_COUNT_BITS;
+                let end = first + (node.leaf & ((1u << LEAF_COUNT_BITS) - 1u));
+                for (var k = first; k < end; k = k + 1u) {
+                    let tri = bvh_tri(k);
+                    let r = intersect_tri(tri, o, d, tmin, hit.t);
+                    if (r.x < hit.t) {
+                        hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, k);
+                        if (any_hit) {
+                            return hit;
+                        }
                     }
                 }
             }
-        } else {
-            let a = node.first_index;
-            let ta = intersect_box(bvh_node(a), o, inv_d, tmin, hit.t);
-            let tb = intersect_box(bvh_node(a + 1u), o, inv_d, tmin, hit.t);
-            if (ta != inf || tb != inf) {
-                // Visit the nearer child first; push the other if it is hit too.
-                var near_child = a;
-                var far_child = a + 1u;
-                var far_t = tb;
-                if (tb < ta) {
-                    near_child = a + 1u;
-                    far_child = a;
-                    far_t = ta;
-                }
-                if (far_t != inf && sp < BVH_STACK) {
-                    stack[sp] = far_child;
-                    sp = sp + 1u;
-                }
-                node_index = near_child;
-                continue;
-            }
         }
-        if (sp == 0u) {
-            break;
-        }
-        sp = sp - 1u;
-        node_index = stack[sp];
+        i = next;
     }
     return hit;
+}
+
+// Whether any triangle of a leaf (its `leaf` word) blocks o + t d, t in (tmin, tmax).
+fn leaf_blocks(leaf: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+    let first = leaf >> LEAF_COUNT_BITS;
+    let end = first + (leaf & ((1u << LEAF_COUNT_BITS) - 1u));
+    for (var k = first; k < end; k = k + 1u) {
+        if (intersect_tri(bvh_tri(k), o, d, tmin, tmax).x < tmax) {
+            return true;
+        }
+    }
+    return false;
 }
 
 // vplgi_cpu::SEGMENT_TNEAR: shadow segments ignore touches at their very start.

@@ -79,6 +79,9 @@ pub fn texel_words(scene: &Scene) -> (Vec<u32>, Vec<TextureInfo>) {
 /// `shaders/common/bvh.wgsl`), the per-triangle shading data (twice their size) over
 /// [`SCENE_TRI_PAGES`], texel words over [`TEXEL_PAGES`] (`shaders/common/surface.wgsl`).
 pub struct GpuScene {
+    /// Whether the BVH's nodes or triangles spill into their second binding
+    /// ([`crate::shader::RayPipeline`]).
+    pub bvh_paged: bool,
     pub bvh_nodes: wgpu::Buffer,
     pub bvh_nodes_hi: wgpu::Buffer,
     pub bvh_tris: wgpu::Buffer,
@@ -126,10 +129,12 @@ impl GpuScene {
             .collect();
         let (words, infos) = texel_words(scene);
         let texels = pages::<u32, TEXEL_PAGES>(device, "texel words", &words)?;
+        let bvh_paged = arrays.nodes.len() as u64 > page_len::<bvh::BvhNode>(device) || arrays.tris.len() as u64 > page_len::<bvh::BvhTri>(device);
         let (bvh_nodes, bvh_nodes_hi) = paged(device, "bvh nodes", &arrays.nodes)?;
         let (bvh_tris, bvh_tris_hi) = paged(device, "bvh tris", &arrays.tris)?;
         let scene_tris = pages::<SceneTri, SCENE_TRI_PAGES>(device, "scene tris", &tris)?;
         Ok(GpuScene {
+            bvh_paged,
             bvh_nodes,
             bvh_nodes_hi,
             bvh_tris,

@@ -4,7 +4,7 @@ use crate::buffers::{dispatch_windows, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::lights::GpuLights;
 use crate::scene::GpuScene;
-use crate::shader::pipeline;
+use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 
@@ -59,12 +59,12 @@ pub struct ShadeInputs<'a> {
 }
 
 pub struct ShadeKernel {
-    pipeline: wgpu::ComputePipeline,
+    pipeline: RayPipeline,
 }
 
 impl ShadeKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "shade pipeline", || ShadeKernel { pipeline: pipeline(device, "shade.wgsl", "main") })
+        validated(device, "shade pipeline", || ShadeKernel { pipeline: RayPipeline::new(device, "shade.wgsl", "main") })
     }
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
@@ -126,7 +126,7 @@ impl ShadeKernel {
             for (i, b) in [(12, inputs.vpl_lights), (13, &out), (14, &scene.bvh_nodes_hi), (15, &scene.bvh_tris_hi)] {
                 bindings.push((i, b.as_entire_buffer_binding()));
             }
-            dispatch_windows(device, queue, &self.pipeline, &bindings, count.div_ceil(64));
+            dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
             out
         })
     }

@@ -44,12 +44,42 @@ pub fn pipeline(device: &wgpu::Device, name: &str, entry: &str) -> wgpu::Compute
     pipelines(device, name, &[entry]).remove(0)
 }
 
-/// The page-size overrides of the paged scene arrays a stage reads, from the device's limits.
-fn page_constants(device: &wgpu::Device, name: &str) -> Vec<(&'static str, f64)> {
+/// The pipeline of a stage entry that traverses the BVH, in two variants. The BVH's nodes and
+/// triangles may each spill into a second binding (`bvh_node`/`bvh_tri` in bvh.wgsl), but
+/// branching between the pages on every node costs lavapipe about a quarter of its traversal
+/// throughput (`examples/bvh_choice.rs`: 0.10 against 0.13 Mrays/s), and almost every scene fits
+/// one page. So the pipeline every scene starts with is compiled with `BVH_PAGED = false`, which
+/// folds the branch away, and the paged variant is compiled the first time a scene needs it.
+pub struct RayPipeline {
+    name: &'static str,
+    entry: &'static str,
+    flat: wgpu::ComputePipeline,
+    paged: std::sync::OnceLock<wgpu::ComputePipeline>,
+}
+
+impl RayPipeline {
+    pub fn new(device: &wgpu::Device, name: &'static str, entry: &'static str) -> RayPipeline {
+        RayPipeline { name, entry, flat: compile(device, name, &[entry], false).remove(0), paged: std::sync::OnceLock::new() }
+    }
+
+    /// The variant for `scene`.
+    pub fn get(&self, device: &wgpu::Device, scene: &crate::scene::GpuScene) -> &wgpu::ComputePipeline {
+        if scene.bvh_paged {
+            self.paged.get_or_init(|| compile(device, self.name, &[self.entry], true).remove(0))
+        } else {
+            &self.flat
+        }
+    }
+}
+
+/// The page-size overrides of the paged scene arrays a stage reads, from the device's limits,
+/// and whether the BVH arrays may use their second pages.
+fn page_constants(device: &wgpu::Device, name: &str, bvh_paged: bool) -> Vec<(&'static str, f64)> {
     let includes = STAGES.iter().find(|(n, _, _)| *n == name).map(|(_, _, i)| *i).unwrap_or(&[]);
     let mut c = Vec::new();
     if includes.contains(&"common/bvh.wgsl") {
-        c.push(("BVH_NODE_PAGE", page_len::<obvhs::bvh2::node::Bvh2Node>(device).min(u32::MAX as u64) as f64));
+        c.push(("BVH_PAGED", if bvh_paged { 1.0 } else { 0.0 }));
+        c.push(("BVH_NODE_PAGE", page_len::<crate::bvh::BvhNode>(device).min(u32::MAX as u64) as f64));
         c.push(("BVH_TRI_PAGE", page_len::<crate::bvh::BvhTri>(device).min(u32::MAX as u64) as f64));
     }
     if includes.contains(&"common/surface.wgsl") {
@@ -62,8 +92,12 @@ fn page_constants(device: &wgpu::Device, name: &str) -> Vec<(&'static str, f64)>
 /// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
 /// derived from the bindings its entry point uses.
 pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
+    compile(device, name, entries, true)
+}
+
+fn compile(device: &wgpu::Device, name: &str, entries: &[&str], bvh_paged: bool) -> Vec<wgpu::ComputePipeline> {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) });
-    let constants = page_constants(device, name);
+    let constants = page_constants(device, name, bvh_paged);
     entries
         .iter()
         .map(|entry| {
@@ -145,12 +179,13 @@ mod tests {
         check("shading_points.wgsl", "SceneTri", size_of::<SceneTri>(), &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))]);
         check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
         check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8), ("format", 12)]);
-        use crate::bvh::BvhTri;
-        use obvhs::bvh2::node::Bvh2Node;
+        use crate::bvh::{BvhNode, BvhTri};
         check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("e1", offset_of!(BvhTri, e1)), ("e2", offset_of!(BvhTri, e2))]);
-        check("visibility.wgsl", "BvhNode", size_of::<Bvh2Node>(), &[
-            ("prim_count", offset_of!(Bvh2Node, prim_count)),
-            ("first_index", offset_of!(Bvh2Node, first_index)),
+        check("visibility.wgsl", "BvhNode", size_of::<BvhNode>(), &[
+            ("min", 0),
+            ("skip", offset_of!(BvhNode, skip)),
+            ("max", offset_of!(BvhNode, max)),
+            ("leaf", offset_of!(BvhNode, leaf)),
         ]);
         use crate::lights::{Emitter, Punctual};
         check("shade.wgsl", "Emitter", size_of::<Emitter>(), &[("v0", 0), ("e1", 16), ("normal", offset_of!(Emitter, normal)), ("radiance", offset_of!(Emitter, radiance))]);

@@ -4,7 +4,7 @@
 use crate::buffers::{dispatch, read_back, storage_zeroed, uniform};
 use crate::context::validated;
 use crate::scene::GpuScene;
-use crate::shader::pipeline;
+use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::ShadingPoint;
@@ -26,12 +26,12 @@ struct Params {
 }
 
 pub struct ShadingPointsKernel {
-    pipeline: wgpu::ComputePipeline,
+    pipeline: RayPipeline,
 }
 
 impl ShadingPointsKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "shading_points pipeline", || ShadingPointsKernel { pipeline: pipeline(device, "shading_points.wgsl", "main") })
+        validated(device, "shading_points pipeline", || ShadingPointsKernel { pipeline: RayPipeline::new(device, "shading_points.wgsl", "main") })
     }
 
     /// Shading points `first .. first + count` into a new device buffer.
@@ -59,7 +59,7 @@ impl ShadingPointsKernel {
             let [t0, t1, t2, t3] = &scene.texels;
             let [s0, s1, s2, s3] = &scene.scene_tris;
             let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, s0, &scene.materials, &scene.texture_infos, t0, &buf, &scene.bvh_nodes_hi, &scene.bvh_tris_hi, s1, t1, t2, t3, s2, s3];
-            dispatch(device, queue, &self.pipeline, &bindings, (count as u32).div_ceil(64));
+            dispatch(device, queue, self.pipeline.get(device, scene), &bindings, (count as u32).div_ceil(64));
             buf
         })
     }

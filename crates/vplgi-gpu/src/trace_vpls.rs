@@ -8,7 +8,7 @@ use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::lights::GpuLights;
 use crate::scene::GpuScene;
-use crate::shader::pipelines;
+use crate::shader::{pipelines, RayPipeline};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::Vpl;
@@ -36,7 +36,7 @@ pub struct GpuVpls {
 }
 
 pub struct TraceVplsKernel {
-    trace: wgpu::ComputePipeline,
+    trace: RayPipeline,
     compact: wgpu::ComputePipeline,
     normalize: wgpu::ComputePipeline,
     scan: ScanKernel,
@@ -46,9 +46,9 @@ impl TraceVplsKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
         let scan = ScanKernel::new(device)?;
         validated(device, "trace_vpls pipelines", || {
-            let mut p = pipelines(device, "trace_vpls.wgsl", &["trace", "compact", "normalize_flux"]).into_iter();
-            let mut next = || p.next().expect("three entry points");
-            TraceVplsKernel { trace: next(), compact: next(), normalize: next(), scan }
+            let mut p = pipelines(device, "trace_vpls.wgsl", &["compact", "normalize_flux"]).into_iter();
+            let mut next = || p.next().expect("two entry points");
+            TraceVplsKernel { trace: RayPipeline::new(device, "trace_vpls.wgsl", "trace"), compact: next(), normalize: next(), scan }
         })
     }
 
@@ -96,7 +96,7 @@ impl TraceVplsKernel {
                     (22, &scene.scene_tris[2]),
                     (23, &scene.scene_tris[3]),
                 ];
-                dispatch_bound(device, queue, &self.trace, &common, n.div_ceil(64));
+                dispatch_bound(device, queue, self.trace.get(device, scene), &common, n.div_ceil(64));
                 p
             })?;
             self.scan.run(device, queue, &counts, n, &offsets)?;

@@ -6,7 +6,7 @@
 use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
-use crate::shader::pipeline;
+use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 
@@ -37,7 +37,7 @@ struct Params {
 }
 
 pub struct VisibilityKernel {
-    pipeline: wgpu::ComputePipeline,
+    pipeline: RayPipeline,
 }
 
 /// 32-bit words per matrix row: the CPU's 64-bit words, doubled.
@@ -47,7 +47,7 @@ pub fn words_per_row(cols: usize) -> usize {
 
 impl VisibilityKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "visibility pipeline", || VisibilityKernel { pipeline: pipeline(device, "visibility.wgsl", "main") })
+        validated(device, "visibility pipeline", || VisibilityKernel { pipeline: RayPipeline::new(device, "visibility.wgsl", "main") })
     }
 
     /// Rows `first_row .. first_row + row_count` of the matrix between the `n_cols` columns and
@@ -67,7 +67,7 @@ impl VisibilityKernel {
             for (i, x) in [(4, cols), (5, &words), (6, &scene.bvh_nodes_hi), (7, &scene.bvh_tris_hi)] {
                 b.push((i, x.as_entire_buffer_binding()));
             }
-            dispatch_windows(device, queue, &self.pipeline, &b, (row_count * wpr).div_ceil(64));
+            dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count * wpr).div_ceil(64));
             words
         })
     }
