@@ -1,5 +1,5 @@
 //! `results --quick` runs end to end at small sizes and writes the table with every scene and
-//! setting, numbers and thumbnails.
+//! setting on both backends, numbers and thumbnails.
 
 use std::process::Command;
 
@@ -22,7 +22,8 @@ fn quick_results_write_every_scene_and_setting() {
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("results/results.json")).unwrap()).unwrap();
     for sc in json["scenes"].as_array().unwrap() {
         let frames = sc["frames"].as_array().unwrap();
-        assert_eq!(frames.len(), 4, "reference + 3 settings on the CPU");
+        assert_eq!(frames.len(), 7, "reference + 3 settings on the CPU and on the GPU");
+        assert_eq!(frames.iter().filter(|f| f["backend"] == "gpu").count(), 3);
         for f in &frames[1..] {
             assert!(f["mse"].as_f64().unwrap() > 0.0 && f["flip"].as_f64().unwrap() > 0.0);
             assert!(f["rss_mib"].as_f64().unwrap() > 1.0);
