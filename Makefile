@@ -68,8 +68,9 @@ references: build
 	rm -f $(REF_DIR)/*/mean.png
 
 # The paper's table on the three generated scenes at the paper's resolutions and VPL counts:
-# docs/RESULTS.md. About 30 minutes on 2 cores (the unclustered references dominate). CPU only:
-# lavapipe takes over 10 minutes per frame here; RESULTS_ARGS=--gpu or --gpu-all add GPU frames.
+# docs/RESULTS.md. About 30 minutes of CPU frames on 2 cores (the unclustered references
+# dominate) and 25 of GPU frames on lavapipe. RESULTS_ARGS=--cpu-only skips the GPU frames;
+# RESULTS_ARGS=--reuse keeps frames already in target/results (after an interrupted run).
 results: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
 
