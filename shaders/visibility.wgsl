@@ -43,8 +43,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var b = 0u;                 // the column bit in flight, or the next to start
     var node = BVH_END;         // BVH_END: no segment in flight
     var o = vec3<f32>(0.0);
-    var d = vec3<f32>(0.0);
     var inv_d = vec3<f32>(0.0);
+    var shear = RayShear(vec3<u32>(0u), vec3<f32>(0.0));
     loop {
         if (node == BVH_END) {
             // Start the next pair that faces (visibility::facing); the others get 0 without a ray.
@@ -56,8 +56,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 let ae = e.position.xyz - a.position.xyz;
                 if (dot(a.normal.xyz, ae) > 0.0 && dot(e.normal.xyz, ae) < 0.0) {
                     o = offset_toward(a.position.xyz, a.normal.xyz, e.position.xyz, params.eps);
-                    d = offset_toward(e.position.xyz, e.normal.xyz, a.position.xyz, params.eps) - o;
+                    let d = offset_toward(e.position.xyz, e.normal.xyz, a.position.xyz, params.eps) - o;
                     inv_d = safe_inverse(d);
+                    shear = ray_shear(d);
                     node = 0u;
                     break;
                 }
@@ -73,7 +74,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         if (hits_box(n, o, inv_d, SEGMENT_TNEAR, 1.0)) {
             if (n.leaf == 0u) {
                 next = node + 1u;
-            } else if (leaf_blocks(n.leaf, o, d, SEGMENT_TNEAR, 1.0)) {
+            } else if (leaf_blocks(n.leaf, o, shear, SEGMENT_TNEAR, 1.0)) {
                 blocked = true;
                 next = BVH_END;
             }

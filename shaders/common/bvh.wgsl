@@ -39,8 +39,8 @@ struct BvhNode {
 
 struct BvhTri {
     v0: vec4<f32>,       // w = bitcast<f32>(index of the triangle in the scene)
-    e1: vec4<f32>,       // v1 - v0
-    e2: vec4<f32>,       // v2 - v0
+    v1: vec4<f32>,
+    v2: vec4<f32>,
 }
 
 struct Hit {
@@ -55,30 +55,69 @@ const NO_HIT: u32 = 0xffffffffu;
 const BVH_END: u32 = 0xffffffffu;      // vplgi_gpu::bvh::END
 const LEAF_COUNT_BITS: u32 = 4u;       // vplgi_gpu::bvh::LEAF_COUNT_BITS
 
-// Möller–Trumbore; returns (t, u, v), t = inf when missed or outside (tmin, tmax).
-fn intersect_tri(tri: BvhTri, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> vec3<f32> {
+// A ray's setup for the watertight triangle test of Woop, Benthin and Wald (JCGT 2013): the
+// axis along which the direction is largest becomes z (k.z), x and y are chosen so that the
+// winding is kept, and s shears the direction onto +z: s = (d[k.x] / d[k.z], d[k.y] / d[k.z],
+// 1 / d[k.z]). The sheared z of a point is then its ray parameter t along this (unnormalised) d.
+struct RayShear {
+    k: vec3<u32>,
+    s: vec3<f32>,
+}
+
+fn ray_shear(d: vec3<f32>) -> RayShear {
+    let a = abs(d);
+    var kz = 2u;
+    if (a.x > a.y && a.x > a.z) {
+        kz = 0u;
+    } else if (a.y > a.z) {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if (d[kz] < 0.0) {
+        let swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    return RayShear(vec3<u32>(kx, ky, kz), vec3<f32>(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]));
+}
+
+// Watertight ray/triangle test; returns (t, u, v) with u, v the weights of v1 and v2, t = inf
+// when missed or outside (tmin, tmax). The three edge functions are computed from the sheared
+// vertices alone, so two triangles sharing an edge compute that edge's function from the same
+// numbers with opposite signs: a ray through the edge cannot miss both (Möller–Trumbore, used
+// before, computes each triangle's edges from its own v0 and let 18 of 726 segments aimed at a
+// grid's shared edges through; tests/tests/gpu_differential.rs). Edge values of exactly 0 count
+// as inside, as in the paper; its double-precision fallback for them is not used (no f64 on
+// lavapipe), so a ray through a shared vertex may hit both triangles, never neither.
+fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32) -> vec3<f32> {
     let inf = bitcast<f32>(0x7f800000u);
-    let p = cross(d, tri.e2.xyz);
-    let det = dot(tri.e1.xyz, p);
-    if (abs(det) < 1e-30) {
+    let k = ray.k;
+    let a = tri.v0.xyz - o;
+    let b = tri.v1.xyz - o;
+    let c = tri.v2.xyz - o;
+    let ax = a[k.x] - ray.s.x * a[k.z];
+    let ay = a[k.y] - ray.s.y * a[k.z];
+    let bx = b[k.x] - ray.s.x * b[k.z];
+    let by = b[k.y] - ray.s.y * b[k.z];
+    let cx = c[k.x] - ray.s.x * c[k.z];
+    let cy = c[k.y] - ray.s.y * c[k.z];
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+        return vec3<f32>(inf, 0.0, 0.0);
+    }
+    let det = u + v + w;
+    if (det == 0.0) {
         return vec3<f32>(inf, 0.0, 0.0);
     }
     let inv_det = 1.0 / det;
-    let s = o - tri.v0.xyz;
-    let u = dot(s, p) * inv_det;
-    if (u < 0.0 || u > 1.0) {
+    let t = (u * a[k.z] + v * b[k.z] + w * c[k.z]) * ray.s.z * inv_det;
+    if (!(t > tmin && t < tmax)) {
         return vec3<f32>(inf, 0.0, 0.0);
     }
-    let q = cross(s, tri.e1.xyz);
-    let v = dot(d, q) * inv_det;
-    if (v < 0.0 || u + v > 1.0) {
-        return vec3<f32>(inf, 0.0, 0.0);
-    }
-    let t = dot(tri.e2.xyz, q) * inv_det;
-    if (t <= tmin || t >= tmax) {
-        return vec3<f32>(inf, 0.0, 0.0);
-    }
-    return vec3<f32>(t, u, v);
+    return vec3<f32>(t, v * inv_det, w * inv_det);
 }
 
 // Whether the ray segment (tmin, tmax) touches the node's box.
@@ -102,6 +141,7 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
 fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool) -> Hit {
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
     let inv_d = safe_inverse(d);
+    let shear = ray_shear(d);
     var i = 0u;
     loop {
         if (i == BVH_END) {
@@ -117,7 +157,7 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
                 let end = first + (node.leaf & ((1u << LEAF_COUNT_BITS) - 1u));
                 for (var k = first; k < end; k = k + 1u) {
                     let tri = bvh_tri(k);
-                    let r = intersect_tri(tri, o, d, tmin, hit.t);
+                    let r = intersect_tri(tri, o, shear, tmin, hit.t);
                     if (r.x < hit.t) {
                         hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, k);
                         if (any_hit) {
@@ -133,11 +173,11 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
 }
 
 // Whether any triangle of a leaf (its `leaf` word) blocks o + t d, t in (tmin, tmax).
-fn leaf_blocks(leaf: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+fn leaf_blocks(leaf: u32, o: vec3<f32>, shear: RayShear, tmin: f32, tmax: f32) -> bool {
     let first = leaf >> LEAF_COUNT_BITS;
     let end = first + (leaf & ((1u << LEAF_COUNT_BITS) - 1u));
     for (var k = first; k < end; k = k + 1u) {
-        if (intersect_tri(bvh_tri(k), o, d, tmin, tmax).x < tmax) {
+        if (intersect_tri(bvh_tri(k), o, shear, tmin, tmax).x < tmax) {
             return true;
         }
     }

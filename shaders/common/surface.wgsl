@@ -77,7 +77,7 @@ fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
     let st = scene_tri(hit.triangle);
     let w0 = 1.0 - hit.u - hit.v;
     var s: Surface;
-    s.position = tri.v0.xyz + tri.e1.xyz * hit.u + tri.e2.xyz * hit.v;
+    s.position = tri.v0.xyz * w0 + tri.v1.xyz * hit.u + tri.v2.xyz * hit.v;   // as CpuScene::surface
     let front = st.ng.xyz;
     let facing = dot(front, dir) < 0.0;
     s.ng = front;

@@ -152,6 +152,71 @@ fn visibility_agrees_three_ways() {
     assert_eq!(chunked, words, "row-chunked dispatches must give the same matrix");
 }
 
+/// No cracks: a wall tessellated like the generated scenes' (64 x 64 cells of two triangles,
+/// shared vertices) blocks every shadow segment, including those aimed exactly at its shared
+/// vertices, edges and diagonals, on the CPU (Embree) and on the GPU. A triangle test that is not
+/// watertight lets some of those through.
+#[test]
+fn segments_through_shared_edges_find_no_cracks() {
+    let Some(ctx) = vplgi_tests::gpu("segments_through_shared_edges_find_no_cracks") else { return };
+    let n = 64u32;
+    let mut scene = vplgi_scene::Scene { materials: vec![vplgi_scene::Material::default()], ..vplgi_scene::Scene::default() };
+    let at = |i: u32| i as f32 * (2.0 / n as f32) - 1.0; // exact: the spacing is a power of two
+    for j in 0..=n {
+        for i in 0..=n {
+            scene.positions.push(Vec3::new(at(i), at(j), 0.0));
+            scene.normals.push(Vec3::Z);
+            scene.uvs.push(glam::Vec2::ZERO);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let v = |di: u32, dj: u32| (j + dj) * (n + 1) + i + di;
+            scene.indices.push([v(0, 0), v(1, 0), v(1, 1)]);
+            scene.indices.push([v(0, 0), v(1, 1), v(0, 1)]);
+            scene.material_ids.extend([0, 0]);
+        }
+    }
+    scene.validate().unwrap();
+    // Row 0 is A; column k is the reflection of A through target t_k on a vertex, an edge or a
+    // diagonal, so segment (A, column k) crosses the wall at t_k (pushing both ends off their
+    // surfaces along z keeps the midpoint). Other rows cross at t_k shifted by at most 0.1.
+    let h = 1.0 / n as f32;
+    let a0 = Vec3::new(0.137, -0.211, -1.0);
+    let mut cols = Vec::new();
+    for j in (n / 4..3 * n / 4).step_by(3) {
+        for i in (n / 4..3 * n / 4).step_by(3) {
+            for (dx, dy) in [(0.0, 0.0), (h, 0.0), (0.0, h), (h, h), (0.5 * h, 0.5 * h), (1.5 * h, 1.5 * h)] {
+                let t = Vec3::new(at(i) + dx, at(j) + dy, 0.0);
+                cols.push(Endpoint::new(2.0 * t - a0, -Vec3::Z));
+            }
+        }
+    }
+    let mut rng = Rng::new(9, Stream::Oracle, 0);
+    let mut rows = vec![Endpoint::new(a0, Vec3::Z)];
+    for _ in 0..31 {
+        rows.push(Endpoint::new(a0 + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 0.0) * 0.2, Vec3::Z));
+    }
+    let gs = GpuScene::new(&ctx.device, &scene).unwrap();
+    let words = VisibilityKernel::new(&ctx.device).unwrap().run(&ctx.device, &ctx.queue, &gs, &rows, &cols, None).unwrap();
+    let wpr = words_per_row(cols.len());
+    let gpu_leaks = |r: usize| (0..cols.len()).filter(|&c| (words[r * wpr + c / 32] >> (c % 32)) & 1 == 1).count();
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let cpu = |e: &Endpoint| vplgi_cpu::visibility::Endpoint { position: Vec3::from_slice(&e.position[..3]), normal: Vec3::from_slice(&e.normal[..3]) };
+    let (embree, _) = vplgi_cpu::visibility::visibility(&cs, &rows.iter().map(cpu).collect::<Vec<_>>(), &cols.iter().map(cpu).collect::<Vec<_>>(), &vplgi_cpu::NoProgress);
+    let embree_leaks = |r: usize| (0..cols.len()).filter(|&c| embree.get(r, c)).count();
+    let (aimed_gpu, aimed_embree) = (gpu_leaks(0), embree_leaks(0));
+    let (other_gpu, other_embree) = ((1..rows.len()).map(gpu_leaks).sum::<usize>(), (1..rows.len()).map(embree_leaks).sum::<usize>());
+    println!(
+        "{} segments aimed at shared vertices and edges: {aimed_gpu} leak on the GPU, {aimed_embree} on Embree; {} others: {other_gpu} leak on the GPU, {other_embree} on Embree",
+        cols.len(),
+        cols.len() * (rows.len() - 1)
+    );
+    assert_eq!((aimed_embree, other_embree), (0, 0), "Embree leaks through the wall");
+    assert_eq!((aimed_gpu, other_gpu), (0, 0), "the GPU leaks through shared edges");
+}
+
 /// Shading given identical inputs — the CPU's shading points, VPL lights, visibility matrix and
 /// fuzzy clusters — in both visibility modes: relMSE(GPU, CPU) ≤ 1e-4 (SPEC).
 #[test]
@@ -437,7 +502,7 @@ fn cluster_end_to_end_matches_the_cpu() {
 /// The two backends' primary rays may legitimately pick different triangles where a pixel
 /// centre lies exactly on an edge (the axis-aligned camera puts some on the ceiling/wall edges,
 /// see `shading_points_match_the_cpu`), and such a pixel then shades a different surface. So the
-/// SPEC's relMSE ≤ 1e-4 (and a per-pixel 1e-4) is asserted on the pixels whose shading points hit
+/// SPEC's relMSE ≤ 1e-4 (and, with nothing clustered, a per-pixel 1e-4 on all but 0.1 % of them) is asserted on the pixels whose shading points hit
 /// the same triangles in both backends, and the whole image is compared by FLIP, measured and
 /// printed. With shading points clustered, whole frames are compared by FLIP (the SPEC's
 /// fallback when clustering trajectories legitimately diverge). VPL positions agree to ~1e-7, not bit for bit (Embree's and the WGSL triangle test
@@ -480,11 +545,13 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         let same: Vec<bool> = c_sp.iter().zip(&g_sp).map(|(a, b)| a.triangle == b.triangle).collect();
         let (mut num, mut den, mut n_same) = (0.0f64, 0usize, 0usize);
         let mut max_rel = 0.0f32;
+        let mut over = 0usize; // agreeing pixels with a channel beyond 1e-4 relative
         for (i, (a, b)) in cpu.pixels.iter().zip(&gpu.pixels).enumerate() {
             if !same[i] {
                 continue;
             }
             n_same += 1;
+            over += (0..3).any(|c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3) > 1e-4) as usize;
             for c in 0..3 {
                 let (x, y) = (a[c] as f64, b[c] as f64);
                 num += (x - y).powi(2) / (x * x + vplgi_image::REL_MSE_EPSILON);
@@ -496,7 +563,7 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         let img = |p: Vec<[f32; 3]>| vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: p };
         let whole = vplgi_image::compare(&img(cpu.pixels.clone()), &img(gpu.pixels.clone())).unwrap().metrics;
         println!(
-            "frame {cluster:?}/{fuzzy:?}: {n_same}/{} pixels with agreeing primary hits: relMSE {rel_mse_same:.2e}, max relative difference {max_rel:.2e}; whole image relMSE {:.2e}, FLIP {:.2e}",
+            "frame {cluster:?}/{fuzzy:?}: {n_same}/{} pixels with agreeing primary hits: relMSE {rel_mse_same:.2e}, max relative difference {max_rel:.2e} ({over} over 1e-4); whole image relMSE {:.2e}, FLIP {:.2e}",
             same.len(),
             whole.rel_mse,
             whole.flip
@@ -507,8 +574,13 @@ fn whole_frames_match_the_cpu_in_every_mode() {
             assert!(!a.is_miss() && !b.is_miss() && d <= 1e-5 * cs.extent, "{cluster:?}/{fuzzy:?}: primary hits differ by more than a tie: {a:?} vs {b:?}");
         }
         if cluster == ClusterMode::None {
-            // Nothing clustered: agreeing pixels see the same VPLs (to ~1e-7) and visibility.
-            assert!(max_rel <= 1e-4, "{cluster:?}/{fuzzy:?}: a pixel differs by {max_rel} relative");
+            // Nothing clustered: agreeing pixels see the same VPLs (to ~1e-7) and so differ only
+            // where a shadow ray's answer does: the SPEC lets 0.1 % of visibility bits differ, at
+            // grazing ties. A pixel sums ~1,500 shadow rays, so one tie moves it by ~1e-3. Measured:
+            // one pixel, a floor point 2.4e-7 from the right wall, 2.8e-3 darker on the GPU (the
+            // watertight triangle test counts a segment grazing the wall as blocked, Embree not).
+            assert!(over as f64 <= (1e-3 * n_same as f64).max(1.0), "{cluster:?}/{fuzzy:?}: {over} pixels differ by more than 1e-4");
+            assert!(max_rel <= 1e-2, "{cluster:?}/{fuzzy:?}: a pixel differs by {max_rel} relative");
         }
         if !cluster.clusters_sps() {
             assert!(rel_mse_same <= 1e-4, "{cluster:?}/{fuzzy:?}: relMSE {rel_mse_same} on agreeing pixels");

@@ -42,14 +42,15 @@ pub struct BvhNode {
     pub leaf: u32,
 }
 
-/// A triangle as the WGSL traversal reads it (`BvhTri`): v0 with the scene triangle index in w,
-/// then the two edges.
+/// A triangle as the WGSL traversal reads it (`BvhTri`): its vertices, v0 with the scene
+/// triangle index in w. Vertices rather than edges: the watertight test in bvh.wgsl needs the
+/// exact shared vertices.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct BvhTri {
     pub v0: [f32; 4],
-    pub e1: [f32; 4],
-    pub e2: [f32; 4],
+    pub v1: [f32; 4],
+    pub v2: [f32; 4],
 }
 
 /// The flat arrays uploaded to the device.
@@ -74,8 +75,7 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
         .iter()
         .map(|&p| {
             let [a, b, c] = scene.triangle(p as usize);
-            let (e1, e2) = (b - a, c - a);
-            BvhTri { v0: [a.x, a.y, a.z, f32::from_bits(p)], e1: [e1.x, e1.y, e1.z, 0.0], e2: [e2.x, e2.y, e2.z, 0.0] }
+            BvhTri { v0: [a.x, a.y, a.z, f32::from_bits(p)], v1: [b.x, b.y, b.z, 0.0], v2: [c.x, c.y, c.z, 0.0] }
         })
         .collect();
     Ok(BvhArrays { nodes, tris: laid_out })

@@ -180,7 +180,7 @@ mod tests {
         check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
         check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8), ("format", 12)]);
         use crate::bvh::{BvhNode, BvhTri};
-        check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("e1", offset_of!(BvhTri, e1)), ("e2", offset_of!(BvhTri, e2))]);
+        check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("v1", offset_of!(BvhTri, v1)), ("v2", offset_of!(BvhTri, v2))]);
         check("visibility.wgsl", "BvhNode", size_of::<BvhNode>(), &[
             ("min", 0),
             ("skip", offset_of!(BvhNode, skip)),
