@@ -55,6 +55,12 @@ const NO_HIT: u32 = 0xffffffffu;
 const BVH_END: u32 = 0xffffffffu;      // vplgi_gpu::bvh::END
 const LEAF_COUNT_BITS: u32 = 4u;       // vplgi_gpu::bvh::LEAF_COUNT_BITS
 
+// The slots [first, end) of a leaf's triangles in bvh_tris, from its `leaf` word.
+fn leaf_slots(leaf: u32) -> vec2<u32> {
+    let first = leaf >> LEAF_COUNT_BITS;
+    return vec2<u32>(first, first + (leaf & ((1u << LEAF_COUNT_BITS) - 1u)));
+}
+
 // A ray's setup for the watertight triangle test of Woop, Benthin and Wald (JCGT 2013): the
 // axis along which the direction is largest becomes z (k.z), x and y are chosen so that the
 // winding is kept, and s shears the direction onto +z: s = (d[k.x] / d[k.z], d[k.y] / d[k.z],
@@ -159,9 +165,8 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
             if (node.leaf == 0u) {
                 next = i + 1u;
             } else {
-                let first = node.leaf >> LEAF_COUNT_BITS;
-                let end = first + (node.leaf & ((1u << LEAF_COUNT_BITS) - 1u));
-                for (var k = first; k < end; k = k + 1u) {
+                let slots = leaf_slots(node.leaf);
+                for (var k = slots.x; k < slots.y; k = k + 1u) {
                     let tri = bvh_tri(k);
                     let r = intersect_tri(tri, o, shear, tmin, hit.t);
                     if (r.x < hit.t) {
@@ -180,9 +185,8 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
 
 // Whether any triangle of a leaf (its `leaf` word) blocks o + t d, t in (tmin, tmax).
 fn leaf_blocks(leaf: u32, o: vec3<f32>, shear: RayShear, tmin: f32, tmax: f32) -> bool {
-    let first = leaf >> LEAF_COUNT_BITS;
-    let end = first + (leaf & ((1u << LEAF_COUNT_BITS) - 1u));
-    for (var k = first; k < end; k = k + 1u) {
+    let slots = leaf_slots(leaf);
+    for (var k = slots.x; k < slots.y; k = k + 1u) {
         if (intersect_tri(bvh_tri(k), o, shear, tmin, tmax).x < tmax) {
             return true;
         }
