@@ -12,7 +12,9 @@ fn shading_points(c: &mut Criterion) {
     let kernel = gpu.as_ref().map(|g| ShadingPointsKernel::new(&g.ctx.device).expect("shading_points pipeline"));
     for size in sizes() {
         let cfg = &size.cfg;
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed)));
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
+            b.iter(|| vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed))
+        });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let n = cfg.width as u64 * cfg.height as u64 * cfg.spp as u64;
             // The points stay on the device, as in the chained pipeline.

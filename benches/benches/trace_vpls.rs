@@ -13,7 +13,9 @@ fn trace_vpls(c: &mut Criterion) {
     let kernel = gpu.as_ref().map(|g| TraceVplsKernel::new(&g.ctx.device).expect("trace_vpls pipelines"));
     for size in sizes() {
         let cfg = &size.cfg;
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress)));
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
+            b.iter(|| vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress))
+        });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let run = || {
                 k.run(&g.ctx.device, &g.ctx.queue, &g.scene, &g.lights, cfg.seed, cfg.vpls, cfg.bounces).expect("trace_vpls");

@@ -15,7 +15,9 @@ fn visibility(c: &mut Criterion) {
         let inputs = Inputs::new(&size.cfg);
         // Criterion reports pairs (rays, less the pairs facing away) per second.
         group.throughput(Throughput::Elements((inputs.rows.len() * inputs.cols.len()) as u64));
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::visibility::visibility(&inputs.cs, &inputs.rows, &inputs.cols, &NoProgress)));
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
+            b.iter(|| vplgi_cpu::visibility::visibility(&inputs.cs, &inputs.rows, &inputs.cols, &NoProgress))
+        });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let (rows, cols) = (g.visibility_endpoints(&inputs.rows), g.visibility_endpoints(&inputs.cols));
             let (n_rows, n_cols) = (inputs.rows.len() as u32, inputs.cols.len() as u32);

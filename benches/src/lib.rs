@@ -37,7 +37,10 @@ pub fn smoke() -> bool {
 pub fn sizes() -> Vec<Size> {
     let paper = FrameConfig::default();
     let (small, large) = if smoke() {
-        (FrameConfig { width: 24, height: 24, vpls: 100, k_vpl: 20, k_sp: 60, ..paper.clone() }, FrameConfig { width: 40, height: 40, vpls: 300, k_vpl: 40, k_sp: 150, ..paper.clone() })
+        (
+            FrameConfig { width: 24, height: 24, vpls: 100, k_vpl: 20, k_sp: 60, ..paper.clone() },
+            FrameConfig { width: 40, height: 40, vpls: 300, k_vpl: 40, k_sp: 150, ..paper.clone() },
+        )
     } else {
         (FrameConfig { width: 128, height: 128, vpls: 2000, k_vpl: 200, k_sp: 1000, ..paper.clone() }, paper)
     };
@@ -193,7 +196,11 @@ impl Gpu {
     pub fn lights(&self, lights: &[VplLight]) -> wgpu::Buffer {
         let g: Vec<vplgi_gpu::shade::VplLight> = lights
             .iter()
-            .map(|l| vplgi_gpu::shade::VplLight { position: l.position.extend(0.0).to_array(), normal: l.normal.extend(0.0).to_array(), flux: l.flux.extend(0.0).to_array() })
+            .map(|l| vplgi_gpu::shade::VplLight {
+                position: l.position.extend(0.0).to_array(),
+                normal: l.normal.extend(0.0).to_array(),
+                flux: l.flux.extend(0.0).to_array(),
+            })
             .collect();
         storage(&self.ctx.device, "lights", &g)
     }

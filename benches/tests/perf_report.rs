@@ -10,7 +10,9 @@ fn quick_perf_report_writes_every_section() {
     let o = Command::new(env!("CARGO_BIN_EXE_perf_report")).args(["--quick", "--out", out.to_str().unwrap()]).output().expect("run perf_report");
     assert!(o.status.success(), "perf_report failed: {}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(&out).unwrap();
-    for section in ["## k-means against faiss-cpu", "## visibility against raw Embree", "## GPU against CPU, per stage", "## Clustered against the reference", "--quick"] {
+    for section in
+        ["## k-means against faiss-cpu", "## visibility against raw Embree", "## GPU against CPU, per stage", "## Clustered against the reference", "--quick"]
+    {
         assert!(md.contains(section), "missing {section:?} in:\n{md}");
     }
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("perf/perf.json")).unwrap()).unwrap();

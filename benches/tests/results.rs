@@ -12,7 +12,10 @@ fn quick_results_write_every_scene_and_setting() {
         // The workspace's vplgi binary is built by `cargo test --workspace` before this runs.
         panic!("{} is missing: run the tests with --workspace", vplgi.display());
     }
-    let o = Command::new(env!("CARGO_BIN_EXE_results")).args(["--quick", "--out", out.to_str().unwrap(), "--vplgi", vplgi.to_str().unwrap(), "--work", dir.path().join("work").to_str().unwrap()]).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_results"))
+        .args(["--quick", "--out", out.to_str().unwrap(), "--vplgi", vplgi.to_str().unwrap(), "--work", dir.path().join("work").to_str().unwrap()])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "results failed: {}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(&out).unwrap();
     for scene in ["cornell-fine", "conference", "living-room"] {

@@ -58,10 +58,8 @@ fn shading_points_match_the_cpu() {
             // A ray through an edge shared by two triangles (a quad's diagonal, or the concave
             // edge where ceiling meets wall) may legitimately return either: the hit point is the
             // same. The axis-aligned Cornell-box camera puts pixel centres exactly on such edges.
-            let tie = c.triangle != g.triangle
-                && !c.is_miss()
-                && !g.is_miss()
-                && (Vec3::from(c.position) - Vec3::from(g.position)).length() <= 1e-5 * cs.extent;
+            let tie =
+                c.triangle != g.triangle && !c.is_miss() && !g.is_miss() && (Vec3::from(c.position) - Vec3::from(g.position)).length() <= 1e-5 * cs.extent;
             edge_ties += tie as usize;
             if c.triangle == g.triangle {
                 same += 1;
@@ -92,7 +90,13 @@ fn shading_points_match_the_cpu() {
 }
 
 /// obvhs' own CPU traversal, the third opinion on visibility.
-fn obvhs_visible(bvh: &obvhs::cwbvh::CwBvh, tris: &[obvhs::triangle::Triangle], cs: &CpuScene, a: &vplgi_cpu::visibility::Endpoint, b: &vplgi_cpu::visibility::Endpoint) -> bool {
+fn obvhs_visible(
+    bvh: &obvhs::cwbvh::CwBvh,
+    tris: &[obvhs::triangle::Triangle],
+    cs: &CpuScene,
+    a: &vplgi_cpu::visibility::Endpoint,
+    b: &vplgi_cpu::visibility::Endpoint,
+) -> bool {
     let p = cs.offset_toward(a.position, a.normal, b.position);
     let q = cs.offset_toward(b.position, b.normal, a.position);
     let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, 1.0);
@@ -110,7 +114,8 @@ fn visibility_agrees_three_ways() {
     let sps = vplgi_cpu::shading_points::shading_points(&cs, 48, 48, 1, 1);
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 3, 300, 3, &vplgi_cpu::NoProgress).vpls;
-    let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(|v| vplgi_cpu::visibility::Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
+    let cols: Vec<vplgi_cpu::visibility::Endpoint> =
+        vpls.iter().map(|v| vplgi_cpu::visibility::Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
     let (embree, rays) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
 
     let tris = vplgi_gpu::bvh::triangles(&scene);
@@ -233,7 +238,8 @@ fn segments_through_shared_edges_find_no_cracks() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let cpu = |e: &Endpoint| vplgi_cpu::visibility::Endpoint { position: Vec3::from_slice(&e.position[..3]), normal: Vec3::from_slice(&e.normal[..3]) };
-    let (embree, _) = vplgi_cpu::visibility::visibility(&cs, &rows.iter().map(cpu).collect::<Vec<_>>(), &cols.iter().map(cpu).collect::<Vec<_>>(), &vplgi_cpu::NoProgress);
+    let (embree, _) =
+        vplgi_cpu::visibility::visibility(&cs, &rows.iter().map(cpu).collect::<Vec<_>>(), &cols.iter().map(cpu).collect::<Vec<_>>(), &vplgi_cpu::NoProgress);
     let embree_leaks = |r: usize| (0..cols.len()).filter(|&c| embree.get(r, c)).count();
     let (aimed_gpu, aimed_embree) = (gpu_leaks(0), embree_leaks(0));
     let (other_gpu, other_embree) = ((1..rows.len()).map(gpu_leaks).sum::<usize>(), (1..rows.len()).map(embree_leaks).sum::<usize>());
@@ -273,7 +279,13 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, seed, 400, 3, &vplgi_cpu::NoProgress).vpls;
     let g_max = 1.0 / (0.05 * cs.extent).powi(2);
     let to_gpu_lights = |ls: &[vplgi_cpu::shade::VplLight]| -> Vec<VplLight> {
-        ls.iter().map(|l| VplLight { position: [l.position.x, l.position.y, l.position.z, 0.0], normal: [l.normal.x, l.normal.y, l.normal.z, 0.0], flux: [l.flux.x, l.flux.y, l.flux.z, 0.0] }).collect()
+        ls.iter()
+            .map(|l| VplLight {
+                position: [l.position.x, l.position.y, l.position.z, 0.0],
+                normal: [l.normal.x, l.normal.y, l.normal.z, 0.0],
+                flux: [l.flux.x, l.flux.y, l.flux.z, 0.0],
+            })
+            .collect()
     };
     let n_pixels = (w * h) as usize;
     let sps_buf = storage(&ctx.device, "sps", &sps);
@@ -288,7 +300,16 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let cpu_own = shade(&cs, &sps, spp, 0..n_pixels, &lights, &src, g_max, seed, direct);
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
-    let inputs = ShadeInputs { sps: &sps_buf, sp_first: 0, row_of: &row_buf, words: &words, words_per_row: words_per_row(cols.len()) as u32, vpl_lights: &light_buf, light_count: lights.len() as u32, visibility: Visibility::Own { first_row: 0 } };
+    let inputs = ShadeInputs {
+        sps: &sps_buf,
+        sp_first: 0,
+        row_of: &row_buf,
+        words: &words,
+        words_per_row: words_per_row(cols.len()) as u32,
+        vpl_lights: &light_buf,
+        light_count: lights.len() as u32,
+        visibility: Visibility::Own { first_row: 0 },
+    };
     let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
     let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
@@ -301,7 +322,8 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
     let sc = cluster(&sp_pos, &sp_nor, &ClusterParams { k: 80, gamma: 2, iterations: 5, f: 6, fuzzy: FuzzyMode::Weighted, normal_threshold: 0.866, seed });
-    let reps: Vec<vplgi_cpu::visibility::Endpoint> = sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
+    let reps: Vec<vplgi_cpu::visibility::Endpoint> =
+        sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
     let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Fuzzy { matrix: &mc, row_of: &row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
     let cpu_fuzzy = shade(&cs, &sps, spp, 0..n_pixels, &lights_c, &src, g_max, seed, direct);
@@ -317,7 +339,12 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words_per_row: words_per_row(cols_c.len()) as u32,
         vpl_lights: &light_buf_c,
         light_count: lights_c.len() as u32,
-        visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 } },
+        visibility: Visibility::Fuzzy {
+            labels: &labels,
+            weights: &weights,
+            f: sc.f as u32,
+            window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 },
+        },
     };
     let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
     let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
@@ -351,7 +378,13 @@ fn trace_vpls_matches_the_cpu() {
     let Some(ctx) = vplgi_tests::gpu("trace_vpls_matches_the_cpu") else { return };
     let kernel = TraceVplsKernel::new(&ctx.device).unwrap();
     let mut spot_box = cornell_box();
-    spot_box.lights.push(PunctualLight::Spot { position: Vec3::new(0.5, 1.5, 0.5), direction: Vec3::new(-0.3, -1.0, -0.4).normalize(), intensity: Vec3::new(3.0, 2.0, 1.0), cos_inner: 0.9, cos_outer: 0.7 });
+    spot_box.lights.push(PunctualLight::Spot {
+        position: Vec3::new(0.5, 1.5, 0.5),
+        direction: Vec3::new(-0.3, -1.0, -0.4).normalize(),
+        intensity: Vec3::new(3.0, 2.0, 1.0),
+        cos_inner: 0.9,
+        cos_outer: 0.7,
+    });
     let cases = [
         ("cornell box, area light", cornell_box(), 3000u32, 3u32),
         ("plane, point light", vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0), 2000, 1),
@@ -395,7 +428,13 @@ fn trace_vpls_matches_the_cpu() {
             };
             diverged += !same as usize;
         }
-        println!("trace_vpls ({name}): {} VPLs from {} (CPU) / {} (GPU) particles; {diverged} of {} paths diverge", gpu.len(), cpu.particles, g.particles, paths.len());
+        println!(
+            "trace_vpls ({name}): {} VPLs from {} (CPU) / {} (GPU) particles; {diverged} of {} paths diverge",
+            gpu.len(),
+            cpu.particles,
+            g.particles,
+            paths.len()
+        );
         assert!(gpu.len() == count as usize);
         assert!(diverged as f64 <= 1e-3 * paths.len() as f64, "{name}: {diverged} paths diverge");
         assert!((cpu.particles as i64 - g.particles as i64).abs() <= diverged as i64 * bounces as i64, "{name}: particle counts");
@@ -506,7 +545,9 @@ fn cluster_end_to_end_matches_the_cpu() {
     for (k, f, fuzzy) in [(400u32, 6u32, FuzzyMode::Weighted), (150, 1, FuzzyMode::Hard), (5000, 4, FuzzyMode::Average)] {
         let cpu = cluster(&ps, &ns, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 });
         let pts = storage(&ctx.device, "points", &endpoints(&ps, &ns));
-        let g = kernel.cluster(&ctx.device, &ctx.queue, &pts, m as u32, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 }).unwrap();
+        let g = kernel
+            .cluster(&ctx.device, &ctx.queue, &pts, m as u32, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 })
+            .unwrap();
         let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.labels, m * g.f as usize).unwrap();
         let gr: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.representatives, g.k as usize).unwrap();
         let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &g.centroids, g.k as usize).unwrap();
@@ -564,7 +605,11 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         let cfg = FrameConfig { width: 40, height: 32, spp: 1, vpls: 1500, k_sp: 200, k_vpl: 120, cluster, fuzzy, ..FrameConfig::default() };
         let cpu = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
         let gpu = render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap();
-        assert_eq!((gpu.stats.vpl_clusters as usize, gpu.stats.sp_clusters as usize), (cpu.stats.vpl_clusters, cpu.stats.sp_clusters), "{cluster:?}/{fuzzy:?}: cluster counts");
+        assert_eq!(
+            (gpu.stats.vpl_clusters as usize, gpu.stats.sp_clusters as usize),
+            (cpu.stats.vpl_clusters, cpu.stats.sp_clusters),
+            "{cluster:?}/{fuzzy:?}: cluster counts"
+        );
         if !cluster.clusters_sps() {
             assert_eq!(gpu.stats.vpl_widened as usize, cpu.stats.vpl_widened, "{cluster:?}: widened VPL searches");
         }
@@ -636,7 +681,9 @@ fn frames_are_identical_under_forced_small_limits() {
     let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else { return };
     let scene = cornell_box();
     let kernels = GpuKernels::new(&ctx.device).unwrap();
-    for (cluster, spp, tight) in [(ClusterMode::None, 1, false), (ClusterMode::Both, 2, false), (ClusterMode::None, 2, true), (ClusterMode::Both, 2, true), (ClusterMode::Sp, 2, true)] {
+    for (cluster, spp, tight) in
+        [(ClusterMode::None, 1, false), (ClusterMode::Both, 2, false), (ClusterMode::None, 2, true), (ClusterMode::Both, 2, true), (ClusterMode::Sp, 2, true)]
+    {
         let cfg = FrameConfig { width: 48, height: 40, spp, vpls: 800, k_sp: 150, k_vpl: 80, cluster, fuzzy: FuzzyMode::Weighted, ..FrameConfig::default() };
         let n_sp = (cfg.width * cfg.height * cfg.spp) as u64;
         let full = render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap();

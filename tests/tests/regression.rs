@@ -40,7 +40,11 @@ fn check(name: &str) {
     let sidecar: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("reference.json")).unwrap()).unwrap();
     let scene = scene(name);
     let hash = format!("{:016x}", scene.content_hash());
-    assert_eq!(sidecar["scene"]["hash"].as_str().unwrap(), hash, "{name}: the scene changed since its reference was made; if that is intended, run make references WHY=\"...\"");
+    assert_eq!(
+        sidecar["scene"]["hash"].as_str().unwrap(),
+        hash,
+        "{name}: the scene changed since its reference was made; if that is intended, run make references WHY=\"...\""
+    );
     let mut cfg: FrameConfig = serde_json::from_value(sidecar["params"].clone()).unwrap();
     let seeds: Vec<u32> = serde_json::from_value(sidecar["seeds"].clone()).unwrap();
     cfg.seed = seeds.iter().max().unwrap() + 1;
@@ -80,7 +84,13 @@ fn check(name: &str) {
         vplgi_image::write_png(&out.join("render.png"), &render, 1.0).unwrap();
         vplgi_image::write_png(&out.join("reference.png"), &mean, 1.0).unwrap();
         vplgi_image::write_error_map(&out.join("error_map.png"), &cmp).unwrap();
-        panic!("{name} regressed: {} block tests failed, {:.3} % of pixel tests (at most 1 %), FLIP {:.4} (at most {flip_bound}); see {}", blocks.failures, 100.0 * pixels.failed_fraction(), cmp.metrics.flip, out.display());
+        panic!(
+            "{name} regressed: {} block tests failed, {:.3} % of pixel tests (at most 1 %), FLIP {:.4} (at most {flip_bound}); see {}",
+            blocks.failures,
+            100.0 * pixels.failed_fraction(),
+            cmp.metrics.flip,
+            out.display()
+        );
     }
     // The tests can fail: 30 % more light everywhere must be caught by the blocks (measured: 25,
     // 6 and 22 of 192 blocks for the three scenes; in the noisy conference room only the
@@ -105,4 +115,3 @@ fn conference_matches_its_reference() {
 fn living_room_matches_its_reference() {
     check("living-room");
 }
-

@@ -79,9 +79,30 @@ fn main() -> Result<()> {
     let o = Opts::parse();
     let q = o.quick;
     let scenes = [
-        SceneSpec { name: "cornell-fine", width: if q { 64 } else { 1024 }, height: if q { 64 } else { 1024 }, vpls: if q { 500 } else { 5000 }, triangles: if q { 20_000 } else { 1_900_000 }, paper: "Cornell box, 1.9 M triangles, 1024x1024, 5,000 VPLs" },
-        SceneSpec { name: "conference", width: if q { 64 } else { 1024 }, height: if q { 45 } else { 720 }, vpls: if q { 500 } else { 8000 }, triangles: if q { 20_000 } else { 300_000 }, paper: "conference room, 331 k triangles, 1024x720, 8,000 VPLs" },
-        SceneSpec { name: "living-room", width: if q { 64 } else { 1024 }, height: if q { 45 } else { 720 }, vpls: if q { 500 } else { 10_000 }, triangles: if q { 20_000 } else { 300_000 }, paper: "living room, 313 k triangles, 1024x720, 10,000 VPLs" },
+        SceneSpec {
+            name: "cornell-fine",
+            width: if q { 64 } else { 1024 },
+            height: if q { 64 } else { 1024 },
+            vpls: if q { 500 } else { 5000 },
+            triangles: if q { 20_000 } else { 1_900_000 },
+            paper: "Cornell box, 1.9 M triangles, 1024x1024, 5,000 VPLs",
+        },
+        SceneSpec {
+            name: "conference",
+            width: if q { 64 } else { 1024 },
+            height: if q { 45 } else { 720 },
+            vpls: if q { 500 } else { 8000 },
+            triangles: if q { 20_000 } else { 300_000 },
+            paper: "conference room, 331 k triangles, 1024x720, 8,000 VPLs",
+        },
+        SceneSpec {
+            name: "living-room",
+            width: if q { 64 } else { 1024 },
+            height: if q { 45 } else { 720 },
+            vpls: if q { 500 } else { 10_000 },
+            triangles: if q { 20_000 } else { 300_000 },
+            paper: "living room, 313 k triangles, 1024x720, 10,000 VPLs",
+        },
     ];
     let configs: Vec<(&str, u32, u32)> = if q { CONFIGS.iter().map(|&(n, v, s)| (n, v / 25, s / 25)).collect() } else { CONFIGS.to_vec() };
     let work = o.work.clone().unwrap_or_else(|| PathBuf::from(if q { "target/results-quick" } else { "target/results" }));
@@ -98,7 +119,8 @@ fn main() -> Result<()> {
         let dir = work.join(sc.name);
         let (w, h, v) = (sc.width.to_string(), sc.height.to_string(), sc.vpls.to_string());
         let render = |out: &Path, extra: &[&str]| -> Result<Value> {
-            let mut args = vec!["render", glb.to_str().unwrap_or_default(), "--width", &w, "--height", &h, "--vpls", &v, "--out", out.to_str().unwrap_or_default()];
+            let mut args =
+                vec!["render", glb.to_str().unwrap_or_default(), "--width", &w, "--height", &h, "--vpls", &v, "--out", out.to_str().unwrap_or_default()];
             args.extend_from_slice(extra);
             if !(o.reuse && out.join("report.json").exists()) {
                 vplgi(&args)?;
@@ -109,7 +131,9 @@ fn main() -> Result<()> {
         let ref_dir = dir.join("reference");
         let reference = render(&ref_dir, &["--cluster", "none"])?;
         thumbnail(&ref_dir.join("image.png"), &docs.join(format!("{}-reference.png", sc.name)))?;
-        let mut frames = vec![json!({"config": "reference", "backend": "cpu", "ms": reference["timings_ms"]["total"], "rss_mib": reference["peak_rss_mib"], "triangles": reference["triangles"]})];
+        let mut frames = vec![
+            json!({"config": "reference", "backend": "cpu", "ms": reference["timings_ms"]["total"], "rss_mib": reference["peak_rss_mib"], "triangles": reference["triangles"]}),
+        ];
         for &(config, k_vpl, k_sp) in &configs {
             for backend in ["cpu", "gpu"] {
                 if backend == "gpu" && o.cpu_only {
@@ -118,7 +142,13 @@ fn main() -> Result<()> {
                 eprintln!("{}: {config} on the {backend}", sc.name);
                 let out = dir.join(format!("{config}-{backend}"));
                 let r = render(&out, &["--cluster", "both", "--k-vpl", &k_vpl.to_string(), "--k-sp", &k_sp.to_string(), "--backend", backend])?;
-                vplgi(&["compare", ref_dir.join("image.exr").to_str().unwrap_or_default(), out.join("image.exr").to_str().unwrap_or_default(), "--out", out.to_str().unwrap_or_default()])?;
+                vplgi(&[
+                    "compare",
+                    ref_dir.join("image.exr").to_str().unwrap_or_default(),
+                    out.join("image.exr").to_str().unwrap_or_default(),
+                    "--out",
+                    out.to_str().unwrap_or_default(),
+                ])?;
                 let c = json_of(&out.join("compare.json"))?;
                 if backend == "cpu" {
                     thumbnail(&out.join("image.png"), &docs.join(format!("{}-{config}.png", sc.name)))?;
@@ -139,7 +169,11 @@ fn main() -> Result<()> {
 /// The adapter the GPU frames ran on, or a note that there were none.
 fn gpu_adapter(r: &Value) -> String {
     let scenes = r["scenes"].as_array().cloned().unwrap_or_default();
-    let adapter = scenes.iter().flat_map(|sc| sc["frames"].as_array().cloned().unwrap_or_default()).find(|x| x["backend"] == "gpu").and_then(|x| x["adapter"].as_str().map(str::to_string));
+    let adapter = scenes
+        .iter()
+        .flat_map(|sc| sc["frames"].as_array().cloned().unwrap_or_default())
+        .find(|x| x["backend"] == "gpu")
+        .and_then(|x| x["adapter"].as_str().map(str::to_string));
     adapter.unwrap_or_else(|| "no adapter: this run had --cpu-only".into())
 }
 
@@ -150,15 +184,35 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(s, "Generated by `make results`{} on {}, commit {}. The scenes come from `vplgi scene generate` (see the README). Numbers: [results/results.json](results/results.json); full-size images under `target/results/` after a run.\n", if r["quick"].as_bool() == Some(true) { " (**--quick: small sizes, not the table**)" } else { "" }, r["date"].as_str().unwrap_or("?"), r["commit"].as_str().unwrap_or("?"))?;
     writeln!(s, "Every frame is one `vplgi render` process on this machine's 2 cores: time is the frame's total (`timings_ms.total`), memory the process's peak resident set (scene, acceleration structure, buffers; on the GPU also lavapipe's). GPU frames (backend `gpu`) ran on **{}**: where that is Mesa lavapipe, software Vulkan on the same two cores, their times say nothing about a real GPU. Speed-up is over the reference, which is rendered on the CPU only; MSE and FLIP are against it. Peak memory is given for every frame of both backends (cornell-fine is at its paper resolution, 1024x1024, not 1024x720). [PERFORMANCE.md](PERFORMANCE.md) compares the backends stage by stage on the Cornell box.\n", gpu_adapter(r))?;
     for sc in r["scenes"].as_array().cloned().unwrap_or_default() {
-        writeln!(s, "## {} ({}x{}, {} VPLs)\n\nThe paper's scene: {}.\n", sc["scene"].as_str().unwrap_or("?"), sc["width"], sc["height"], sc["vpls"], sc["paper"].as_str().unwrap_or("?"))?;
+        writeln!(
+            s,
+            "## {} ({}x{}, {} VPLs)\n\nThe paper's scene: {}.\n",
+            sc["scene"].as_str().unwrap_or("?"),
+            sc["width"],
+            sc["height"],
+            sc["vpls"],
+            sc["paper"].as_str().unwrap_or("?")
+        )?;
         writeln!(s, "| setting (VPL / SP clusters) | backend | time (s) | speed-up | peak memory (MiB) | MSE | FLIP |\n|---|---|---:|---:|---:|---:|---:|")?;
         let frames = sc["frames"].as_array().cloned().unwrap_or_default();
         let ref_ms = frames.first().map_or(f64::NAN, |x| f(&x["ms"]));
         for x in &frames {
-            let name = if x["config"] == "reference" { "reference (none)".to_string() } else { format!("{} ({} / {})", x["config"].as_str().unwrap_or("?"), x["k_vpl"], x["k_sp"]) };
+            let name = if x["config"] == "reference" {
+                "reference (none)".to_string()
+            } else {
+                format!("{} ({} / {})", x["config"].as_str().unwrap_or("?"), x["k_vpl"], x["k_sp"])
+            };
             let metric = |k: &str, fmt: fn(f64) -> String| x.get(k).and_then(|v| v.as_f64()).map_or("–".to_string(), fmt);
             let speed = if x["config"] == "reference" { "–".to_string() } else { format!("{:.1}×", ref_ms / f(&x["ms"])) };
-            writeln!(s, "| {name} | {} | {:.2} | {speed} | {:.0} | {} | {} |", x["backend"].as_str().unwrap_or("?"), f(&x["ms"]) / 1e3, f(&x["rss_mib"]), metric("mse", |v| format!("{v:.2e}")), metric("flip", |v| format!("{v:.4}")))?;
+            writeln!(
+                s,
+                "| {name} | {} | {:.2} | {speed} | {:.0} | {} | {} |",
+                x["backend"].as_str().unwrap_or("?"),
+                f(&x["ms"]) / 1e3,
+                f(&x["rss_mib"]),
+                metric("mse", |v| format!("{v:.2e}")),
+                metric("flip", |v| format!("{v:.4}"))
+            )?;
         }
         let n = sc["scene"].as_str().unwrap_or("?");
         writeln!(s, "\n| reference | light | intermediate | high |\n|---|---|---|---|")?;

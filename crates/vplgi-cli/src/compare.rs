@@ -18,8 +18,7 @@ pub struct CompareArgs {
 pub fn run(args: CompareArgs) -> Result<()> {
     let reference = vplgi_image::read_exr(&args.reference)?;
     let test = vplgi_image::read_exr(&args.test)?;
-    let cmp = vplgi_image::compare(&reference, &test)
-        .with_context(|| format!("comparing {} with {}", args.test.display(), args.reference.display()))?;
+    let cmp = vplgi_image::compare(&reference, &test).with_context(|| format!("comparing {} with {}", args.test.display(), args.reference.display()))?;
     let out = match args.out {
         Some(d) => d,
         None => args.test.parent().map(|p| if p.as_os_str().is_empty() { PathBuf::from(".") } else { p.to_path_buf() }).unwrap_or_else(|| PathBuf::from(".")),

@@ -17,10 +17,14 @@ pub fn ensure_font() -> Result<()> {
     FONT.get_or_init(|| {
         let candidates: Vec<String> = std::env::var("VPLGI_FONT").ok().into_iter().chain(FONT_PATHS.iter().map(|s| s.to_string())).collect();
         let path = candidates.iter().find(|p| Path::new(p).is_file()).ok_or_else(|| {
-            format!("charts need a TrueType font: install fonts-dejavu-core (make setup does) or set VPLGI_FONT to a .ttf file (looked for {})", candidates.join(", "))
+            format!(
+                "charts need a TrueType font: install fonts-dejavu-core (make setup does) or set VPLGI_FONT to a .ttf file (looked for {})",
+                candidates.join(", ")
+            )
         })?;
         let bytes = std::fs::read(path).map_err(|e| format!("cannot read the font {path}: {e}"))?;
-        plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice())).map_err(|_| format!("{path} is not a usable TrueType font"))
+        plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
+            .map_err(|_| format!("{path} is not a usable TrueType font"))
     })
     .clone()
     .map_err(|e| anyhow!(e))
@@ -47,7 +51,14 @@ fn stage_colour(stage: &str) -> RGBColor {
 
 const ERROR_COLOUR: RGBColor = RGBColor(130, 40, 160);
 
-fn draw_bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, x_desc: &str, bars: &[Bar], error_name: &str, reference_ms: Option<f64>) -> Result<()>
+fn draw_bars<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    x_desc: &str,
+    bars: &[Bar],
+    error_name: &str,
+    reference_ms: Option<f64>,
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -67,7 +78,8 @@ where
         .map_err(|e| anyhow!("{e}"))?
         .set_secondary_coord(x_range, 0f64..err_top);
     let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
-    let x_fmt = |x: &f64| if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 { labels.get(x.round() as usize).cloned().unwrap_or_default() } else { String::new() };
+    let x_fmt =
+        |x: &f64| if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 { labels.get(x.round() as usize).cloned().unwrap_or_default() } else { String::new() };
     chart
         .configure_mesh()
         .disable_x_mesh()
@@ -150,7 +162,15 @@ pub fn stacked_bars(stem: &Path, title: &str, x_desc: &str, bars: &[Bar], error_
     write_text(&stem.with_extension("svg"), &svg)
 }
 
-fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, vpl: &[u32], sp: &[u32], time_ms: &[Vec<f64>], error: &[Vec<f64>], error_name: &str) -> Result<()>
+fn draw_heatmap<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    vpl: &[u32],
+    sp: &[u32],
+    time_ms: &[Vec<f64>],
+    error: &[Vec<f64>],
+    error_name: &str,
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -172,7 +192,13 @@ where
         .y_label_area_size(72)
         .build_cartesian_2d(-0.5f64..(vpl.len() as f64 - 0.5), -0.5f64..(sp.len() as f64 - 0.5))
         .map_err(|e| anyhow!("{e}"))?;
-    let fmt = |v: &[u32], x: &f64| if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 { v.get(x.round() as usize).map_or(String::new(), |c| c.to_string()) } else { String::new() };
+    let fmt = |v: &[u32], x: &f64| {
+        if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 {
+            v.get(x.round() as usize).map_or(String::new(), |c| c.to_string())
+        } else {
+            String::new()
+        }
+    };
     chart
         .configure_mesh()
         .disable_mesh()

@@ -151,7 +151,13 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     write_json(&args.out.join("reference.json"), &sidecar)?;
     let what = if count > 1 { format!("tile {index}/{count} (rows {}..{}) of ", rows.start, rows.end) } else { String::new() };
     println!("{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s", scene.name, args.seeds, args.vpls, args.width, args.height);
-    println!("wrote {}\n      {}\n      {}\n      {}", args.out.join("mean.exr").display(), args.out.join("variance.exr").display(), args.out.join("mean.png").display(), args.out.join("reference.json").display());
+    println!(
+        "wrote {}\n      {}\n      {}\n      {}",
+        args.out.join("mean.exr").display(),
+        args.out.join("variance.exr").display(),
+        args.out.join("mean.png").display(),
+        args.out.join("reference.json").display()
+    );
     if count > 1 {
         println!("join the tiles with: vplgi merge DIR... --out DIR");
     }
@@ -195,7 +201,11 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     let key = |s: &Value| json!([s["scene"]["hash"], s["params"], s["seeds"], s["width"], s["height"], s["tile"]["count"], s["commit"]]);
     for t in &tiles[1..] {
         if key(&t.5) != key(first) {
-            bail!("{} and {} are tiles of different references (scene, parameters, seeds, size, tile count or commit differ)", tiles[0].4.display(), t.4.display());
+            bail!(
+                "{} and {} are tiles of different references (scene, parameters, seeds, size, tile count or commit differ)",
+                tiles[0].4.display(),
+                t.4.display()
+            );
         }
     }
     let n = tiles[0].1;

@@ -234,7 +234,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
             let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
             let frame = if args.profile {
-                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg))?;
+                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || {
+                    vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)
+                })?;
                 match by_kernel {
                     Some(k) => profile = Some(k),
                     None => eprintln!("note: {} has no timestamp queries: no kernel profile", ctx.describe()),
@@ -244,7 +246,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?
             };
             let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
-            let adapter = serde_json::json!({ "name": ctx.describe(), "device_type": format!("{:?}", ctx.info.device_type), "features": ctx.notable_features() });
+            let adapter =
+                serde_json::json!({ "name": ctx.describe(), "device_type": format!("{:?}", ctx.info.device_type), "features": ctx.notable_features() });
             (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", adapter)
         }
     };

@@ -96,12 +96,24 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
     let mut out = Vec::new();
     for &figure in &args.figures {
         match figure {
-            Figure::Seven => out.extend(args.sp_clusters.iter().map(|&k| Config { figure, label: format!("fig7-sp{k}"), cfg: FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() } })),
-            Figure::Nine => out.extend(args.vpl_clusters.iter().map(|&k| Config { figure, label: format!("fig9-vpl{k}"), cfg: FrameConfig { cluster: ClusterMode::Vpl, k_vpl: k, ..base.clone() } })),
+            Figure::Seven => out.extend(args.sp_clusters.iter().map(|&k| Config {
+                figure,
+                label: format!("fig7-sp{k}"),
+                cfg: FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() },
+            })),
+            Figure::Nine => out.extend(args.vpl_clusters.iter().map(|&k| Config {
+                figure,
+                label: format!("fig9-vpl{k}"),
+                cfg: FrameConfig { cluster: ClusterMode::Vpl, k_vpl: k, ..base.clone() },
+            })),
             Figure::Eleven => {
                 for &s in &args.sp_clusters {
                     for &v in &args.vpl_clusters {
-                        out.push(Config { figure, label: format!("fig11-sp{s}-vpl{v}"), cfg: FrameConfig { cluster: ClusterMode::Both, k_sp: s, k_vpl: v, ..base.clone() } });
+                        out.push(Config {
+                            figure,
+                            label: format!("fig11-sp{s}-vpl{v}"),
+                            cfg: FrameConfig { cluster: ClusterMode::Both, k_sp: s, k_vpl: v, ..base.clone() },
+                        });
                     }
                 }
             }
@@ -152,7 +164,14 @@ pub fn run(args: SweepArgs) -> Result<()> {
         Some(path) => {
             let img = vplgi_image::read_exr(path)?;
             if (img.width, img.height) != (args.width, args.height) {
-                bail!("{}: the reference is {}x{}, the sweep renders {}x{} (set --width/--height)", path.display(), img.width, img.height, args.width, args.height);
+                bail!(
+                    "{}: the reference is {}x{}, the sweep renders {}x{} (set --width/--height)",
+                    path.display(),
+                    img.width,
+                    img.height,
+                    args.width,
+                    args.height
+                );
             }
             Some(img)
         }
@@ -212,7 +231,13 @@ pub fn run(args: SweepArgs) -> Result<()> {
         vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
         vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
         let timings = StageTimings::median(&runs);
-        let tile = Tile { label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total, cmp.metrics.mse, cmp.metrics.flip), width: img.width, height: img.height, image: tonemap_srgb8(&img, 1.0), error_map: error_map_rgb8(&c.label, &cmp)? };
+        let tile = Tile {
+            label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total, cmp.metrics.mse, cmp.metrics.flip),
+            width: img.width,
+            height: img.height,
+            image: tonemap_srgb8(&img, 1.0),
+            error_map: error_map_rgb8(&c.label, &cmp)?,
+        };
         measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
         bar.inc(1);
     }
@@ -223,12 +248,22 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let mut charts = Vec::new();
     for (metric, name) in [("mse", "MSE"), ("flip", "FLIP")] {
         let err = |m: &Measured| if metric == "mse" { m.mse } else { m.flip };
-        for (fig, what, x_desc) in [(Figure::Seven, "shading-point clusters (VPLs unclustered)", "shading-point clusters"), (Figure::Nine, "VPL clusters (shading points unclustered)", "VPL clusters")] {
+        for (fig, what, x_desc) in [
+            (Figure::Seven, "shading-point clusters (VPLs unclustered)", "shading-point clusters"),
+            (Figure::Nine, "VPL clusters (shading points unclustered)", "VPL clusters"),
+        ] {
             let rows = of(fig);
             if rows.is_empty() {
                 continue;
             }
-            let bars: Vec<Bar> = rows.iter().map(|(c, m)| Bar { label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(), stages: m.timings.stages().to_vec(), error: err(m) }).collect();
+            let bars: Vec<Bar> = rows
+                .iter()
+                .map(|(c, m)| Bar {
+                    label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(),
+                    stages: m.timings.stages().to_vec(),
+                    error: err(m),
+                })
+                .collect();
             let n = if fig == Figure::Seven { 7 } else { 9 };
             let stem = args.out.join(format!("fig{n}-{metric}"));
             stacked_bars(&stem, &format!("{}: time and {name} against {what}{backend}", scene.name), x_desc, &bars, name, reference_line)?;
@@ -239,11 +274,28 @@ pub fn run(args: SweepArgs) -> Result<()> {
             let (ns, nv) = (args.sp_clusters.len(), args.vpl_clusters.len());
             let grid = |f: &dyn Fn(&Measured) -> f64| -> Vec<Vec<f64>> { (0..ns).map(|j| (0..nv).map(|i| f(rows[j * nv + i].1)).collect()).collect() };
             let stem = args.out.join(format!("fig11-{metric}"));
-            heatmap(&stem, &format!("{}: frame time and {name} over both cluster counts{backend}", scene.name), &args.vpl_clusters, &args.sp_clusters, &grid(&|m| m.timings.total), &grid(&|m| err(m)), name)?;
+            heatmap(
+                &stem,
+                &format!("{}: frame time and {name} over both cluster counts{backend}", scene.name),
+                &args.vpl_clusters,
+                &args.sp_clusters,
+                &grid(&|m| m.timings.total),
+                &grid(&|m| err(m)),
+                name,
+            )?;
             charts.push(stem.with_extension("png"));
         }
     }
-    let tiles: Vec<Tile> = measured.iter().map(|m| Tile { label: m.tile.label.clone(), width: m.tile.width, height: m.tile.height, image: m.tile.image.clone(), error_map: m.tile.error_map.clone() }).collect();
+    let tiles: Vec<Tile> = measured
+        .iter()
+        .map(|m| Tile {
+            label: m.tile.label.clone(),
+            width: m.tile.width,
+            height: m.tile.height,
+            image: m.tile.image.clone(),
+            error_map: m.tile.error_map.clone(),
+        })
+        .collect();
     let sheet = args.out.join("contact_sheet.png");
     contact_sheet(&sheet, &tiles, 3, 240)?;
 

@@ -69,7 +69,8 @@ fn compare_reports_metrics_and_writes_an_error_map() {
     render(a.path(), &["--cluster", "none"]);
     render(b.path(), &[]);
     let out = tempfile::tempdir().unwrap();
-    let o = vplgi(&["compare", a.path().join("image.exr").to_str().unwrap(), b.path().join("image.exr").to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
+    let o =
+        vplgi(&["compare", a.path().join("image.exr").to_str().unwrap(), b.path().join("image.exr").to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(out.path().join("compare.json")).unwrap()).unwrap();
     let (mse, rel, flip) = (j["mse"].as_f64().unwrap(), j["rel_mse"].as_f64().unwrap(), j["flip"].as_f64().unwrap());
@@ -164,7 +165,23 @@ fn base64(data: &[u8]) -> String {
 fn gpu_backend_renders_and_reports_its_adapter() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("gpu");
-    let o = vplgi(&["render", "--backend", "gpu", "--width", "32", "--height", "24", "--vpls", "500", "--k-sp", "100", "--k-vpl", "50", "--out", out.to_str().unwrap()]);
+    let o = vplgi(&[
+        "render",
+        "--backend",
+        "gpu",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--vpls",
+        "500",
+        "--k-sp",
+        "100",
+        "--k-vpl",
+        "50",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     if !o.status.success() {
         let err = String::from_utf8_lossy(&o.stderr);
         if err.contains("no GPU adapter") && std::env::var("CI").map_or(true, |v| v != "true") {
@@ -194,7 +211,24 @@ fn gpu_backend_renders_and_reports_its_adapter() {
 fn bench_writes_json_and_markdown() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bench");
-    let o = vplgi(&["bench", "--width", "24", "--height", "20", "--vpls", "300", "--runs", "3", "--best", "2", "--config", "reference", "light", "--out", out.to_str().unwrap()]);
+    let o = vplgi(&[
+        "bench",
+        "--width",
+        "24",
+        "--height",
+        "20",
+        "--vpls",
+        "300",
+        "--runs",
+        "3",
+        "--best",
+        "2",
+        "--config",
+        "reference",
+        "light",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("bench.json")).unwrap()).unwrap();
     let configs = j["configs"].as_array().unwrap();
@@ -292,7 +326,22 @@ fn generated_scenes_render() {
         assert!(o.status.success(), "generate {name}: {}", String::from_utf8_lossy(&o.stderr));
         assert!(String::from_utf8_lossy(&o.stdout).contains(glb.to_str().unwrap()));
         let out = dir.path().join(name);
-        let o = vplgi(&["render", glb.to_str().unwrap(), "--width", "32", "--height", "24", "--vpls", "400", "--k-sp", "100", "--k-vpl", "40", "--out", out.to_str().unwrap()]);
+        let o = vplgi(&[
+            "render",
+            glb.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--vpls",
+            "400",
+            "--k-sp",
+            "100",
+            "--k-vpl",
+            "40",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert!(o.status.success(), "render {name}: {}", String::from_utf8_lossy(&o.stderr));
         let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
         let t = report["triangles"].as_u64().unwrap();

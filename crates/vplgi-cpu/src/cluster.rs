@@ -25,9 +25,9 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use vplgi_types::config::MAX_F;
 pub use vplgi_types::clustering::ClusterParams;
 use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
+use vplgi_types::config::MAX_F;
 use vplgi_types::{FuzzyMode, MISS};
 
 /// The result of clustering M points into K' <= K non-empty clusters.
@@ -105,7 +105,17 @@ impl Grid {
     /// `bounds`, with occupancy counted on `sample`.
     pub fn for_data(bounds: (Vec3, Vec3), sample: &[Vec3], k: usize) -> Grid {
         let g = grid_geometry(bounds.0, bounds.1, k, |cell| occupied_cells(sample, bounds.0, cell));
-        Grid { origin: g.origin, cell: g.cell, dims: g.dims, starts: Vec::new(), items: Vec::new(), item_positions: Vec::new(), item_normals: Vec::new(), centroids: Vec::new(), centroid_normals: Vec::new() }
+        Grid {
+            origin: g.origin,
+            cell: g.cell,
+            dims: g.dims,
+            starts: Vec::new(),
+            items: Vec::new(),
+            item_positions: Vec::new(),
+            item_normals: Vec::new(),
+            centroids: Vec::new(),
+            centroid_normals: Vec::new(),
+        }
     }
 
     /// Same geometry, filled with the centroids (`centroids`, `normals`).
@@ -341,12 +351,7 @@ pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
 /// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11). `previous`
 /// labels (of the last iteration) only speed the search up: the labels are the same.
 pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], threshold: f32, previous: Option<&[u32]>) -> Vec<u32> {
-    points
-        .par_iter()
-        .zip(normals)
-        .enumerate()
-        .map(|(i, (&p, &n))| grid.search_near(p, n, threshold, previous.map_or(MISS, |l| l[i])).0)
-        .collect()
+    points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, threshold, previous.map_or(MISS, |l| l[i])).0).collect()
 }
 
 /// Recomputes the centroids from the labels with fixed-point sums (Alg. 1, lines 12-18).
@@ -507,10 +512,7 @@ fn representatives(positions: &[Vec3], labels: &[u32], f: usize, centroids: &[Ve
                 best
             },
         )
-        .reduce(
-            || vec![(f32::INFINITY, MISS); k],
-            |a, b| a.into_iter().zip(b).map(|(x, y)| if y < x { y } else { x }).collect(),
-        )
+        .reduce(|| vec![(f32::INFINITY, MISS); k], |a, b| a.into_iter().zip(b).map(|(x, y)| if y < x { y } else { x }).collect())
         .into_iter()
         .map(|(_, i)| i)
         .collect()

@@ -243,7 +243,16 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
 
 /// Radiance of shading point `i`: emitted + direct + indirect (zero for a miss).
 #[allow(clippy::too_many_arguments)]
-pub fn shade_point(cs: &CpuScene, sps: &[ShadingPoint], i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32, seed: u32, direct_samples: u32) -> Vec3 {
+pub fn shade_point(
+    cs: &CpuScene,
+    sps: &[ShadingPoint],
+    i: usize,
+    lights: &LightArrays,
+    vis: &VisibilitySource,
+    g_max: f32,
+    seed: u32,
+    direct_samples: u32,
+) -> Vec3 {
     let sp = &sps[i];
     if sp.triangle == MISS {
         return Vec3::ZERO;

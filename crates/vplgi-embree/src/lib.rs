@@ -198,16 +198,7 @@ impl Scene {
             sys::rtcSetSceneBuildQuality(raw, sys::RTCBuildQuality::HIGH);
             if !indices.is_empty() {
                 let geom = sys::rtcNewGeometry(device.raw, sys::RTCGeometryType::TRIANGLE);
-                sys::rtcSetSharedGeometryBuffer(
-                    geom,
-                    sys::RTCBufferType::VERTEX,
-                    0,
-                    sys::RTCFormat::FLOAT3,
-                    vertices.as_ptr().cast(),
-                    0,
-                    12,
-                    positions.len(),
-                );
+                sys::rtcSetSharedGeometryBuffer(geom, sys::RTCBufferType::VERTEX, 0, sys::RTCFormat::FLOAT3, vertices.as_ptr().cast(), 0, 12, positions.len());
                 sys::rtcSetSharedGeometryBuffer(geom, sys::RTCBufferType::INDEX, 0, sys::RTCFormat::UINT3, idx.as_ptr().cast(), 0, 12, indices.len());
                 sys::rtcCommitGeometry(geom);
                 sys::rtcAttachGeometry(raw, geom);

@@ -50,10 +50,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut v2, mut vc) = (0, 0);
     for _ in 0..5 {
         let t = Instant::now();
-        v2 = rays.iter().filter(|(o, d)| bvh2.ray_traverse_miss(obvhs::ray::Ray::new(*o, *d, 1e-5, 1.0), |ray, id| tris[bvh2.primitive_indices[id] as usize].intersect(ray))).count();
+        v2 = rays
+            .iter()
+            .filter(|(o, d)| {
+                bvh2.ray_traverse_miss(obvhs::ray::Ray::new(*o, *d, 1e-5, 1.0), |ray, id| tris[bvh2.primitive_indices[id] as usize].intersect(ray))
+            })
+            .count();
         t2.push(t.elapsed().as_secs_f64());
         let t = Instant::now();
-        vc = rays.iter().filter(|(o, d)| cw.ray_traverse_miss(obvhs::ray::Ray::new(*o, *d, 1e-5, 1.0), |ray, id| tris[cw.primitive_indices[id] as usize].intersect(ray))).count();
+        vc = rays
+            .iter()
+            .filter(|(o, d)| cw.ray_traverse_miss(obvhs::ray::Ray::new(*o, *d, 1e-5, 1.0), |ray, id| tris[cw.primitive_indices[id] as usize].intersect(ray)))
+            .count();
         tc.push(t.elapsed().as_secs_f64());
     }
     println!("{} rays, {} triangles; visible: BVH2 {v2}, CWBVH {vc}", rays.len(), scene.triangle_count());

@@ -21,7 +21,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let tris = vplgi_gpu::bvh::triangles(&scene);
         let area: Vec<f32> = tris.iter().map(|t| (t.v1 - t.v0).cross(t.v2 - t.v0).length()).collect();
         let total: f32 = area.iter().sum();
-        let cdf: Vec<f32> = area.iter().scan(0.0, |acc, a| { *acc += a / total; Some(*acc) }).collect();
+        let cdf: Vec<f32> = area
+            .iter()
+            .scan(0.0, |acc, a| {
+                *acc += a / total;
+                Some(*acc)
+            })
+            .collect();
         let point = |rng: &mut Rng| {
             let t = cdf.partition_point(|&c| c < rng.next_f32()).min(tris.len() - 1);
             let (mut s, mut u) = (rng.next_f32(), rng.next_f32());
@@ -64,7 +70,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             let per = |x: usize| x as f64 / n as f64;
-            println!("  {name:20} build {:6.0} ms, {:8} nodes; per segment {:7.1} nodes, {:5.1} triangle tests; {blocked} of {n} blocked", built.as_secs_f64() * 1e3, bvh.nodes.len(), per(visits), per(tests));
+            println!(
+                "  {name:20} build {:6.0} ms, {:8} nodes; per segment {:7.1} nodes, {:5.1} triangle tests; {blocked} of {n} blocked",
+                built.as_secs_f64() * 1e3,
+                bvh.nodes.len(),
+                per(visits),
+                per(tests)
+            );
         }
     }
     Ok(())

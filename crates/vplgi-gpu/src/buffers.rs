@@ -92,12 +92,17 @@ pub fn dispatch_bound(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgp
 /// larger than one binding.
 pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, wgpu::BufferBinding)], groups: u32) {
     let layout = pipeline.get_bind_group_layout(0);
-    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: wgpu::BindingResource::Buffer(b.clone()) }).collect();
+    let entries: Vec<wgpu::BindGroupEntry> =
+        buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: wgpu::BindingResource::Buffer(b.clone()) }).collect();
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     let timed = crate::timing::pass_queries(device);
     {
-        let timestamp_writes = timed.as_ref().map(|t| wgpu::ComputePassTimestampWrites { query_set: &t.set, beginning_of_pass_write_index: Some(0), end_of_pass_write_index: Some(1) });
+        let timestamp_writes = timed.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
+            query_set: &t.set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        });
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind, &[]);
@@ -113,7 +118,12 @@ pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &w
 
 /// One u32 of `buffer`, at element `index` (for the few counters the host needs).
 pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, index: u64) -> Result<u32, GpuError> {
-    let staging = device.create_buffer(&wgpu::BufferDescriptor { label: Some("word"), size: 4, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("word"),
+        size: 4,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read word") });
     encoder.copy_buffer_to_buffer(buffer, index * 4, &staging, 0, 4);
     queue.submit([encoder.finish()]);
@@ -122,7 +132,10 @@ pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buff
 
 /// Waits until the device has finished all submitted work (stage timing boundaries).
 pub fn sync(device: &wgpu::Device) -> Result<(), GpuError> {
-    device.poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) }).map(|_| ()).map_err(|e| GpuError::Lost { what: "waiting for the device".into(), message: e.to_string() })
+    device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) })
+        .map(|_| ())
+        .map_err(|e| GpuError::Lost { what: "waiting for the device".into(), message: e.to_string() })
 }
 
 /// Windows start on multiples of this many elements: 64 elements of at least 4 bytes are 256

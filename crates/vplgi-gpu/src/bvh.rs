@@ -113,7 +113,11 @@ fn thread(nodes: &[Bvh2Node]) -> Result<Vec<BvhNode>, GpuError> {
             let leaf = if n.prim_count == 0 {
                 0
             } else if n.prim_count > max_count || n.first_index >= 1 << (32 - LEAF_COUNT_BITS) {
-                return Err(GpuError::TooLarge { what: "a BVH leaf (triangles per leaf, or the first triangle slot)".into(), needed: n.first_index.max(n.prim_count) as u64, limit: max_count.max(1 << (32 - LEAF_COUNT_BITS)) as u64 });
+                return Err(GpuError::TooLarge {
+                    what: "a BVH leaf (triangles per leaf, or the first triangle slot)".into(),
+                    needed: n.first_index.max(n.prim_count) as u64,
+                    limit: max_count.max(1 << (32 - LEAF_COUNT_BITS)) as u64,
+                });
             } else {
                 n.first_index << LEAF_COUNT_BITS | n.prim_count
             };

@@ -78,8 +78,23 @@ pub struct ClusterKernel {
     scan: ScanKernel,
 }
 
-const ENTRIES: [&str; 15] =
-    ["occupancy", "count_bits", "grid_count", "grid_scatter", "assign", "sums_kernel", "finalize", "rep_d2", "rep_index", "gather", "bounds", "count_labels", "flags", "compact", "outcome_counts"];
+const ENTRIES: [&str; 15] = [
+    "occupancy",
+    "count_bits",
+    "grid_count",
+    "grid_scatter",
+    "assign",
+    "sums_kernel",
+    "finalize",
+    "rep_d2",
+    "rep_index",
+    "gather",
+    "bounds",
+    "count_labels",
+    "flags",
+    "compact",
+    "outcome_counts",
+];
 
 /// The ring from which scanning every centroid is cheaper than the rings: the CPU's test
 /// `(2r + 1)^3 > 8K + 64`, evaluated once.
@@ -104,12 +119,28 @@ impl ClusterKernel {
         })
     }
 
-    fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &Params, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+    fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        entry: &str,
+        params: &Params,
+        bound: &[(u32, &wgpu::Buffer)],
+        threads: u32,
+    ) -> Result<(), GpuError> {
         let whole: Vec<(u32, wgpu::BufferBinding)> = bound.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
         self.run_windows(device, queue, entry, params, &whole, threads)
     }
 
-    fn run_windows(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &Params, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
+    fn run_windows(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        entry: &str,
+        params: &Params,
+        bound: &[(u32, wgpu::BufferBinding)],
+        threads: u32,
+    ) -> Result<(), GpuError> {
         validated(device, entry, || {
             let p = uniform(device, "cluster params", params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
@@ -127,7 +158,16 @@ impl ClusterKernel {
 
     /// `out[t] = points[index[t]]` for `t < n` (Endpoints), over `m` points.
     #[allow(clippy::too_many_arguments)]
-    pub fn gather(&self, device: &wgpu::Device, queue: &wgpu::Queue, out: &wgpu::Buffer, index: &wgpu::Buffer, n: u32, points: &wgpu::Buffer, m: u32) -> Result<(), GpuError> {
+    pub fn gather(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        out: &wgpu::Buffer,
+        index: &wgpu::Buffer,
+        n: u32,
+        points: &wgpu::Buffer,
+        m: u32,
+    ) -> Result<(), GpuError> {
         for wo in Self::windows(device, n, 1) {
             for wi in Self::windows(device, m, 1) {
                 let p = Params { n: wo.count as u32, first: wi.first as u32, window: wi.count as u32, ..Default::default() };
@@ -174,7 +214,14 @@ impl ClusterKernel {
     }
 
     /// Fills the grid `geometry` with `k` centroids (counting sort by cell).
-    pub fn fill_grid(&self, device: &wgpu::Device, queue: &wgpu::Queue, geometry: &GridGeometry, centroids: &wgpu::Buffer, k: u32) -> Result<GpuGrid, GpuError> {
+    pub fn fill_grid(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        geometry: &GridGeometry,
+        centroids: &wgpu::Buffer,
+        k: u32,
+    ) -> Result<GpuGrid, GpuError> {
         let cells = geometry.dims.iter().map(|&d| d as u32).product::<u32>();
         let brute = brute_ring(k as usize);
         let mut p = self.grid_params(geometry, brute);
@@ -191,7 +238,19 @@ impl ClusterKernel {
 
     /// Each of `n` points gets its `f` nearest compatible centroids, with weights for `fuzzy`.
     #[allow(clippy::too_many_arguments)]
-    pub fn assign(&self, device: &wgpu::Device, queue: &wgpu::Queue, grid: &GpuGrid, points: &wgpu::Buffer, n: u32, centroids: &wgpu::Buffer, k: u32, threshold: f32, f: u32, fuzzy: FuzzyMode) -> Result<Assignment, GpuError> {
+    pub fn assign(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        grid: &GpuGrid,
+        points: &wgpu::Buffer,
+        n: u32,
+        centroids: &wgpu::Buffer,
+        k: u32,
+        threshold: f32,
+        f: u32,
+        fuzzy: FuzzyMode,
+    ) -> Result<Assignment, GpuError> {
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
         (p.k, p.f, p.threshold) = (k, f, threshold);
         p.fuzzy = (fuzzy == FuzzyMode::Weighted) as u32;
@@ -220,13 +279,29 @@ impl ClusterKernel {
     /// Recomputes the `k` centroids from the first label of each of `n` points with fixed-point
     /// sums; clusters without members keep their centroid. Returns the member counts.
     #[allow(clippy::too_many_arguments)]
-    pub fn update(&self, device: &wgpu::Device, queue: &wgpu::Queue, fix: &FixedPoint, points: &wgpu::Buffer, n: u32, labels: &wgpu::Buffer, f: u32, centroids: &wgpu::Buffer, k: u32) -> Result<wgpu::Buffer, GpuError> {
+    pub fn update(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        fix: &FixedPoint,
+        points: &wgpu::Buffer,
+        n: u32,
+        labels: &wgpu::Buffer,
+        f: u32,
+        centroids: &wgpu::Buffer,
+        k: u32,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let mut p = Params { fix_min: [fix.min.x, fix.min.y, fix.min.z, 0.0], fix_ext: [fix.ext.x, fix.ext.y, fix.ext.z, 0.0], n, k, f, ..Default::default() };
         let sums = storage_zeroed::<u32>(device, "centroid sums", (k * 12) as usize);
         let counts = storage_zeroed::<u32>(device, "centroid counts", k as usize);
         for w in Self::windows(device, n, f) {
             p.n = w.count as u32;
-            let b = [(1, w.of::<Endpoint>(points, 1)), (4, counts.as_entire_buffer_binding()), (7, w.of::<u32>(labels, f as u64)), (9, sums.as_entire_buffer_binding())];
+            let b = [
+                (1, w.of::<Endpoint>(points, 1)),
+                (4, counts.as_entire_buffer_binding()),
+                (7, w.of::<u32>(labels, f as u64)),
+                (9, sums.as_entire_buffer_binding()),
+            ];
             self.run_windows(device, queue, "sums_kernel", &p, &b, w.count as u32)?;
         }
         p.n = n;
@@ -235,7 +310,14 @@ impl ClusterKernel {
     }
 
     /// Clusters `m` points (Endpoints on the device) like `vplgi_cpu::cluster::cluster`.
-    pub fn cluster(&self, device: &wgpu::Device, queue: &wgpu::Queue, points: &wgpu::Buffer, m: u32, params: &ClusterParams) -> Result<GpuClustering, GpuError> {
+    pub fn cluster(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        points: &wgpu::Buffer,
+        m: u32,
+        params: &ClusterParams,
+    ) -> Result<GpuClustering, GpuError> {
         let f = match params.fuzzy {
             FuzzyMode::Hard => 1,
             _ => params.f.clamp(1, MAX_F),
@@ -301,7 +383,14 @@ impl ClusterKernel {
         let kept = read_back::<u32>(device, queue, &remap, k as usize + 1)?[k as usize];
         let survivors = storage_zeroed::<Endpoint>(device, "surviving centroids", kept as usize);
         let members = storage_zeroed::<u32>(device, "members", kept as usize);
-        self.run(device, queue, "compact", &Params { k, ..Default::default() }, &[(3, &centroids), (4, &counts), (5, &remap), (6, &members), (11, &survivors)], k)?;
+        self.run(
+            device,
+            queue,
+            "compact",
+            &Params { k, ..Default::default() },
+            &[(3, &centroids), (4, &counts), (5, &remap), (6, &members), (11, &survivors)],
+            k,
+        )?;
 
         // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
         let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
@@ -326,7 +415,17 @@ impl ClusterKernel {
                 self.run_windows(device, queue, entry, &p, b, w.count as u32)?;
             }
         }
-        Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, members, outcome: a.outcome, geometry })
+        Ok(GpuClustering {
+            centroids: survivors,
+            k: kept,
+            f,
+            labels: a.labels,
+            weights: a.weights,
+            representatives: reps,
+            members,
+            outcome: a.outcome,
+            geometry,
+        })
     }
 
     /// Counts of search outcomes over `n` points: [neighbourhood, widened, incompatible].

@@ -175,7 +175,12 @@ mod tests {
         let kernel = crate::visibility::VisibilityKernel::new(&ctx.device).unwrap();
         let scene = vplgi_scene::cornell::cornell_box();
         let gs = crate::scene::GpuScene::new(&ctx.device, &scene).unwrap();
-        let tiny = ctx.device.create_buffer(&wgpu::BufferDescriptor { label: Some("too small"), size: 4, usage: wgpu::BufferUsages::STORAGE, mapped_at_creation: false });
+        let tiny = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("too small"),
+            size: 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         let r = kernel.run_on_device(&ctx.device, &ctx.queue, &gs, &tiny, 1, &tiny, 1, 0, 1);
         match r {
             Err(GpuError::Validation { message, .. }) => println!("captured: {}", message.lines().next().unwrap_or("")),

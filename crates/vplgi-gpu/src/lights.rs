@@ -51,14 +51,22 @@ impl GpuLights {
                 let (e1, e2) = (b - a, c - a);
                 let n = scene.geometric_normal(t as usize);
                 let le = scene.emission(t as usize);
-                Emitter { v0: [a.x, a.y, a.z, area], e1: [e1.x, e1.y, e1.z, 0.0], e2: [e2.x, e2.y, e2.z, 0.0], normal: [n.x, n.y, n.z, 0.0], radiance: [le.x, le.y, le.z, 0.0] }
+                Emitter {
+                    v0: [a.x, a.y, a.z, area],
+                    e1: [e1.x, e1.y, e1.z, 0.0],
+                    e2: [e2.x, e2.y, e2.z, 0.0],
+                    normal: [n.x, n.y, n.z, 0.0],
+                    radiance: [le.x, le.y, le.z, 0.0],
+                }
             })
             .collect();
         let punctual: Vec<Punctual> = sampler
             .punctual()
             .iter()
             .map(|l| match *l {
-                PunctualLight::Point { position: p, intensity: i } => Punctual { position: [p.x, p.y, p.z, 0.0], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] },
+                PunctualLight::Point { position: p, intensity: i } => {
+                    Punctual { position: [p.x, p.y, p.z, 0.0], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] }
+                }
                 PunctualLight::Spot { position: p, direction: d, intensity: i, cos_inner, cos_outer } => {
                     Punctual { position: [p.x, p.y, p.z, 1.0], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
                 }

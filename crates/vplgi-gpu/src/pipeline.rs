@@ -60,13 +60,30 @@ impl GpuKernels {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn frame(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, n: u32, k: u32, bound: &[(u32, &wgpu::Buffer)], threads: u32) -> Result<(), GpuError> {
+    fn frame(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        entry: &str,
+        n: u32,
+        k: u32,
+        bound: &[(u32, &wgpu::Buffer)],
+        threads: u32,
+    ) -> Result<(), GpuError> {
         let whole: Vec<(u32, wgpu::BufferBinding)> = bound.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
         self.frame_with(device, queue, entry, &FrameParams { n, k, ..Default::default() }, &whole, threads)
     }
 
     /// [`GpuKernels::frame`] with all parameters and any bindings (chunks, windows).
-    fn frame_with(&self, device: &wgpu::Device, queue: &wgpu::Queue, entry: &str, params: &FrameParams, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
+    fn frame_with(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        entry: &str,
+        params: &FrameParams,
+        bound: &[(u32, wgpu::BufferBinding)],
+        threads: u32,
+    ) -> Result<(), GpuError> {
         validated(device, entry, || {
             let p = uniform(device, "frame params", params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
@@ -121,7 +138,11 @@ fn check_frame_size(device: &wgpu::Device, cfg: &FrameConfig) -> Result<(), GpuE
     let what = format!("a {}x{} frame at {} spp", cfg.width, cfg.height, cfg.spp);
     let per_sample = (n_sp + 1) * 4;
     if per_sample > l.max_storage_buffer_binding_size {
-        return Err(GpuError::TooLarge { what: format!("bytes of per-sample hit offsets of {what} in one storage binding"), needed: per_sample, limit: l.max_storage_buffer_binding_size });
+        return Err(GpuError::TooLarge {
+            what: format!("bytes of per-sample hit offsets of {what} in one storage binding"),
+            needed: per_sample,
+            limit: l.max_storage_buffer_binding_size,
+        });
     }
     let per_point = n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);
     if per_point > l.max_buffer_size {
@@ -187,7 +208,12 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     for (first, count, buf) in &sp_chunks {
         for w in &hit_windows {
             let p = FrameParams { n: *count, first: *first, hit_first: w.first as u32, hit_count: w.count as u32, ..Default::default() };
-            let b = [(1, buf.as_entire_buffer_binding()), (3, hit_offsets.as_entire_buffer_binding()), (4, row_of.as_entire_buffer_binding()), (5, w.of::<Endpoint>(&hit_points, 1))];
+            let b = [
+                (1, buf.as_entire_buffer_binding()),
+                (3, hit_offsets.as_entire_buffer_binding()),
+                (4, row_of.as_entire_buffer_binding()),
+                (5, w.of::<Endpoint>(&hit_points, 1)),
+            ];
             k.frame_with(device, queue, "sp_compact", &p, &b, *count)?;
         }
     }
@@ -236,7 +262,8 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
     let to_rgb = |v: Vec<[f32; 4]>| v.into_iter().map(|p| [p[0], p[1], p[2]]);
     // Visibility rows shaded at once: as on the CPU, with their words within one storage
     // binding, and their Endpoints too (bound from the aligned row at or below the first).
-    let row_budget = ((ROW_CHUNK_BITS as u64 / 32).min(limit / 4) / (wpr.max(1) as u64)).min((limit / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN));
+    let row_budget =
+        ((ROW_CHUNK_BITS as u64 / 32).min(limit / 4) / (wpr.max(1) as u64)).min((limit / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN));
     let clustered_words = match &sp_clusters {
         Some((c, rows)) => {
             let t0 = Instant::now();
@@ -258,7 +285,16 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
                 let t0 = Instant::now();
                 let window = Window::covering(h0 as u64, h1 as u64);
                 let visibility = Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window };
-                let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility };
+                let inputs = ShadeInputs {
+                    sps: sp_buf,
+                    sp_first: *sp_first,
+                    row_of: &row_of,
+                    words,
+                    words_per_row: wpr,
+                    vpl_lights: &lights,
+                    light_count: n_lights,
+                    visibility,
+                };
                 let out = k.shade.run(device, queue, &gs, &gl, &inputs, chunk_px0..chunk_px1, spp, cfg.seed, cfg.direct_samples, g_max)?;
                 pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (chunk_px1 - chunk_px0) as usize)?));
                 t.shade += ms(t0);
@@ -278,7 +314,16 @@ pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, k: &GpuKernels, scene:
                     sync(device)?;
                     t.visibility += ms(t0);
                     let t0 = Instant::now();
-                    let inputs = ShadeInputs { sps: sp_buf, sp_first: *sp_first, row_of: &row_of, words: &words, words_per_row: wpr, vpl_lights: &lights, light_count: n_lights, visibility: Visibility::Own { first_row } };
+                    let inputs = ShadeInputs {
+                        sps: sp_buf,
+                        sp_first: *sp_first,
+                        row_of: &row_of,
+                        words: &words,
+                        words_per_row: wpr,
+                        vpl_lights: &lights,
+                        light_count: n_lights,
+                        visibility: Visibility::Own { first_row },
+                    };
                     let out = k.shade.run(device, queue, &gs, &gl, &inputs, px..end, spp, cfg.seed, cfg.direct_samples, g_max)?;
                     pixels.extend(to_rgb(read_back::<[f32; 4]>(device, queue, &out, (end - px) as usize)?));
                     t.shade += ms(t0);

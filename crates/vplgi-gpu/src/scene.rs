@@ -61,7 +61,8 @@ pub fn texel_words(scene: &Scene) -> (Vec<u32>, Vec<TextureInfo>) {
     let mut words: Vec<u32> = table.iter().map(|v| v.to_bits()).collect();
     let mut infos = Vec::new();
     for t in &scene.textures {
-        let codes: Option<Vec<u32>> = t.texels.iter().map(|c| Some(code.get(&c.x.to_bits())? | code.get(&c.y.to_bits())? << 8 | code.get(&c.z.to_bits())? << 16)).collect();
+        let codes: Option<Vec<u32>> =
+            t.texels.iter().map(|c| Some(code.get(&c.x.to_bits())? | code.get(&c.y.to_bits())? << 8 | code.get(&c.z.to_bits())? << 16)).collect();
         let format = if codes.is_some() { TEXELS_SRGB8 } else { TEXELS_F32 };
         infos.push(TextureInfo { offset: words.len() as u32, width: t.width, height: t.height, format });
         match codes {
@@ -168,7 +169,11 @@ fn pages<T: bytemuck::Pod, const N: usize>(device: &wgpu::Device, label: &str, d
     let page = (page_len::<T>(device) as usize).max(1);
     if data.len() > N * page {
         let size = std::mem::size_of::<T>() as u64;
-        return Err(GpuError::TooLarge { what: format!("bytes of {label} in {N} storage bindings"), needed: data.len() as u64 * size, limit: (N * page) as u64 * size });
+        return Err(GpuError::TooLarge {
+            what: format!("bytes of {label} in {N} storage bindings"),
+            needed: data.len() as u64 * size,
+            limit: (N * page) as u64 * size,
+        });
     }
     Ok(std::array::from_fn(|i| storage(device, label, &data[(i * page).min(data.len())..((i + 1) * page).min(data.len())])))
 }

@@ -87,7 +87,9 @@ impl ShadeKernel {
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {
             Visibility::Own { first_row } => (0, first_row, 1, dummy.as_entire_buffer_binding(), dummy.as_entire_buffer_binding()),
-            Visibility::Fuzzy { labels, weights, f, window } => (1, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64)),
+            Visibility::Fuzzy { labels, weights, f, window } => {
+                (1, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64))
+            }
         };
         let params = Params {
             spp,

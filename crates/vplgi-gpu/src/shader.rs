@@ -12,13 +12,28 @@ const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
 const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
 
 /// Shared WGSL files by name.
-pub const COMMON: &[(&str, &str)] = &[("common/types.wgsl", TYPES), ("common/rng.wgsl", RNG), ("common/bvh.wgsl", BVH), ("common/lights.wgsl", LIGHTS), ("common/sampling.wgsl", SAMPLING), ("common/surface.wgsl", SURFACE)];
+pub const COMMON: &[(&str, &str)] = &[
+    ("common/types.wgsl", TYPES),
+    ("common/rng.wgsl", RNG),
+    ("common/bvh.wgsl", BVH),
+    ("common/lights.wgsl", LIGHTS),
+    ("common/sampling.wgsl", SAMPLING),
+    ("common/surface.wgsl", SURFACE),
+];
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/types.wgsl", "common/rng.wgsl"]),
-    ("shading_points.wgsl", include_str!("../../../shaders/shading_points.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl"]),
-    ("trace_vpls.wgsl", include_str!("../../../shaders/trace_vpls.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"]),
+    (
+        "shading_points.wgsl",
+        include_str!("../../../shaders/shading_points.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl"],
+    ),
+    (
+        "trace_vpls.wgsl",
+        include_str!("../../../shaders/trace_vpls.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"],
+    ),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
     ("cluster.wgsl", include_str!("../../../shaders/cluster.wgsl"), &["common/types.wgsl"]),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
@@ -160,35 +175,55 @@ mod tests {
                 assert_eq!(m.1 as usize, *off, "{name}.{field}: WGSL offset {}, Rust offset {off}", m.1);
             }
         };
-        check("shading_points.wgsl", "ShadingPoint", size_of::<ShadingPoint>(), &[
-            ("position", offset_of!(ShadingPoint, position)),
-            ("pixel", offset_of!(ShadingPoint, pixel)),
-            ("normal", offset_of!(ShadingPoint, normal)),
-            ("triangle", offset_of!(ShadingPoint, triangle)),
-            ("albedo", offset_of!(ShadingPoint, albedo)),
-            ("emitted", offset_of!(ShadingPoint, emitted)),
-        ]);
-        check("shading_points.wgsl", "Vpl", size_of::<Vpl>(), &[
-            ("position", offset_of!(Vpl, position)),
-            ("path", offset_of!(Vpl, path)),
-            ("normal", offset_of!(Vpl, normal)),
-            ("bounce", offset_of!(Vpl, bounce)),
-            ("flux", offset_of!(Vpl, flux)),
-        ]);
+        check(
+            "shading_points.wgsl",
+            "ShadingPoint",
+            size_of::<ShadingPoint>(),
+            &[
+                ("position", offset_of!(ShadingPoint, position)),
+                ("pixel", offset_of!(ShadingPoint, pixel)),
+                ("normal", offset_of!(ShadingPoint, normal)),
+                ("triangle", offset_of!(ShadingPoint, triangle)),
+                ("albedo", offset_of!(ShadingPoint, albedo)),
+                ("emitted", offset_of!(ShadingPoint, emitted)),
+            ],
+        );
+        check(
+            "shading_points.wgsl",
+            "Vpl",
+            size_of::<Vpl>(),
+            &[
+                ("position", offset_of!(Vpl, position)),
+                ("path", offset_of!(Vpl, path)),
+                ("normal", offset_of!(Vpl, normal)),
+                ("bounce", offset_of!(Vpl, bounce)),
+                ("flux", offset_of!(Vpl, flux)),
+            ],
+        );
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
-        check("shading_points.wgsl", "SceneTri", size_of::<SceneTri>(), &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))]);
+        check(
+            "shading_points.wgsl",
+            "SceneTri",
+            size_of::<SceneTri>(),
+            &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))],
+        );
         check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
         check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8), ("format", 12)]);
         use crate::bvh::{BvhNode, BvhTri};
         check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("v1", offset_of!(BvhTri, v1)), ("v2", offset_of!(BvhTri, v2))]);
-        check("visibility.wgsl", "BvhNode", size_of::<BvhNode>(), &[
-            ("min", 0),
-            ("skip", offset_of!(BvhNode, skip)),
-            ("max", offset_of!(BvhNode, max)),
-            ("leaf", offset_of!(BvhNode, leaf)),
-        ]);
+        check(
+            "visibility.wgsl",
+            "BvhNode",
+            size_of::<BvhNode>(),
+            &[("min", 0), ("skip", offset_of!(BvhNode, skip)), ("max", offset_of!(BvhNode, max)), ("leaf", offset_of!(BvhNode, leaf))],
+        );
         use crate::lights::{Emitter, Punctual};
-        check("shade.wgsl", "Emitter", size_of::<Emitter>(), &[("v0", 0), ("e1", 16), ("normal", offset_of!(Emitter, normal)), ("radiance", offset_of!(Emitter, radiance))]);
+        check(
+            "shade.wgsl",
+            "Emitter",
+            size_of::<Emitter>(),
+            &[("v0", 0), ("e1", 16), ("normal", offset_of!(Emitter, normal)), ("radiance", offset_of!(Emitter, radiance))],
+        );
         check("shade.wgsl", "Punctual", size_of::<Punctual>(), &[("position", 0), ("direction", 16), ("intensity", offset_of!(Punctual, intensity))]);
         use crate::shade::VplLight;
         check("shade.wgsl", "VplLight", size_of::<VplLight>(), &[("position", 0), ("normal", 16), ("flux", offset_of!(VplLight, flux))]);

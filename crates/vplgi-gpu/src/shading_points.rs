@@ -36,7 +36,18 @@ impl ShadingPointsKernel {
 
     /// Shading points `first .. first + count` into a new device buffer.
     #[allow(clippy::too_many_arguments)]
-    pub fn dispatch_range(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, first: u64, count: u64) -> Result<wgpu::Buffer, GpuError> {
+    pub fn dispatch_range(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        width: u32,
+        height: u32,
+        spp: u32,
+        seed: u32,
+        first: u64,
+        count: u64,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let cam = scene.camera;
         let right = cam.forward.cross(cam.up).normalize();
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
@@ -58,7 +69,24 @@ impl ShadingPointsKernel {
             let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
             let [t0, t1, t2, t3] = &scene.texels;
             let [s0, s1, s2, s3] = &scene.scene_tris;
-            let bindings = [&p, &scene.bvh_nodes, &scene.bvh_tris, s0, &scene.materials, &scene.texture_infos, t0, &buf, &scene.bvh_nodes_hi, &scene.bvh_tris_hi, s1, t1, t2, t3, s2, s3];
+            let bindings = [
+                &p,
+                &scene.bvh_nodes,
+                &scene.bvh_tris,
+                s0,
+                &scene.materials,
+                &scene.texture_infos,
+                t0,
+                &buf,
+                &scene.bvh_nodes_hi,
+                &scene.bvh_tris_hi,
+                s1,
+                t1,
+                t2,
+                t3,
+                s2,
+                s3,
+            ];
             dispatch(device, queue, self.pipeline.get(device, scene), &bindings, (count as u32).div_ceil(64));
             buf
         })
@@ -67,7 +95,17 @@ impl ShadingPointsKernel {
     /// All `width * height * spp` shading points, read back. Output is produced in chunks of at
     /// most `max_binding_bytes` (the adapter's storage-binding limit unless a test forces less).
     #[allow(clippy::too_many_arguments)]
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, width: u32, height: u32, spp: u32, seed: u32, max_binding_bytes: Option<u64>) -> Result<Vec<ShadingPoint>, GpuError> {
+    pub fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        width: u32,
+        height: u32,
+        spp: u32,
+        seed: u32,
+        max_binding_bytes: Option<u64>,
+    ) -> Result<Vec<ShadingPoint>, GpuError> {
         let total = width as u64 * height as u64 * spp as u64;
         let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size);
         let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).max(1);

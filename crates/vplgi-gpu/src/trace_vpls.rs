@@ -5,8 +5,8 @@
 
 use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, uniform};
 use crate::context::validated;
-use crate::scan::ScanKernel;
 use crate::lights::GpuLights;
+use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::shader::{pipelines, RayPipeline};
 use crate::GpuError;
@@ -54,7 +54,16 @@ impl TraceVplsKernel {
 
     /// Exactly `count` VPLs (fewer only if a budget of `64 count + 65536` particles runs out).
     #[allow(clippy::too_many_arguments)]
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, lights: &GpuLights, seed: u32, count: u32, bounces: u32) -> Result<GpuVpls, GpuError> {
+    pub fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        lights: &GpuLights,
+        seed: u32,
+        count: u32,
+        bounces: u32,
+    ) -> Result<GpuVpls, GpuError> {
         let vpls = storage_zeroed::<Vpl>(device, "vpls", count.max(1) as usize);
         if count == 0 || bounces == 0 || lights.emitter_count + lights.punctual_count == 0 {
             return Ok(GpuVpls { buffer: vpls, count: 0, particles: 0 });
@@ -102,7 +111,13 @@ impl TraceVplsKernel {
             self.scan.run(device, queue, &counts, n, &offsets)?;
             let total = read_word(device, queue, &offsets, n as u64)?;
             validated(device, "trace_vpls compact", || {
-                dispatch_bound(device, queue, &self.compact, &[(0, &params_buf), (11, &slots), (12, &counts), (13, &offsets), (14, &totals), (15, &vpls)], n.div_ceil(64))
+                dispatch_bound(
+                    device,
+                    queue,
+                    &self.compact,
+                    &[(0, &params_buf), (11, &slots), (12, &counts), (13, &offsets), (14, &totals), (15, &vpls)],
+                    n.div_ceil(64),
+                )
             })?;
             kept += total.min(count - kept);
             next += n;

@@ -53,16 +53,29 @@ impl VisibilityKernel {
     /// Rows `first_row .. first_row + row_count` of the matrix between the `n_cols` columns and
     /// the rows in `rows`, as a new device buffer of 32-bit words.
     #[allow(clippy::too_many_arguments)]
-    pub fn run_on_device(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &wgpu::Buffer, n_rows: u32, cols: &wgpu::Buffer, n_cols: u32, first_row: u32, row_count: u32) -> Result<wgpu::Buffer, GpuError> {
+    pub fn run_on_device(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        rows: &wgpu::Buffer,
+        n_rows: u32,
+        cols: &wgpu::Buffer,
+        n_cols: u32,
+        first_row: u32,
+        row_count: u32,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let wpr = words_per_row(n_cols as usize) as u32;
         // Rows are bound from the aligned row at or below first_row, so that `rows` may be
         // larger than one binding.
         let window = Window::covering(first_row as u64, (first_row + row_count) as u64);
-        let params = Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row: first_row - window.first as u32, row_count, eps: scene.eps, pad: [0; 2] };
+        let params =
+            Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row: first_row - window.first as u32, row_count, eps: scene.eps, pad: [0; 2] };
         validated(device, "visibility", || {
             let p = uniform(device, "visibility params", &params);
             let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
-            let mut b: Vec<(u32, wgpu::BufferBinding)> = [&p, &scene.bvh_nodes, &scene.bvh_tris].iter().enumerate().map(|(i, x)| (i as u32, x.as_entire_buffer_binding())).collect();
+            let mut b: Vec<(u32, wgpu::BufferBinding)> =
+                [&p, &scene.bvh_nodes, &scene.bvh_tris].iter().enumerate().map(|(i, x)| (i as u32, x.as_entire_buffer_binding())).collect();
             b.push((3, window.of::<Endpoint>(rows, 1)));
             for (i, x) in [(4, cols), (5, &words), (6, &scene.bvh_nodes_hi), (7, &scene.bvh_tris_hi)] {
                 b.push((i, x.as_entire_buffer_binding()));
@@ -74,7 +87,15 @@ impl VisibilityKernel {
 
     /// The visibility matrix between `rows` and `cols`, read back as 32-bit words. Rows are
     /// processed in chunks whose words fit `max_binding_bytes` (default: the adapter's limit).
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, rows: &[Endpoint], cols: &[Endpoint], max_binding_bytes: Option<u64>) -> Result<Vec<u32>, GpuError> {
+    pub fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        rows: &[Endpoint],
+        cols: &[Endpoint],
+        max_binding_bytes: Option<u64>,
+    ) -> Result<Vec<u32>, GpuError> {
         let wpr = words_per_row(cols.len());
         let mut out = Vec::with_capacity(rows.len() * wpr);
         if wpr == 0 || rows.is_empty() {

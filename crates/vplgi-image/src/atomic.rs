@@ -18,20 +18,9 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// If `write` (or any later step) fails, or panics, the temporary file is removed and `path` is
 /// left untouched: it keeps its old content, or stays absent if it did not exist.
 /// Errors are reported as [`ImageError::Write`] naming `path`.
-pub fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-) -> Result<(), ImageError> {
-    let wrap = |source: io::Error| ImageError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    let file_name = path.file_name().ok_or_else(|| {
-        wrap(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "the path does not name a file",
-        ))
-    })?;
+pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>) -> Result<(), ImageError> {
+    let wrap = |source: io::Error| ImageError::Write { path: path.to_path_buf(), source };
+    let file_name = path.file_name().ok_or_else(|| wrap(io::Error::new(io::ErrorKind::InvalidInput, "the path does not name a file")))?;
     // `Path::parent` of a bare file name is "", which means the current directory.
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -39,24 +28,12 @@ pub fn write_atomically(
     };
     let mut temp_name = std::ffi::OsString::from(".");
     temp_name.push(file_name);
-    temp_name.push(format!(
-        ".tmp-{}-{}",
-        std::process::id(),
-        TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let mut guard = TempGuard {
-        path: dir.join(temp_name),
-        renamed: false,
-    };
+    temp_name.push(format!(".tmp-{}-{}", std::process::id(), TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
+    let mut guard = TempGuard { path: dir.join(temp_name), renamed: false };
 
     // Truncate rather than create_new: a leftover with exactly this name can only come from a
     // dead process that had our pid, and it is ours to overwrite.
-    let file = OpenOptions::new()
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(&guard.path)
-        .map_err(wrap)?;
+    let file = OpenOptions::new().write(true).create(true).truncate(true).open(&guard.path).map_err(wrap)?;
     let mut writer = BufWriter::new(file);
     write(&mut writer).map_err(wrap)?;
     let file = writer.into_inner().map_err(|e| wrap(e.into_error()))?;
@@ -99,15 +76,8 @@ mod tests {
     use std::io::Write;
 
     fn entries(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(dir)
-            .expect("read test dir")
-            .map(|e| {
-                e.expect("dir entry")
-                    .file_name()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect();
+        let mut names: Vec<String> =
+            fs::read_dir(dir).expect("read test dir").map(|e| e.expect("dir entry").file_name().to_string_lossy().into_owned()).collect();
         names.sort();
         names
     }
@@ -139,10 +109,7 @@ mod tests {
         })
         .unwrap_err();
         let msg = err.to_string();
-        assert!(
-            msg.contains("out.png") && msg.contains("encoder exploded"),
-            "{msg}"
-        );
+        assert!(msg.contains("out.png") && msg.contains("encoder exploded"), "{msg}");
         assert_eq!(fs::read(&target).expect("read target"), b"old content");
         assert_eq!(entries(dir.path()), vec!["out.png"]);
     }

@@ -4,10 +4,7 @@ use std::fs::File;
 use std::io::{self, BufReader, Seek};
 use std::path::Path;
 
-use exr::prelude::{
-    Encoding, Layer, LayerAttributes, MetaData, ReadChannels, ReadLayers, ReadSpecificChannel,
-    SpecificChannels, Vec2, WritableImage,
-};
+use exr::prelude::{Encoding, Layer, LayerAttributes, MetaData, ReadChannels, ReadLayers, ReadSpecificChannel, SpecificChannels, Vec2, WritableImage};
 use image::{ExtendedColorType, ImageEncoder};
 
 use crate::{check_buffer_len, pixel_count, write_atomically, Image, ImageError};
@@ -23,12 +20,7 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
         let [r, g, b] = img.pixels[pos.y() * width + pos.x()];
         (r, g, b)
     });
-    let layer = Layer::new(
-        (width, img.height as usize),
-        LayerAttributes::default(),
-        Encoding::SMALL_LOSSLESS,
-        channels,
-    );
+    let layer = Layer::new((width, img.height as usize), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, channels);
     let exr_image = exr::image::Image::from_layer(layer);
     write_atomically(path, |out| {
         exr_image.write().to_buffered(out).map_err(|e| match e {
@@ -46,25 +38,14 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
 /// Errors name the path: [`ImageError::Read`] if the file cannot be opened, [`ImageError::Exr`]
 /// if it is not a valid OpenEXR file, [`ImageError::MissingChannels`] if no layer has R, G and B.
 pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
-    let read_err = |source: io::Error| ImageError::Read {
-        path: path.to_path_buf(),
-        source,
-    };
-    let exr_err = |source: exr::error::Error| ImageError::Exr {
-        path: path.to_path_buf(),
-        source,
-    };
+    let read_err = |source: io::Error| ImageError::Read { path: path.to_path_buf(), source };
+    let exr_err = |source: exr::error::Error| ImageError::Exr { path: path.to_path_buf(), source };
     let mut reader = BufReader::new(File::open(path).map_err(read_err)?);
 
     // Look at the headers first: the exr crate only says "no layer matched your requirements"
     // when the channels are missing, and the user deserves to know which channels exist.
     let meta = MetaData::read_from_buffered(&mut reader, false).map_err(exr_err)?;
-    let has_rgb = meta.headers.iter().any(|header| {
-        !header.deep
-            && ["R", "G", "B"]
-                .iter()
-                .all(|name| header.channels.list.iter().any(|c| c.name.eq(name)))
-    });
+    let has_rgb = meta.headers.iter().any(|header| !header.deep && ["R", "G", "B"].iter().all(|name| header.channels.list.iter().any(|c| c.name.eq(name))));
     if !has_rgb {
         let mut found: Vec<String> = Vec::new();
         for header in &meta.headers {
@@ -75,10 +56,7 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
                 }
             }
         }
-        return Err(ImageError::MissingChannels {
-            path: path.to_path_buf(),
-            found,
-        });
+        return Err(ImageError::MissingChannels { path: path.to_path_buf(), found });
     }
     reader.rewind().map_err(read_err)?;
 
@@ -91,9 +69,7 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
         .required("B")
         .collect_pixels(
             |size: Vec2<usize>, _| (size.x(), vec![[0.0f32; 3]; size.area()]),
-            |(width, pixels): &mut (usize, Vec<[f32; 3]>),
-             pos: Vec2<usize>,
-             (r, g, b): (f32, f32, f32)| {
+            |(width, pixels): &mut (usize, Vec<[f32; 3]>), pos: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
                 // Positions are always inside the layer; `get_mut` just keeps a corrupt file
                 // from turning into a panic.
                 if let Some(p) = pixels.get_mut(pos.y() * *width + pos.x()) {
@@ -108,20 +84,12 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
 
     let layer = exr_image.layer_data;
     // The EXR format stores sizes as i32, so these conversions only fail on a corrupt header.
-    let too_large = || {
-        exr_err(exr::error::Error::NotSupported(
-            "image larger than 2^32 pixels per side".into(),
-        ))
-    };
+    let too_large = || exr_err(exr::error::Error::NotSupported("image larger than 2^32 pixels per side".into()));
     let width = u32::try_from(layer.size.x()).map_err(|_| too_large())?;
     let height = u32::try_from(layer.size.y()).map_err(|_| too_large())?;
     let (_, pixels) = layer.channel_data.pixels;
     debug_assert_eq!(pixels.len(), pixel_count(width, height));
-    Ok(Image {
-        width,
-        height,
-        pixels,
-    })
+    Ok(Image { width, height, pixels })
 }
 
 /// The fixed tonemap of vplgi: linear RGB -> 8-bit sRGB, tightly packed RGB8, row-major.
@@ -133,24 +101,13 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
 /// This is the only tonemap used for PNG output ([`write_png`]) and, with `exposure = 1`, for
 /// the LDR-FLIP metric ([`crate::compare`]), so PNGs and FLIP scores always agree.
 pub fn tonemap_srgb8(img: &Image, exposure: f32) -> Vec<u8> {
-    img.pixels
-        .iter()
-        .flat_map(|p| p.map(|c| srgb8(c * exposure)))
-        .collect()
+    img.pixels.iter().flat_map(|p| p.map(|c| srgb8(c * exposure))).collect()
 }
 
 fn srgb8(linear: f32) -> u8 {
     // `linear > 0.0` is false for NaN, which therefore maps to 0 like negative values.
-    let v = if linear > 0.0 {
-        f64::from(linear).min(1.0)
-    } else {
-        0.0
-    };
-    let encoded = if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    };
+    let v = if linear > 0.0 { f64::from(linear).min(1.0) } else { 0.0 };
+    let encoded = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
     // `encoded` is within [0, 1], so the rounded value fits in u8.
     (encoded * 255.0).round() as u8
 }
@@ -165,11 +122,7 @@ pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageErr
 /// atomically.
 pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), ImageError> {
     check_buffer_len(path.display().to_string(), width, height, 3, rgb.len())?;
-    write_atomically(path, |out| {
-        image::codecs::png::PngEncoder::new(out)
-            .write_image(rgb, width, height, ExtendedColorType::Rgb8)
-            .map_err(io::Error::other)
-    })
+    write_atomically(path, |out| image::codecs::png::PngEncoder::new(out).write_image(rgb, width, height, ExtendedColorType::Rgb8).map_err(io::Error::other))
 }
 
 /// `src` (`w` x `h` 8-bit RGB rows) resized to `to` by averaging the source pixels each target
@@ -239,11 +192,7 @@ mod tests {
     fn exr_write_rejects_inconsistent_image() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("bad.exr");
-        let img = Image {
-            width: 4,
-            height: 4,
-            pixels: vec![[1.0; 3]; 5],
-        };
+        let img = Image { width: 4, height: 4, pixels: vec![[1.0; 3]; 5] };
         let err = write_exr(&path, &img).unwrap_err();
         assert!(err.to_string().contains("bad.exr"), "{err}");
         assert!(!path.exists());
@@ -267,8 +216,7 @@ mod tests {
 
         // u32 RGB.
         let uint_path = dir.path().join("uint.exr");
-        exr::prelude::write_rgb_file(&uint_path, 2, 2, |x, y| (x as u32, y as u32, 7u32))
-            .expect("write u32 rgb");
+        exr::prelude::write_rgb_file(&uint_path, 2, 2, |x, y| (x as u32, y as u32, 7u32)).expect("write u32 rgb");
         let img = read_exr(&uint_path).expect("read u32");
         assert_eq!(img.get(1, 0), Some([1.0, 0.0, 7.0]));
         assert_eq!(img.get(0, 1), Some([0.0, 1.0, 7.0]));
@@ -278,19 +226,9 @@ mod tests {
     fn exr_without_rgb_names_path_and_channels() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("luma.exr");
-        let channels = SpecificChannels::build()
-            .with_channel("Y")
-            .with_pixel_fn(|_pos: Vec2<usize>| (0.5f32,));
-        let layer = Layer::new(
-            (2, 2),
-            LayerAttributes::default(),
-            Encoding::UNCOMPRESSED,
-            channels,
-        );
-        exr::image::Image::from_layer(layer)
-            .write()
-            .to_file(&path)
-            .expect("write luma exr");
+        let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|_pos: Vec2<usize>| (0.5f32,));
+        let layer = Layer::new((2, 2), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels);
+        exr::image::Image::from_layer(layer).write().to_file(&path).expect("write luma exr");
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, ImageError::MissingChannels { .. }), "{err:?}");
         let msg = err.to_string();
@@ -310,16 +248,10 @@ mod tests {
     fn garbage_exr_is_an_error_naming_the_path() {
         let dir = tempfile::tempdir().expect("tempdir");
         for (name, content) in [
-            (
-                "garbage.exr",
-                b"this is not an OpenEXR file at all".to_vec(),
-            ),
+            ("garbage.exr", b"this is not an OpenEXR file at all".to_vec()),
             ("empty.exr", Vec::new()),
             // Valid magic number, then nonsense.
-            (
-                "truncated.exr",
-                vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, b'x'],
-            ),
+            ("truncated.exr", vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, b'x']),
         ] {
             let path = dir.path().join(name);
             std::fs::write(&path, content).expect("write garbage");
@@ -378,11 +310,7 @@ mod tests {
         let path = dir.path().join("short.png");
         let err = write_rgb8_png(&path, 2, 2, &[0u8; 11]).unwrap_err();
         let msg = err.to_string();
-        assert!(
-            msg.contains("short.png") && msg.contains("11") && msg.contains("12"),
-            "{msg}"
-        );
+        assert!(msg.contains("short.png") && msg.contains("11") && msg.contains("12"), "{msg}");
         assert!(!path.exists());
     }
 }
-

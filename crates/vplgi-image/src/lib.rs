@@ -32,11 +32,7 @@ pub struct Image {
 impl Image {
     /// A black image of the given size.
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            pixels: vec![[0.0; 3]; pixel_count(width, height)],
-        }
+        Self { width, height, pixels: vec![[0.0; 3]; pixel_count(width, height)] }
     }
 
     /// The pixel at column `x`, row `y` (row 0 = top), or `None` outside the image.
@@ -101,22 +97,13 @@ pub(crate) fn pixel_count(width: u32, height: u32) -> usize {
 pub enum ImageError {
     /// The file could not be opened or read.
     #[error("cannot read {}: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Read { path: PathBuf, source: std::io::Error },
     /// The file (or its temporary sibling) could not be created, written, synced or renamed.
     #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Write { path: PathBuf, source: std::io::Error },
     /// The file is not a valid (or supported) OpenEXR file.
     #[error("cannot read {} as OpenEXR: {source}", path.display())]
-    Exr {
-        path: PathBuf,
-        source: exr::error::Error,
-    },
+    Exr { path: PathBuf, source: exr::error::Error },
     /// The EXR file is valid but has no layer with R, G and B channels.
     #[error(
         "{} has no layer with R, G and B channels (channels found: {})",
@@ -126,49 +113,26 @@ pub enum ImageError {
     MissingChannels { path: PathBuf, found: Vec<String> },
     /// A pixel or byte buffer does not match the stated image size.
     #[error("{what}: buffer holds {actual} values but a {width}x{height} image needs {expected}")]
-    BufferSize {
-        what: String,
-        width: u32,
-        height: u32,
-        expected: usize,
-        actual: usize,
-    },
+    BufferSize { what: String, width: u32, height: u32, expected: usize, actual: usize },
     /// The two images of a comparison differ in size.
     #[error(
         "cannot compare images of different sizes: reference is {}x{}, test is {}x{}",
         reference.0, reference.1, test.0, test.1
     )]
-    SizeMismatch {
-        reference: (u32, u32),
-        test: (u32, u32),
-    },
+    SizeMismatch { reference: (u32, u32), test: (u32, u32) },
     /// The images of a comparison have no pixels, so the metrics (means) are undefined.
-    #[error(
-        "cannot compare empty ({width}x{height}) images: the metrics are means over no pixels"
-    )]
+    #[error("cannot compare empty ({width}x{height}) images: the metrics are means over no pixels")]
     EmptyComparison { width: u32, height: u32 },
 }
 
 /// Checks that a buffer of `actual` values matches a `width` x `height` image with `per_pixel`
 /// values per pixel.
-pub(crate) fn check_buffer_len(
-    what: impl Into<String>,
-    width: u32,
-    height: u32,
-    per_pixel: usize,
-    actual: usize,
-) -> Result<(), ImageError> {
+pub(crate) fn check_buffer_len(what: impl Into<String>, width: u32, height: u32, per_pixel: usize, actual: usize) -> Result<(), ImageError> {
     let expected = pixel_count(width, height) * per_pixel;
     if actual == expected {
         Ok(())
     } else {
-        Err(ImageError::BufferSize {
-            what: what.into(),
-            width,
-            height,
-            expected,
-            actual,
-        })
+        Err(ImageError::BufferSize { what: what.into(), width, height, expected, actual })
     }
 }
 
@@ -192,27 +156,16 @@ mod tests {
 
     #[test]
     fn mean_per_channel() {
-        let img = Image {
-            width: 2,
-            height: 1,
-            pixels: vec![[1.0, 0.0, 4.0], [3.0, 0.5, 0.0]],
-        };
+        let img = Image { width: 2, height: 1, pixels: vec![[1.0, 0.0, 4.0], [3.0, 0.5, 0.0]] };
         assert_eq!(img.mean(), [2.0, 0.25, 2.0]);
         assert_eq!(Image::new(0, 0).mean(), [0.0; 3]);
     }
 
     #[test]
     fn check_len_reports_mismatch() {
-        let img = Image {
-            width: 2,
-            height: 2,
-            pixels: vec![[0.0; 3]; 3],
-        };
+        let img = Image { width: 2, height: 2, pixels: vec![[0.0; 3]; 3] };
         let err = img.check_len("out.exr").unwrap_err();
         let msg = err.to_string();
-        assert!(
-            msg.contains("out.exr") && msg.contains('3') && msg.contains('4'),
-            "{msg}"
-        );
+        assert!(msg.contains("out.exr") && msg.contains('3') && msg.contains('4'), "{msg}");
     }
 }

@@ -41,18 +41,12 @@ pub struct Comparison {
 /// buffer that does not match their stated size.
 pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError> {
     if (reference.width, reference.height) != (test.width, test.height) {
-        return Err(ImageError::SizeMismatch {
-            reference: (reference.width, reference.height),
-            test: (test.width, test.height),
-        });
+        return Err(ImageError::SizeMismatch { reference: (reference.width, reference.height), test: (test.width, test.height) });
     }
     reference.check_len("reference image")?;
     test.check_len("test image")?;
     if reference.pixels.is_empty() {
-        return Err(ImageError::EmptyComparison {
-            width: reference.width,
-            height: reference.height,
-        });
+        return Err(ImageError::EmptyComparison { width: reference.width, height: reference.height });
     }
 
     // Accumulate in f64: a 4K image has ~25M terms, too many for an f32 sum.
@@ -73,11 +67,7 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
     let flip = flip_error.iter().map(|&e| f64::from(e)).sum::<f64>() / flip_error.len() as f64;
 
     Ok(Comparison {
-        metrics: Metrics {
-            mse: squared / samples,
-            rel_mse: relative / samples,
-            flip,
-        },
+        metrics: Metrics { mse: squared / samples, rel_mse: relative / samples, flip },
         width: reference.width,
         height: reference.height,
         flip_error,
@@ -87,15 +77,8 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
 /// The LDR-FLIP error map of two same-sized, consistent, non-empty images (checked by
 /// [`compare`]), after the fixed sRGB tonemap at exposure 1.
 fn ldr_flip(reference: &Image, test: &Image) -> Vec<f32> {
-    let to_flip = |img: &Image| {
-        nv_flip::FlipImageRgb8::with_data(img.width, img.height, &tonemap_srgb8(img, 1.0))
-    };
-    nv_flip::flip(
-        to_flip(reference),
-        to_flip(test),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    )
-    .to_vec()
+    let to_flip = |img: &Image| nv_flip::FlipImageRgb8::with_data(img.width, img.height, &tonemap_srgb8(img, 1.0));
+    nv_flip::flip(to_flip(reference), to_flip(test), nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec()
 }
 
 #[cfg(test)]
@@ -103,11 +86,7 @@ mod tests {
     use super::*;
 
     fn filled(width: u32, height: u32, rgb: [f32; 3]) -> Image {
-        Image {
-            width,
-            height,
-            pixels: vec![rgb; (width * height) as usize],
-        }
+        Image { width, height, pixels: vec![rgb; (width * height) as usize] }
     }
 
     /// A reference with some structure (gradient + checker), so FLIP sees edges too.
@@ -124,10 +103,7 @@ mod tests {
     }
 
     fn offset(img: &Image, delta: f32) -> Image {
-        Image {
-            pixels: img.pixels.iter().map(|p| p.map(|c| c + delta)).collect(),
-            ..img.clone()
-        }
+        Image { pixels: img.pixels.iter().map(|p| p.map(|c| c + delta)).collect(), ..img.clone() }
     }
 
     #[test]
@@ -147,40 +123,20 @@ mod tests {
         // Uniform: ref 0.5, test 0.75 => d² = 0.0625 everywhere;
         // rel = 0.0625 / (0.25 + 0.01).
         let cmp = compare(&filled(4, 3, [0.5; 3]), &filled(4, 3, [0.75; 3])).expect("compare");
-        assert!(
-            (cmp.metrics.mse - 0.0625).abs() < 1e-12,
-            "{:?}",
-            cmp.metrics
-        );
-        assert!(
-            (cmp.metrics.rel_mse - 0.0625 / 0.26).abs() < 1e-12,
-            "{:?}",
-            cmp.metrics
-        );
+        assert!((cmp.metrics.mse - 0.0625).abs() < 1e-12, "{:?}", cmp.metrics);
+        assert!((cmp.metrics.rel_mse - 0.0625 / 0.26).abs() < 1e-12, "{:?}", cmp.metrics);
 
         // Per channel and per pixel: the mean runs over pixels and channels.
         // pixel 0: ref [0, 1, 2], test [1, 1, 2.5] => d² = [1, 0, 0.25],
         //          rel = [1/0.01, 0, 0.25/4.01]
         // pixel 1: ref [3, 0, 0], test [3, 0, 0]   => all 0
-        let reference = Image {
-            width: 2,
-            height: 1,
-            pixels: vec![[0.0, 1.0, 2.0], [3.0, 0.0, 0.0]],
-        };
-        let test = Image {
-            width: 2,
-            height: 1,
-            pixels: vec![[1.0, 1.0, 2.5], [3.0, 0.0, 0.0]],
-        };
+        let reference = Image { width: 2, height: 1, pixels: vec![[0.0, 1.0, 2.0], [3.0, 0.0, 0.0]] };
+        let test = Image { width: 2, height: 1, pixels: vec![[1.0, 1.0, 2.5], [3.0, 0.0, 0.0]] };
         let cmp = compare(&reference, &test).expect("compare");
         let mse = (1.0 + 0.25) / 6.0;
         let rel_mse = (1.0 / 0.01 + 0.25 / 4.01) / 6.0;
         assert!((cmp.metrics.mse - mse).abs() < 1e-12, "{:?}", cmp.metrics);
-        assert!(
-            (cmp.metrics.rel_mse - rel_mse).abs() < 1e-12,
-            "{:?}",
-            cmp.metrics
-        );
+        assert!((cmp.metrics.rel_mse - rel_mse).abs() < 1e-12, "{:?}", cmp.metrics);
     }
 
     #[test]
@@ -203,11 +159,7 @@ mod tests {
         let cmp = compare(&reference, &test).expect("compare");
         let map = nv_flip::FlipImageFloat::with_data(40, 40, &cmp.flip_error);
         let pool_mean = f64::from(nv_flip::FlipPool::from_image(&map).mean());
-        assert!(
-            (cmp.metrics.flip - pool_mean).abs() < 1e-5,
-            "{} vs {pool_mean}",
-            cmp.metrics.flip
-        );
+        assert!((cmp.metrics.flip - pool_mean).abs() < 1e-5, "{} vs {pool_mean}", cmp.metrics.flip);
     }
 
     #[test]
@@ -223,26 +175,15 @@ mod tests {
         let err = compare(&Image::new(0, 3), &Image::new(0, 3)).unwrap_err();
         assert!(matches!(err, ImageError::EmptyComparison { .. }), "{err:?}");
 
-        let broken = Image {
-            width: 2,
-            height: 2,
-            pixels: vec![[0.0; 3]; 3],
-        };
+        let broken = Image { width: 2, height: 2, pixels: vec![[0.0; 3]; 3] };
         let err = compare(&Image::new(2, 2), &broken).unwrap_err();
         assert!(err.to_string().contains("test image"), "{err}");
     }
 
     #[test]
     fn metrics_serialize_with_field_names() {
-        let m = Metrics {
-            mse: 0.5,
-            rel_mse: 0.25,
-            flip: 0.125,
-        };
+        let m = Metrics { mse: 0.5, rel_mse: 0.25, flip: 0.125 };
         let json = serde_json::to_value(m).expect("serialize");
-        assert_eq!(
-            json,
-            serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125})
-        );
+        assert_eq!(json, serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125}));
     }
 }

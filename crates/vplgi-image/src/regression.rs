@@ -70,7 +70,13 @@ pub fn compare_regions(mean: &Image, variance: &Image, seeds: u32, render: &Imag
                     }
                 }
                 let (dm, sd) = (dm / count, sd / count);
-                let t = if sd > 0.0 { dm / (sd * scale) } else if dm.abs() <= 1e-6 { 0.0 } else { f64::INFINITY };
+                let t = if sd > 0.0 {
+                    dm / (sd * scale)
+                } else if dm.abs() <= 1e-6 {
+                    0.0
+                } else {
+                    f64::INFINITY
+                };
                 #[allow(clippy::neg_cmp_op_on_partial_ord)]
                 if !(t.abs() <= threshold) {
                     failures += 1;
@@ -139,7 +145,17 @@ pub fn student_t_two_sided(p: f64, dof: f64) -> f64 {
 
 /// ln Γ(x) for x > 0 (Lanczos, g = 7, n = 9).
 fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [0.999_999_999_999_809_9, 676.520_368_121_885_1, -1_259.139_216_722_402_8, 771.323_428_777_653_1, -176.615_029_162_140_6, 12.507_343_278_686_905, -0.138_571_095_265_720_12, 9.984_369_578_019_572e-6, 1.505_632_735_149_311_6e-7];
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
     if x < 0.5 {
         return (std::f64::consts::PI / (std::f64::consts::PI * x).sin()).ln() - ln_gamma(1.0 - x);
     }

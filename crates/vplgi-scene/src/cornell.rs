@@ -46,12 +46,7 @@ pub fn cornell_box() -> Scene {
     add_box(&mut s, &TALL_BOX, white);
 
     let h = LIGHT_HALF;
-    add_quad(
-        &mut s,
-        [Vec3::new(-h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, h), Vec3::new(-h, LIGHT_Y, h)],
-        -Vec3::Y,
-        light,
-    );
+    add_quad(&mut s, [Vec3::new(-h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, h), Vec3::new(-h, LIGHT_Y, h)], -Vec3::Y, light);
 
     // At z = 3.9 a 40 degree field of view sees 2 * 2.9 * tan(20 deg) = 2.1 units of height at
     // the opening (z = 1), so the whole 2-unit-high front fills the frame.
@@ -216,11 +211,7 @@ mod tests {
             }
         }
         // The tall box top is at 1.2, the short box top at 0.6.
-        let max_box_y = (0..s.triangle_count())
-            .flat_map(|t| s.triangle(t))
-            .filter(|p| p.y < 1.9)
-            .map(|p| p.y)
-            .fold(0.0f32, f32::max);
+        let max_box_y = (0..s.triangle_count()).flat_map(|t| s.triangle(t)).filter(|p| p.y < 1.9).map(|p| p.y).fold(0.0f32, f32::max);
         assert!((max_box_y - 1.2).abs() < 1e-6);
     }
 

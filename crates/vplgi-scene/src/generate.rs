@@ -239,7 +239,12 @@ pub fn conference(triangles: usize) -> Scene {
     }
     let used = b.s.triangle_count();
     b.room(Vec3::new(-6.0, 0.0, -4.0), Vec3::new(6.0, 3.0, 4.0), triangles.saturating_sub(used), floor, walls, ceiling);
-    b.s.camera = Camera { position: Vec3::new(0.0, 1.6, 3.8), forward: Vec3::new(0.0, -0.25, -1.0).normalize(), up: Vec3::new(0.0, 1.0, -0.25).normalize(), yfov: 60f32.to_radians() };
+    b.s.camera = Camera {
+        position: Vec3::new(0.0, 1.6, 3.8),
+        forward: Vec3::new(0.0, -0.25, -1.0).normalize(),
+        up: Vec3::new(0.0, 1.0, -0.25).normalize(),
+        yfov: 60f32.to_radians(),
+    };
     b.s
 }
 

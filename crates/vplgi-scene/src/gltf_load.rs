@@ -20,8 +20,7 @@ use std::path::Path;
 
 /// Extensions that may be listed in `extensionsRequired`. `KHR_texture_transform` is accepted
 /// although its transform is ignored (with a warning): the textures still mostly look right.
-const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
+const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// Accessors longer than this are rejected as implausible: an accessor without a buffer view
 /// (sparse only) would otherwise let a tiny file request gigabytes of zeros.
@@ -37,11 +36,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let scene = match result {
         Ok(scene) => scene?,
         Err(payload) => {
-            let why = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_default();
+            let why = payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_default();
             return Err(invalid(path, format!("malformed glTF data ({why})")));
         }
     };
@@ -60,24 +55,16 @@ fn unsupported(path: &Path, message: impl Into<String>) -> SceneError {
 fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
     // Parse without validation first so that an unknown required extension is reported as
     // such, rather than as the crate's terse "extensionsRequired[0]: unsupported".
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
-        .map_err(|e| invalid(path, format!("not a readable glTF file: {e}")))?;
-    let unknown: Vec<&str> = document
-        .extensions_required()
-        .filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e))
-        .collect();
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| invalid(path, format!("not a readable glTF file: {e}")))?;
+    let unknown: Vec<&str> = document.extensions_required().filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e)).collect();
     if !unknown.is_empty() {
         return Err(unsupported(
             path,
-            format!(
-                "the file requires the glTF extension(s) {} (supported: {})",
-                unknown.join(", "),
-                SUPPORTED_REQUIRED_EXTENSIONS.join(", ")
-            ),
+            format!("the file requires the glTF extension(s) {} (supported: {})", unknown.join(", "), SUPPORTED_REQUIRED_EXTENSIONS.join(", ")),
         ));
     }
-    let document = gltf::Document::from_json(document.into_json())
-        .map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
+    let document = gltf::Document::from_json(document.into_json()).map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
 
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, &document, base, blob)?;
@@ -103,12 +90,7 @@ fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
 
 /// Reads every buffer, naming the failing one (a missing `.bin` beside the file is the usual
 /// cause).
-fn load_buffers(
-    path: &Path,
-    document: &gltf::Document,
-    base: &Path,
-    mut blob: Option<Vec<u8>>,
-) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+fn load_buffers(path: &Path, document: &gltf::Document, base: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<gltf::buffer::Data>, SceneError> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let what = match buffer.source() {
@@ -118,13 +100,10 @@ fn load_buffers(
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             check_uri(uri).map_err(|m| invalid(path, format!("{what}: {m}")))?;
         }
-        let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob)
-            .map_err(|e| invalid(path, format!("cannot load {what}: {e}")))?;
+        let data =
+            gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(|e| invalid(path, format!("cannot load {what}: {e}")))?;
         if data.len() < buffer.length() {
-            return Err(invalid(
-                path,
-                format!("{what} has {} bytes but declares {}", data.len(), buffer.length()),
-            ));
+            return Err(invalid(path, format!("{what} has {} bytes but declares {}", data.len(), buffer.length())));
         }
         buffers.push(data);
     }
@@ -223,10 +202,7 @@ fn check_range(what: &str, view: &gltf::buffer::View, offset: usize, count: usiz
     if stride < size {
         return Err(format!("{what}: byte stride {stride} is smaller than its {size}-byte elements"));
     }
-    let end = stride
-        .checked_mul(count - 1)
-        .and_then(|n| n.checked_add(size))
-        .and_then(|n| n.checked_add(offset));
+    let end = stride.checked_mul(count - 1).and_then(|n| n.checked_add(size)).and_then(|n| n.checked_add(offset));
     if end.is_none_or(|end| end > view.length()) {
         return Err(format!("{what}: {count} elements run past the end of buffer view {}", view.index()));
     }
@@ -234,10 +210,8 @@ fn check_range(what: &str, view: &gltf::buffer::View, offset: usize, count: usiz
 }
 
 const VEC3_F32: &[(Dimensions, DataType)] = &[(Dimensions::Vec3, DataType::F32)];
-const UV_KINDS: &[(Dimensions, DataType)] =
-    &[(Dimensions::Vec2, DataType::F32), (Dimensions::Vec2, DataType::U8), (Dimensions::Vec2, DataType::U16)];
-const INDEX_KINDS: &[(Dimensions, DataType)] =
-    &[(Dimensions::Scalar, DataType::U8), (Dimensions::Scalar, DataType::U16), (Dimensions::Scalar, DataType::U32)];
+const UV_KINDS: &[(Dimensions, DataType)] = &[(Dimensions::Vec2, DataType::F32), (Dimensions::Vec2, DataType::U8), (Dimensions::Vec2, DataType::U16)];
+const INDEX_KINDS: &[(Dimensions, DataType)] = &[(Dimensions::Scalar, DataType::U8), (Dimensions::Scalar, DataType::U16), (Dimensions::Scalar, DataType::U32)];
 
 /// Flattening state: the scene being built and what has been converted so far.
 struct Loader<'a> {
@@ -278,8 +252,7 @@ impl Loader<'_> {
             Some(scene) => scene.nodes().collect(),
             None => {
                 // No scene at all: take every node that is nobody's child.
-                let children: HashSet<usize> =
-                    document.nodes().flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>()).collect();
+                let children: HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>()).collect();
                 document.nodes().filter(|n| !children.contains(&n.index())).collect()
             }
         };
@@ -330,31 +303,19 @@ impl Loader<'_> {
                 continue;
             }
             let material = self.material_id(&primitive.material())?;
-            self.add_primitive(&primitive, world, &normal_matrix, flip, material).map_err(|m| {
-                self.error(format!("mesh {} primitive {}: {m}", mesh.index(), primitive.index()))
-            })?;
+            self.add_primitive(&primitive, world, &normal_matrix, flip, material)
+                .map_err(|m| self.error(format!("mesh {} primitive {}: {m}", mesh.index(), primitive.index())))?;
         }
         Ok(())
     }
 
-    fn add_primitive(
-        &mut self,
-        primitive: &gltf::Primitive,
-        world: &Mat4,
-        normal_matrix: &Mat3,
-        flip: bool,
-        material: u32,
-    ) -> Result<(), String> {
+    fn add_primitive(&mut self, primitive: &gltf::Primitive, world: &Mat4, normal_matrix: &Mat3, flip: bool, material: u32) -> Result<(), String> {
         let buffers = self.buffers;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
 
         let position_accessor = primitive.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
         check_accessor(&position_accessor, VEC3_F32).map_err(|m| format!("POSITION: {m}"))?;
-        let positions: Vec<Vec3> = reader
-            .read_positions()
-            .ok_or("POSITION data is unreadable")?
-            .map(|p| world.transform_point3(Vec3::from(p)))
-            .collect();
+        let positions: Vec<Vec3> = reader.read_positions().ok_or("POSITION data is unreadable")?.map(|p| world.transform_point3(Vec3::from(p))).collect();
         let n = positions.len();
         if n != position_accessor.count() {
             return Err(format!("POSITION has {n} readable elements, expected {}", position_accessor.count()));
@@ -380,8 +341,7 @@ impl Loader<'_> {
         let uvs: Vec<Vec2> = match primitive.get(&gltf::Semantic::TexCoords(0)) {
             Some(accessor) => {
                 check_accessor(&accessor, UV_KINDS).map_err(|m| format!("TEXCOORD_0: {m}"))?;
-                let uvs: Vec<Vec2> =
-                    reader.read_tex_coords(0).ok_or("TEXCOORD_0 data is unreadable")?.into_f32().map(Vec2::from).collect();
+                let uvs: Vec<Vec2> = reader.read_tex_coords(0).ok_or("TEXCOORD_0 data is unreadable")?.into_f32().map(Vec2::from).collect();
                 if uvs.len() != n {
                     return Err(format!("{} texture coordinates for {n} positions", uvs.len()));
                 }
@@ -516,8 +476,8 @@ impl Loader<'_> {
             }
             gltf::image::Source::View { .. } => format!("image {}", image.index()),
         };
-        let data = gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers)
-            .map_err(|e| self.error(format!("cannot decode {what}: {e}")))?;
+        let data =
+            gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers).map_err(|e| self.error(format!("cannot decode {what}: {e}")))?;
         let texture = linear_texture(&data).map_err(|m| self.error(format!("{what}: {m}")))?;
         self.scene.textures.push(texture);
         let id = (self.scene.textures.len() - 1) as u32;
@@ -557,9 +517,7 @@ impl Loader<'_> {
         // check that it is the one present.
         use gltf::json::{camera::Type, validation::Checked};
         let json = self.document.as_json().cameras.get(camera.index());
-        let perspective = json
-            .filter(|c| c.type_ == Checked::Valid(Type::Perspective))
-            .and_then(|c| c.perspective.as_ref());
+        let perspective = json.filter(|c| c.type_ == Checked::Valid(Type::Perspective)).and_then(|c| c.perspective.as_ref());
         let Some(perspective) = perspective else {
             self.warn("orthographic cameras are not supported; looking for a perspective one".into());
             return;
@@ -579,11 +537,7 @@ impl Loader<'_> {
 
     fn finish(mut self) -> Result<Scene, SceneError> {
         if self.scene.indices.is_empty() {
-            let why = if self.skipped.is_empty() {
-                String::new()
-            } else {
-                format!(" (skipped: {})", self.skipped.join(", "))
-            };
+            let why = if self.skipped.is_empty() { String::new() } else { format!(" (skipped: {})", self.skipped.join(", ")) };
             return Err(self.error(format!("no triangles: the scene has nothing renderable{why}")));
         }
         self.scene.camera = match self.camera {
@@ -694,9 +648,7 @@ mod tests {
 
         fn positions(&mut self, p: &[[f32; 3]]) -> usize {
             let a = self.vec3(p);
-            let bound = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> {
-                (0..3).map(|k| p.iter().map(|v| v[k]).fold(init, f)).collect()
-            };
+            let bound = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> { (0..3).map(|k| p.iter().map(|v| v[k]).fold(init, f)).collect() };
             self.json["accessors"][a]["min"] = json!(bound(f32::min, f32::INFINITY));
             self.json["accessors"][a]["max"] = json!(bound(f32::max, f32::NEG_INFINITY));
             a
@@ -1117,10 +1069,7 @@ mod tests {
         doc.scene(&[node]);
         doc.push("images", image);
         doc.push("textures", json!({ "source": 0 }));
-        doc.push(
-            "materials",
-            json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "baseColorFactor": [0.5, 1.0, 1.0, 1.0] } }),
-        );
+        doc.push("materials", json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 }, "baseColorFactor": [0.5, 1.0, 1.0, 1.0] } }));
         doc
     }
 
@@ -1163,8 +1112,7 @@ mod tests {
         let mut doc = textured_doc(json!({ "uri": "tex.png" }));
         doc.use_extension("KHR_texture_transform");
         doc.json["extensionsRequired"] = json!(["KHR_texture_transform"]);
-        doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] =
-            json!({ "KHR_texture_transform": { "scale": [2.0, 2.0] } });
+        doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = json!({ "KHR_texture_transform": { "scale": [2.0, 2.0] } });
         check_texture(&load_ok(&doc.write_embedded(dir.path(), "transformed")));
     }
 
@@ -1244,22 +1192,31 @@ mod tests {
             (edited(d, "shortbuffer", |j| j["buffers"][0]["byteLength"] = json!(100_000)), "declares 100000"),
             (edited(d, "percent", |j| j["buffers"][0]["uri"] = json!("%FF%FE.bin")), "percent escapes"),
             (edited(d, "required", |j| j["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])), "KHR_draco_mesh_compression"),
-            (edited(d, "spotless", |j| {
-                j["extensions"] = json!({ "KHR_lights_punctual": { "lights": [{ "type": "spot" }] } });
-                j["nodes"][0]["extensions"] = json!({ "KHR_lights_punctual": { "light": 0 } });
-            }), "not a valid glTF 2.0"),
-            (edited(d, "badimage", |j| {
-                j["images"] = json!([{ "uri": "data:image/png;base64,AAAA" }]);
-                j["textures"] = json!([{ "source": 0 }]);
-                j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
-                j["meshes"][0]["primitives"][0]["material"] = json!(0);
-            }), "cannot decode image 0"),
-            (edited(d, "imagepercent", |j| {
-                j["images"] = json!([{ "uri": "%C3%28.png" }]);
-                j["textures"] = json!([{ "source": 0 }]);
-                j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
-                j["meshes"][0]["primitives"][0]["material"] = json!(0);
-            }), "percent escapes"),
+            (
+                edited(d, "spotless", |j| {
+                    j["extensions"] = json!({ "KHR_lights_punctual": { "lights": [{ "type": "spot" }] } });
+                    j["nodes"][0]["extensions"] = json!({ "KHR_lights_punctual": { "light": 0 } });
+                }),
+                "not a valid glTF 2.0",
+            ),
+            (
+                edited(d, "badimage", |j| {
+                    j["images"] = json!([{ "uri": "data:image/png;base64,AAAA" }]);
+                    j["textures"] = json!([{ "source": 0 }]);
+                    j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+                    j["meshes"][0]["primitives"][0]["material"] = json!(0);
+                }),
+                "cannot decode image 0",
+            ),
+            (
+                edited(d, "imagepercent", |j| {
+                    j["images"] = json!([{ "uri": "%C3%28.png" }]);
+                    j["textures"] = json!([{ "source": 0 }]);
+                    j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+                    j["meshes"][0]["primitives"][0]["material"] = json!(0);
+                }),
+                "percent escapes",
+            ),
         ];
         // Keep the index-out-of-range case apart: it needs different index data.
         let mut doc = Doc::new();

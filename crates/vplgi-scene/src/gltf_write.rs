@@ -33,7 +33,8 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
     accessors.push(json!({"bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2"}));
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
-        let idx: Vec<u8> = scene.indices.iter().zip(&scene.material_ids).filter(|(_, &id)| id == m).flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes())).collect();
+        let idx: Vec<u8> =
+            scene.indices.iter().zip(&scene.material_ids).filter(|(_, &id)| id == m).flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes())).collect();
         if idx.is_empty() {
             continue;
         }
@@ -66,7 +67,10 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
     let x = c.up.cross(z).normalize();
     let y = z.cross(x);
     let rotation = Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize();
-    let mut nodes = vec![json!({"name": scene.name, "mesh": 0}), json!({"name": "camera", "camera": 0, "translation": c.position.to_array(), "rotation": rotation.to_array()})];
+    let mut nodes = vec![
+        json!({"name": scene.name, "mesh": 0}),
+        json!({"name": "camera", "camera": 0, "translation": c.position.to_array(), "rotation": rotation.to_array()}),
+    ];
     let mut lights = Vec::new();
     for l in &scene.lights {
         // Radiant intensity per channel = colour x intensity (the loader's reading).
@@ -77,7 +81,8 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
                 let x = if z.x.abs() < 0.9 { Vec3::X } else { Vec3::Y }.cross(z).normalize();
                 let rot = Quat::from_mat3(&Mat3::from_cols(x, z.cross(x), z)).normalize();
                 nodes.push(json!({"name": "spot", "rotation": rot.to_array(), "translation": position.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
-                let spot = json!({"type": "spot", "spot": {"innerConeAngle": cos_inner.clamp(-1.0, 1.0).acos(), "outerConeAngle": cos_outer.clamp(-1.0, 1.0).acos()}});
+                let spot =
+                    json!({"type": "spot", "spot": {"innerConeAngle": cos_inner.clamp(-1.0, 1.0).acos(), "outerConeAngle": cos_outer.clamp(-1.0, 1.0).acos()}});
                 lights.push(light_json(intensity, spot));
                 continue;
             }
@@ -145,16 +150,18 @@ mod tests {
             assert_eq!(back.triangle_count(), s.triangle_count(), "{}", s.name);
             // Triangles come back grouped by material: compare as sets of corner positions.
             let tris = |x: &Scene| {
-                let mut v: Vec<[u32; 9]> = (0..x.triangle_count()).map(|t| {
-                    let [a, b, c] = x.triangle(t);
-                    let mut k = [0u32; 9];
-                    for (i, p) in [a, b, c].iter().enumerate() {
-                        for j in 0..3 {
-                            k[3 * i + j] = p[j].to_bits();
+                let mut v: Vec<[u32; 9]> = (0..x.triangle_count())
+                    .map(|t| {
+                        let [a, b, c] = x.triangle(t);
+                        let mut k = [0u32; 9];
+                        for (i, p) in [a, b, c].iter().enumerate() {
+                            for j in 0..3 {
+                                k[3 * i + j] = p[j].to_bits();
+                            }
                         }
-                    }
-                    k
-                }).collect();
+                        k
+                    })
+                    .collect();
                 v.sort_unstable();
                 v
             };

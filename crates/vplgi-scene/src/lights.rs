@@ -6,9 +6,9 @@
 //! area lights in proportion to their power and evaluates every punctual light with one shadow
 //! ray each (a punctual light cannot be hit by chance).
 
+use crate::{PunctualLight, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
-use crate::{PunctualLight, Scene};
 use vplgi_types::sampling;
 
 /// A discrete distribution over `n` items, sampled by inverting its CDF.
@@ -118,9 +118,7 @@ pub struct LightSampler {
 pub fn punctual_power(l: &PunctualLight) -> Vec3 {
     match *l {
         PunctualLight::Point { intensity, .. } => intensity * (4.0 * PI),
-        PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => {
-            intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0))
-        }
+        PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)),
     }
 }
 
@@ -191,9 +189,12 @@ impl LightSampler {
         } else {
             let light = &self.punctual[i - self.emitters.len()];
             match *light {
-                PunctualLight::Point { position, intensity } => {
-                    Some(Emission { origin: position, dir: sampling::uniform_sphere(u[3], u[4]), power: intensity * (4.0 * PI) / pmf, surface_normal: Vec3::ZERO })
-                }
+                PunctualLight::Point { position, intensity } => Some(Emission {
+                    origin: position,
+                    dir: sampling::uniform_sphere(u[3], u[4]),
+                    power: intensity * (4.0 * PI) / pmf,
+                    surface_normal: Vec3::ZERO,
+                }),
                 PunctualLight::Spot { position, direction, intensity, cos_outer, .. } => {
                     let dir = sampling::uniform_cone(direction, cos_outer, u[3], u[4]);
                     let inv_pdf = 2.0 * PI * (1.0 - cos_outer);
@@ -243,13 +244,7 @@ mod tests {
 
     #[test]
     fn spot_power_matches_numerical_integral() {
-        let light = PunctualLight::Spot {
-            position: Vec3::ZERO,
-            direction: Vec3::Z,
-            intensity: Vec3::ONE,
-            cos_inner: 0.9,
-            cos_outer: 0.6,
-        };
+        let light = PunctualLight::Spot { position: Vec3::ZERO, direction: Vec3::Z, intensity: Vec3::ONE, cos_inner: 0.9, cos_outer: 0.6 };
         // Integrate the falloff over the sphere in cos(theta): dω = 2π d(cos θ).
         let n = 200_000;
         let mut acc = 0.0f64;
@@ -285,10 +280,12 @@ mod tests {
             scene.materials.push(Material { emission: Vec3::splat(1.0 + 3.0 * t as f32), ..Material::default() });
         }
         let sampler = LightSampler::new(&scene);
-        let powers: Vec<f32> = (0..2).map(|t| {
-            let [a, b, c] = scene.triangle(t);
-            0.5 * (b - a).cross(c - a).length() * scene.emission(t).x
-        }).collect();
+        let powers: Vec<f32> = (0..2)
+            .map(|t| {
+                let [a, b, c] = scene.triangle(t);
+                0.5 * (b - a).cross(c - a).length() * scene.emission(t).x
+            })
+            .collect();
         let total: f32 = powers.iter().sum();
         let mut counts = [0u32; 8];
         let samples = 100_000;
@@ -303,7 +300,15 @@ mod tests {
             let w1 = q.cross(e2).dot(d) / d.length_squared();
             let w2 = e1.cross(q).dot(d) / d.length_squared();
             // Midpoint subdivision: corner triangles where a weight exceeds 1/2, else the middle.
-            let sub = if w1 > 0.5 { 1 } else if w2 > 0.5 { 2 } else if 1.0 - w1 - w2 > 0.5 { 0 } else { 3 };
+            let sub = if w1 > 0.5 {
+                1
+            } else if w2 > 0.5 {
+                2
+            } else if 1.0 - w1 - w2 > 0.5 {
+                0
+            } else {
+                3
+            };
             counts[t * 4 + sub] += 1;
             assert!((s.pdf_area - powers[t] / total / (powers[t] / scene.emission(t).x)).abs() < 1e-4);
         }

@@ -116,7 +116,15 @@ impl FrameConfig {
 
     /// The clustering of the VPLs (hard, K_VPL clusters), as every backend runs it.
     pub fn vpl_cluster_params(&self) -> crate::clustering::ClusterParams {
-        crate::clustering::ClusterParams { k: self.k_vpl, gamma: self.gamma, iterations: self.iterations, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: self.normal_threshold, seed: self.seed }
+        crate::clustering::ClusterParams {
+            k: self.k_vpl,
+            gamma: self.gamma,
+            iterations: self.iterations,
+            f: 1,
+            fuzzy: FuzzyMode::Hard,
+            normal_threshold: self.normal_threshold,
+            seed: self.seed,
+        }
     }
 
     /// The clustering of the shading points (F-fuzzy, K_SP clusters), as every backend runs it.

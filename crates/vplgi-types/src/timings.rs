@@ -22,7 +22,13 @@ impl StageTimings {
 
     /// The five stages by name, in pipeline order (`total` left out).
     pub fn stages(&self) -> [(&'static str, f64); 5] {
-        [("trace_vpls", self.trace_vpls), ("shading_points", self.shading_points), ("cluster", self.cluster), ("visibility", self.visibility), ("shade", self.shade)]
+        [
+            ("trace_vpls", self.trace_vpls),
+            ("shading_points", self.shading_points),
+            ("cluster", self.cluster),
+            ("visibility", self.visibility),
+            ("shade", self.shade),
+        ]
     }
 
     /// Each field's median over `runs` (the upper median for an even count; zeros for none).
@@ -32,7 +38,14 @@ impl StageTimings {
             v.sort_by(f64::total_cmp);
             v.get(v.len() / 2).copied().unwrap_or(0.0)
         };
-        StageTimings { trace_vpls: m(|t| t.trace_vpls), shading_points: m(|t| t.shading_points), cluster: m(|t| t.cluster), visibility: m(|t| t.visibility), shade: m(|t| t.shade), total: m(|t| t.total) }
+        StageTimings {
+            trace_vpls: m(|t| t.trace_vpls),
+            shading_points: m(|t| t.shading_points),
+            cluster: m(|t| t.cluster),
+            visibility: m(|t| t.visibility),
+            shade: m(|t| t.shade),
+            total: m(|t| t.total),
+        }
     }
 }
 

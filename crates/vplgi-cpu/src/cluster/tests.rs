@@ -117,7 +117,8 @@ fn centroid_update_does_not_depend_on_point_order() {
     assert_eq!(c1, c2);
     assert_eq!(n1, n2);
     // And the fixed-point mean is close to the float mean.
-    let mean: Vec3 = ps.iter().zip(&labels).filter(|(_, &l)| l == 0).map(|(p, _)| *p).sum::<Vec3>() / ps.iter().zip(&labels).filter(|(_, &l)| l == 0).count() as f32;
+    let mean: Vec3 =
+        ps.iter().zip(&labels).filter(|(_, &l)| l == 0).map(|(p, _)| *p).sum::<Vec3>() / ps.iter().zip(&labels).filter(|(_, &l)| l == 0).count() as f32;
     assert!((mean - c1[0]).length() < 1e-5, "{mean} vs {}", c1[0]);
 }
 
