@@ -31,13 +31,26 @@ demo: build
 	@echo "Reports: report.json beside each image (parameters, counts, per-stage timings), $(DEMO_OUT)/compare-256/compare.json"
 
 # Tests run on the release profile: rayon code is ~30x slower unoptimised, and the demo's build
-# artifacts are reused.
+# artifacts are reused. Every step selects the whole workspace (--workspace) and narrows by target
+# or test name: selecting packages with -p would change cargo's feature unification and rebuild
+# wgpu and naga for each step. Steps, cheapest and most telling first:
+#   1. formatting and clippy (warnings are errors);
+#   2. WGSL validation: every composed shader through naga, and the Rust/WGSL layout tests;
+#   3. unit tests of every crate and the CPU-only integration tests;
+#   4. the CPU-vs-GPU integration tests (every other file in tests/tests/, on lavapipe here);
+#   5. every criterion bench once at tiny sizes (proof that they work, not a measurement).
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
-# The second line smoke-runs every criterion bench once at tiny sizes (proof that they work, not
-# a measurement).
+TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
+TEST := $(TEST_ENV) $(CARGO) test --release --workspace
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli results perf_report
+GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs))))
 test: setup
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) test --release --workspace
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" VPLGI_BENCH_SMOKE=1 $(CARGO) test --release -p vplgi-benches --benches
+	$(CARGO) fmt --all --check
+	$(CARGO) clippy --release --workspace --all-targets -- -D warnings
+	$(TEST) --lib -- shader:: layouts
+	$(TEST) --lib --bins $(addprefix --test ,$(CPU_TESTS)) -- --skip shader:: --skip layouts
+	$(TEST) $(addprefix --test ,$(GPU_TESTS))
+	$(TEST_ENV) VPLGI_BENCH_SMOKE=1 $(CARGO) test --release --workspace --benches
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores
 # with lavapipe). One stage: make bench BENCH=visibility

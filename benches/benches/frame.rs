@@ -4,7 +4,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, scene, sizes, Gpu};
 use vplgi_cpu::NoProgress;
-use vplgi_gpu::pipeline::GpuKernels;
+use vplgi_gpu::GpuKernels;
 
 fn frame(c: &mut Criterion) {
     let mut group = c.benchmark_group("frame");
@@ -14,10 +14,10 @@ fn frame(c: &mut Criterion) {
     let kernels = gpu.as_ref().map(|g| GpuKernels::new(&g.ctx.device).expect("GPU pipelines"));
     for size in sizes() {
         let cfg = &size.cfg;
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::pipeline::render(&cs, cfg, &NoProgress).expect("CPU frame")));
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::render(&cs, cfg, &NoProgress).expect("CPU frame")));
         if let (Some(g), Some(k)) = (&gpu, &kernels) {
             let run = || {
-                vplgi_gpu::pipeline::render(&g.ctx.device, &g.ctx.queue, k, scene(), cfg).expect("GPU frame");
+                vplgi_gpu::render(&g.ctx.device, &g.ctx.queue, k, scene(), cfg).expect("GPU frame");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));

@@ -19,7 +19,7 @@ fn shade(c: &mut Criterion) {
         let sc = &i.sp_clusters;
         let src = VisibilitySource::Fuzzy { matrix: &i.matrix, row_of: &i.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
-            b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, cfg.spp, 0..i.pixels(), &i.lights, &src, i.g_max, cfg.seed, cfg.direct_samples))
+            b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, 0, 0..i.pixels(), &i.lights, &src, &cfg.shade_params(i.cs.extent)))
         });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let d = &g.ctx.device;
@@ -29,6 +29,7 @@ fn shade(c: &mut Criterion) {
             let lights = g.lights(&i.lights);
             let window = Window { first: 0, count: i.sp_points.0.len() as u64 };
             let inputs = ShadeInputs {
+                scene_lights: &g.lights,
                 sps: &sps,
                 sp_first: 0,
                 row_of: &row_of,
@@ -39,7 +40,7 @@ fn shade(c: &mut Criterion) {
                 visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
             };
             let run = || {
-                k.run(d, &g.ctx.queue, &g.scene, &g.lights, &inputs, 0..i.pixels() as u32, cfg.spp, cfg.seed, cfg.direct_samples, i.g_max).expect("shade");
+                k.run(d, &g.ctx.queue, &g.scene, &inputs, 0..i.pixels() as u32, &cfg.shade_params(i.cs.extent)).expect("shade");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));

@@ -22,7 +22,7 @@ fn visibility(c: &mut Criterion) {
             let (rows, cols) = (g.visibility_endpoints(&inputs.rows), g.visibility_endpoints(&inputs.cols));
             let (n_rows, n_cols) = (inputs.rows.len() as u32, inputs.cols.len() as u32);
             let run = || {
-                k.run_on_device(&g.ctx.device, &g.ctx.queue, &g.scene, &rows, n_rows, &cols, n_cols, 0, n_rows).expect("visibility");
+                k.run_on_device(&g.ctx.device, &g.ctx.queue, &g.scene, (&rows, n_rows), (&cols, n_cols), 0..n_rows).expect("visibility");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));

@@ -105,7 +105,6 @@ pub struct Inputs {
     pub rows: Vec<Endpoint>,
     pub cols: Vec<Endpoint>,
     pub matrix: BitMatrix,
-    pub g_max: f32,
 }
 
 impl Inputs {
@@ -122,13 +121,11 @@ impl Inputs {
         let vpl_points: (Vec<Vec3>, Vec<Vec3>) = vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip();
         let sp_clusters = cluster(&sp_points.0, &sp_points.1, &cfg.sp_cluster_params());
         let vpl_clusters = cluster(&vpl_points.0, &vpl_points.1, &cfg.vpl_cluster_params());
-        let lights = vplgi_cpu::pipeline::vpl_lights(&vpls, Some(&vpl_clusters));
+        let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters));
         let rows: Vec<Endpoint> = sp_clusters.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize]])).collect();
         let cols: Vec<Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
         let (matrix, _) = visibility(&cs, &rows, &cols, &NoProgress);
-        let d_min = cfg.g_clamp_rel * cs.extent;
-        let g_max = if d_min > 0.0 { 1.0 / (d_min * d_min) } else { f32::INFINITY };
-        Inputs { cfg: cfg.clone(), cs, vpls, sps, row_of, sp_points, vpl_points, sp_clusters, vpl_clusters, lights, rows, cols, matrix, g_max }
+        Inputs { cfg: cfg.clone(), cs, vpls, sps, row_of, sp_points, vpl_points, sp_clusters, vpl_clusters, lights, rows, cols, matrix }
     }
 
     pub fn pixels(&self) -> usize {

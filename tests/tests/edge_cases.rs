@@ -32,8 +32,8 @@ fn extreme_cluster_counts() {
         for fuzzy in [FuzzyMode::Hard, FuzzyMode::Average, FuzzyMode::Weighted] {
             let cfg = FrameConfig { width: 16, height: 16, vpls: 300, k_sp, k_vpl, f, fuzzy, cluster: ClusterMode::Both, ..FrameConfig::reference() };
             let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
-            assert!(frame.stats.sp_clusters >= 1 && frame.stats.sp_clusters <= frame.stats.shading_point_hits.min(k_sp as usize));
-            assert!(frame.stats.vpl_clusters >= 1 && frame.stats.vpl_clusters <= 300.min(k_vpl as usize));
+            assert!(frame.stats.sp_clusters >= 1 && frame.stats.sp_clusters <= frame.stats.shading_point_hits.min(k_sp));
+            assert!(frame.stats.vpl_clusters >= 1 && frame.stats.vpl_clusters <= 300.min(k_vpl));
             assert!(frame.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
         }
     }

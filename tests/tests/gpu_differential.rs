@@ -8,7 +8,7 @@ use vplgi_gpu::scene::GpuScene;
 use vplgi_gpu::shading_points::ShadingPointsKernel;
 use vplgi_gpu::visibility::{words_per_row, Endpoint, VisibilityKernel};
 use vplgi_scene::cornell::cornell_box;
-use vplgi_types::{Rng, Stream};
+use vplgi_types::{CameraParams, Rng, ShadeParams, Stream, TraceParams};
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 16, failure_persistence: None, ..ProptestConfig::default() })]
@@ -40,7 +40,9 @@ proptest! {
 /// (forced small bindings) is identical to one dispatch.
 #[test]
 fn shading_points_match_the_cpu() {
-    let Some(ctx) = vplgi_tests::gpu("shading_points_match_the_cpu") else { return };
+    let Some(ctx) = vplgi_tests::gpu("shading_points_match_the_cpu") else {
+        return;
+    };
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
@@ -48,7 +50,7 @@ fn shading_points_match_the_cpu() {
     let kernel = ShadingPointsKernel::new(&ctx.device).unwrap();
     for (w, h, spp) in [(96, 80, 1), (40, 40, 3)] {
         let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, 9);
-        let gpu = kernel.run(&ctx.device, &ctx.queue, &gs, w, h, spp, 9, None).unwrap();
+        let gpu = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp, seed: 9 }, None).unwrap();
         assert_eq!(cpu.len(), gpu.len());
         let mut same = 0;
         let mut edge_ties = 0;
@@ -84,7 +86,7 @@ fn shading_points_match_the_cpu() {
         assert!(frac >= 0.999, "only {frac} of the samples hit the same surface point");
         assert!(same as f64 / cpu.len() as f64 >= 0.995, "only {same} samples hit the same triangle");
         assert!(pos_err <= 1e-4 && n_err <= 1e-4 && albedo_err <= 1e-5);
-        let chunked = kernel.run(&ctx.device, &ctx.queue, &gs, w, h, spp, 9, Some(64 * 1000)).unwrap();
+        let chunked = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp, seed: 9 }, Some(64 * 1000)).unwrap();
         assert_eq!(chunked, gpu, "chunked dispatches must give the same shading points");
     }
 }
@@ -107,7 +109,9 @@ fn obvhs_visible(
 /// points × VPLs of the Cornell box: ≥ 99.9 % identical bits between every pair (SPEC).
 #[test]
 fn visibility_agrees_three_ways() {
-    let Some(ctx) = vplgi_tests::gpu("visibility_agrees_three_ways") else { return };
+    let Some(ctx) = vplgi_tests::gpu("visibility_agrees_three_ways") else {
+        return;
+    };
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
@@ -187,12 +191,15 @@ fn grid_wall(n: u32) -> vplgi_scene::Scene {
 /// there from both neighbouring boxes.
 #[test]
 fn camera_rays_find_no_cracks_between_boxes() {
-    let Some(ctx) = vplgi_tests::gpu("camera_rays_find_no_cracks_between_boxes") else { return };
+    let Some(ctx) = vplgi_tests::gpu("camera_rays_find_no_cracks_between_boxes") else {
+        return;
+    };
     let triangles = 400_000;
     let scene = vplgi_scene::generate::cornell_fine(triangles);
     let (w, h) = (512, 512);
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
-    let gpu = ShadingPointsKernel::new(&ctx.device).unwrap().run(&ctx.device, &ctx.queue, &gs, w, h, 1, 1, None).unwrap();
+    let gpu =
+        ShadingPointsKernel::new(&ctx.device).unwrap().run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp: 1, seed: 1 }, None).unwrap();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, 1, 1);
@@ -208,7 +215,9 @@ fn camera_rays_find_no_cracks_between_boxes() {
 /// watertight lets some of those through.
 #[test]
 fn segments_through_shared_edges_find_no_cracks() {
-    let Some(ctx) = vplgi_tests::gpu("segments_through_shared_edges_find_no_cracks") else { return };
+    let Some(ctx) = vplgi_tests::gpu("segments_through_shared_edges_find_no_cracks") else {
+        return;
+    };
     let n = 64u32;
     let scene = grid_wall(n);
     let at = |i: u32| i as f32 * (2.0 / n as f32) - 1.0;
@@ -243,11 +252,7 @@ fn segments_through_shared_edges_find_no_cracks() {
     let embree_leaks = |r: usize| (0..cols.len()).filter(|&c| embree.get(r, c)).count();
     let (aimed_gpu, aimed_embree) = (gpu_leaks(0), embree_leaks(0));
     let (other_gpu, other_embree) = ((1..rows.len()).map(gpu_leaks).sum::<usize>(), (1..rows.len()).map(embree_leaks).sum::<usize>());
-    println!(
-        "{} segments aimed at shared vertices and edges: {aimed_gpu} leak on the GPU, {aimed_embree} on Embree; {} others: {other_gpu} leak on the GPU, {other_embree} on Embree",
-        cols.len(),
-        cols.len() * (rows.len() - 1)
-    );
+    println!("{} segments aimed at shared vertices and edges: {aimed_gpu} leak on the GPU, {aimed_embree} on Embree; {} others: {other_gpu} leak on the GPU, {other_embree} on Embree", cols.len(), cols.len() * (rows.len() - 1));
     assert_eq!((aimed_embree, other_embree), (0, 0), "Embree leaks through the wall");
     assert_eq!((aimed_gpu, other_gpu), (0, 0), "the GPU leaks through shared edges");
 }
@@ -262,7 +267,9 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     use vplgi_gpu::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
     use vplgi_types::{FuzzyMode, MISS};
 
-    let Some(ctx) = vplgi_tests::gpu("shade_matches_the_cpu_on_identical_inputs") else { return };
+    let Some(ctx) = vplgi_tests::gpu("shade_matches_the_cpu_on_identical_inputs") else {
+        return;
+    };
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
@@ -292,15 +299,16 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let row_buf = storage(&ctx.device, "row_of", &row_of);
 
     // (a) Unclustered shading points: each hit has its own row; VPLs unclustered.
-    let lights = vplgi_cpu::pipeline::vpl_lights(&vpls, None);
+    let lights = vplgi_cpu::shade::vpl_lights(&vpls, None);
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
     let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Own { matrix: &m, row_of: &row_of, first_row: 0 };
-    let cpu_own = shade(&cs, &sps, spp, 0..n_pixels, &lights, &src, g_max, seed, direct);
+    let cpu_own = shade(&cs, &sps, 0, 0..n_pixels, &lights, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
     let inputs = ShadeInputs {
+        scene_lights: &gl,
         sps: &sps_buf,
         sp_first: 0,
         row_of: &row_buf,
@@ -310,14 +318,14 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         light_count: lights.len() as u32,
         visibility: Visibility::Own { first_row: 0 },
     };
-    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
+    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
     let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
     // (b) Both clustered, fuzzy weighted F = 6.
     let pos: Vec<Vec3> = vpls.iter().map(|v| v.position.into()).collect();
     let nor: Vec<Vec3> = vpls.iter().map(|v| v.normal.into()).collect();
     let vc = cluster(&pos, &nor, &ClusterParams { k: 60, gamma: 2, iterations: 5, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed });
-    let lights_c = vplgi_cpu::pipeline::vpl_lights(&vpls, Some(&vc));
+    let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc));
     let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.iter().map(|l| l.endpoint()).collect();
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
@@ -326,12 +334,13 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
     let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Fuzzy { matrix: &mc, row_of: &row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
-    let cpu_fuzzy = shade(&cs, &sps, spp, 0..n_pixels, &lights_c, &src, g_max, seed, direct);
+    let cpu_fuzzy = shade(&cs, &sps, 0, 0..n_pixels, &lights_c, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
     let words_c = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(mc.words()));
     let light_buf_c = storage(&ctx.device, "lights", &to_gpu_lights(&lights_c));
     let labels = storage(&ctx.device, "labels", &sc.labels);
     let weights = storage(&ctx.device, "weights", &sc.weights);
     let inputs = ShadeInputs {
+        scene_lights: &gl,
         sps: &sps_buf,
         sp_first: 0,
         row_of: &row_buf,
@@ -346,7 +355,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
             window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 },
         },
     };
-    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &inputs, 0..n_pixels as u32, spp, seed, direct, g_max).unwrap();
+    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
     let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
     for (name, cpu, gpu) in [("own rows", &cpu_own, &gpu_own), ("fuzzy clusters", &cpu_fuzzy, &gpu_fuzzy)] {
@@ -375,7 +384,9 @@ fn trace_vpls_matches_the_cpu() {
     use vplgi_scene::PunctualLight;
     use vplgi_types::Vpl;
 
-    let Some(ctx) = vplgi_tests::gpu("trace_vpls_matches_the_cpu") else { return };
+    let Some(ctx) = vplgi_tests::gpu("trace_vpls_matches_the_cpu") else {
+        return;
+    };
     let kernel = TraceVplsKernel::new(&ctx.device).unwrap();
     let mut spot_box = cornell_box();
     spot_box.lights.push(PunctualLight::Spot {
@@ -396,7 +407,7 @@ fn trace_vpls_matches_the_cpu() {
         let gs = GpuScene::new(&ctx.device, &scene).unwrap();
         let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, &scene, &cs.lights);
         let cpu = vplgi_cpu::trace_vpls::trace_vpls(&cs, 4, count, bounces, &vplgi_cpu::NoProgress);
-        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, 4, count, bounces).unwrap();
+        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &TraceParams { seed: 4, count, bounces }).unwrap();
         let gpu: Vec<Vpl> = read_back(&ctx.device, &ctx.queue, &g.buffer, g.count as usize).unwrap();
         assert_eq!(gpu.len(), cpu.vpls.len(), "{name}: VPL count");
         let by_path = |v: &[Vpl]| {
@@ -466,7 +477,9 @@ fn cluster_assign_and_update_match_the_cpu() {
     use vplgi_types::clustering::{FixedPoint, GridGeometry};
     use vplgi_types::FuzzyMode;
 
-    let Some(ctx) = vplgi_tests::gpu("cluster_assign_and_update_match_the_cpu") else { return };
+    let Some(ctx) = vplgi_tests::gpu("cluster_assign_and_update_match_the_cpu") else {
+        return;
+    };
     let kernel = ClusterKernel::new(&ctx.device).unwrap();
     let (ps, ns) = cornell_points();
     let m = ps.len();
@@ -538,7 +551,9 @@ fn cluster_end_to_end_matches_the_cpu() {
     use vplgi_gpu::cluster::ClusterKernel;
     use vplgi_types::FuzzyMode;
 
-    let Some(ctx) = vplgi_tests::gpu("cluster_end_to_end_matches_the_cpu") else { return };
+    let Some(ctx) = vplgi_tests::gpu("cluster_end_to_end_matches_the_cpu") else {
+        return;
+    };
     let kernel = ClusterKernel::new(&ctx.device).unwrap();
     let (ps, ns) = cornell_points();
     let m = ps.len();
@@ -581,10 +596,12 @@ fn cluster_end_to_end_matches_the_cpu() {
 /// bound holds; the counts of clusters must still agree.
 #[test]
 fn whole_frames_match_the_cpu_in_every_mode() {
-    use vplgi_gpu::pipeline::{render, GpuKernels};
+    use vplgi_gpu::{render, GpuKernels};
     use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
 
-    let Some(ctx) = vplgi_tests::gpu("whole_frames_match_the_cpu_in_every_mode") else { return };
+    let Some(ctx) = vplgi_tests::gpu("whole_frames_match_the_cpu_in_every_mode") else {
+        return;
+    };
     let kernels = GpuKernels::new(&ctx.device).unwrap();
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
@@ -605,17 +622,13 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         let cfg = FrameConfig { width: 40, height: 32, spp: 1, vpls: 1500, k_sp: 200, k_vpl: 120, cluster, fuzzy, ..FrameConfig::default() };
         let cpu = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
         let gpu = render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap();
-        assert_eq!(
-            (gpu.stats.vpl_clusters as usize, gpu.stats.sp_clusters as usize),
-            (cpu.stats.vpl_clusters, cpu.stats.sp_clusters),
-            "{cluster:?}/{fuzzy:?}: cluster counts"
-        );
+        assert_eq!((gpu.stats.vpl_clusters, gpu.stats.sp_clusters), (cpu.stats.vpl_clusters, cpu.stats.sp_clusters), "{cluster:?}/{fuzzy:?}: cluster counts");
         if !cluster.clusters_sps() {
-            assert_eq!(gpu.stats.vpl_widened as usize, cpu.stats.vpl_widened, "{cluster:?}: widened VPL searches");
+            assert_eq!(gpu.stats.vpl_widened, cpu.stats.vpl_widened, "{cluster:?}: widened VPL searches");
         }
         // Pixels whose primary rays agree on the triangle in both backends.
         let c_sp = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
-        let g_sp = spk.run(&ctx.device, &ctx.queue, &gs, cfg.width, cfg.height, cfg.spp, cfg.seed, None).unwrap();
+        let g_sp = spk.run(&ctx.device, &ctx.queue, &gs, &cfg.camera_params(), None).unwrap();
         let same: Vec<bool> = c_sp.iter().zip(&g_sp).map(|(a, b)| a.triangle == b.triangle).collect();
         let (mut num, mut den, mut n_same) = (0.0f64, 0usize, 0usize);
         let mut max_rel = 0.0f32;
@@ -675,10 +688,12 @@ fn whole_frames_match_the_cpu_in_every_mode() {
 /// windows too, and so do the visibility rows of unclustered shading points.
 #[test]
 fn frames_are_identical_under_forced_small_limits() {
-    use vplgi_gpu::pipeline::{render, GpuKernels};
+    use vplgi_gpu::{render, GpuKernels};
     use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
 
-    let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else { return };
+    let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else {
+        return;
+    };
     let scene = cornell_box();
     let kernels = GpuKernels::new(&ctx.device).unwrap();
     for (cluster, spp, tight) in
@@ -722,10 +737,12 @@ fn frames_are_identical_under_forced_small_limits() {
 /// with a clear error.
 #[test]
 fn scene_arrays_are_paged_under_forced_small_limits() {
-    use vplgi_gpu::pipeline::{render, GpuKernels};
+    use vplgi_gpu::{render, GpuKernels};
     use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
 
-    let Some(ctx) = vplgi_tests::gpu("scene_arrays_are_paged_under_forced_small_limits") else { return };
+    let Some(ctx) = vplgi_tests::gpu("scene_arrays_are_paged_under_forced_small_limits") else {
+        return;
+    };
     let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
     let mut rng = Rng::new(4, Stream::Oracle, 0);
     for _ in 0..3000 {
@@ -752,10 +769,7 @@ fn scene_arrays_are_paged_under_forced_small_limits() {
         let cfg = FrameConfig { width: 24, height: 24, vpls: 300, k_sp: 60, k_vpl: 40, cluster, fuzzy: FuzzyMode::Weighted, ..FrameConfig::default() };
         let full = render(&ctx.device, &ctx.queue, &GpuKernels::new(&ctx.device).unwrap(), &scene, &cfg).unwrap();
         let paged = render(&small.device, &small.queue, &GpuKernels::new(&small.device).unwrap(), &scene, &cfg).unwrap();
-        println!(
-            "{cluster:?}: {t} triangles, binding limit {limit} B (BVH nodes {node_bytes} B, BVH triangles {tri_bytes} B, shading data {shading_bytes} B): images identical: {}",
-            full.pixels == paged.pixels
-        );
+        println!("{cluster:?}: {t} triangles, binding limit {limit} B (BVH nodes {node_bytes} B, BVH triangles {tri_bytes} B, shading data {shading_bytes} B): images identical: {}", full.pixels == paged.pixels);
         assert!(full.pixels.iter().any(|p| p[0] > 0.0));
         assert_eq!(full.pixels, paged.pixels, "{cluster:?}: paged frame differs");
     }
@@ -784,7 +798,9 @@ fn textures_match_the_cpu_and_are_paged() {
     use vplgi_gpu::scene::{texel_words, TEXELS_F32, TEXELS_SRGB8};
     use vplgi_scene::{Material, Texture};
 
-    let Some(ctx) = vplgi_tests::gpu("textures_match_the_cpu_and_are_paged") else { return };
+    let Some(ctx) = vplgi_tests::gpu("textures_match_the_cpu_and_are_paged") else {
+        return;
+    };
     let table = vplgi_scene::srgb8_table();
     let mut rng = Rng::new(11, Stream::Oracle, 0);
     let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
@@ -819,7 +835,7 @@ fn textures_match_the_cpu_and_are_paged() {
     let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, 1, 5);
     let render = |c: &vplgi_gpu::GpuContext| {
         let gs = GpuScene::new(&c.device, &scene).unwrap();
-        ShadingPointsKernel::new(&c.device).unwrap().run(&c.device, &c.queue, &gs, w, h, 1, 5, None).unwrap()
+        ShadingPointsKernel::new(&c.device).unwrap().run(&c.device, &c.queue, &gs, &CameraParams { width: w, height: h, spp: 1, seed: 5 }, None).unwrap()
     };
     let gpu = render(&ctx);
     let paged = render(&small);

@@ -18,8 +18,8 @@ fn sponza_renders_when_present() {
     let f = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
     assert!(f.pixels.iter().any(|p| p[0] > 0.0), "Sponza renders black");
     if let Ok(ctx) = vplgi_gpu::GpuContext::new() {
-        let k = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device).unwrap();
-        let g = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &k, &scene, &cfg).unwrap();
+        let k = vplgi_gpu::GpuKernels::new(&ctx.device).unwrap();
+        let g = vplgi_gpu::render(&ctx.device, &ctx.queue, &k, &scene, &cfg).unwrap();
         let img = |p: Vec<[f32; 3]>| vplgi_image::Image { width: 96, height: 64, pixels: p };
         let cmp = vplgi_image::compare(&img(f.pixels.clone()), &img(g.pixels)).unwrap();
         println!("GPU against CPU on {}: FLIP {:.4}", ctx.describe(), cmp.metrics.flip);

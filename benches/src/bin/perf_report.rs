@@ -25,8 +25,9 @@ use std::time::Instant;
 use vplgi_cpu::cluster::cluster;
 use vplgi_cpu::visibility::{facing, visibility, Endpoint};
 use vplgi_cpu::{CpuScene, NoProgress};
+use vplgi_frame::{Stage, StageTimings};
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{FrameConfig, StageTimings};
+use vplgi_types::FrameConfig;
 
 #[derive(Parser)]
 #[command(about = "Measures vplgi against faiss-cpu, raw Embree, its own GPU backend and its unclustered reference; writes a Markdown report")]
@@ -195,7 +196,7 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
 
 /// The stages and the total, by name.
 fn stage_list(t: &StageTimings) -> Vec<(&'static str, f64)> {
-    t.stages().into_iter().chain([("total", t.total)]).collect()
+    t.iter().map(|(s, ms)| (s.name(), ms)).chain([("total", t.total())]).collect()
 }
 
 fn image(w: u32, h: u32, pixels: Vec<[f32; 3]>) -> vplgi_image::Image {
@@ -234,16 +235,16 @@ fn main() -> Result<()> {
         if opts.quick { FrameConfig { width: 64, height: 64, vpls: 500, k_vpl: 50, k_sp: 200, ..FrameConfig::default() } } else { FrameConfig::default() };
     let reference = FrameConfig { cluster: vplgi_types::ClusterMode::None, ..clustered.clone() };
     let runs = if opts.quick { 1 } else { 3 };
-    let kernels = gpu.as_ref().map(|g| vplgi_gpu::pipeline::GpuKernels::new(&g.device)).transpose()?;
+    let kernels = gpu.as_ref().map(|g| vplgi_gpu::GpuKernels::new(&g.device)).transpose()?;
     let (mut cpu_runs, mut gpu_runs) = (Vec::new(), Vec::new());
     let mut cpu_pixels = Vec::new();
     for r in 0..runs {
         eprintln!("frames: CPU and GPU, run {} of {runs}", r + 1);
-        let f = vplgi_cpu::pipeline::render(&cs, &clustered, &NoProgress)?;
+        let f = vplgi_cpu::render(&cs, &clustered, &NoProgress)?;
         cpu_runs.push(f.timings);
         cpu_pixels = f.pixels;
         if let (Some(g), Some(k)) = (&gpu, &kernels) {
-            gpu_runs.push(vplgi_gpu::pipeline::render(&g.device, &g.queue, k, &scene, &clustered)?.timings);
+            gpu_runs.push(vplgi_gpu::render(&g.device, &g.queue, k, &scene, &clustered)?.timings);
         }
     }
     let cpu_t = StageTimings::median(&cpu_runs);
@@ -252,13 +253,13 @@ fn main() -> Result<()> {
         "config": {"width": clustered.width, "height": clustered.height, "vpls": clustered.vpls, "k_vpl": clustered.k_vpl, "k_sp": clustered.k_sp},
         "runs": runs,
         "stages": stage_list(&cpu_t).iter().map(|(name, c)| {
-            let g = gpu_t.as_ref().map(|g| stage_list(g).iter().find(|(n, _)| n == name).map_or(0.0, |x| x.1));
+            let g = gpu_t.as_ref().and_then(|g| stage_list(g).into_iter().find(|(n, _)| n == name).map(|x| x.1));
             json!({"stage": name, "cpu_ms": c, "gpu_ms": g, "ratio": g.map(|g| g / c)})
         }).collect::<Vec<_>>(),
     });
     eprintln!("frames: the unclustered reference (CPU)");
     let t0 = Instant::now();
-    let rf = vplgi_cpu::pipeline::render(&cs, &reference, &NoProgress)?;
+    let rf = vplgi_cpu::render(&cs, &reference, &NoProgress)?;
     let ref_s = secs(t0);
     let (w, h) = (clustered.width, clustered.height);
     let (ref_img, test_img) = (image(w, h, rf.pixels), image(w, h, cpu_pixels));
@@ -267,8 +268,8 @@ fn main() -> Result<()> {
     vplgi_image::write_png(&dir.join("clustered.png"), &test_img, 1.0)?;
     vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
     report["approximation"] = json!({
-        "reference_s": ref_s, "reference_visibility_s": rf.timings.visibility / 1e3, "clustered_s": cpu_t.total / 1e3,
-        "speedup": ref_s / (cpu_t.total / 1e3), "mse": cmp.metrics.mse, "rel_mse": cmp.metrics.rel_mse, "flip": cmp.metrics.flip,
+        "reference_s": ref_s, "reference_visibility_s": rf.timings.get(Stage::Visibility) / 1e3, "clustered_s": cpu_t.total() / 1e3,
+        "speedup": ref_s / (cpu_t.total() / 1e3), "mse": cmp.metrics.mse, "rel_mse": cmp.metrics.rel_mse, "flip": cmp.metrics.flip,
     });
     report["wall_s"] = json!(secs(started));
 
@@ -326,7 +327,11 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
 
     let v = &r["visibility"];
     writeln!(s, "\n## visibility against raw Embree\n")?;
-    writeln!(s, "Cornell box: {} shading points x {} VPLs, {} shadow rays (facing pairs) traced by the `visibility` stage and by a bare parallel loop of `rtcOccluded1` over the very same rays; both find the same visible pairs.\n", v["rows"], v["cols"], v["rays"])?;
+    writeln!(
+        s,
+        "Cornell box: {} shading points x {} VPLs, {} shadow rays (facing pairs) traced by the `visibility` stage and by a bare parallel loop of `rtcOccluded1` over the very same rays; both find the same visible pairs.\n",
+        v["rows"], v["cols"], v["rays"]
+    )?;
     writeln!(s, "| | time (ms) | Mrays/s |\n|---|---:|---:|")?;
     writeln!(s, "| `visibility` stage | {:.1} | {:.2} |", f(&v["stage_s"]) * 1e3, f(&v["stage_mrays"]))?;
     writeln!(s, "| raw `rtcOccluded1` loop | {:.1} | {:.2} |", f(&v["raw_s"]) * 1e3, f(&v["raw_mrays"]))?;
@@ -335,7 +340,11 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
     let b = &r["backends"];
     let c = &b["config"];
     writeln!(s, "\n## GPU against CPU, per stage\n")?;
-    writeln!(s, "Cornell box, {}x{}, {} VPLs, {} / {} VPL / SP clusters (`--cluster both`), wall time of each stage inside a frame, median of {} runs alternating CPU and GPU.\n", c["width"], c["height"], c["vpls"], c["k_vpl"], c["k_sp"], b["runs"])?;
+    writeln!(
+        s,
+        "Cornell box, {}x{}, {} VPLs, {} / {} VPL / SP clusters (`--cluster both`), wall time of each stage inside a frame, median of {} runs alternating CPU and GPU.\n",
+        c["width"], c["height"], c["vpls"], c["k_vpl"], c["k_sp"], b["runs"]
+    )?;
     writeln!(s, "| stage | CPU (ms) | GPU (ms) | GPU / CPU |\n|---|---:|---:|---:|")?;
     for st in b["stages"].as_array().cloned().unwrap_or_default() {
         let g = st["gpu_ms"].as_f64().map_or("–".into(), |g| format!("{g:.1}"));

@@ -2,17 +2,13 @@
 //! times, each stage reported as the mean of its `best` smallest times — for a scene and a list
 //! of configurations, written as JSON and as a Markdown table.
 
+use crate::engine::{with_engine, BackendArg};
 use crate::render::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
-use vplgi_types::{ClusterMode, FrameConfig, StageTimings};
-
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum Backend {
-    Cpu,
-    Gpu,
-}
+use vplgi_frame::{NoProgress, Stage, StageTimings};
+use vplgi_types::{ClusterMode, FrameConfig};
 
 #[derive(Clone, Copy, PartialEq, ValueEnum, Debug)]
 enum Preset {
@@ -49,7 +45,7 @@ pub struct BenchArgs {
     configs: Vec<Preset>,
     /// Where the frames run.
     #[arg(long, value_enum, default_value = "cpu")]
-    backend: Backend,
+    backend: BackendArg,
     /// Renders per configuration.
     #[arg(long, default_value_t = 10)]
     runs: usize,
@@ -77,16 +73,9 @@ fn best_mean(values: &mut [f64], best: usize) -> f64 {
     values[..n].iter().sum::<f64>() / n as f64
 }
 
+/// Every stage the mean of its `best` smallest times; the total is their sum.
 fn summarize(runs: &[StageTimings], best: usize) -> StageTimings {
-    let pick = |f: fn(&StageTimings) -> f64| best_mean(&mut runs.iter().map(f).collect::<Vec<_>>(), best);
-    StageTimings {
-        trace_vpls: pick(|t| t.trace_vpls),
-        shading_points: pick(|t| t.shading_points),
-        cluster: pick(|t| t.cluster),
-        visibility: pick(|t| t.visibility),
-        shade: pick(|t| t.shade),
-        total: pick(|t| t.total),
-    }
+    StageTimings::combine(runs, |v| best_mean(v, best))
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -110,43 +99,28 @@ pub fn run(args: BenchArgs) -> Result<()> {
         c.validate().map_err(|e| anyhow::anyhow!("configuration {p:?}: {e}"))?;
     }
 
-    let device = vplgi_embree::Device::new(None)?;
-    let cs = vplgi_cpu::CpuScene::new(&scene, &device)?;
-    let gpu = match args.backend {
-        Backend::Cpu => None,
-        Backend::Gpu => {
-            let ctx = vplgi_gpu::GpuContext::new()?;
-            let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
-            Some((ctx, kernels))
+    let (summaries, rows, backend, adapter) = with_engine(args.backend, &scene, &source, |engine| {
+        let mut rows = Vec::new();
+        let mut summaries = Vec::new();
+        for (preset, cfg) in &configs {
+            // One untimed frame first: the GPU compiles its pipelines on first dispatch.
+            engine.render(cfg, &NoProgress)?;
+            let mut runs = Vec::with_capacity(args.runs);
+            for i in 0..args.runs {
+                eprint!("\r{preset:?}: run {}/{}", i + 1, args.runs);
+                runs.push(engine.render(cfg, &NoProgress)?.timings);
+            }
+            eprintln!();
+            let summary = summarize(&runs, args.best);
+            rows.push(serde_json::json!({ "config": format!("{preset:?}").to_lowercase(), "params": cfg, "timings_ms": summary, "runs_ms": runs }));
+            summaries.push(summary);
         }
-    };
-    let adapter = gpu.as_ref().map(|(c, _)| c.describe());
-    let render = |cfg: &FrameConfig| -> Result<StageTimings> {
-        Ok(match &gpu {
-            None => vplgi_cpu::render(&cs, cfg, &vplgi_cpu::NoProgress)?.timings,
-            Some((ctx, k)) => vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, k, &scene, cfg)?.timings,
-        })
-    };
-
-    let mut rows = Vec::new();
-    let mut summaries = Vec::new();
-    for (preset, cfg) in &configs {
-        // One untimed frame first: the GPU compiles its pipelines on first dispatch.
-        render(cfg)?;
-        let mut runs = Vec::with_capacity(args.runs);
-        for i in 0..args.runs {
-            eprint!("\r{preset:?}: run {}/{}", i + 1, args.runs);
-            runs.push(render(cfg)?);
-        }
-        eprintln!();
-        let summary = summarize(&runs, args.best);
-        rows.push(serde_json::json!({ "config": format!("{preset:?}").to_lowercase(), "params": cfg, "timings_ms": summary, "runs_ms": runs }));
-        summaries.push(summary);
-    }
+        Ok((summaries, rows, engine.name, engine.adapter.as_ref().map(|a| a.name.clone())))
+    })?;
 
     let report = serde_json::json!({
         "scene": { "source": source, "name": scene.name, "triangles": scene.triangle_count() },
-        "backend": if gpu.is_some() { "gpu" } else { "cpu" },
+        "backend": backend,
         "adapter": adapter,
         "threads": rayon::current_num_threads(),
         "method": format!("each configuration rendered {} times after one untimed frame; every stage (and the total) is the mean of its {} smallest times", args.runs, args.best),
@@ -155,20 +129,21 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let json_path = args.out.join("bench.json");
     write_json(&json_path, &report)?;
 
+    let stage_names: Vec<&str> = Stage::ALL.iter().map(|s| s.name()).collect();
     let mut md = format!(
-        "# vplgi bench: {} ({} triangles), backend {}{}\n\n{}.\n\n| config | clusters VPL / SP | trace_vpls | shading_points | cluster | visibility | shade | total (ms) |\n|---|---|---:|---:|---:|---:|---:|---:|\n",
+        "# vplgi bench: {} ({} triangles), backend {}{}\n\n{}.\n\n| config | clusters VPL / SP | {} | total (ms) |\n|---|---|{}---:|\n",
         scene.name,
         scene.triangle_count(),
-        if gpu.is_some() { "gpu" } else { "cpu" },
+        backend,
         adapter.as_deref().map(|a| format!(" ({a}; GPU times on lavapipe run on the CPU cores)")).unwrap_or_default(),
-        report["method"].as_str().unwrap_or_default()
+        report["method"].as_str().unwrap_or_default(),
+        stage_names.join(" | "),
+        "---:|".repeat(Stage::ALL.len())
     );
     for ((preset, cfg), t) in configs.iter().zip(&summaries) {
         let clusters = if cfg.cluster == ClusterMode::None { "–".to_string() } else { format!("{} / {}", cfg.k_vpl, cfg.k_sp) };
-        md.push_str(&format!(
-            "| {:?} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |\n",
-            preset, clusters, t.trace_vpls, t.shading_points, t.cluster, t.visibility, t.shade, t.total
-        ));
+        let stages: String = t.iter().map(|(_, ms)| format!(" {ms:.1} |")).collect();
+        md.push_str(&format!("| {preset:?} | {clusters} |{stages} {:.1} |\n", t.total()));
     }
     let md_path = args.out.join("bench.md");
     vplgi_image::write_atomically(&md_path, |w| {

@@ -78,8 +78,13 @@ where
         .map_err(|e| anyhow!("{e}"))?
         .set_secondary_coord(x_range, 0f64..err_top);
     let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
-    let x_fmt =
-        |x: &f64| if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 { labels.get(x.round() as usize).cloned().unwrap_or_default() } else { String::new() };
+    let x_fmt = |x: &f64| {
+        if (x - x.round()).abs() < 1e-6 && x.round() >= 0.0 {
+            labels.get(x.round() as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
     chart
         .configure_mesh()
         .disable_x_mesh()
@@ -284,7 +289,9 @@ pub struct Tile {
 /// scaled to `thumb` pixels wide: one PNG.
 pub fn contact_sheet(path: &Path, tiles: &[Tile], columns: usize, thumb: u32) -> Result<()> {
     ensure_font()?;
-    let Some(first) = tiles.first() else { return Ok(()) };
+    let Some(first) = tiles.first() else {
+        return Ok(());
+    };
     let th = (thumb as u64 * first.height as u64 / first.width.max(1) as u64).max(1) as u32;
     let (gap, label_h) = (8u32, 24u32);
     let tile_w = 2 * thumb + gap;

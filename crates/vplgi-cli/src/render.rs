@@ -1,10 +1,12 @@
 //! `vplgi render`: one frame of the CPU reference pipeline.
 
+use crate::engine::{with_engine, BackendArg};
 use crate::progress::Bars;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use vplgi_frame::{Clusters, GClamp, KernelTime, Outputs, Report, SceneInfo, Setup, Stage};
 use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -17,16 +19,6 @@ enum ClusterArg {
     Vpl,
     /// No clustering: the unclustered reference, every shading point x every VPL.
     None,
-}
-
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum BackendArg {
-    /// The CPU reference (rayon + Embree 4).
-    Cpu,
-    /// The GPU twin (wgpu); on machines without a GPU, Mesa's lavapipe.
-    Gpu,
-    /// The GPU when an adapter exists, else the CPU.
-    Auto,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -45,7 +37,7 @@ pub struct RenderArgs {
     scene: Option<PathBuf>,
     /// Where the frame runs.
     #[arg(long, value_enum, default_value = "cpu")]
-    backend: BackendArg,
+    pub backend: BackendArg,
     /// Which point sets are clustered (the paper's ablation).
     #[arg(long, value_enum, default_value = "both")]
     cluster: ClusterArg,
@@ -204,88 +196,61 @@ pub fn run(args: RenderArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     install_interrupt_cleanup(args.out.clone());
 
-    let gpu = match args.backend {
-        BackendArg::Cpu => None,
-        BackendArg::Gpu => Some(vplgi_gpu::GpuContext::new()?),
-        BackendArg::Auto => match vplgi_gpu::GpuContext::new() {
-            Ok(ctx) => Some(ctx),
-            Err(e) => {
-                eprintln!("note: no GPU adapter ({e}); rendering on the CPU");
-                None
-            }
-        },
-    };
     let light_sampler = vplgi_scene::lights::LightSampler::new(&scene);
     if !light_sampler.has_lights() {
         eprintln!("warning: {source} has no light (no emissive triangle, no punctual light): the image will be black");
     }
     let mut profile = None;
-    let (pixels, timings, setup_ms, stats, backend, adapter) = match &gpu {
-        None => {
-            let t_bvh = Instant::now();
-            let device = vplgi_embree::Device::new(None)?;
-            let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
-            let bvh_ms = t_bvh.elapsed().as_secs_f64() * 1e3;
-            let frame = vplgi_cpu::render(&cs, &cfg, &Bars::new())?;
-            let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
-            (frame.pixels, frame.timings, bvh_ms, stats, "cpu", serde_json::Value::Null)
-        }
-        Some(ctx) => {
-            eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
-            let kernels = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
-            let frame = if args.profile {
-                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || {
-                    vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)
-                })?;
+    let (frame, backend, adapter, setup_ms) = with_engine(args.backend, &scene, &source, |engine| {
+        let bars = Bars::new();
+        let frame = match engine.gpu {
+            Some(ctx) if args.profile => {
+                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || engine.render(&cfg, &bars))?;
                 match by_kernel {
                     Some(k) => profile = Some(k),
                     None => eprintln!("note: {} has no timestamp queries: no kernel profile", ctx.describe()),
                 }
                 frame?
-            } else {
-                vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg)?
-            };
-            let stats = serde_json::to_value(&frame.stats).context("serialising the statistics")?;
-            let adapter =
-                serde_json::json!({ "name": ctx.describe(), "device_type": format!("{:?}", ctx.info.device_type), "features": ctx.notable_features() });
-            (frame.pixels, frame.timings, frame.setup_ms, stats, "gpu", adapter)
-        }
-    };
+            }
+            _ => engine.render(&cfg, &bars)?,
+        };
+        Ok((frame, engine.name, engine.adapter.clone(), engine.setup_ms))
+    })?;
 
-    let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels };
+    let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
     let exr = args.out.join("image.exr");
     let png = args.out.join("image.png");
     let json = args.out.join("report.json");
     vplgi_image::write_exr(&exr, &image)?;
     vplgi_image::write_png(&png, &image, args.exposure)?;
-    let t = timings;
-    let count = |key: &str| stats.get(key).cloned().unwrap_or(serde_json::Value::Null);
-    let report = serde_json::json!({
-        "vplgi_version": env!("CARGO_PKG_VERSION"),
-        "backend": backend,
-        "adapter": adapter,
-        "threads": rayon::current_num_threads(),
-        "scene": {
-            "source": source,
-            "name": scene.name,
-            "emissive_triangles": light_sampler.emitters.len(),
-            "punctual_lights": scene.lights.len(),
-            "extent": scene.extent(),
+    let stats = frame.stats;
+    let report = Report {
+        vplgi_version: env!("CARGO_PKG_VERSION").into(),
+        backend: backend.into(),
+        adapter,
+        threads: rayon::current_num_threads(),
+        scene: SceneInfo {
+            source: source.clone(),
+            name: scene.name.clone(),
+            emissive_triangles: light_sampler.emitters.len() as u64,
+            punctual_lights: scene.lights.len() as u64,
+            extent: scene.extent(),
         },
-        "triangles": scene.triangle_count(),
-        "params": cfg,
-        "vpls": count("vpls"),
-        "clusters": { "vpl": count("vpl_clusters"), "sp": count("sp_clusters") },
-        "g_clamp": { "relative": cfg.g_clamp_rel, "d_min": count("g_clamp_d_min") },
-        "stats": stats,
-        "timings_ms": t,
-        "setup_ms": { "load": load_ms, "scene_build": setup_ms },
-        // The whole process: scene, acceleration structure, frame buffers (and the GPU driver's).
-        "peak_rss_mib": peak_rss_mib(),
-        "gpu_profile": profile.as_ref().map(|p| p.iter().map(|k| serde_json::json!({ "kernel": k.kernel, "passes": k.passes, "device_ms": k.time.as_secs_f64() * 1e3 })).collect::<Vec<_>>()),
-        "outputs": { "exr": exr, "png": png },
-    });
-    write_json(&json, &report)?;
+        triangles: scene.triangle_count() as u64,
+        params: cfg.clone(),
+        vpls: stats.vpls,
+        clusters: Clusters { vpl: stats.vpl_clusters, sp: stats.sp_clusters },
+        g_clamp: GClamp { relative: cfg.g_clamp_rel, d_min: stats.g_clamp_d_min },
+        stats,
+        timings_ms: frame.timings,
+        setup_ms: Setup { load: load_ms, scene_build: setup_ms },
+        peak_rss_mib: peak_rss_mib(),
+        gpu_profile: profile
+            .as_ref()
+            .map(|p| p.iter().map(|k| KernelTime { kernel: k.kernel.clone(), passes: k.passes, device_ms: k.time.as_secs_f64() * 1e3 }).collect()),
+        outputs: Outputs { exr: exr.clone(), png: png.clone() },
+    };
+    write_json(&json, &serde_json::to_value(&report).context("serialising the report")?)?;
 
     println!(
         "{} ({} triangles), {}x{}, {} VPLs, clusters: {} VPL / {} SP, backend {backend}",
@@ -293,14 +258,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene.triangle_count(),
         cfg.width,
         cfg.height,
-        count("vpls"),
-        count("vpl_clusters"),
-        count("sp_clusters")
+        report.vpls,
+        report.clusters.vpl,
+        report.clusters.sp
     );
-    println!(
-        "timings (ms): trace_vpls {:.1}, shading_points {:.1}, cluster {:.1}, visibility {:.1}, shade {:.1}, total {:.1}",
-        t.trace_vpls, t.shading_points, t.cluster, t.visibility, t.shade, t.total
-    );
+    let t = &report.timings_ms;
+    let stages: Vec<String> = Stage::ALL.iter().map(|&s| format!("{s} {:.1}", t.get(s))).collect();
+    println!("timings (ms): {}, total {:.1}", stages.join(", "), t.total());
     if let Some(p) = &profile {
         let total: f64 = p.iter().map(|k| k.time.as_secs_f64()).sum();
         println!("GPU kernels by device time (timestamp queries; {:.1} ms in all):", total * 1e3);

@@ -4,6 +4,7 @@
 //! against MSE and against FLIP); every configuration's image and FLIP error map go into one
 //! contact sheet, and every number into sweep.json.
 
+use crate::engine::{with_engine, BackendArg};
 use crate::plot::{contact_sheet, heatmap, stacked_bars, Bar, Tile};
 use crate::render::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
@@ -12,8 +13,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
-use vplgi_types::{ClusterMode, FrameConfig, StageTimings};
+use vplgi_types::{ClusterMode, FrameConfig};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -26,12 +28,6 @@ enum Figure {
     /// Time and error over both counts (`--cluster both`).
     #[value(name = "11")]
     Eleven,
-}
-
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum Backend {
-    Cpu,
-    Gpu,
 }
 
 #[derive(Args)]
@@ -49,7 +45,7 @@ pub struct SweepArgs {
     vpl_clusters: Vec<u32>,
     /// Where the clustered frames run. The reference is always rendered by the CPU reference.
     #[arg(long, value_enum, default_value = "cpu")]
-    backend: Backend,
+    backend: BackendArg,
     /// Renders per configuration; stage times are the median over them.
     #[arg(long, default_value_t = 1)]
     runs: usize,
@@ -122,28 +118,6 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
     out
 }
 
-/// Renders frames on the chosen backend.
-enum Renderer<'a> {
-    Cpu(&'a vplgi_cpu::CpuScene<'a>),
-    Gpu(Box<(vplgi_gpu::GpuContext, vplgi_gpu::pipeline::GpuKernels)>, &'a vplgi_scene::Scene),
-}
-
-impl Renderer<'_> {
-    fn render(&self, cfg: &FrameConfig) -> Result<(Vec<[f32; 3]>, StageTimings)> {
-        Ok(match self {
-            Renderer::Cpu(cs) => {
-                let f = vplgi_cpu::render(cs, cfg, &vplgi_cpu::NoProgress)?;
-                (f.pixels, f.timings)
-            }
-            Renderer::Gpu(gpu, scene) => {
-                let (ctx, k) = gpu.as_ref();
-                let f = vplgi_gpu::pipeline::render(&ctx.device, &ctx.queue, k, scene, cfg)?;
-                (f.pixels, f.timings)
-            }
-        })
-    }
-}
-
 pub fn run(args: SweepArgs) -> Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
@@ -178,72 +152,64 @@ pub fn run(args: SweepArgs) -> Result<()> {
         None => None,
     };
     std::fs::create_dir_all(args.out.join("configs")).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let device = vplgi_embree::Device::new(None)?;
-    let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
-
     // The reference: given, or rendered by the CPU reference (and kept beside the sweep).
     let (reference, reference_ms) = match given {
         Some(img) => (img, None),
         None => {
             eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", args.width, args.height, args.vpls);
-            let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::None, ..base.clone() }, &crate::progress::Bars::new())?;
+            let reference = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
+            let f = with_engine(BackendArg::Cpu, &scene, &source, |engine| engine.render(&reference, &crate::progress::Bars::new()))?;
             let img = Image { width: args.width, height: args.height, pixels: f.pixels };
             std::fs::create_dir_all(args.out.join("reference"))?;
             vplgi_image::write_exr(&args.out.join("reference/image.exr"), &img)?;
             vplgi_image::write_png(&args.out.join("reference/image.png"), &img, 1.0)?;
-            (img, Some(f.timings.total))
+            (img, Some(f.timings.total()))
         }
     };
     // The reference time belongs on the charts only when it was measured on the sweep's backend.
-    let reference_line = if args.backend == Backend::Cpu { reference_ms } else { None };
+    let reference_line = if args.backend == BackendArg::Cpu { reference_ms } else { None };
 
-    let renderer = match args.backend {
-        Backend::Cpu => Renderer::Cpu(&cs),
-        Backend::Gpu => {
-            let ctx = vplgi_gpu::GpuContext::new()?;
-            eprintln!("clustered frames on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
-            let k = vplgi_gpu::pipeline::GpuKernels::new(&ctx.device)?;
-            Renderer::Gpu(Box::new((ctx, k)), &scene)
+    let (measured, backend_name) = with_engine(args.backend, &scene, &source, |engine| {
+        let bar = if std::io::stderr().is_terminal() { ProgressBar::new(configs.len() as u64) } else { ProgressBar::hidden() };
+        if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)") {
+            bar.set_style(style.progress_chars("=> "));
         }
-    };
-    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(configs.len() as u64) } else { ProgressBar::hidden() };
-    if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)") {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    let mut measured = Vec::new();
-    for c in &configs {
-        bar.set_message(c.label.clone());
-        if bar.is_hidden() {
-            eprintln!("sweep: {} ({} of {})", c.label, measured.len() + 1, configs.len());
+        let mut measured = Vec::new();
+        for c in &configs {
+            bar.set_message(c.label.clone());
+            if bar.is_hidden() {
+                eprintln!("sweep: {} ({} of {})", c.label, measured.len() + 1, configs.len());
+            }
+            let mut runs = Vec::new();
+            let mut pixels = Vec::new();
+            for _ in 0..args.runs {
+                let f = engine.render(&c.cfg, &NoProgress)?;
+                runs.push(f.timings);
+                pixels = f.pixels;
+            }
+            let img = Image { width: args.width, height: args.height, pixels };
+            let cmp = compare(&reference, &img)?;
+            let dir = args.out.join("configs").join(&c.label);
+            std::fs::create_dir_all(&dir)?;
+            vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
+            vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
+            vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
+            let timings = StageTimings::median(&runs);
+            let tile = Tile {
+                label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total(), cmp.metrics.mse, cmp.metrics.flip),
+                width: img.width,
+                height: img.height,
+                image: tonemap_srgb8(&img, 1.0),
+                error_map: error_map_rgb8(&c.label, &cmp)?,
+            };
+            measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
+            bar.inc(1);
         }
-        let mut runs = Vec::new();
-        let mut pixels = Vec::new();
-        for _ in 0..args.runs {
-            let (p, t) = renderer.render(&c.cfg)?;
-            runs.push(t);
-            pixels = p;
-        }
-        let img = Image { width: args.width, height: args.height, pixels };
-        let cmp = compare(&reference, &img)?;
-        let dir = args.out.join("configs").join(&c.label);
-        std::fs::create_dir_all(&dir)?;
-        vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
-        vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
-        vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
-        let timings = StageTimings::median(&runs);
-        let tile = Tile {
-            label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total, cmp.metrics.mse, cmp.metrics.flip),
-            width: img.width,
-            height: img.height,
-            image: tonemap_srgb8(&img, 1.0),
-            error_map: error_map_rgb8(&c.label, &cmp)?,
-        };
-        measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
+        bar.finish_and_clear();
+        Ok((measured, engine.name))
+    })?;
 
-    let backend = if args.backend == Backend::Gpu { " (GPU)" } else { "" };
+    let backend = if backend_name == "gpu" { " (GPU)" } else { "" };
     let of = |f: Figure| -> Vec<(&Config, &Measured)> { configs.iter().zip(&measured).filter(|(c, _)| c.figure == f).collect() };
     let mut charts = Vec::new();
     for (metric, name) in [("mse", "MSE"), ("flip", "FLIP")] {
@@ -260,7 +226,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 .iter()
                 .map(|(c, m)| Bar {
                     label: if fig == Figure::Seven { c.cfg.k_sp } else { c.cfg.k_vpl }.to_string(),
-                    stages: m.timings.stages().to_vec(),
+                    stages: m.timings.iter().map(|(s, ms)| (s.name(), ms)).collect(),
                     error: err(m),
                 })
                 .collect();
@@ -279,7 +245,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 &format!("{}: frame time and {name} over both cluster counts{backend}", scene.name),
                 &args.vpl_clusters,
                 &args.sp_clusters,
-                &grid(&|m| m.timings.total),
+                &grid(&|m| m.timings.total()),
                 &grid(&|m| err(m)),
                 name,
             )?;
@@ -302,7 +268,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let report = json!({
         "vplgi_version": env!("CARGO_PKG_VERSION"),
         "scene": { "source": source, "name": scene.name, "triangles": scene.triangle_count() },
-        "backend": if args.backend == Backend::Gpu { "gpu" } else { "cpu" },
+        "backend": backend_name,
         "runs": args.runs,
         "base": base,
         "reference": { "exr": args.reference.clone().unwrap_or_else(|| args.out.join("reference/image.exr")), "total_ms": reference_ms, "backend": "cpu" },

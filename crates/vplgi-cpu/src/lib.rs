@@ -2,14 +2,15 @@
 //!
 //! One module per stage, each exposing a function named after the stage:
 //! [`trace_vpls::trace_vpls`], [`shading_points::shading_points`], [`cluster::cluster`],
-//! [`visibility::visibility`] and [`shade::shade`]; [`pipeline::render`] chains them for one
+//! [`visibility::visibility`] and [`shade::shade`]. [`CpuScene`] implements
+//! [`vplgi_frame::Backend`] with them, so [`render`] (the one frame driver) chains them for one
 //! frame. Every stage is parallel with rayon and deterministic: each item (particle, pixel,
 //! point, matrix row) is a pure function of its inputs and of the counter-based RNG, and all
 //! reductions are either integer sums or fixed-order sequential folds, so 1 and N threads give
 //! bit-identical results.
 
+mod backend;
 pub mod cluster;
-pub mod pipeline;
 pub mod shade;
 pub mod shading_points;
 pub mod trace_vpls;
@@ -20,4 +21,6 @@ pub use vplgi_scene::lights;
 
 mod accel;
 pub use accel::{CpuScene, SurfaceHit, SEGMENT_TNEAR};
-pub use pipeline::{render, render_rows, Frame, NoProgress, Progress, RenderError, StageTimings};
+pub use backend::CpuHits;
+/// The frame driver is the same for every backend: `render(&cpu_scene, &cfg, &progress)`.
+pub use vplgi_frame::{render, render_rows, Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings};

@@ -14,13 +14,14 @@
 //! Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
 //! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp").
 
+use crate::cluster::Clustering;
 use crate::visibility::{BitMatrix, Endpoint};
 use crate::CpuScene;
 use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{Rng, ShadingPoint, Stream, MISS};
+use vplgi_types::{Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 /// A light for indirect shading: one VPL, or one VPL cluster at its representative.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -241,51 +242,62 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
     sum * brdf
 }
 
-/// Radiance of shading point `i`: emitted + direct + indirect (zero for a miss).
-#[allow(clippy::too_many_arguments)]
-pub fn shade_point(
-    cs: &CpuScene,
-    sps: &[ShadingPoint],
-    i: usize,
-    lights: &LightArrays,
-    vis: &VisibilitySource,
-    g_max: f32,
-    seed: u32,
-    direct_samples: u32,
-) -> Vec3 {
-    let sp = &sps[i];
+/// Radiance of shading point `sp`, sample `i` of the image: emitted + direct + indirect (zero
+/// for a miss).
+pub fn shade_point(cs: &CpuScene, sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, params: &ShadeParams) -> Vec3 {
     if sp.triangle == MISS {
         return Vec3::ZERO;
     }
-    Vec3::from(sp.emitted) + direct(cs, sp, i as u32, seed, direct_samples) + indirect(sp, i, lights, vis, g_max)
+    Vec3::from(sp.emitted) + direct(cs, sp, i as u32, params.seed, params.direct_samples) + indirect(sp, i, lights, vis, params.g_max)
 }
 
-/// Shades pixels `pixels` (a range of pixel indices), averaging their `spp` shading points in
-/// sample order. Returns one RGB value per pixel of the range.
-#[allow(clippy::too_many_arguments)]
+/// Shades pixels `pixels` (a range of pixel indices), averaging their `params.spp` shading points
+/// in sample order. `sps` holds the samples from `first_sample` on, and must hold every sample of
+/// the pixels. Returns one RGB value per pixel of the range.
 pub fn shade(
     cs: &CpuScene,
     sps: &[ShadingPoint],
-    spp: u32,
+    first_sample: usize,
     pixels: std::ops::Range<usize>,
     lights: &[VplLight],
     vis: &VisibilitySource,
-    g_max: f32,
-    seed: u32,
-    direct_samples: u32,
+    params: &ShadeParams,
 ) -> Vec<[f32; 3]> {
     use rayon::prelude::*;
-    let spp = spp as usize;
+    let spp = params.spp as usize;
     let lights = LightArrays::new(lights);
     let lights = &lights;
     pixels
         .into_par_iter()
         .map(|px| {
             let mut sum = Vec3::ZERO;
-            for s in 0..spp {
-                sum += shade_point(cs, sps, px * spp + s, lights, vis, g_max, seed, direct_samples);
+            for s in px * spp..(px + 1) * spp {
+                sum += shade_point(cs, &sps[s - first_sample], s, lights, vis, params);
             }
             (sum / spp as f32).to_array()
         })
         .collect()
+}
+
+/// Lights for indirect shading: one per VPL cluster (at its representative, with the summed
+/// flux of its members), or one per VPL.
+pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>) -> Vec<VplLight> {
+    match clusters {
+        None => vpls.iter().map(|v| VplLight { position: v.position.into(), normal: v.normal.into(), flux: v.flux.into() }).collect(),
+        Some(c) => {
+            // Sequential sum in VPL order: deterministic.
+            let mut flux = vec![Vec3::ZERO; c.k()];
+            for (i, v) in vpls.iter().enumerate() {
+                flux[c.hard_label(i) as usize] += Vec3::from(v.flux);
+            }
+            c.representatives
+                .iter()
+                .zip(flux)
+                .map(|(&r, flux)| {
+                    let v = &vpls[r as usize];
+                    VplLight { position: v.position.into(), normal: v.normal.into(), flux }
+                })
+                .collect()
+        }
+    }
 }

@@ -8,10 +8,10 @@
 //! flux is divided by the number of particles used, which makes the VPL set an unbiased estimate
 //! of the light leaving surfaces after 1..=`bounces` reflections.
 
-use crate::pipeline::Progress;
 use crate::CpuScene;
 use glam::Vec3;
 use rayon::prelude::*;
+use vplgi_frame::Progress;
 use vplgi_types::{sampling, Rng, Stream, Vpl};
 
 /// Russian roulette never keeps more than this share of paths, so paths end in finite time even

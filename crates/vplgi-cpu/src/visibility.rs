@@ -5,10 +5,10 @@
 //! A pair whose surfaces face away from each other gets bit 0 without a ray: light cannot pass
 //! between them (a ray would be blocked by one of the two surfaces), so the ray is saved.
 
-use crate::pipeline::Progress;
 use crate::CpuScene;
 use glam::Vec3;
 use rayon::prelude::*;
+use vplgi_frame::Progress;
 
 /// A surface point: one end of a shadow ray.
 #[derive(Clone, Copy, Debug, PartialEq)]

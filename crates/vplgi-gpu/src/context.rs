@@ -181,9 +181,11 @@ mod tests {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let r = kernel.run_on_device(&ctx.device, &ctx.queue, &gs, &tiny, 1, &tiny, 1, 0, 1);
+        let r = kernel.run_on_device(&ctx.device, &ctx.queue, &gs, (&tiny, 1), (&tiny, 1), 0..1);
         match r {
-            Err(GpuError::Validation { message, .. }) => println!("captured: {}", message.lines().next().unwrap_or("")),
+            Err(GpuError::Validation { message, .. }) => {
+                println!("captured: {}", message.lines().next().unwrap_or(""))
+            }
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("an invalid binding was accepted"),
         }

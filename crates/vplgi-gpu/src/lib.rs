@@ -5,15 +5,16 @@
 //! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
 //! ([`shader::compose`]).
 //!
-//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`], chained on
-//! device buffers by [`pipeline::render`].
+//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`].
+//! [`GpuBackend`] implements [`vplgi_frame::Backend`] with them on device buffers, so the one
+//! frame driver ([`vplgi_frame::render`]) chains them.
 
+pub mod backend;
 pub mod buffers;
 pub mod bvh;
 pub mod cluster;
 pub mod context;
 pub mod lights;
-pub mod pipeline;
 pub mod rng;
 pub mod scan;
 pub mod scene;
@@ -24,4 +25,5 @@ pub mod timing;
 pub mod trace_vpls;
 pub mod visibility;
 
+pub use backend::{render, GpuBackend, GpuKernels};
 pub use context::{GpuContext, GpuError};

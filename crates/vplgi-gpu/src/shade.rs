@@ -7,6 +7,7 @@ use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
+use vplgi_types::ShadeParams;
 
 /// A VPL (cluster) as a light for indirect shading (`VplLight` in `shade.wgsl`).
 #[repr(C)]
@@ -47,6 +48,8 @@ pub enum Visibility<'a> {
 
 /// Device buffers shade reads.
 pub struct ShadeInputs<'a> {
+    /// The scene's light tables (direct light).
+    pub scene_lights: &'a GpuLights,
     /// Shading points from sample `sp_first` on (a chunk, or all of them with `sp_first = 0`).
     pub sps: &'a wgpu::Buffer,
     pub sp_first: u32,
@@ -69,20 +72,17 @@ impl ShadeKernel {
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
     /// range.
-    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &GpuScene,
-        lights: &GpuLights,
         inputs: &ShadeInputs,
         pixels: std::ops::Range<u32>,
-        spp: u32,
-        seed: u32,
-        direct_samples: u32,
-        g_max: f32,
+        shade: &ShadeParams,
     ) -> Result<wgpu::Buffer, GpuError> {
+        let lights = inputs.scene_lights;
+        let ShadeParams { spp, seed, direct_samples, g_max } = *shade;
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {

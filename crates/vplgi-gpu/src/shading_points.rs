@@ -7,7 +7,7 @@ use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use vplgi_types::ShadingPoint;
+use vplgi_types::{CameraParams, ShadingPoint};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -34,20 +34,17 @@ impl ShadingPointsKernel {
         validated(device, "shading_points pipeline", || ShadingPointsKernel { pipeline: RayPipeline::new(device, "shading_points.wgsl", "main") })
     }
 
-    /// Shading points `first .. first + count` into a new device buffer.
-    #[allow(clippy::too_many_arguments)]
+    /// Shading points of camera samples `samples` into a new device buffer.
     pub fn dispatch_range(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &GpuScene,
-        width: u32,
-        height: u32,
-        spp: u32,
-        seed: u32,
-        first: u64,
-        count: u64,
+        camera: &CameraParams,
+        samples: std::ops::Range<u32>,
     ) -> Result<wgpu::Buffer, GpuError> {
+        let CameraParams { width, height, spp, seed } = *camera;
+        let (first, count) = (samples.start, samples.end - samples.start);
         let cam = scene.camera;
         let right = cam.forward.cross(cam.up).normalize();
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
@@ -60,8 +57,8 @@ impl ShadingPointsKernel {
             height,
             spp,
             seed,
-            first: first as u32,
-            count: count as u32,
+            first,
+            count,
             pad: [0; 2],
         };
         validated(device, "shading_points", || {
@@ -87,33 +84,29 @@ impl ShadingPointsKernel {
                 s2,
                 s3,
             ];
-            dispatch(device, queue, self.pipeline.get(device, scene), &bindings, (count as u32).div_ceil(64));
+            dispatch(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
             buf
         })
     }
 
     /// All `width * height * spp` shading points, read back. Output is produced in chunks of at
     /// most `max_binding_bytes` (the adapter's storage-binding limit unless a test forces less).
-    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &GpuScene,
-        width: u32,
-        height: u32,
-        spp: u32,
-        seed: u32,
+        camera: &CameraParams,
         max_binding_bytes: Option<u64>,
     ) -> Result<Vec<ShadingPoint>, GpuError> {
-        let total = width as u64 * height as u64 * spp as u64;
+        let total = camera.width * camera.height * camera.spp;
         let limit = max_binding_bytes.unwrap_or(device.limits().max_storage_buffer_binding_size);
-        let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).max(1);
+        let per_chunk = (limit / std::mem::size_of::<ShadingPoint>() as u64).clamp(1, u32::MAX as u64) as u32;
         let mut out = Vec::with_capacity(total as usize);
-        let mut first = 0u64;
+        let mut first = 0u32;
         while first < total {
             let count = (total - first).min(per_chunk);
-            let buf = self.dispatch_range(device, queue, scene, width, height, spp, seed, first, count)?;
+            let buf = self.dispatch_range(device, queue, scene, camera, first..first + count)?;
             out.extend(read_back::<ShadingPoint>(device, queue, &buf, count as usize)?);
             first += count;
         }

@@ -11,7 +11,7 @@ use crate::scene::GpuScene;
 use crate::shader::{pipelines, RayPipeline};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use vplgi_types::Vpl;
+use vplgi_types::{TraceParams, Vpl};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -53,17 +53,8 @@ impl TraceVplsKernel {
     }
 
     /// Exactly `count` VPLs (fewer only if a budget of `64 count + 65536` particles runs out).
-    #[allow(clippy::too_many_arguments)]
-    pub fn run(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        scene: &GpuScene,
-        lights: &GpuLights,
-        seed: u32,
-        count: u32,
-        bounces: u32,
-    ) -> Result<GpuVpls, GpuError> {
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, lights: &GpuLights, p: &TraceParams) -> Result<GpuVpls, GpuError> {
+        let TraceParams { seed, count, bounces } = *p;
         let vpls = storage_zeroed::<Vpl>(device, "vpls", count.max(1) as usize);
         if count == 0 || bounces == 0 || lights.emitter_count + lights.punctual_count == 0 {
             return Ok(GpuVpls { buffer: vpls, count: 0, particles: 0 });

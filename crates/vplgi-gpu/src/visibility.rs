@@ -50,21 +50,18 @@ impl VisibilityKernel {
         validated(device, "visibility pipeline", || VisibilityKernel { pipeline: RayPipeline::new(device, "visibility.wgsl", "main") })
     }
 
-    /// Rows `first_row .. first_row + row_count` of the matrix between the `n_cols` columns and
-    /// the rows in `rows`, as a new device buffer of 32-bit words.
-    #[allow(clippy::too_many_arguments)]
+    /// Rows `range` of the matrix between the `n_cols` Endpoints of `cols` and the `n_rows`
+    /// Endpoints of `rows`, as a new device buffer of 32-bit words.
     pub fn run_on_device(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &GpuScene,
-        rows: &wgpu::Buffer,
-        n_rows: u32,
-        cols: &wgpu::Buffer,
-        n_cols: u32,
-        first_row: u32,
-        row_count: u32,
+        (rows, n_rows): (&wgpu::Buffer, u32),
+        (cols, n_cols): (&wgpu::Buffer, u32),
+        range: std::ops::Range<u32>,
     ) -> Result<wgpu::Buffer, GpuError> {
+        let (first_row, row_count) = (range.start, range.end - range.start);
         let wpr = words_per_row(n_cols as usize) as u32;
         // Rows are bound from the aligned row at or below first_row, so that `rows` may be
         // larger than one binding.
@@ -108,7 +105,8 @@ impl VisibilityKernel {
         let mut first = 0;
         while first < rows.len() {
             let n = (rows.len() - first).min(rows_per_chunk);
-            let words = self.run_on_device(device, queue, scene, &row_buf, rows.len() as u32, &col_buf, cols.len() as u32, first as u32, n as u32)?;
+            let words =
+                self.run_on_device(device, queue, scene, (&row_buf, rows.len() as u32), (&col_buf, cols.len() as u32), first as u32..(first + n) as u32)?;
             out.extend(read_back::<u32>(device, queue, &words, n * wpr)?);
             first += n;
         }

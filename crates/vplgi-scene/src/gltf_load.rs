@@ -94,8 +94,12 @@ fn load_buffers(path: &Path, document: &gltf::Document, base: &Path, mut blob: O
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let what = match buffer.source() {
-            gltf::buffer::Source::Bin => format!("buffer {} (the GLB binary chunk)", buffer.index()),
-            gltf::buffer::Source::Uri(uri) => format!("buffer {} ({})", buffer.index(), short_uri(uri)),
+            gltf::buffer::Source::Bin => {
+                format!("buffer {} (the GLB binary chunk)", buffer.index())
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                format!("buffer {} ({})", buffer.index(), short_uri(uri))
+            }
         };
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             check_uri(uri).map_err(|m| invalid(path, format!("{what}: {m}")))?;

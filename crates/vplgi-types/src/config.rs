@@ -140,6 +140,32 @@ impl FrameConfig {
         }
     }
 
+    /// The parameters of `trace_vpls`.
+    pub fn trace_params(&self) -> crate::TraceParams {
+        crate::TraceParams { seed: self.seed, count: self.vpls, bounces: self.bounces }
+    }
+
+    /// The parameters of `shading_points`.
+    pub fn camera_params(&self) -> crate::CameraParams {
+        crate::CameraParams { width: self.width, height: self.height, spp: self.spp, seed: self.seed }
+    }
+
+    /// The clamp's bound on the geometry term for a scene of bounding-box diagonal `extent`:
+    /// 1 / d_min² with d_min = `g_clamp_rel` * extent, or infinity without a clamp.
+    pub fn g_max(&self, extent: f32) -> f32 {
+        let d_min = self.g_clamp_rel * extent;
+        if d_min > 0.0 {
+            1.0 / (d_min * d_min)
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// The parameters of `shade` for a scene of bounding-box diagonal `extent`.
+    pub fn shade_params(&self, extent: f32) -> crate::ShadeParams {
+        crate::ShadeParams { spp: self.spp, seed: self.seed, direct_samples: self.direct_samples, g_max: self.g_max(extent) }
+    }
+
     /// Checks ranges; the message names the offending parameter.
     pub fn validate(&self) -> Result<(), String> {
         let positive = [

@@ -7,15 +7,16 @@
 //! * [`sampling`]: the few warps used to turn uniform numbers into directions and points.
 //! * [`config`]: [`FrameConfig`], the parameters of one frame, with the paper's presets.
 //! * [`clustering`]: the host-side choices of Alg. 1 and 2 every backend shares.
+//! * [`params`]: the parameters of each stage, as every backend takes them.
 
 pub mod clustering;
 pub mod config;
+pub mod params;
 pub mod pod;
 pub mod rng;
 pub mod sampling;
-pub mod timings;
 
 pub use config::{ClusterMode, FrameConfig, FuzzyMode};
+pub use params::{CameraParams, ShadeParams, TraceParams};
 pub use pod::{ShadingPoint, Vpl, MISS};
 pub use rng::{Rng, Stream};
-pub use timings::StageTimings;

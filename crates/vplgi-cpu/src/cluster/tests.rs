@@ -140,7 +140,7 @@ fn check_invariants(c: &Clustering, ps: &[Vec3], k_requested: u32) {
     assert!(c.k() <= (k_requested as usize).min(m));
     assert_eq!(c.labels.len(), m * c.f);
     assert_eq!(c.members.iter().map(|&x| x as usize).sum::<usize>(), m);
-    for i in 0..m {
+    for (i, &p) in ps.iter().enumerate() {
         let row = &c.labels[i * c.f..(i + 1) * c.f];
         let w = &c.weights[i * c.f..(i + 1) * c.f];
         let valid = row.iter().take_while(|&&l| l != MISS).count();
@@ -151,7 +151,7 @@ fn check_invariants(c: &Clustering, ps: &[Vec3], k_requested: u32) {
         sorted.sort_unstable();
         sorted.dedup();
         assert_eq!(sorted.len(), valid, "labels of point {i} repeat: {row:?}");
-        let d: Vec<f32> = row[..valid].iter().map(|&l| dist2(ps[i], c.positions[l as usize])).collect();
+        let d: Vec<f32> = row[..valid].iter().map(|&l| dist2(p, c.positions[l as usize])).collect();
         assert!(d.windows(2).all(|p| p[0] <= p[1]), "labels of point {i} not ordered by distance: {d:?}");
         let sum: f32 = w.iter().sum();
         assert!((sum - 1.0).abs() < 1e-5, "weights of point {i} sum to {sum}");
@@ -193,11 +193,11 @@ fn opposite_normals_never_share_a_cluster_when_avoidable() {
     }
     let c = cluster(&ps, &ns, &params(40, 6, FuzzyMode::Weighted));
     check_invariants(&c, &ps, 40);
-    for i in 0..ps.len() {
+    for (i, &n) in ns.iter().enumerate() {
         for j in 0..c.f {
             let l = c.labels[i * c.f + j];
             if l != MISS {
-                assert!(c.normals[l as usize].dot(ns[i]) > 0.866, "point {i} joined a cluster facing the other way");
+                assert!(c.normals[l as usize].dot(n) > 0.866, "point {i} joined a cluster facing the other way");
             }
         }
     }

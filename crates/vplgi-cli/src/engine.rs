@@ -1,0 +1,75 @@
+//! The one backend choice of every subcommand: `--backend cpu|gpu|auto`, and the scene made
+//! ready on it.
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+use std::time::Instant;
+use vplgi_frame::{Adapter, Frame, FrameConfig, Progress};
+use vplgi_scene::Scene;
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
+pub enum BackendArg {
+    /// The CPU reference (rayon + Embree 4).
+    Cpu,
+    /// The GPU twin (wgpu); on machines without a GPU, Mesa's lavapipe.
+    Gpu,
+    /// The GPU when an adapter exists, else the CPU.
+    Auto,
+}
+
+/// A scene ready to render on one backend.
+pub struct Engine<'a> {
+    render: &'a dyn Fn(&FrameConfig, &dyn Progress) -> Result<Frame>,
+    /// `cpu` or `gpu`.
+    pub name: &'static str,
+    pub adapter: Option<Adapter>,
+    /// For GPU frames: the context (device time of kernels, `--profile`).
+    pub gpu: Option<&'a vplgi_gpu::GpuContext>,
+    /// Building the acceleration structure (and on the GPU uploading the scene), ms.
+    pub setup_ms: f64,
+}
+
+impl Engine<'_> {
+    pub fn render(&self, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame> {
+        (self.render)(cfg, progress)
+    }
+}
+
+/// Makes `scene` ready on the chosen backend and runs `work` with it.
+pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: impl FnOnce(&Engine) -> Result<T>) -> Result<T> {
+    let gpu = match backend {
+        BackendArg::Cpu => None,
+        BackendArg::Gpu => Some(vplgi_gpu::GpuContext::new()?),
+        BackendArg::Auto => match vplgi_gpu::GpuContext::new() {
+            Ok(ctx) => Some(ctx),
+            Err(e) => {
+                eprintln!("note: no GPU adapter ({e}); rendering on the CPU");
+                None
+            }
+        },
+    };
+    match &gpu {
+        None => {
+            let clock = Instant::now();
+            let device = vplgi_embree::Device::new(None)?;
+            let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+            let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
+            let render = |cfg: &FrameConfig, p: &dyn Progress| Ok(vplgi_frame::render(&cs, cfg, p)?);
+            work(&Engine { render: &render, name: "cpu", adapter: None, gpu: None, setup_ms })
+        }
+        Some(ctx) => {
+            eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
+            let kernels = vplgi_gpu::GpuKernels::new(&ctx.device)?;
+            let clock = Instant::now();
+            let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
+            let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
+            let render = |cfg: &FrameConfig, p: &dyn Progress| Ok(vplgi_frame::render(&gb, cfg, p)?);
+            let adapter = Adapter {
+                name: ctx.describe(),
+                device_type: format!("{:?}", ctx.info.device_type),
+                features: ctx.notable_features().into_iter().map(String::from).collect(),
+            };
+            work(&Engine { render: &render, name: "gpu", adapter: Some(adapter), gpu: Some(ctx), setup_ms })
+        }
+    }
+}

@@ -1,0 +1,117 @@
+//! The CPU reference as a [`Backend`]: every stage on host vectors, each a call into its stage
+//! module. The frame itself is [`vplgi_frame::render`].
+
+use crate::cluster::{cluster, Clustering};
+use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
+use crate::shading_points::shading_points_of;
+use crate::trace_vpls::trace_vpls;
+use crate::visibility::{visibility, BitMatrix, Endpoint};
+use crate::CpuScene;
+use glam::Vec3;
+use std::ops::Range;
+use vplgi_frame::{Backend, ClusterCounts, FrameError, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_types::clustering::ClusterParams;
+use vplgi_types::{CameraParams, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
+
+/// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
+/// surface points.
+pub struct CpuHits {
+    samples: Vec<u32>,
+    row_of: Vec<u32>,
+    points: Vec<Endpoint>,
+}
+
+impl Backend for CpuScene<'_> {
+    type Error = FrameError;
+    type Vpls = Vec<Vpl>;
+    type Samples = Vec<ShadingPoint>;
+    type Points = Vec<Endpoint>;
+    type Hits = CpuHits;
+    type Lights = Vec<VplLight>;
+    type Clustering = Clustering;
+    type Matrix = BitMatrix;
+
+    fn scene_extent(&self) -> f32 {
+        self.extent
+    }
+
+    fn trace_vpls(&self, p: &TraceParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, VplCounts), FrameError> {
+        let set = trace_vpls(self, p.seed, p.count, p.bounces, progress);
+        let counts = VplCounts { vpls: set.vpls.len() as u32, particles: set.particles };
+        Ok((set.vpls, counts))
+    }
+
+    fn shading_points(&self, p: &CameraParams, samples: Range<u32>) -> Result<Vec<ShadingPoint>, FrameError> {
+        Ok(shading_points_of(self, p, samples))
+    }
+
+    fn compact_hits(&self, chunks: &[SampleChunk<Vec<ShadingPoint>>], n_samples: u32) -> Result<(CpuHits, u32), FrameError> {
+        let mut hits = CpuHits { samples: Vec::new(), row_of: vec![MISS; n_samples as usize], points: Vec::new() };
+        for chunk in chunks {
+            for (i, sp) in (chunk.first..).zip(&chunk.samples) {
+                if !sp.is_miss() {
+                    hits.row_of[i as usize] = hits.samples.len() as u32;
+                    hits.samples.push(i);
+                    hits.points.push(Endpoint::of(sp));
+                }
+            }
+        }
+        let n = hits.samples.len() as u32;
+        Ok((hits, n))
+    }
+
+    fn hits_before(&self, hits: &CpuHits, sample: u32) -> Result<u32, FrameError> {
+        Ok(hits.samples.partition_point(|&s| s < sample) as u32)
+    }
+
+    fn hit_points<'h>(&self, hits: &'h CpuHits) -> &'h Vec<Endpoint> {
+        &hits.points
+    }
+
+    fn vpl_points(&self, vpls: &Vec<Vpl>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
+        Ok(vpls.iter().map(|v| Endpoint { position: v.position.into(), normal: v.normal.into() }).collect())
+    }
+
+    fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {
+        let pos: Vec<Vec3> = points.iter().map(|e| e.position).collect();
+        let nor: Vec<Vec3> = points.iter().map(|e| e.normal).collect();
+        let c = cluster(&pos, &nor, params);
+        let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32 };
+        Ok((c, counts))
+    }
+
+    fn representatives(&self, c: &Clustering, _k: u32, points: &Vec<Endpoint>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
+        Ok(c.representatives.iter().map(|&r| points[r as usize]).collect())
+    }
+
+    fn vpl_lights(&self, vpls: &Vec<Vpl>, _n: u32, clusters: Option<(&Clustering, u32)>) -> Result<Vec<VplLight>, FrameError> {
+        Ok(vpl_lights(vpls, clusters.map(|(c, _)| c)))
+    }
+
+    fn light_points(&self, lights: &Vec<VplLight>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
+        Ok(lights.iter().map(VplLight::endpoint).collect())
+    }
+
+    fn visibility(
+        &self,
+        row_points: &Vec<Endpoint>,
+        _n_rows: u32,
+        rows: Range<u32>,
+        cols: &Vec<Endpoint>,
+        _n_cols: u32,
+        progress: &dyn Progress,
+    ) -> Result<(BitMatrix, Option<u64>), FrameError> {
+        let (m, rays) = visibility(self, &row_points[rows.start as usize..rows.end as usize], cols, progress);
+        Ok((m, Some(rays)))
+    }
+
+    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, FrameError> {
+        let (matrix, row_of) = (input.matrix, &input.hits.row_of[..]);
+        let src = match input.visibility {
+            ShadeVisibility::Own { first_row } => VisibilitySource::Own { matrix, row_of, first_row },
+            ShadeVisibility::Fuzzy { clustering: c, .. } => VisibilitySource::Fuzzy { matrix, row_of, labels: &c.labels, weights: &c.weights, f: c.f },
+        };
+        let pixels = pixels.start as usize..pixels.end as usize;
+        Ok(shade(self, &input.chunk.samples, input.chunk.first as usize, pixels, input.lights, &src, params))
+    }
+}

@@ -1,0 +1,143 @@
+//! What a backend provides: one method per stage, on the backend's own storage (host vectors on
+//! the CPU, device buffers on the GPU). The frame driver ([`crate::render`]) calls these and
+//! nothing else, so a backend never sees the frame's bookkeeping and the bookkeeping exists once.
+
+use crate::frame::{FrameError, Progress};
+use std::ops::Range;
+use vplgi_types::clustering::ClusterParams;
+use vplgi_types::{CameraParams, FrameConfig, ShadeParams, TraceParams};
+
+/// What `trace_vpls` made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VplCounts {
+    pub vpls: u32,
+    /// Light particles traced to make them.
+    pub particles: u32,
+}
+
+/// What a clustering made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ClusterCounts {
+    /// Non-empty clusters.
+    pub k: u32,
+    /// Points whose 27-cell neighbourhood held no compatible centroid.
+    pub widened: u32,
+}
+
+/// Shading points of the camera samples `first .. first + count`.
+pub struct SampleChunk<S> {
+    pub first: u32,
+    pub count: u32,
+    pub samples: S,
+}
+
+/// Where the visibility of a shaded point comes from (SPEC, Eq. 6-10).
+pub enum ShadeVisibility<'a, C> {
+    /// Row `row_of(i) - first_row` of the matrix belongs to hit i itself (shading points not
+    /// clustered).
+    Own { first_row: u32 },
+    /// The matrix has one row per shading-point cluster; a hit combines its F clusters' rows by
+    /// the clustering's labels and weights. `hits` are the hits of the shaded samples.
+    Fuzzy { clustering: &'a C, hits: Range<u32> },
+}
+
+/// Everything `shade` reads for a range of pixels whose samples lie in `chunk`.
+pub struct ShadeInput<'a, B: Backend + ?Sized> {
+    pub chunk: &'a SampleChunk<B::Samples>,
+    pub hits: &'a B::Hits,
+    pub lights: &'a B::Lights,
+    pub light_count: u32,
+    pub matrix: &'a B::Matrix,
+    pub visibility: ShadeVisibility<'a, B::Clustering>,
+}
+
+/// One implementation of every stage. Counts travel beside the data (a device buffer does not
+/// know how many of its elements are valid); the driver keeps them.
+pub trait Backend {
+    type Error: From<FrameError>;
+    /// The VPLs of a frame.
+    type Vpls;
+    /// The shading points of a range of camera samples.
+    type Samples;
+    /// Surface points (position, normal): clustering input and shadow-ray ends.
+    type Points;
+    /// The shading points that hit a surface, numbered in sample order, with each sample's hit
+    /// number (its row).
+    type Hits;
+    /// Lights for indirect shading: one per VPL or per VPL cluster.
+    type Lights;
+    type Clustering;
+    /// A block of rows of the visibility matrix.
+    type Matrix;
+
+    /// The scene's bounding-box diagonal (what the geometry-term clamp is relative to).
+    fn scene_extent(&self) -> f32;
+
+    /// Refuses, before any work, a frame this backend cannot hold.
+    fn check_frame(&self, _cfg: &FrameConfig) -> Result<(), Self::Error> {
+        Ok(())
+    }
+
+    /// Most camera samples one [`SampleChunk`] may hold.
+    fn max_samples_per_chunk(&self) -> u32 {
+        u32::MAX
+    }
+
+    /// Most rows of `cols` columns one visibility block may hold (beyond the driver's own
+    /// memory bound).
+    fn max_visibility_rows(&self, _cols: u32) -> u64 {
+        u64::MAX
+    }
+
+    /// Waits until submitted work is done, so a stage's wall time is its own.
+    fn sync(&self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+
+    /// Stage 1: VPLs from light particles.
+    fn trace_vpls(&self, params: &TraceParams, progress: &dyn Progress) -> Result<(Self::Vpls, VplCounts), Self::Error>;
+
+    /// Stage 2: the shading points of camera samples `samples`.
+    fn shading_points(&self, params: &CameraParams, samples: Range<u32>) -> Result<Self::Samples, Self::Error>;
+
+    /// The hits among all chunks' samples (`n_samples` in the image), numbered in sample order,
+    /// and how many there are.
+    fn compact_hits(&self, chunks: &[SampleChunk<Self::Samples>], n_samples: u32) -> Result<(Self::Hits, u32), Self::Error>;
+
+    /// How many hits come before camera sample `sample`.
+    fn hits_before(&self, hits: &Self::Hits, sample: u32) -> Result<u32, Self::Error>;
+
+    /// The hits as surface points.
+    fn hit_points<'h>(&self, hits: &'h Self::Hits) -> &'h Self::Points;
+
+    /// The VPLs as surface points.
+    fn vpl_points(&self, vpls: &Self::Vpls, n: u32) -> Result<Self::Points, Self::Error>;
+
+    /// Stage 3: Alg. 1 and 2 over `n` points.
+    fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+
+    /// Each cluster's representative member, as surface points.
+    fn representatives(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32) -> Result<Self::Points, Self::Error>;
+
+    /// One light per VPL, or per VPL cluster (at its representative, with its members' summed
+    /// flux).
+    fn vpl_lights(&self, vpls: &Self::Vpls, n: u32, clusters: Option<(&Self::Clustering, u32)>) -> Result<Self::Lights, Self::Error>;
+
+    /// The lights as surface points (visibility columns).
+    fn light_points(&self, lights: &Self::Lights, n: u32) -> Result<Self::Points, Self::Error>;
+
+    /// Stage 4: the visibility matrix between rows `rows` of `row_points` (of `n_rows`) and all
+    /// `n_cols` columns, with the number of shadow rays traced if the backend counts them.
+    fn visibility(
+        &self,
+        row_points: &Self::Points,
+        n_rows: u32,
+        rows: Range<u32>,
+        cols: &Self::Points,
+        n_cols: u32,
+        progress: &dyn Progress,
+    ) -> Result<(Self::Matrix, Option<u64>), Self::Error>;
+
+    /// Stage 5: the radiance of `pixels` (all of whose samples are in `input.chunk`).
+    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, Self::Error>;
+}

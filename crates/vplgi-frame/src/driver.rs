@@ -1,0 +1,164 @@
+//! The frame, written once over [`Backend`]: which stages run in which variant, how work is cut
+//! into chunks that fit the backend, and what is timed and counted.
+
+use crate::backend::{Backend, SampleChunk, ShadeInput, ShadeVisibility};
+use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
+use std::ops::Range;
+use std::time::Instant;
+use vplgi_types::{ClusterMode, FrameConfig};
+
+/// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
+/// its own row): bounds the matrix to 64 MiB whatever the image size.
+pub const ROW_CHUNK_BITS: u64 = 64 << 23;
+
+/// Renders one frame.
+pub fn render<B: Backend>(b: &B, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, B::Error> {
+    render_rows(b, cfg, 0..cfg.height, progress)
+}
+
+/// Times `work` as part of `stage`, waiting for the backend to finish it.
+fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl FnOnce() -> Result<T, B::Error>) -> Result<T, B::Error> {
+    let clock = Instant::now();
+    let out = work()?;
+    b.sync()?;
+    t.add(stage, clock.elapsed().as_secs_f64() * 1e3);
+    Ok(out)
+}
+
+/// Renders image rows `rows` of an unclustered frame (`--cluster none`): each pixel bit-identical
+/// to the whole frame's, since without clustering a pixel depends only on the VPLs (traced in
+/// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
+/// tiles; clustered frames cannot be (their clusters depend on the whole image).
+pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+    cfg.validate().map_err(FrameError::InvalidConfig)?;
+    if rows.start >= rows.end || rows.end > cfg.height {
+        return Err(FrameError::InvalidConfig(format!("rows {}..{} of a {}-row image", rows.start, rows.end, cfg.height)).into());
+    }
+    if (rows.start > 0 || rows.end < cfg.height) && cfg.cluster != ClusterMode::None {
+        return Err(FrameError::InvalidConfig("only unclustered frames (--cluster none) can be rendered in tiles".into()).into());
+    }
+    b.check_frame(cfg)?;
+    let mut t = StageTimings::default();
+    let extent = b.scene_extent();
+    let spp = cfg.spp;
+    let n_samples = cfg.width * cfg.height * spp;
+    let mut stats = FrameStats { scene_extent: extent, shading_points: n_samples, g_clamp_d_min: cfg.g_clamp_rel * extent, ..Default::default() };
+
+    let (vpls, counts) = timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?;
+    (stats.vpls, stats.light_particles) = (counts.vpls, counts.particles);
+
+    // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay
+    // global: the RNG streams use them, so a tile's pixels equal the whole frame's.
+    progress.start(Stage::ShadingPoints.name(), 1);
+    let camera = cfg.camera_params();
+    let per_chunk = (b.max_samples_per_chunk() / spp).max(1) * spp;
+    let (first_sample, end_sample) = (rows.start * cfg.width * spp, rows.end * cfg.width * spp);
+    let chunks = timed(b, &mut t, Stage::ShadingPoints, || {
+        let mut chunks = Vec::new();
+        let mut first = first_sample;
+        while first < end_sample {
+            let count = (end_sample - first).min(per_chunk);
+            chunks.push(SampleChunk { first, count, samples: b.shading_points(&camera, first..first + count)? });
+            first += count;
+        }
+        Ok(chunks)
+    })?;
+    progress.finish();
+
+    // Only surface hits take part in clustering, visibility and shading. Lights are one per VPL
+    // cluster or one per VPL; shading points are clustered or each their own visibility row.
+    progress.start(Stage::Cluster.name(), 1);
+    let (hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
+        let (hits, n_hits) = b.compact_hits(&chunks, n_samples)?;
+        stats.shading_point_hits = n_hits;
+        let n_vpls = counts.vpls;
+        let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
+            let points = b.vpl_points(&vpls, n_vpls)?;
+            let (c, k) = b.cluster(&points, n_vpls, &cfg.vpl_cluster_params())?;
+            (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
+            (b.vpl_lights(&vpls, n_vpls, Some((&c, k.k)))?, k.k)
+        } else {
+            (b.vpl_lights(&vpls, n_vpls, None)?, n_vpls)
+        };
+        let cols = b.light_points(&lights, n_lights)?;
+        let sp_clusters = if cfg.cluster.clusters_sps() && n_hits > 0 {
+            let points = b.hit_points(&hits);
+            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params())?;
+            (stats.sp_clusters, stats.sp_widened) = (k.k, k.widened);
+            let reps = b.representatives(&c, k.k, points, n_hits)?;
+            Some((c, k.k, reps))
+        } else {
+            None
+        };
+        Ok(((hits, n_hits), lights, n_lights, cols, sp_clusters))
+    })?;
+    progress.finish();
+    let (hits, n_hits) = hits;
+
+    let shade = cfg.shade_params(extent);
+    let mut rays: Option<u64> = None;
+    let mut count_rays = |r: Option<u64>| {
+        if let Some(r) = r {
+            *rays.get_or_insert(0) += r;
+        }
+    };
+    // With clustered shading points the matrix has a row per cluster and is made once.
+    let clustered = match &sp_clusters {
+        Some((c, k, reps)) => {
+            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(reps, *k, 0..*k, &cols, n_lights, progress))?;
+            count_rays(r);
+            Some((c, matrix))
+        }
+        None => None,
+    };
+    // Otherwise each hit is its own row: visibility and shading proceed in pixel blocks whose
+    // rows fit the memory bound and the backend.
+    let row_bits = 64 * (n_lights as u64).div_ceil(64).max(1);
+    let row_budget = (ROW_CHUNK_BITS / row_bits).min(b.max_visibility_rows(n_lights));
+    let px_block = ((row_budget / spp as u64).min(u32::MAX as u64) as u32).max(1);
+    let mut pixels = Vec::with_capacity((rows.end - rows.start) as usize * cfg.width as usize);
+    for chunk in &chunks {
+        let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
+        match &clustered {
+            Some((c, matrix)) => {
+                let h = b.hits_before(&hits, chunk.first)?..b.hits_before(&hits, chunk.first + chunk.count)?;
+                progress.start(Stage::Shade.name(), 1);
+                let input = ShadeInput {
+                    chunk,
+                    hits: &hits,
+                    lights: &lights,
+                    light_count: n_lights,
+                    matrix,
+                    visibility: ShadeVisibility::Fuzzy { clustering: *c, hits: h },
+                };
+                pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px0..px1, &shade))?);
+                progress.finish();
+            }
+            None => {
+                let mut px = px0;
+                while px < px1 {
+                    let end = px.saturating_add(px_block).min(px1);
+                    // Hits are numbered in sample order: these pixels' hits are consecutive rows.
+                    let (first_row, last_row) = (b.hits_before(&hits, px * spp)?, b.hits_before(&hits, end * spp)?);
+                    let (matrix, r) =
+                        timed(b, &mut t, Stage::Visibility, || b.visibility(b.hit_points(&hits), n_hits, first_row..last_row, &cols, n_lights, progress))?;
+                    count_rays(r);
+                    let input = ShadeInput {
+                        chunk,
+                        hits: &hits,
+                        lights: &lights,
+                        light_count: n_lights,
+                        matrix: &matrix,
+                        visibility: ShadeVisibility::Own { first_row },
+                    };
+                    pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px..end, &shade))?);
+                    px = end;
+                }
+            }
+        }
+    }
+    let vis_ms = t.get(Stage::Visibility);
+    stats.visibility_rays = rays;
+    stats.visibility_mrays_per_s = rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
+    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats })
+}

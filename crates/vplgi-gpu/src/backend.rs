@@ -1,0 +1,328 @@
+//! The GPU twin as a [`Backend`]: every stage on device buffers, chained without read-backs
+//! except the few counters the host needs to size the next dispatches (the VPL batch totals, the
+//! hit count and the hit numbers at block boundaries, each clustering's data box and occupancy
+//! counts) and the shaded pixels. The frame itself is [`vplgi_frame::render`].
+
+use crate::buffers::{dispatch_windows, read_back, read_word, storage_zeroed, sync, uniform, Window, WINDOW_ALIGN};
+use crate::cluster::{ClusterKernel, GpuClustering};
+use crate::context::validated;
+use crate::lights::GpuLights;
+use crate::scan::ScanKernel;
+use crate::scene::GpuScene;
+use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
+use crate::shader::pipelines;
+use crate::shading_points::ShadingPointsKernel;
+use crate::trace_vpls::{GpuVpls, TraceVplsKernel};
+use crate::visibility::{words_per_row, Endpoint, VisibilityKernel};
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use std::ops::Range;
+use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_scene::lights::LightSampler;
+use vplgi_scene::Scene;
+use vplgi_types::clustering::ClusterParams;
+use vplgi_types::{CameraParams, FrameConfig, ShadeParams, ShadingPoint, TraceParams};
+
+/// The glue kernels of `frame.wgsl` between the stages.
+struct GlueKernels {
+    sp_flags: wgpu::ComputePipeline,
+    sp_compact: wgpu::ComputePipeline,
+    vpl_endpoints: wgpu::ComputePipeline,
+    vpl_lights: wgpu::ComputePipeline,
+    cluster_lights: wgpu::ComputePipeline,
+    light_endpoints: wgpu::ComputePipeline,
+}
+
+/// Every pipeline of the frame, compiled once per device.
+pub struct GpuKernels {
+    trace: TraceVplsKernel,
+    shading_points: ShadingPointsKernel,
+    cluster: ClusterKernel,
+    visibility: VisibilityKernel,
+    shade: ShadeKernel,
+    scan: ScanKernel,
+    glue: GlueKernels,
+}
+
+/// `Params` of `frame.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Default, Pod, Zeroable)]
+struct GlueParams {
+    n: u32,
+    k: u32,
+    first: u32,
+    hit_first: u32,
+    hit_count: u32,
+    pad: [u32; 3],
+}
+
+impl GpuKernels {
+    pub fn new(device: &wgpu::Device) -> Result<GpuKernels, GpuError> {
+        let glue = validated(device, "frame pipelines", || {
+            let [sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, light_endpoints]: [wgpu::ComputePipeline; 6] =
+                pipelines(device, "frame.wgsl", &["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "light_endpoints"])
+                    .try_into()
+                    .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
+            GlueKernels { sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, light_endpoints }
+        })?;
+        Ok(GpuKernels {
+            trace: TraceVplsKernel::new(device)?,
+            shading_points: ShadingPointsKernel::new(device)?,
+            cluster: ClusterKernel::new(device)?,
+            visibility: VisibilityKernel::new(device)?,
+            shade: ShadeKernel::new(device)?,
+            scan: ScanKernel::new(device)?,
+            glue,
+        })
+    }
+}
+
+/// A scene on one device, ready to render frames of.
+pub struct GpuBackend<'a> {
+    device: &'a wgpu::Device,
+    queue: &'a wgpu::Queue,
+    kernels: &'a GpuKernels,
+    scene: GpuScene,
+    lights: GpuLights,
+    extent: f32,
+}
+
+/// The hits of a frame on the device: each sample's hit number (an exclusive scan of the hit
+/// flags, `n_samples + 1` words), each sample's row (or `MISS`), and the hits as Endpoints.
+pub struct GpuHits {
+    offsets: wgpu::Buffer,
+    row_of: wgpu::Buffer,
+    points: wgpu::Buffer,
+}
+
+/// Renders one frame of `scene` on the device (uploading the scene first).
+pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, kernels: &GpuKernels, scene: &Scene, cfg: &FrameConfig) -> Result<Frame, GpuError> {
+    vplgi_frame::render(&GpuBackend::new(device, queue, kernels, scene)?, cfg, &NoProgress)
+}
+
+impl<'a> GpuBackend<'a> {
+    /// Uploads the scene (BVH, triangles, textures, light tables) and waits until it is on the
+    /// device.
+    pub fn new(device: &'a wgpu::Device, queue: &'a wgpu::Queue, kernels: &'a GpuKernels, scene: &Scene) -> Result<GpuBackend<'a>, GpuError> {
+        let gs = GpuScene::new(device, scene)?;
+        let lights = GpuLights::new(device, scene, &LightSampler::new(scene));
+        sync(device)?;
+        Ok(GpuBackend { device, queue, kernels, scene: gs, lights, extent: scene.extent().max(1e-6) })
+    }
+
+    /// Runs a glue kernel of `frame.wgsl` over `threads` items.
+    fn glue(&self, pipeline: &wgpu::ComputePipeline, params: GlueParams, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
+        validated(self.device, "frame glue", || {
+            let p = uniform(self.device, "frame params", &params);
+            let mut all = vec![(0, p.as_entire_buffer_binding())];
+            all.extend_from_slice(bound);
+            dispatch_windows(self.device, self.queue, pipeline, &all, threads.div_ceil(64).max(1));
+        })
+    }
+
+    fn limit(&self) -> u64 {
+        self.device.limits().max_storage_buffer_binding_size
+    }
+}
+
+impl Backend for GpuBackend<'_> {
+    type Error = GpuError;
+    type Vpls = GpuVpls;
+    type Samples = wgpu::Buffer;
+    type Points = wgpu::Buffer;
+    type Hits = GpuHits;
+    type Lights = wgpu::Buffer;
+    type Clustering = GpuClustering;
+    type Matrix = wgpu::Buffer;
+
+    fn scene_extent(&self) -> f32 {
+        self.extent
+    }
+
+    /// The per-sample hit flags, offsets and rows (4 B per sample) must fit one storage binding,
+    /// and every per-point array (hit points, labels and weights: at most 64 B per point, bound in
+    /// windows) one buffer.
+    fn check_frame(&self, cfg: &FrameConfig) -> Result<(), GpuError> {
+        let l = self.device.limits();
+        let n_sp = cfg.width as u64 * cfg.height as u64 * cfg.spp as u64;
+        let what = format!("a {}x{} frame at {} spp", cfg.width, cfg.height, cfg.spp);
+        let per_sample = (n_sp + 1) * 4;
+        if per_sample > l.max_storage_buffer_binding_size {
+            return Err(GpuError::TooLarge {
+                what: format!("bytes of per-sample hit offsets of {what} in one storage binding"),
+                needed: per_sample,
+                limit: l.max_storage_buffer_binding_size,
+            });
+        }
+        let per_point = n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);
+        if per_point > l.max_buffer_size {
+            return Err(GpuError::TooLarge { what: format!("bytes of per-point labels of {what} in one buffer"), needed: per_point, limit: l.max_buffer_size });
+        }
+        Ok(())
+    }
+
+    /// A chunk fits one storage binding less one window alignment: shade binds the chunk's hits'
+    /// labels and weights (at most 64 B per hit, like a shading point) from the aligned hit at or
+    /// below the chunk's first.
+    fn max_samples_per_chunk(&self) -> u32 {
+        (self.limit() / std::mem::size_of::<ShadingPoint>() as u64).saturating_sub(WINDOW_ALIGN).min(u32::MAX as u64) as u32
+    }
+
+    /// A block's words fit one storage binding, and so do its rows' Endpoints (bound from the
+    /// aligned row at or below the first).
+    fn max_visibility_rows(&self, cols: u32) -> u64 {
+        let wpr = words_per_row(cols as usize).max(1) as u64;
+        (self.limit() / 4 / wpr).min((self.limit() / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN))
+    }
+
+    fn sync(&self) -> Result<(), GpuError> {
+        sync(self.device)
+    }
+
+    fn trace_vpls(&self, p: &TraceParams, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
+        let v = self.kernels.trace.run(self.device, self.queue, &self.scene, &self.lights, p)?;
+        let counts = VplCounts { vpls: v.count, particles: v.particles };
+        Ok((v, counts))
+    }
+
+    fn shading_points(&self, p: &CameraParams, samples: Range<u32>) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.shading_points.dispatch_range(self.device, self.queue, &self.scene, p, samples)
+    }
+
+    fn compact_hits(&self, chunks: &[SampleChunk<wgpu::Buffer>], n_samples: u32) -> Result<(GpuHits, u32), GpuError> {
+        let (device, g) = (self.device, &self.kernels.glue);
+        let flags = storage_zeroed::<u32>(device, "hit flags", n_samples as usize);
+        let offsets = storage_zeroed::<u32>(device, "hit offsets", n_samples as usize + 1);
+        for c in chunks {
+            let p = GlueParams { n: c.count, first: c.first, ..Default::default() };
+            self.glue(&g.sp_flags, p, &[(1, c.samples.as_entire_buffer_binding()), (2, flags.as_entire_buffer_binding())], c.count)?;
+        }
+        self.kernels.scan.run(device, self.queue, &flags, n_samples, &offsets)?;
+        let hits = read_word(device, self.queue, &offsets, n_samples as u64)?;
+        let row_of = storage_zeroed::<u32>(device, "row of", n_samples as usize);
+        let points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
+        for c in chunks {
+            for w in Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, self.limit()) {
+                let p = GlueParams { n: c.count, first: c.first, hit_first: w.first as u32, hit_count: w.count as u32, ..Default::default() };
+                let b = [
+                    (1, c.samples.as_entire_buffer_binding()),
+                    (3, offsets.as_entire_buffer_binding()),
+                    (4, row_of.as_entire_buffer_binding()),
+                    (5, w.of::<Endpoint>(&points, 1)),
+                ];
+                self.glue(&g.sp_compact, p, &b, c.count)?;
+            }
+        }
+        Ok((GpuHits { offsets, row_of, points }, hits))
+    }
+
+    fn hits_before(&self, hits: &GpuHits, sample: u32) -> Result<u32, GpuError> {
+        read_word(self.device, self.queue, &hits.offsets, sample as u64)
+    }
+
+    fn hit_points<'h>(&self, hits: &'h GpuHits) -> &'h wgpu::Buffer {
+        &hits.points
+    }
+
+    fn vpl_points(&self, vpls: &GpuVpls, n: u32) -> Result<wgpu::Buffer, GpuError> {
+        let pts = storage_zeroed::<Endpoint>(self.device, "vpl points", n as usize);
+        self.glue(
+            &self.kernels.glue.vpl_endpoints,
+            GlueParams { n, ..Default::default() },
+            &[(5, pts.as_entire_buffer_binding()), (6, vpls.buffer.as_entire_buffer_binding())],
+            n,
+        )?;
+        Ok(pts)
+    }
+
+    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let c = self.kernels.cluster.cluster(self.device, self.queue, points, n, params)?;
+        let [_, widened, incompatible] = self.kernels.cluster.outcome_counts(self.device, self.queue, &c.outcome, n)?;
+        let counts = ClusterCounts { k: c.k, widened: widened + incompatible };
+        Ok((c, counts))
+    }
+
+    fn representatives(&self, c: &GpuClustering, k: u32, points: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {
+        let rows = storage_zeroed::<Endpoint>(self.device, "cluster rows", k as usize);
+        self.kernels.cluster.gather(self.device, self.queue, &rows, &c.representatives, k, points, n)?;
+        Ok(rows)
+    }
+
+    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, clusters: Option<(&GpuClustering, u32)>) -> Result<wgpu::Buffer, GpuError> {
+        let g = &self.kernels.glue;
+        let vb = vpls.buffer.as_entire_buffer_binding();
+        Ok(match clusters {
+            Some((c, k)) => {
+                let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
+                let b = [
+                    (6, vb),
+                    (7, c.labels.as_entire_buffer_binding()),
+                    (8, c.representatives.as_entire_buffer_binding()),
+                    (9, lights.as_entire_buffer_binding()),
+                ];
+                self.glue(&g.cluster_lights, GlueParams { n, k, ..Default::default() }, &b, k)?;
+                lights
+            }
+            None => {
+                let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
+                self.glue(&g.vpl_lights, GlueParams { n, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
+                lights
+            }
+        })
+    }
+
+    fn light_points(&self, lights: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {
+        let cols = storage_zeroed::<Endpoint>(self.device, "light endpoints", n as usize);
+        self.glue(
+            &self.kernels.glue.light_endpoints,
+            GlueParams { n, ..Default::default() },
+            &[(5, cols.as_entire_buffer_binding()), (9, lights.as_entire_buffer_binding())],
+            n,
+        )?;
+        Ok(cols)
+    }
+
+    fn visibility(
+        &self,
+        row_points: &wgpu::Buffer,
+        n_rows: u32,
+        rows: Range<u32>,
+        cols: &wgpu::Buffer,
+        n_cols: u32,
+        _progress: &dyn Progress,
+    ) -> Result<(wgpu::Buffer, Option<u64>), GpuError> {
+        let words = self.kernels.visibility.run_on_device(self.device, self.queue, &self.scene, (row_points, n_rows), (cols, n_cols), rows)?;
+        Ok((words, None))
+    }
+
+    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, GpuError> {
+        let visibility = match input.visibility {
+            ShadeVisibility::Own { first_row } => Visibility::Own { first_row },
+            ShadeVisibility::Fuzzy { clustering: c, ref hits } => {
+                Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window: Window::covering(hits.start as u64, hits.end as u64) }
+            }
+        };
+        let inputs = ShadeInputs {
+            scene_lights: &self.lights,
+            sps: &input.chunk.samples,
+            sp_first: input.chunk.first,
+            row_of: &input.hits.row_of,
+            words: input.matrix,
+            words_per_row: words_per_row(input.light_count as usize) as u32,
+            vpl_lights: input.lights,
+            light_count: input.light_count,
+            visibility,
+        };
+        let n = (pixels.end - pixels.start) as usize;
+        let out = self.kernels.shade.run(self.device, self.queue, &self.scene, &inputs, pixels, params)?;
+        Ok(read_back::<[f32; 4]>(self.device, self.queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+}
+
+impl From<FrameError> for GpuError {
+    fn from(e: FrameError) -> GpuError {
+        match e {
+            FrameError::InvalidConfig(message) => GpuError::Validation { what: "the frame configuration".into(), message },
+        }
+    }
+}

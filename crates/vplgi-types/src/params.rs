@@ -1,0 +1,34 @@
+//! The parameters of each stage, as every backend takes them. [`FrameConfig`](crate::FrameConfig)
+//! derives them for a frame; tests and benches build them directly. (The clustering's are in
+//! [`crate::clustering::ClusterParams`].)
+
+/// `trace_vpls`: light particles until `count` VPLs exist.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TraceParams {
+    pub seed: u32,
+    /// VPLs to create.
+    pub count: u32,
+    /// VPLs are deposited at the first `bounces` surfaces a particle hits.
+    pub bounces: u32,
+}
+
+/// `shading_points`: the camera samples of a `width` x `height` image, `spp` per pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CameraParams {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u32,
+}
+
+/// `shade`: how a pixel's radiance is gathered from its shading points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadeParams {
+    /// Shading points per pixel, averaged in sample order.
+    pub spp: u32,
+    pub seed: u32,
+    /// Shadow-ray samples per shading point towards area lights.
+    pub direct_samples: u32,
+    /// The clamped geometry term's bound 1 / d_min² (infinity: no clamp).
+    pub g_max: f32,
+}
