@@ -3,38 +3,13 @@
 //! of configurations, written as JSON and as a Markdown table.
 
 use crate::engine::{with_engine, BackendArg};
+use crate::frame_args::{FrameArgs, BENCH};
 use crate::render::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::PathBuf;
 use vplgi_frame::{NoProgress, Stage, StageTimings};
-use vplgi_types::{ClusterMode, FrameConfig};
-
-#[derive(Clone, Copy, PartialEq, ValueEnum, Debug)]
-enum Preset {
-    /// `--cluster none`: every shading point against every VPL.
-    Reference,
-    /// The paper's light setting: 750 VPL / 1,000 SP clusters.
-    Light,
-    /// The paper's intermediate setting: 2,000 VPL / 8,000 SP clusters.
-    Intermediate,
-    /// The paper's high-quality setting: 4,000 VPL / 30,000 SP clusters.
-    High,
-    /// vplgi's default: 1,000 VPL / 8,000 SP clusters.
-    Default,
-}
-
-impl Preset {
-    fn config(self) -> FrameConfig {
-        match self {
-            Preset::Reference => FrameConfig::reference(),
-            Preset::Light => FrameConfig::paper_light(),
-            Preset::Intermediate => FrameConfig::paper_intermediate(),
-            Preset::High => FrameConfig::paper_high(),
-            Preset::Default => FrameConfig::default(),
-        }
-    }
-}
+use vplgi_types::{ClusterMode, Preset};
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -52,15 +27,9 @@ pub struct BenchArgs {
     /// Each stage's time is the mean of its `best` smallest times over the runs.
     #[arg(long, default_value_t = 3)]
     best: usize,
-    /// Image width (overrides the presets' 512).
-    #[arg(long)]
-    width: Option<u32>,
-    /// Image height (overrides the presets' 512).
-    #[arg(long)]
-    height: Option<u32>,
-    /// Number of VPLs (overrides the presets' 10,000).
-    #[arg(long)]
-    vpls: Option<u32>,
+    /// Options laid over every preset of --config.
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Output directory for bench.json and bench.md.
     #[arg(long, value_name = "DIR", default_value = "out/bench")]
     out: PathBuf,
@@ -84,21 +53,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let (scene, source) = load_scene(args.scene.as_deref())?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let configs: Vec<(Preset, FrameConfig)> = args
-        .configs
-        .iter()
-        .map(|&p| {
-            let mut c = p.config();
-            c.width = args.width.unwrap_or(c.width);
-            c.height = args.height.unwrap_or(c.height);
-            c.vpls = args.vpls.unwrap_or(c.vpls);
-            (p, c)
-        })
-        .collect();
-    for (p, c) in &configs {
-        c.validate().map_err(|e| anyhow::anyhow!("configuration {p:?}: {e}"))?;
-    }
-
+    let configs =
+        args.configs.iter().map(|&p| Ok((p, args.frame.config_of(&BENCH, p).with_context(|| format!("configuration {p:?}"))?))).collect::<Result<Vec<_>>>()?;
     let (summaries, rows, backend, adapter) = with_engine(args.backend, &scene, &source, |engine| {
         let mut rows = Vec::new();
         let mut summaries = Vec::new();

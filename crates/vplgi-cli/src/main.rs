@@ -3,6 +3,7 @@
 mod bench;
 mod compare;
 mod engine;
+mod frame_args;
 mod plot;
 mod progress;
 mod reference;
@@ -10,12 +11,12 @@ mod render;
 mod scene;
 mod sweep;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Subcommand};
 use std::process::ExitCode;
 
 /// Clustered virtual-point-light global illumination: a CPU reference (rayon + Embree 4) of the
 /// pipeline of "fuzzy clustering of VPLs and shading points", with reference-image tools.
-#[derive(Parser)]
+#[derive(clap::Parser)]
 #[command(name = "vplgi", version, about, long_about = None, propagate_version = true)]
 struct Cli {
     #[command(subcommand)]
@@ -49,7 +50,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // The frame options' help shows each subcommand's defaults, read from FrameConfig.
+    let matches = frame_args::document(Cli::command()).get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),

@@ -2,6 +2,7 @@
 //! variance of several independent renders (seeds), with a JSON sidecar, optionally cut into
 //! row tiles that `merge` joins bit-identically to the single run.
 
+use crate::frame_args::{FrameArgs, REFERENCE};
 use crate::render::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -11,40 +12,18 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vplgi_image::Image;
-use vplgi_types::{ClusterMode, FrameConfig};
+use vplgi_types::FrameConfig;
 
 #[derive(Args)]
 pub struct ReferenceArgs {
     /// Scene file (.gltf or .glb). Omitted or `cornell-box`: the built-in Cornell box.
     scene: Option<PathBuf>,
-    /// Independent renders, with seeds first-seed, first-seed + 1, ...; the mean and the
-    /// per-pixel variance are taken over them (at least 2).
+    /// Independent renders, with seeds --seed, --seed + 1, ...; the mean and the per-pixel
+    /// variance are taken over them (at least 2).
     #[arg(long, default_value_t = 8)]
     seeds: u32,
-    /// The first seed.
-    #[arg(long, default_value_t = 1)]
-    first_seed: u32,
-    /// VPLs per render.
-    #[arg(long, default_value_t = 10_000)]
-    vpls: u32,
-    /// VPLs at the first N surfaces a light particle hits.
-    #[arg(long, default_value_t = 3)]
-    bounces: u32,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
-    height: u32,
-    /// Camera samples per pixel.
-    #[arg(long, default_value_t = 1)]
-    spp: u32,
-    /// Shadow-ray samples per shading point towards area lights.
-    #[arg(long, default_value_t = 4)]
-    direct_samples: u32,
-    /// Geometry-term clamp, as a fraction of the scene's bounding-box diagonal.
-    #[arg(long, default_value_t = 0.05)]
-    g_clamp: f32,
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Render only tile I of N: rows (I-1)*H/N .. I*H/N. Join the tiles' folders with
     /// `vplgi merge`; the result is bit-identical to rendering all rows at once.
     #[arg(long, value_name = "I/N")]
@@ -91,23 +70,12 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         Some(t) => parse_tile(t)?,
         None => (1, 1),
     };
-    if count > args.height {
-        bail!("--tile {index}/{count}: more tiles than the {} rows", args.height);
+    let base = args.frame.config(&REFERENCE)?;
+    if count > base.height {
+        bail!("--tile {index}/{count}: more tiles than the {} rows", base.height);
     }
-    let base = FrameConfig {
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        vpls: args.vpls,
-        bounces: args.bounces,
-        direct_samples: args.direct_samples,
-        g_clamp_rel: args.g_clamp,
-        cluster: ClusterMode::None,
-        ..FrameConfig::default()
-    };
-    base.validate().map_err(|e| anyhow::anyhow!("invalid parameters: {e}"))?;
     let (scene, source) = load_scene(args.scene.as_deref())?;
-    let rows = tile_rows(index, count, args.height);
+    let rows = tile_rows(index, count, base.height);
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let device = vplgi_embree::Device::new(None)?;
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
@@ -117,7 +85,7 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     if let Ok(style) = ProgressStyle::with_template("reference seeds [{bar:40}] {pos}/{len} ({eta} left)") {
         bar.set_style(style.progress_chars("=> "));
     }
-    let seeds: Vec<u32> = (0..args.seeds).map(|k| args.first_seed.wrapping_add(k)).collect();
+    let seeds: Vec<u32> = (0..args.seeds).map(|k| base.seed.wrapping_add(k)).collect();
     let mut renders = Vec::new();
     for &seed in &seeds {
         let f = vplgi_cpu::render_rows(&cs, &FrameConfig { seed, ..base.clone() }, rows.clone(), &vplgi_cpu::NoProgress)?;
@@ -127,8 +95,8 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     bar.finish_and_clear();
     let (mean, variance) = mean_and_variance(&renders);
     let h = rows.end - rows.start;
-    let mean = Image { width: args.width, height: h, pixels: mean };
-    let variance = Image { width: args.width, height: h, pixels: variance };
+    let mean = Image { width: base.width, height: h, pixels: mean };
+    let variance = Image { width: base.width, height: h, pixels: variance };
     let wall = started.elapsed().as_secs_f64();
     vplgi_image::write_exr(&args.out.join("mean.exr"), &mean)?;
     vplgi_image::write_exr(&args.out.join("variance.exr"), &variance)?;
@@ -139,8 +107,8 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         "scene": { "source": source, "name": scene.name, "triangles": scene.triangle_count(), "hash": format!("{:016x}", scene.content_hash()) },
         "params": base,
         "seeds": seeds,
-        "width": args.width,
-        "height": args.height,
+        "width": base.width,
+        "height": base.height,
         "tile": if count > 1 { json!({ "index": index, "count": count, "rows": [rows.start, rows.end] }) } else { Value::Null },
         "wall_time_s": wall,
         "why": args.why,
@@ -150,7 +118,7 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     });
     write_json(&args.out.join("reference.json"), &sidecar)?;
     let what = if count > 1 { format!("tile {index}/{count} (rows {}..{}) of ", rows.start, rows.end) } else { String::new() };
-    println!("{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s", scene.name, args.seeds, args.vpls, args.width, args.height);
+    println!("{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s", scene.name, args.seeds, base.vpls, base.width, base.height);
     println!(
         "wrote {}\n      {}\n      {}\n      {}",
         args.out.join("mean.exr").display(),

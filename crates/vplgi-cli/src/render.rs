@@ -1,35 +1,13 @@
-//! `vplgi render`: one frame of the CPU reference pipeline.
+//! `vplgi render`: one frame on either backend, written as EXR, PNG and report.json.
 
 use crate::engine::{with_engine, BackendArg};
+use crate::frame_args::{FrameArgs, RENDER};
 use crate::progress::Bars;
 use anyhow::{bail, Context, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vplgi_frame::{Clusters, GClamp, KernelTime, Outputs, Report, SceneInfo, Setup, Stage};
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ClusterArg {
-    /// Cluster both shading points and VPLs (the paper's method).
-    Both,
-    /// Cluster shading points only: visibility per SP cluster x VPL.
-    Sp,
-    /// Cluster VPLs only: visibility per pixel x VPL cluster.
-    Vpl,
-    /// No clustering: the unclustered reference, every shading point x every VPL.
-    None,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum FuzzyArg {
-    /// Inverse-distance weighted visibility of the F nearest SP clusters (Eq. 9, 10).
-    Weighted,
-    /// Plain mean visibility of the F nearest SP clusters (Eq. 8).
-    Average,
-    /// Visibility of the nearest SP cluster only (F = 1).
-    Hard,
-}
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -38,54 +16,8 @@ pub struct RenderArgs {
     /// Where the frame runs.
     #[arg(long, value_enum, default_value = "cpu")]
     pub backend: BackendArg,
-    /// Which point sets are clustered (the paper's ablation).
-    #[arg(long, value_enum, default_value = "both")]
-    cluster: ClusterArg,
-    /// How the visibility of a pixel's F shading-point clusters is combined.
-    #[arg(long, value_enum, default_value = "weighted")]
-    fuzzy: FuzzyArg,
-    /// Fuzziness F: shading-point clusters per shading point (ignored by --fuzzy hard).
-    #[arg(short = 'F', default_value_t = 6, value_parser = clap::value_parser!(u32).range(1..=16))]
-    f: u32,
-    /// Number of shading-point clusters K_sp.
-    #[arg(long, default_value_t = 8000)]
-    k_sp: u32,
-    /// Number of VPL clusters K_vpl.
-    #[arg(long, default_value_t = 1000)]
-    k_vpl: u32,
-    /// Number of VPLs created (exactly, deterministically).
-    #[arg(long, default_value_t = 10_000)]
-    vpls: u32,
-    /// VPLs at the first N surfaces a light particle hits (1 = direct light plus one indirect bounce).
-    #[arg(long, default_value_t = 3)]
-    bounces: u32,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
-    height: u32,
-    /// Camera samples per pixel (> 1 jitters them; each is a shading point).
-    #[arg(long, default_value_t = 1)]
-    spp: u32,
-    /// Seed of every random decision; the same seed gives a bit-identical image.
-    #[arg(long, default_value_t = 1)]
-    seed: u32,
-    /// Shadow-ray samples per shading point towards area lights (direct light).
-    #[arg(long, default_value_t = 4)]
-    direct_samples: u32,
-    /// k-means downsampling factor gamma (Alg. 1).
-    #[arg(long, default_value_t = 4)]
-    gamma: u32,
-    /// k-means iterations (Alg. 1).
-    #[arg(long, default_value_t = 10)]
-    iterations: u32,
-    /// Normal threshold n_t of Eq. 7 (cosine; default cos 30°).
-    #[arg(long, default_value_t = 0.866_025_4)]
-    normal_threshold: f32,
-    /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
-    #[arg(long, default_value_t = 0.05)]
-    g_clamp: f32,
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -99,38 +31,6 @@ pub struct RenderArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/render")]
     out: PathBuf,
-}
-
-impl RenderArgs {
-    fn config(&self) -> FrameConfig {
-        FrameConfig {
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            seed: self.seed,
-            vpls: self.vpls,
-            bounces: self.bounces,
-            cluster: match self.cluster {
-                ClusterArg::Both => ClusterMode::Both,
-                ClusterArg::Sp => ClusterMode::Sp,
-                ClusterArg::Vpl => ClusterMode::Vpl,
-                ClusterArg::None => ClusterMode::None,
-            },
-            fuzzy: match self.fuzzy {
-                FuzzyArg::Weighted => FuzzyMode::Weighted,
-                FuzzyArg::Average => FuzzyMode::Average,
-                FuzzyArg::Hard => FuzzyMode::Hard,
-            },
-            f: self.f,
-            k_sp: self.k_sp,
-            k_vpl: self.k_vpl,
-            gamma: self.gamma,
-            iterations: self.iterations,
-            normal_threshold: self.normal_threshold,
-            g_clamp_rel: self.g_clamp,
-            direct_samples: self.direct_samples,
-        }
-    }
 }
 
 /// Peak resident memory of this process so far (Linux `VmHWM`), in MiB.
@@ -178,11 +78,8 @@ fn install_interrupt_cleanup(dir: PathBuf) {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let cfg = args.config();
-    // Checked before any work (render checks again), so a typo fails fast.
-    if let Err(e) = cfg.validate() {
-        bail!("invalid parameters: {e}");
-    }
+    // Checked before any work (the frame driver checks again), so a typo fails fast.
+    let cfg = args.frame.config(&RENDER)?;
     if args.profile && args.backend == BackendArg::Cpu {
         bail!("--profile times GPU kernels: use it with --backend gpu (CPU stage times are in every report.json)");
     }

@@ -5,6 +5,7 @@
 //! contact sheet, and every number into sweep.json.
 
 use crate::engine::{with_engine, BackendArg};
+use crate::frame_args::{FrameArgs, SWEEP};
 use crate::plot::{contact_sheet, heatmap, stacked_bars, Bar, Tile};
 use crate::render::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
@@ -52,21 +53,8 @@ pub struct SweepArgs {
     /// The unclustered reference (an EXR of the same size) instead of rendering one.
     #[arg(long, value_name = "EXR")]
     reference: Option<PathBuf>,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
-    height: u32,
-    /// Number of VPLs.
-    #[arg(long, default_value_t = 10_000)]
-    vpls: u32,
-    /// Fuzziness F (shading-point clusters per shading point).
-    #[arg(short = 'F', default_value_t = 6, value_parser = clap::value_parser!(u32).range(1..=16))]
-    f: u32,
-    /// Seed of every random decision.
-    #[arg(long, default_value_t = 1)]
-    seed: u32,
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Output directory: sweep.json, fig*.png/svg, contact_sheet.png, configs/*/.
     #[arg(long, value_name = "DIR", default_value = "out/sweep")]
     out: PathBuf,
@@ -127,7 +115,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
             bail!("{name} needs one or more counts above 0");
         }
     }
-    let base = FrameConfig { width: args.width, height: args.height, vpls: args.vpls, f: args.f, seed: args.seed, ..FrameConfig::default() };
+    let base = args.frame.config(&SWEEP)?;
     let configs = configs(&args, &base);
     for c in &configs {
         c.cfg.validate().map_err(|e| anyhow::anyhow!("configuration {}: {e}", c.label))?;
@@ -137,14 +125,14 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let given = match &args.reference {
         Some(path) => {
             let img = vplgi_image::read_exr(path)?;
-            if (img.width, img.height) != (args.width, args.height) {
+            if (img.width, img.height) != (base.width, base.height) {
                 bail!(
                     "{}: the reference is {}x{}, the sweep renders {}x{} (set --width/--height)",
                     path.display(),
                     img.width,
                     img.height,
-                    args.width,
-                    args.height
+                    base.width,
+                    base.height
                 );
             }
             Some(img)
@@ -156,10 +144,10 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let (reference, reference_ms) = match given {
         Some(img) => (img, None),
         None => {
-            eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", args.width, args.height, args.vpls);
+            eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", base.width, base.height, base.vpls);
             let reference = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
             let f = with_engine(BackendArg::Cpu, &scene, &source, |engine| engine.render(&reference, &crate::progress::Bars::new()))?;
-            let img = Image { width: args.width, height: args.height, pixels: f.pixels };
+            let img = Image { width: base.width, height: base.height, pixels: f.pixels };
             std::fs::create_dir_all(args.out.join("reference"))?;
             vplgi_image::write_exr(&args.out.join("reference/image.exr"), &img)?;
             vplgi_image::write_png(&args.out.join("reference/image.png"), &img, 1.0)?;
@@ -187,7 +175,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 runs.push(f.timings);
                 pixels = f.pixels;
             }
-            let img = Image { width: args.width, height: args.height, pixels };
+            let img = Image { width: base.width, height: base.height, pixels };
             let cmp = compare(&reference, &img)?;
             let dir = args.out.join("configs").join(&c.label);
             std::fs::create_dir_all(&dir)?;
@@ -279,7 +267,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         })).collect::<Vec<_>>(),
     });
     write_json(&args.out.join("sweep.json"), &report)?;
-    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len(), scene.name, args.width, args.height, args.vpls);
+    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len(), scene.name, base.width, base.height, base.vpls);
     println!("charts (PNG, and SVG beside each):");
     for c in &charts {
         println!("  {}", c.display());

@@ -5,11 +5,16 @@ use serde::{Deserialize, Serialize};
 /// Which point sets are clustered: the paper's ablation (section 4). `None` is the reference:
 /// every shading point against every VPL with its own shadow ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum ClusterMode {
+    /// No clustering: the unclustered reference, every shading point x every VPL.
     None,
+    /// Cluster shading points only: visibility per SP cluster x VPL.
     Sp,
+    /// Cluster VPLs only: visibility per pixel x VPL cluster.
     Vpl,
+    /// Cluster both shading points and VPLs (the paper's method).
     Both,
 }
 
@@ -24,14 +29,45 @@ impl ClusterMode {
 
 /// How the visibility of a shading point's F clusters is combined.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum FuzzyMode {
-    /// F = 1: the visibility of the single nearest cluster.
+    /// F = 1: the visibility of the nearest shading-point cluster only.
     Hard,
     /// Plain mean over the F nearest clusters (Eq. 8).
     Average,
     /// Inverse-distance weighted mean over the F nearest clusters (Eq. 9 and 10).
     Weighted,
+}
+
+/// Named frame configurations: the paper's three settings (section 4), its unclustered
+/// reference, and vplgi's default operating point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// `--cluster none`: every shading point against every VPL.
+    Reference,
+    /// The paper's light setting: 750 VPL / 1,000 SP clusters.
+    Light,
+    /// The paper's intermediate setting: 2,000 VPL / 8,000 SP clusters.
+    Intermediate,
+    /// The paper's high-quality setting: 4,000 VPL / 30,000 SP clusters.
+    High,
+    /// vplgi's default: 1,000 VPL / 8,000 SP clusters.
+    Default,
+}
+
+impl Preset {
+    pub fn config(self) -> FrameConfig {
+        match self {
+            Preset::Reference => FrameConfig::reference(),
+            Preset::Light => FrameConfig::paper_light(),
+            Preset::Intermediate => FrameConfig::paper_intermediate(),
+            Preset::High => FrameConfig::paper_high(),
+            Preset::Default => FrameConfig::default(),
+        }
+    }
 }
 
 /// Everything that determines one frame. Two runs with equal configs and scenes produce

@@ -16,7 +16,7 @@ pub mod pod;
 pub mod rng;
 pub mod sampling;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, Preset};
 pub use params::{CameraParams, ShadeParams, TraceParams};
 pub use pod::{ShadingPoint, Vpl, MISS};
 pub use rng::{Rng, Stream};

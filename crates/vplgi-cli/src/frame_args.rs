@@ -1,0 +1,213 @@
+//! The frame options every rendering subcommand shares (`render`, `reference`, `sweep`, `bench`):
+//! one `FrameArgs`, whose options are named after [`FrameConfig`]'s fields and override a preset.
+//! Defaults are never typed here: `--help` shows the preset's values, read from [`FrameConfig`]
+//! when the command line is built ([`document`]).
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::Serialize;
+use vplgi_types::config::MAX_F;
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, Preset};
+
+/// Options of one frame. Each is optional: what is not given comes from the preset. The field
+/// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
+#[derive(Args, Clone, Debug, Default, Serialize)]
+pub struct FrameArgs {
+    /// Start from a named configuration: the paper's settings (section 4), its reference, or
+    /// vplgi's default. Every option below overrides it; the defaults shown are where this
+    /// subcommand starts without --preset.
+    #[arg(long, value_enum)]
+    #[serde(skip)]
+    pub preset: Option<Preset>,
+    /// Which point sets are clustered (the paper's ablation).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<ClusterMode>,
+    /// How the visibility of a pixel's F shading-point clusters is combined.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fuzzy: Option<FuzzyMode>,
+    /// Fuzziness F: shading-point clusters per shading point (ignored by --fuzzy hard).
+    #[arg(short = 'F', value_parser = clap::value_parser!(u32).range(1..=MAX_F as i64))]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub f: Option<u32>,
+    /// Number of shading-point clusters K_sp.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_sp: Option<u32>,
+    /// Number of VPL clusters K_vpl.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_vpl: Option<u32>,
+    /// Number of VPLs created (exactly, deterministically).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vpls: Option<u32>,
+    /// VPLs at the first N surfaces a light particle hits (1 = direct light plus one indirect bounce).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounces: Option<u32>,
+    /// Image width in pixels.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub width: Option<u32>,
+    /// Image height in pixels.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub height: Option<u32>,
+    /// Camera samples per pixel (> 1 jitters them; each is a shading point).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spp: Option<u32>,
+    /// Seed of every random decision; the same seed gives a bit-identical image.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u32>,
+    /// Shadow-ray samples per shading point towards area lights (direct light).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub direct_samples: Option<u32>,
+    /// k-means downsampling factor gamma (Alg. 1).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gamma: Option<u32>,
+    /// k-means iterations (Alg. 1).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iterations: Option<u32>,
+    /// Normal threshold n_t of Eq. 7 (cosine; the default is cos 30°).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub normal_threshold: Option<f32>,
+    /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
+    #[arg(long = "g-clamp")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub g_clamp_rel: Option<f32>,
+}
+
+/// How a subcommand uses the frame options.
+pub struct Use {
+    pub command: &'static str,
+    /// Where the options start from when `--preset` is not given.
+    pub preset: Preset,
+    /// Options the subcommand sets itself: hidden from its help and refused on its command line.
+    pub fixed: &'static [&'static str],
+    /// Why they are fixed (the error message).
+    pub why: &'static str,
+}
+
+pub const RENDER: Use = Use { command: "render", preset: Preset::Default, fixed: &[], why: "" };
+pub const REFERENCE: Use = Use {
+    command: "reference",
+    preset: Preset::Reference,
+    fixed: &["preset", "cluster", "fuzzy", "f", "k_sp", "k_vpl", "gamma", "iterations", "normal_threshold"],
+    why: "references are unclustered (--cluster none)",
+};
+pub const SWEEP: Use = Use {
+    command: "sweep",
+    preset: Preset::Default,
+    fixed: &["preset", "cluster", "k_sp", "k_vpl"],
+    why: "the sweep sets them per configuration (--figure, --sp-clusters, --vpl-clusters)",
+};
+pub const BENCH: Use = Use {
+    command: "bench",
+    preset: Preset::Default,
+    fixed: &["preset", "cluster", "k_sp", "k_vpl"],
+    why: "the presets of --config set them; the other options override every preset",
+};
+pub const USES: [Use; 4] = [RENDER, REFERENCE, SWEEP, BENCH];
+
+impl FrameArgs {
+    /// The options given, by [`FrameConfig`] field name.
+    fn given(&self) -> Result<serde_json::Map<String, serde_json::Value>> {
+        match serde_json::to_value(self).context("reading the frame options")? {
+            serde_json::Value::Object(map) => Ok(map),
+            _ => bail!("frame options are not a record"),
+        }
+    }
+
+    /// The options laid over `base`.
+    fn over(&self, base: &FrameConfig) -> Result<FrameConfig> {
+        let mut config = serde_json::to_value(base).context("reading the frame configuration")?;
+        if let serde_json::Value::Object(fields) = &mut config {
+            fields.extend(self.given()?);
+        }
+        serde_json::from_value(config).context("applying the frame options")
+    }
+
+    /// The frame configuration of subcommand `u`: its preset (or `--preset`) with the options
+    /// over it, checked.
+    pub fn config(&self, u: &Use) -> Result<FrameConfig> {
+        self.config_of(u, self.preset.unwrap_or(u.preset))
+    }
+
+    /// The options over `preset`, for subcommand `u`, checked.
+    pub fn config_of(&self, u: &Use, preset: Preset) -> Result<FrameConfig> {
+        let given = self.given()?;
+        let mut fixed = u.fixed.iter().filter(|id| given.contains_key(**id) || (**id == "preset" && self.preset.is_some()));
+        if let Some(id) = fixed.next() {
+            bail!("vplgi {} does not take --{}: {}", u.command, id.replace('_', "-").replace("g-clamp-rel", "g-clamp"), u.why);
+        }
+        let config = self.over(&preset.config())?;
+        config.validate().map_err(|e| anyhow::anyhow!("invalid parameters: {e}"))?;
+        Ok(config)
+    }
+}
+
+/// Adds each frame option's default (the subcommand's preset value) to its help, and hides the
+/// options the subcommand fixes.
+pub fn document(mut cmd: clap::Command) -> clap::Command {
+    for u in USES {
+        let defaults = match serde_json::to_value(u.preset.config()) {
+            Ok(serde_json::Value::Object(map)) => map,
+            _ => continue,
+        };
+        cmd = cmd.mut_subcommand(u.command, |mut sc| {
+            for (id, value) in &defaults {
+                if sc.get_arguments().any(|a| a.get_id() == id.as_str()) {
+                    let shown = value.as_str().map_or_else(|| value.to_string(), str::to_string);
+                    sc = sc.mut_arg(id.as_str(), |a| {
+                        let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+                        a.help(format!("{help} [default: {shown}]"))
+                    });
+                }
+            }
+            for id in u.fixed {
+                sc = sc.mut_arg(*id, |a| a.hide(true));
+            }
+            if u.command == REFERENCE.command {
+                // A reference averages several seeds: --seed is the first (and was --first-seed).
+                sc = sc.mut_arg("seed", |a| {
+                    a.alias("first-seed").help(format!("The first seed: renders use seeds --seed, --seed + 1, ... [default: {}]", u.preset.config().seed))
+                });
+            }
+            sc
+        });
+    }
+    cmd
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_override_the_preset_by_field_name() {
+        let args = FrameArgs { width: Some(64), cluster: Some(ClusterMode::Sp), g_clamp_rel: Some(0.0), ..Default::default() };
+        let c = args.config(&RENDER).unwrap();
+        assert_eq!((c.width, c.height, c.cluster, c.g_clamp_rel), (64, FrameConfig::default().height, ClusterMode::Sp, 0.0));
+        let high = FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&RENDER).unwrap();
+        assert_eq!(high, FrameConfig::paper_high());
+        assert_eq!(FrameArgs::default().config(&REFERENCE).unwrap(), FrameConfig::reference());
+    }
+
+    #[test]
+    fn fixed_and_invalid_options_are_refused_by_name() {
+        let e = FrameArgs { k_sp: Some(5), ..Default::default() }.config(&REFERENCE).unwrap_err().to_string();
+        assert!(e.contains("--k-sp") && e.contains("unclustered"), "{e}");
+        let e = FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&SWEEP).unwrap_err().to_string();
+        assert!(e.contains("--preset"), "{e}");
+        let e = FrameArgs { spp: Some(0), ..Default::default() }.config(&RENDER).unwrap_err().to_string();
+        assert!(e.contains("spp"), "{e}");
+    }
+}
