@@ -185,20 +185,13 @@ impl Gpu {
         storage(&self.ctx.device, "points", &e)
     }
 
+    /// The CPU's shadow-ray ends on the device: the same records.
     pub fn visibility_endpoints(&self, e: &[Endpoint]) -> wgpu::Buffer {
-        let g: Vec<vplgi_gpu::visibility::Endpoint> = e.iter().map(|e| vplgi_gpu::visibility::Endpoint::new(e.position, e.normal)).collect();
-        storage(&self.ctx.device, "endpoints", &g)
+        storage(&self.ctx.device, "endpoints", e)
     }
 
+    /// The CPU's lights on the device: the same records.
     pub fn lights(&self, lights: &[VplLight]) -> wgpu::Buffer {
-        let g: Vec<vplgi_gpu::shade::VplLight> = lights
-            .iter()
-            .map(|l| vplgi_gpu::shade::VplLight {
-                position: l.position.extend(0.0).to_array(),
-                normal: l.normal.extend(0.0).to_array(),
-                flux: l.flux.extend(0.0).to_array(),
-            })
-            .collect();
-        storage(&self.ctx.device, "lights", &g)
+        storage(&self.ctx.device, "lights", lights)
     }
 }

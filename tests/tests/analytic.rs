@@ -46,7 +46,7 @@ fn point_light_over_a_plane_matches_the_closed_form() {
 fn one_vpl_over_a_plane_matches_the_closed_form() {
     let (h, rho) = (0.8f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
-    let light = VplLight { position: Vec3::new(0.0, h, 0.0), normal: -Vec3::Y, flux };
+    let light = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
     let mut matrix = BitMatrix::new(1, 1);
     matrix.set(0, 0, true);
     let row_of = [0u32];

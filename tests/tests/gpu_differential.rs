@@ -99,8 +99,8 @@ fn obvhs_visible(
     a: &vplgi_cpu::visibility::Endpoint,
     b: &vplgi_cpu::visibility::Endpoint,
 ) -> bool {
-    let p = cs.offset_toward(a.position, a.normal, b.position);
-    let q = cs.offset_toward(b.position, b.normal, a.position);
+    let p = cs.offset_toward(a.p(), a.n(), b.p());
+    let q = cs.offset_toward(b.p(), b.n(), a.p());
     let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, 1.0);
     bvh.ray_traverse_miss(ray, |r, id| tris[bvh.primitive_indices[id] as usize].intersect(r))
 }
@@ -118,8 +118,7 @@ fn visibility_agrees_three_ways() {
     let sps = vplgi_cpu::shading_points::shading_points(&cs, 48, 48, 1, 1);
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 3, 300, 3, &vplgi_cpu::NoProgress).vpls;
-    let cols: Vec<vplgi_cpu::visibility::Endpoint> =
-        vpls.iter().map(|v| vplgi_cpu::visibility::Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
+    let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(Endpoint::of_vpl).collect();
     let (embree, rays) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
 
     let tris = vplgi_gpu::bvh::triangles(&scene);
@@ -128,8 +127,8 @@ fn visibility_agrees_three_ways() {
 
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
     let kernel = VisibilityKernel::new(&ctx.device).unwrap();
-    let grows: Vec<Endpoint> = rows.iter().map(|e| Endpoint::new(e.position, e.normal)).collect();
-    let gcols: Vec<Endpoint> = cols.iter().map(|e| Endpoint::new(e.position, e.normal)).collect();
+    // The CPU's and the GPU's shadow-ray ends are the same records.
+    let (grows, gcols) = (rows.clone(), cols.clone());
     let words = kernel.run(&ctx.device, &ctx.queue, &gs, &grows, &gcols, None).unwrap();
     let wpr = words_per_row(cols.len());
     let gpu_bit = |r: usize, c: usize| (words[r * wpr + c / 32] >> (c % 32)) & 1 == 1;
@@ -246,7 +245,7 @@ fn segments_through_shared_edges_find_no_cracks() {
     let gpu_leaks = |r: usize| (0..cols.len()).filter(|&c| (words[r * wpr + c / 32] >> (c % 32)) & 1 == 1).count();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let cpu = |e: &Endpoint| vplgi_cpu::visibility::Endpoint { position: Vec3::from_slice(&e.position[..3]), normal: Vec3::from_slice(&e.normal[..3]) };
+    let cpu = |e: &Endpoint| *e;
     let (embree, _) =
         vplgi_cpu::visibility::visibility(&cs, &rows.iter().map(cpu).collect::<Vec<_>>(), &cols.iter().map(cpu).collect::<Vec<_>>(), &vplgi_cpu::NoProgress);
     let embree_leaks = |r: usize| (0..cols.len()).filter(|&c| embree.get(r, c)).count();
@@ -285,15 +284,8 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     }
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, seed, 400, 3, &vplgi_cpu::NoProgress).vpls;
     let g_max = 1.0 / (0.05 * cs.extent).powi(2);
-    let to_gpu_lights = |ls: &[vplgi_cpu::shade::VplLight]| -> Vec<VplLight> {
-        ls.iter()
-            .map(|l| VplLight {
-                position: [l.position.x, l.position.y, l.position.z, 0.0],
-                normal: [l.normal.x, l.normal.y, l.normal.z, 0.0],
-                flux: [l.flux.x, l.flux.y, l.flux.z, 0.0],
-            })
-            .collect()
-    };
+    // The CPU's and the GPU's lights are the same records.
+    let to_gpu_lights = |ls: &[VplLight]| -> Vec<VplLight> { ls.to_vec() };
     let n_pixels = (w * h) as usize;
     let sps_buf = storage(&ctx.device, "sps", &sps);
     let row_buf = storage(&ctx.device, "row_of", &row_of);
@@ -473,7 +465,7 @@ fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
 fn cluster_assign_and_update_match_the_cpu() {
     use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
     use vplgi_gpu::buffers::{read_back, storage};
-    use vplgi_gpu::cluster::ClusterKernel;
+    use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
     use vplgi_types::clustering::{FixedPoint, GridGeometry};
     use vplgi_types::FuzzyMode;
 
@@ -503,7 +495,16 @@ fn cluster_assign_and_update_match_the_cpu() {
     let cents = storage(&ctx.device, "centroids", &endpoints(&c.positions, &c.normals));
     let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
     let ggrid = kernel.fill_grid(&ctx.device, &ctx.queue, &geometry, &cents, c.k() as u32).unwrap();
-    let a = kernel.assign(&ctx.device, &ctx.queue, &ggrid, &pts, m as u32, &cents, c.k() as u32, 0.866, f as u32, FuzzyMode::Weighted).unwrap();
+    let a = kernel
+        .assign(
+            &ctx.device,
+            &ctx.queue,
+            &ggrid,
+            (&pts, m as u32),
+            (&cents, c.k() as u32),
+            AssignRule { threshold: 0.866, f: f as u32, fuzzy: FuzzyMode::Weighted },
+        )
+        .unwrap();
     let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &a.labels, m * f).unwrap();
     let gw: Vec<f32> = read_back(&ctx.device, &ctx.queue, &a.weights, m * f).unwrap();
     let (mut hard_same, mut set_same, mut max_w) = (0, 0, 0.0f32);
@@ -529,7 +530,7 @@ fn cluster_assign_and_update_match_the_cpu() {
     let (mut cp, mut cn) = (c.positions.clone(), c.normals.clone());
     let cpu_counts = update(&fix, &ps, &ns, &hard, &mut cp, &mut cn);
     let labels = storage(&ctx.device, "labels", &hard);
-    let gcounts = kernel.update(&ctx.device, &ctx.queue, &fix, &pts, m as u32, &labels, 1, &cents, c.k() as u32).unwrap();
+    let gcounts = kernel.update(&ctx.device, &ctx.queue, &fix, (&pts, m as u32), (&labels, 1), (&cents, c.k() as u32)).unwrap();
     let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &cents, c.k()).unwrap();
     let gcount: Vec<u32> = read_back(&ctx.device, &ctx.queue, &gcounts, c.k()).unwrap();
     assert_eq!(gcount, cpu_counts);

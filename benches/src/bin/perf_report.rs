@@ -166,13 +166,13 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
     let sps = vplgi_cpu::shading_points::shading_points(cs, width, width, 1, 1);
     let rows: Vec<Endpoint> = sps.iter().step_by(stride).filter(|s| !s.is_miss()).map(Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(cs, 1, n_cols as u32 * 10, 3, &NoProgress).vpls;
-    let cols: Vec<Endpoint> = vpls.iter().take(n_cols).map(|v| Endpoint { position: v.position.into(), normal: v.normal.into() }).collect();
+    let cols: Vec<Endpoint> = vpls.iter().take(n_cols).map(Endpoint::of_vpl).collect();
     let rays: Vec<(Vec3, Vec3)> = rows
         .iter()
         .flat_map(|a| cols.iter().filter(move |b| facing(a, b)).map(move |b| (*a, *b)))
         .map(|(a, b)| {
-            let p = cs.offset_toward(a.position, a.normal, b.position);
-            let q = cs.offset_toward(b.position, b.normal, a.position);
+            let p = cs.offset_toward(a.p(), a.n(), b.p());
+            let q = cs.offset_toward(b.p(), b.n(), a.p());
             (p, q - p)
         })
         .collect();

@@ -69,12 +69,12 @@ impl Backend for CpuScene<'_> {
     }
 
     fn vpl_points(&self, vpls: &Vec<Vpl>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
-        Ok(vpls.iter().map(|v| Endpoint { position: v.position.into(), normal: v.normal.into() }).collect())
+        Ok(vpls.iter().map(Endpoint::of_vpl).collect())
     }
 
     fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {
-        let pos: Vec<Vec3> = points.iter().map(|e| e.position).collect();
-        let nor: Vec<Vec3> = points.iter().map(|e| e.normal).collect();
+        let pos: Vec<Vec3> = points.iter().map(Endpoint::p).collect();
+        let nor: Vec<Vec3> = points.iter().map(Endpoint::n).collect();
         let c = cluster(&pos, &nor, params);
         let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32 };
         Ok((c, counts))

@@ -15,7 +15,7 @@
 //! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp").
 
 use crate::cluster::Clustering;
-use crate::visibility::{BitMatrix, Endpoint};
+use crate::visibility::BitMatrix;
 use crate::CpuScene;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -23,19 +23,7 @@ use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
 use vplgi_types::{Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
-/// A light for indirect shading: one VPL, or one VPL cluster at its representative.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VplLight {
-    pub position: Vec3,
-    pub normal: Vec3,
-    pub flux: Vec3,
-}
-
-impl VplLight {
-    pub fn endpoint(&self) -> Endpoint {
-        Endpoint { position: self.position, normal: self.normal }
-    }
-}
+pub use vplgi_types::VplLight;
 
 /// The lights of [`shade`] as arrays of components, made once per call: the per-light loop of
 /// [`indirect`] then runs over blocks of 64 lights (one visibility word) in straight-line code
@@ -51,7 +39,7 @@ impl LightArrays {
     pub fn new(lights: &[VplLight]) -> LightArrays {
         let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
         let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
-        LightArrays { position: three(|l| l.position), normal: three(|l| l.normal), flux: three(|l| l.flux) }
+        LightArrays { position: three(|l| l.position.into()), normal: three(|l| l.normal.into()), flux: three(|l| l.flux.into()) }
     }
 
     pub fn len(&self) -> usize {
@@ -283,7 +271,7 @@ pub fn shade(
 /// flux of its members), or one per VPL.
 pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>) -> Vec<VplLight> {
     match clusters {
-        None => vpls.iter().map(|v| VplLight { position: v.position.into(), normal: v.normal.into(), flux: v.flux.into() }).collect(),
+        None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect(),
         Some(c) => {
             // Sequential sum in VPL order: deterministic.
             let mut flux = vec![Vec3::ZERO; c.k()];
@@ -295,7 +283,7 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>) -> Vec<VplLight> 
                 .zip(flux)
                 .map(|(&r, flux)| {
                     let v = &vpls[r as usize];
-                    VplLight { position: v.position.into(), normal: v.normal.into(), flux }
+                    VplLight::new(v.position.into(), v.normal.into(), flux)
                 })
                 .collect()
         }

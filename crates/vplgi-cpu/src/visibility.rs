@@ -6,23 +6,10 @@
 //! between them (a ray would be blocked by one of the two surfaces), so the ray is saved.
 
 use crate::CpuScene;
-use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
 
-/// A surface point: one end of a shadow ray.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Endpoint {
-    pub position: Vec3,
-    pub normal: Vec3,
-}
-
-impl Endpoint {
-    /// The shading point as a shadow-ray end.
-    pub fn of(sp: &vplgi_types::ShadingPoint) -> Endpoint {
-        Endpoint { position: sp.position.into(), normal: sp.normal.into() }
-    }
-}
+pub use vplgi_types::Endpoint;
 
 /// A rows x cols matrix of bits, each row padded to whole 64-bit words.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -78,8 +65,8 @@ impl BitMatrix {
 /// Whether the two surfaces can see each other at all, ignoring blockers.
 #[inline]
 pub fn facing(a: &Endpoint, b: &Endpoint) -> bool {
-    let d = b.position - a.position;
-    a.normal.dot(d) > 0.0 && b.normal.dot(d) < 0.0
+    let d = b.p() - a.p();
+    a.n().dot(d) > 0.0 && b.n().dot(d) < 0.0
 }
 
 /// Fills the visibility matrix; returns it with the number of shadow rays traced.
@@ -98,7 +85,7 @@ pub fn visibility(cs: &CpuScene, rows: &[Endpoint], cols: &[Endpoint], progress:
             for (c, b) in cols.iter().enumerate() {
                 if facing(a, b) {
                     rays += 1;
-                    if cs.visible(a.position, a.normal, b.position, b.normal) {
+                    if cs.visible(a.p(), a.n(), b.p(), b.n()) {
                         words[c / 64] |= 1u64 << (c % 64);
                     }
                 }

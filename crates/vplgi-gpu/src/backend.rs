@@ -47,13 +47,13 @@ pub struct GpuKernels {
 /// `Params` of `frame.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
-struct GlueParams {
-    n: u32,
-    k: u32,
-    first: u32,
-    hit_first: u32,
-    hit_count: u32,
-    pad: [u32; 3],
+pub(crate) struct GlueParams {
+    pub(crate) n: u32,
+    pub(crate) k: u32,
+    pub(crate) first: u32,
+    pub(crate) hit_first: u32,
+    pub(crate) hit_count: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 impl GpuKernels {
@@ -244,7 +244,7 @@ impl Backend for GpuBackend<'_> {
 
     fn representatives(&self, c: &GpuClustering, k: u32, points: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {
         let rows = storage_zeroed::<Endpoint>(self.device, "cluster rows", k as usize);
-        self.kernels.cluster.gather(self.device, self.queue, &rows, &c.representatives, k, points, n)?;
+        self.kernels.cluster.gather(self.device, self.queue, &rows, (&c.representatives, k), (points, n))?;
         Ok(rows)
     }
 

@@ -24,19 +24,19 @@ use vplgi_types::FuzzyMode;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable, Default)]
-struct Params {
-    origin: [f32; 4],
-    dims: [i32; 4],
-    fix_min: [f32; 4],
-    fix_ext: [f32; 4],
-    n: u32,
-    k: u32,
-    f: u32,
-    threshold: f32,
-    fuzzy: u32,
-    cells: u32,
-    first: u32,
-    window: u32,
+pub(crate) struct Params {
+    pub(crate) origin: [f32; 4],
+    pub(crate) dims: [i32; 4],
+    pub(crate) fix_min: [f32; 4],
+    pub(crate) fix_ext: [f32; 4],
+    pub(crate) n: u32,
+    pub(crate) k: u32,
+    pub(crate) f: u32,
+    pub(crate) threshold: f32,
+    pub(crate) fuzzy: u32,
+    pub(crate) cells: u32,
+    pub(crate) first: u32,
+    pub(crate) window: u32,
 }
 
 /// A grid filled with centroids, on the device.
@@ -71,6 +71,14 @@ pub struct GpuClustering {
     pub members: wgpu::Buffer,
     pub outcome: wgpu::Buffer,
     pub geometry: GridGeometry,
+}
+
+/// How [`ClusterKernel::assign`] assigns: n_t of Eq. 7, clusters per point, their weights.
+#[derive(Clone, Copy, Debug)]
+pub struct AssignRule {
+    pub threshold: f32,
+    pub f: u32,
+    pub fuzzy: FuzzyMode,
 }
 
 pub struct ClusterKernel {
@@ -156,17 +164,14 @@ impl ClusterKernel {
         Window::split(n as u64, item, device.limits().max_storage_buffer_binding_size)
     }
 
-    /// `out[t] = points[index[t]]` for `t < n` (Endpoints), over `m` points.
-    #[allow(clippy::too_many_arguments)]
+    /// `out[t] = points[index[t]]` for the `n` indices (Endpoints), over `m` points.
     pub fn gather(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         out: &wgpu::Buffer,
-        index: &wgpu::Buffer,
-        n: u32,
-        points: &wgpu::Buffer,
-        m: u32,
+        (index, n): (&wgpu::Buffer, u32),
+        (points, m): (&wgpu::Buffer, u32),
     ) -> Result<(), GpuError> {
         for wo in Self::windows(device, n, 1) {
             for wi in Self::windows(device, m, 1) {
@@ -196,8 +201,15 @@ impl ClusterKernel {
     }
 
     /// Distinct cells `floor((p - min) / cell)` among the `s` sample points.
-    #[allow(clippy::too_many_arguments)]
-    fn occupied(&self, device: &wgpu::Device, queue: &wgpu::Queue, sample: &wgpu::Buffer, s: u32, min: Vec3, ext: Vec3, cell: f32) -> Result<usize, GpuError> {
+    fn occupied(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        (sample, s): (&wgpu::Buffer, u32),
+        min: Vec3,
+        ext: Vec3,
+        cell: f32,
+    ) -> Result<usize, GpuError> {
         let dims = [0, 1, 2].map(|a| (ext[a] / cell).floor() as i32 + 1);
         let cells = dims.iter().map(|&d| d as u64).product::<u64>();
         let words = cells.div_ceil(32) as u32;
@@ -236,21 +248,18 @@ impl ClusterKernel {
         Ok(GpuGrid { geometry: *geometry, brute_ring: brute, offsets, items })
     }
 
-    /// Each of `n` points gets its `f` nearest compatible centroids, with weights for `fuzzy`.
-    #[allow(clippy::too_many_arguments)]
+    /// Each of the `n` points gets its `rule.f` nearest compatible centroids (of `k`), with
+    /// weights for `rule.fuzzy`.
     pub fn assign(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         grid: &GpuGrid,
-        points: &wgpu::Buffer,
-        n: u32,
-        centroids: &wgpu::Buffer,
-        k: u32,
-        threshold: f32,
-        f: u32,
-        fuzzy: FuzzyMode,
+        (points, n): (&wgpu::Buffer, u32),
+        (centroids, k): (&wgpu::Buffer, u32),
+        rule: AssignRule,
     ) -> Result<Assignment, GpuError> {
+        let AssignRule { threshold, f, fuzzy } = rule;
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
         (p.k, p.f, p.threshold) = (k, f, threshold);
         p.fuzzy = (fuzzy == FuzzyMode::Weighted) as u32;
@@ -276,20 +285,17 @@ impl ClusterKernel {
         Ok(a)
     }
 
-    /// Recomputes the `k` centroids from the first label of each of `n` points with fixed-point
-    /// sums; clusters without members keep their centroid. Returns the member counts.
-    #[allow(clippy::too_many_arguments)]
+    /// Recomputes the `k` centroids from the first label of each of the `n` points (labels `f`
+    /// per point) with fixed-point sums; clusters without members keep their centroid. Returns
+    /// the member counts.
     pub fn update(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         fix: &FixedPoint,
-        points: &wgpu::Buffer,
-        n: u32,
-        labels: &wgpu::Buffer,
-        f: u32,
-        centroids: &wgpu::Buffer,
-        k: u32,
+        (points, n): (&wgpu::Buffer, u32),
+        (labels, f): (&wgpu::Buffer, u32),
+        (centroids, k): (&wgpu::Buffer, u32),
     ) -> Result<wgpu::Buffer, GpuError> {
         let mut p = Params { fix_min: [fix.min.x, fix.min.y, fix.min.z, 0.0], fix_ext: [fix.ext.x, fix.ext.y, fix.ext.z, 0.0], n, k, f, ..Default::default() };
         let sums = storage_zeroed::<u32>(device, "centroid sums", (k * 12) as usize);
@@ -343,14 +349,14 @@ impl ClusterKernel {
         let s = sample.len() as u32;
         // The downsampled set is gathered once, so the iterations read it as plain points.
         let sample_points = storage_zeroed::<Endpoint>(device, "sample points", s as usize);
-        self.gather(device, queue, &sample_points, &storage(device, "sample", &sample), s, points, m)?;
+        self.gather(device, queue, &sample_points, (&storage(device, "sample", &sample), s), (points, m))?;
         let centroids = storage_zeroed::<Endpoint>(device, "centroids", k as usize);
-        self.gather(device, queue, &centroids, &storage(device, "seeds", &seeds), k, points, m)?;
+        self.gather(device, queue, &centroids, (&storage(device, "seeds", &seeds), k), (points, m))?;
 
         let (min, max) = self.bounds(device, queue, points, m)?;
         let ext = (max - min).max(Vec3::splat(1e-12));
         let mut occ_err = None;
-        let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, &sample_points, s, min, ext, cell) {
+        let geometry = grid_geometry(min, max, k as usize, |cell| match self.occupied(device, queue, (&sample_points, s), min, ext, cell) {
             Ok(c) => c,
             Err(e) => {
                 occ_err = Some(e);
@@ -364,13 +370,13 @@ impl ClusterKernel {
         let nt = params.normal_threshold;
         for _ in 0..params.iterations {
             let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-            let a = self.assign(device, queue, &grid, &sample_points, s, &centroids, k, nt, 1, FuzzyMode::Hard)?;
-            self.update(device, queue, &fix, &sample_points, s, &a.labels, 1, &centroids, k)?;
+            let a = self.assign(device, queue, &grid, (&sample_points, s), (&centroids, k), AssignRule { threshold: nt, f: 1, fuzzy: FuzzyMode::Hard })?;
+            self.update(device, queue, &fix, (&sample_points, s), (&a.labels, 1), (&centroids, k))?;
         }
 
         // Final hard assignment; drop clusters nobody is nearest to.
         let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-        let hard = self.assign(device, queue, &grid, points, m, &centroids, k, nt, 1, FuzzyMode::Hard)?;
+        let hard = self.assign(device, queue, &grid, (points, m), (&centroids, k), AssignRule { threshold: nt, f: 1, fuzzy: FuzzyMode::Hard })?;
         let counts = storage_zeroed::<u32>(device, "member counts", k as usize);
         for w in Self::windows(device, m, 1) {
             let p = Params { n: w.count as u32, k, f: 1, ..Default::default() };
@@ -394,7 +400,7 @@ impl ClusterKernel {
 
         // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
         let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
-        let a = self.assign(device, queue, &grid, points, m, &survivors, kept, nt, f, params.fuzzy)?;
+        let a = self.assign(device, queue, &grid, (points, m), (&survivors, kept), AssignRule { threshold: nt, f, fuzzy: params.fuzzy })?;
 
         // Representatives: per cluster the member nearest the centroid, ties to the lower index.
         let rep_d2 = storage(device, "rep d2", &vec![u32::MAX; kept as usize]);

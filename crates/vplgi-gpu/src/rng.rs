@@ -9,13 +9,13 @@ use bytemuck::{Pod, Zeroable};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    seed: u32,
-    stream: u32,
-    first_index: u32,
-    count: u32,
-    draws: u32,
-    pad: [u32; 3],
+pub(crate) struct Params {
+    pub(crate) seed: u32,
+    pub(crate) stream: u32,
+    pub(crate) first_index: u32,
+    pub(crate) count: u32,
+    pub(crate) draws: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 /// `draws` numbers from each of the streams (seed, stream, first_index + i), i < count, stream

@@ -9,32 +9,25 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::ShadeParams;
 
-/// A VPL (cluster) as a light for indirect shading (`VplLight` in `shade.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct VplLight {
-    pub position: [f32; 4],
-    pub normal: [f32; 4],
-    pub flux: [f32; 4],
-}
+pub use vplgi_types::VplLight;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    spp: u32,
-    seed: u32,
-    direct_samples: u32,
-    light_count: u32,
-    f: u32,
-    mode: u32,
-    first_row: u32,
-    words_per_row: u32,
-    first_pixel: u32,
-    pixel_count: u32,
-    g_max: f32,
-    eps: f32,
-    sp_first: u32,
-    pad: [u32; 3],
+pub(crate) struct Params {
+    pub(crate) spp: u32,
+    pub(crate) seed: u32,
+    pub(crate) direct_samples: u32,
+    pub(crate) light_count: u32,
+    pub(crate) f: u32,
+    pub(crate) mode: u32,
+    pub(crate) first_row: u32,
+    pub(crate) words_per_row: u32,
+    pub(crate) first_pixel: u32,
+    pub(crate) pixel_count: u32,
+    pub(crate) g_max: f32,
+    pub(crate) eps: f32,
+    pub(crate) sp_first: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 /// Where each shading point's visibility comes from (the twin of

@@ -161,73 +161,67 @@ mod tests {
         panic!("struct {name} not found in {stage}");
     }
 
-    /// Every struct shared between Rust and WGSL has the same size and field offsets on both
-    /// sides.
+    /// One row of the layout table: a Rust record, the WGSL struct it is read as, and the
+    /// record's named fields (padding is covered by the size).
+    struct Row {
+        stage: &'static str,
+        wgsl: &'static str,
+        rust: &'static str,
+        size: usize,
+        fields: Vec<(&'static str, usize)>,
+    }
+
+    /// `[Type] "stage.wgsl" WgslName { field, ... }`: the row of a record whose fields have the
+    /// same names on both sides.
+    macro_rules! rows {
+        ($([$ty:path] $stage:literal $wgsl:literal { $($field:ident),* $(,)? })*) => {
+            vec![$(Row {
+                stage: $stage,
+                wgsl: $wgsl,
+                rust: stringify!($ty),
+                size: std::mem::size_of::<$ty>(),
+                fields: vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),*],
+            }),*]
+        };
+    }
+
+    /// Every record that crosses between host and device, and every kernel's uniform parameters,
+    /// has the same size and field offsets in Rust as naga lays out in WGSL. One table: a new
+    /// record is one row.
     #[test]
     fn shared_structs_match_their_wgsl_layout() {
-        use std::mem::{offset_of, size_of};
-        use vplgi_types::{ShadingPoint, Vpl};
-        let check = |stage: &str, name: &str, size: usize, offsets: &[(&str, usize)]| {
-            let (wsize, members) = wgsl_layout(stage, name);
-            assert_eq!(wsize as usize, size, "{name}: WGSL size {wsize}, Rust size {size}");
-            for (field, off) in offsets {
-                let m = members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{name}.{field} missing in WGSL"));
-                assert_eq!(m.1 as usize, *off, "{name}.{field}: WGSL offset {}, Rust offset {off}", m.1);
-            }
-        };
-        check(
-            "shading_points.wgsl",
-            "ShadingPoint",
-            size_of::<ShadingPoint>(),
-            &[
-                ("position", offset_of!(ShadingPoint, position)),
-                ("pixel", offset_of!(ShadingPoint, pixel)),
-                ("normal", offset_of!(ShadingPoint, normal)),
-                ("triangle", offset_of!(ShadingPoint, triangle)),
-                ("albedo", offset_of!(ShadingPoint, albedo)),
-                ("emitted", offset_of!(ShadingPoint, emitted)),
-            ],
-        );
-        check(
-            "shading_points.wgsl",
-            "Vpl",
-            size_of::<Vpl>(),
-            &[
-                ("position", offset_of!(Vpl, position)),
-                ("path", offset_of!(Vpl, path)),
-                ("normal", offset_of!(Vpl, normal)),
-                ("bounce", offset_of!(Vpl, bounce)),
-                ("flux", offset_of!(Vpl, flux)),
-            ],
-        );
-        use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
-        check(
-            "shading_points.wgsl",
-            "SceneTri",
-            size_of::<SceneTri>(),
-            &[("ng", 0), ("n0", offset_of!(SceneTri, n0)), ("uv01", offset_of!(SceneTri, uv01)), ("uv2", offset_of!(SceneTri, uv2))],
-        );
-        check("shading_points.wgsl", "Material", size_of::<GpuMaterial>(), &[("base_color", 0), ("emission", offset_of!(GpuMaterial, emission))]);
-        check("shading_points.wgsl", "TextureInfo", size_of::<TextureInfo>(), &[("offset", 0), ("width", 4), ("height", 8), ("format", 12)]);
         use crate::bvh::{BvhNode, BvhTri};
-        check("visibility.wgsl", "BvhTri", size_of::<BvhTri>(), &[("v0", 0), ("v1", offset_of!(BvhTri, v1)), ("v2", offset_of!(BvhTri, v2))]);
-        check(
-            "visibility.wgsl",
-            "BvhNode",
-            size_of::<BvhNode>(),
-            &[("min", 0), ("skip", offset_of!(BvhNode, skip)), ("max", offset_of!(BvhNode, max)), ("leaf", offset_of!(BvhNode, leaf))],
-        );
         use crate::lights::{Emitter, Punctual};
-        check(
-            "shade.wgsl",
-            "Emitter",
-            size_of::<Emitter>(),
-            &[("v0", 0), ("e1", 16), ("normal", offset_of!(Emitter, normal)), ("radiance", offset_of!(Emitter, radiance))],
-        );
-        check("shade.wgsl", "Punctual", size_of::<Punctual>(), &[("position", 0), ("direction", 16), ("intensity", offset_of!(Punctual, intensity))]);
-        use crate::shade::VplLight;
-        check("shade.wgsl", "VplLight", size_of::<VplLight>(), &[("position", 0), ("normal", 16), ("flux", offset_of!(VplLight, flux))]);
-        use crate::visibility::Endpoint;
-        check("visibility.wgsl", "Endpoint", size_of::<Endpoint>(), &[("position", 0), ("normal", offset_of!(Endpoint, normal))]);
+        use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
+        use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
+        let table = rows! {
+            [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, emitted }
+            [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux }
+            [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
+            [VplLight] "shade.wgsl" "VplLight" { position, normal, flux }
+            [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
+            [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission }
+            [TextureInfo] "shading_points.wgsl" "TextureInfo" { offset, width, height, format }
+            [BvhNode] "visibility.wgsl" "BvhNode" { min, skip, max, leaf }
+            [BvhTri] "visibility.wgsl" "BvhTri" { v0, v1, v2 }
+            [Emitter] "shade.wgsl" "Emitter" { v0, e1, e2, normal, radiance }
+            [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
+            [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
+            [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
+            [crate::cluster::Params] "cluster.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window }
+            [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
+            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, light_count, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first }
+            [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count }
+            [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
+        };
+        for row in table {
+            let (size, members) = wgsl_layout(row.stage, row.wgsl);
+            assert_eq!(size as usize, row.size, "{} ({}): WGSL size {size}, Rust size {}", row.rust, row.stage, row.size);
+            for (field, offset) in row.fields {
+                let m =
+                    members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{}.{field}: no such member of {} in {}", row.rust, row.wgsl, row.stage));
+                assert_eq!(m.1 as usize, offset, "{}.{field}: WGSL offset {}, Rust offset {offset}", row.rust, m.1);
+            }
+        }
     }
 }

@@ -11,18 +11,18 @@ use vplgi_types::{CameraParams, ShadingPoint};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    cam_pos: [f32; 4],
-    cam_forward: [f32; 4],
-    cam_up: [f32; 4],
-    cam_right: [f32; 4],
-    width: u32,
-    height: u32,
-    spp: u32,
-    seed: u32,
-    first: u32,
-    count: u32,
-    pad: [u32; 2],
+pub(crate) struct Params {
+    pub(crate) cam_pos: [f32; 4],
+    pub(crate) cam_forward: [f32; 4],
+    pub(crate) cam_up: [f32; 4],
+    pub(crate) cam_right: [f32; 4],
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) spp: u32,
+    pub(crate) seed: u32,
+    pub(crate) first: u32,
+    pub(crate) count: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 pub struct ShadingPointsKernel {

@@ -15,15 +15,15 @@ use vplgi_types::{TraceParams, Vpl};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    seed: u32,
-    bounces: u32,
-    first: u32,
-    count: u32,
-    wanted: u32,
-    kept: u32,
-    eps: f32,
-    pad: u32,
+pub(crate) struct Params {
+    pub(crate) seed: u32,
+    pub(crate) bounces: u32,
+    pub(crate) first: u32,
+    pub(crate) count: u32,
+    pub(crate) wanted: u32,
+    pub(crate) kept: u32,
+    pub(crate) eps: f32,
+    pub(crate) pad: u32,
 }
 
 /// VPLs on the device.

@@ -10,30 +10,18 @@ use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 
-/// A shadow-ray end point (`Endpoint` in `types.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Endpoint {
-    pub position: [f32; 4],
-    pub normal: [f32; 4],
-}
-
-impl Endpoint {
-    pub fn new(position: glam::Vec3, normal: glam::Vec3) -> Endpoint {
-        Endpoint { position: [position.x, position.y, position.z, 0.0], normal: [normal.x, normal.y, normal.z, 0.0] }
-    }
-}
+pub use vplgi_types::Endpoint;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    rows: u32,
-    cols: u32,
-    words_per_row: u32,
-    first_row: u32,
-    row_count: u32,
-    eps: f32,
-    pad: [u32; 2],
+pub(crate) struct Params {
+    pub(crate) rows: u32,
+    pub(crate) cols: u32,
+    pub(crate) words_per_row: u32,
+    pub(crate) first_row: u32,
+    pub(crate) row_count: u32,
+    pub(crate) eps: f32,
+    pub(crate) pad: [u32; 2],
 }
 
 pub struct VisibilityKernel {

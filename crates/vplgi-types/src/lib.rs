@@ -18,5 +18,5 @@ pub mod sampling;
 
 pub use config::{ClusterMode, FrameConfig, FuzzyMode, Preset};
 pub use params::{CameraParams, ShadeParams, TraceParams};
-pub use pod::{ShadingPoint, Vpl, MISS};
+pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

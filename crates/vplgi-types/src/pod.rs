@@ -5,6 +5,7 @@
 //! size as the Rust struct.
 
 use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
 
 /// Marker for "no triangle": a primary ray that left the scene.
 pub const MISS: u32 = u32::MAX;
@@ -51,6 +52,69 @@ pub struct ShadingPoint {
 impl ShadingPoint {
     pub fn is_miss(&self) -> bool {
         self.triangle == MISS
+    }
+}
+
+/// A surface point: one end of a shadow ray (`visibility`'s rows and columns) and a point to
+/// cluster. The same bytes as `Endpoint` in `types.wgsl` (two `vec4<f32>`, w = 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Endpoint {
+    pub position: [f32; 3],
+    pub _pad0: f32,
+    pub normal: [f32; 3],
+    pub _pad1: f32,
+}
+
+impl Endpoint {
+    pub fn new(position: Vec3, normal: Vec3) -> Endpoint {
+        Endpoint { position: position.to_array(), _pad0: 0.0, normal: normal.to_array(), _pad1: 0.0 }
+    }
+
+    /// A shading point as a shadow-ray end.
+    pub fn of(sp: &ShadingPoint) -> Endpoint {
+        Endpoint { position: sp.position, normal: sp.normal, ..Default::default() }
+    }
+
+    /// A VPL as a shadow-ray end.
+    pub fn of_vpl(v: &Vpl) -> Endpoint {
+        Endpoint { position: v.position, normal: v.normal, ..Default::default() }
+    }
+
+    /// The position.
+    #[inline]
+    pub fn p(&self) -> Vec3 {
+        Vec3::from(self.position)
+    }
+
+    /// The unit normal.
+    #[inline]
+    pub fn n(&self) -> Vec3 {
+        Vec3::from(self.normal)
+    }
+}
+
+/// A light for indirect shading: one VPL, or one VPL cluster at its representative with its
+/// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (three `vec4<f32>`, w = 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct VplLight {
+    pub position: [f32; 3],
+    pub _pad0: f32,
+    pub normal: [f32; 3],
+    pub _pad1: f32,
+    pub flux: [f32; 3],
+    pub _pad2: f32,
+}
+
+impl VplLight {
+    pub fn new(position: Vec3, normal: Vec3, flux: Vec3) -> VplLight {
+        VplLight { position: position.to_array(), normal: normal.to_array(), flux: flux.to_array(), ..Default::default() }
+    }
+
+    /// Where its shadow rays end.
+    pub fn endpoint(&self) -> Endpoint {
+        Endpoint { position: self.position, normal: self.normal, ..Default::default() }
     }
 }
 
