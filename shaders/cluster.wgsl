@@ -13,9 +13,6 @@
 //   gather, bounds, count_labels, flags, compact, outcome_counts: seeding, the data's box,
 //                                member counts and the removal of empty clusters
 
-const MAX_F: u32 = 16u;
-const FIX_ONE: f32 = 16777216.0;
-
 struct Params {
     origin: vec4<f32>,      // grid origin (xyz), w = cell size
     dims: vec4<i32>,        // grid dims (xyz), w = ring from which the search scans all centroids
@@ -233,7 +230,7 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var w: array<f32, 16>;
     var total = 0.0;
     for (var j = 0u; j < found; j = j + 1u) {
-        if (params.fuzzy == 1u) {
+        if (params.fuzzy == WEIGHTS_INVERSE_DISTANCE) {
             w[j] = 1.0 / max(sqrt(best_d[j]), floor_d);
         } else {
             w[j] = 1.0;

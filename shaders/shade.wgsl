@@ -125,7 +125,7 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
     var row_base: array<u32, 16>;
     var row_w: array<f32, 16>;
     var rows = 0u;
-    if (params.mode == 0u) {
+    if (params.mode == SHADE_OWN_ROW) {
         row_base[0] = (row_of[i] - params.first_row) * params.words_per_row;
         row_w[0] = 1.0;
         rows = 1u;

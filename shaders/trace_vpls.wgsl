@@ -43,8 +43,6 @@ struct Params {
 @group(0) @binding(22) var<storage, read> scene_tris_2: array<SceneTri>;
 @group(0) @binding(23) var<storage, read> scene_tris_3: array<SceneTri>;
 
-const SURVIVAL_MAX: f32 = 0.95;
-
 // Distribution::sample on the all-light table (particles): first item whose CDF exceeds u.
 fn sample_table_all(u: f32) -> u32 {
     var lo = 0u;
@@ -117,7 +115,7 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             if (bounce == params.bounces) {
                 break;
             }
-            let survive = min(max(max(s.albedo.x, s.albedo.y), s.albedo.z), SURVIVAL_MAX);
+            let survive = min(max(max(s.albedo.x, s.albedo.y), s.albedo.z), MAX_SURVIVAL);
             if (survive <= 0.0 || rng_next_f32(&rng) >= survive) {
                 break;
             }

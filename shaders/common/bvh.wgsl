@@ -52,8 +52,6 @@ struct Hit {
 }
 
 const NO_HIT: u32 = 0xffffffffu;
-const BVH_END: u32 = 0xffffffffu;      // vplgi_gpu::bvh::END
-const LEAF_COUNT_BITS: u32 = 4u;       // vplgi_gpu::bvh::LEAF_COUNT_BITS
 
 // The slots [first, end) of a leaf's triangles in bvh_tris, from its `leaf` word.
 fn leaf_slots(leaf: u32) -> vec2<u32> {
@@ -193,9 +191,6 @@ fn leaf_blocks(leaf: u32, o: vec3<f32>, shear: RayShear, tmin: f32, tmax: f32) -
     }
     return false;
 }
-
-// vplgi_cpu::SEGMENT_TNEAR: shadow segments ignore touches at their very start.
-const SEGMENT_TNEAR: f32 = 1e-5;
 
 // CpuScene::visible: both ends pushed off their surfaces, the segment between them tested.
 fn visible(p: vec3<f32>, np: vec3<f32>, q: vec3<f32>, nq: vec3<f32>, eps: f32) -> bool {

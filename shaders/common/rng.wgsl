@@ -2,11 +2,6 @@
 // PCG hash (Jarzynski & Olano 2020), key = pcg(index + pcg(stream + pcg(seed))),
 // draw n = pcg(key ^ pcg(n)). WGSL u32 arithmetic wraps like Rust's wrapping_* ops.
 
-const STREAM_LIGHT_PATH: u32 = 1u;
-const STREAM_DIRECT: u32 = 2u;
-const STREAM_CAMERA: u32 = 3u;
-const STREAM_CLUSTER: u32 = 4u;
-
 fn pcg_hash(x: u32) -> u32 {
     let state = x * 747796405u + 2891336453u;
     let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;

@@ -48,7 +48,7 @@ fn texel(info: TextureInfo, i: i32, j: i32) -> vec3<f32> {
     let x = ((i % w) + w) % w;
     let y = ((j % h) + h) % h;
     let t = u32(y * w + x);
-    if (info.format == 0u) {
+    if (info.format == TEXELS_SRGB8) {
         let c = texel_word(info.offset + t);
         return vec3<f32>(srgb8(c), srgb8(c >> 8u), srgb8(c >> 16u));
     }

@@ -1,9 +1,6 @@
 // Records shared with Rust (vplgi-types/src/pod.rs and vplgi-gpu/src/scene.rs). Each vec3 is
 // followed by a 4-byte scalar, so WGSL and #[repr(C)] Rust agree on offsets (checked by a test).
 
-const MISS: u32 = 0xffffffffu;
-const PI: f32 = 3.14159265358979323846;
-
 struct ShadingPoint {
     position: vec3<f32>,
     pixel: u32,

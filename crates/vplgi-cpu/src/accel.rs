@@ -17,12 +17,7 @@ pub struct CpuScene<'a> {
     pub eps: f32,
 }
 
-/// Shadow segments start at this fraction of their length, not at 0. A point in a concave corner
-/// (a camera ray that hit exactly the edge where ceiling meets wall) is pushed off its own
-/// surface into the plane of the other one, which the segment then touches at t = 0: whether
-/// such a touch counts differs between ray tracers (Embree no, Möller–Trumbore yes). Starting a
-/// hair later (1e-5 of the segment, well inside the eps offset) makes every backend ignore it.
-pub const SEGMENT_TNEAR: f32 = 1e-5;
+pub use vplgi_types::params::SEGMENT_TNEAR;
 
 /// What a ray sees where it hits a surface.
 #[derive(Clone, Copy, Debug)]

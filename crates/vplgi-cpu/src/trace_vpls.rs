@@ -14,9 +14,7 @@ use rayon::prelude::*;
 use vplgi_frame::Progress;
 use vplgi_types::{sampling, Rng, Stream, Vpl};
 
-/// Russian roulette never keeps more than this share of paths, so paths end in finite time even
-/// in a white furnace.
-const MAX_SURVIVAL: f32 = 0.95;
+use vplgi_types::params::MAX_SURVIVAL;
 
 /// The VPLs of one frame.
 #[derive(Clone, Debug, Default)]

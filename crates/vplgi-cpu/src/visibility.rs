@@ -55,11 +55,6 @@ impl BitMatrix {
     pub fn words(&self) -> &[u64] {
         &self.bits
     }
-
-    /// Bytes of bit storage.
-    pub fn bytes(&self) -> usize {
-        self.bits.len() * 8
-    }
 }
 
 /// Whether the two surfaces can see each other at all, ignoring blockers.

@@ -13,7 +13,7 @@
 use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
-use crate::shader::pipelines;
+use crate::shader::{pipelines, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN};
 use crate::visibility::Endpoint;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
@@ -67,10 +67,7 @@ pub struct GpuClustering {
     pub weights: wgpu::Buffer,
     /// `k` point indices.
     pub representatives: wgpu::Buffer,
-    /// `k` member counts.
-    pub members: wgpu::Buffer,
     pub outcome: wgpu::Buffer,
-    pub geometry: GridGeometry,
 }
 
 /// How [`ClusterKernel::assign`] assigns: n_t of Eq. 7, clusters per point, their weights.
@@ -262,7 +259,7 @@ impl ClusterKernel {
         let AssignRule { threshold, f, fuzzy } = rule;
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
         (p.k, p.f, p.threshold) = (k, f, threshold);
-        p.fuzzy = (fuzzy == FuzzyMode::Weighted) as u32;
+        p.fuzzy = if fuzzy == FuzzyMode::Weighted { WEIGHTS_INVERSE_DISTANCE } else { WEIGHTS_PLAIN_MEAN };
         let a = Assignment {
             labels: storage_zeroed::<u32>(device, "labels", (n * f) as usize),
             weights: storage_zeroed::<f32>(device, "weights", (n * f) as usize),
@@ -338,9 +335,7 @@ impl ClusterKernel {
                 labels: e("labels"),
                 weights: e("weights"),
                 representatives: e("representatives"),
-                members: e("members"),
                 outcome: e("outcome"),
-                geometry: GridGeometry { origin: Vec3::ZERO, cell: 1.0, dims: [1, 1, 1] },
             });
         }
         let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
@@ -421,17 +416,7 @@ impl ClusterKernel {
                 self.run_windows(device, queue, entry, &p, b, w.count as u32)?;
             }
         }
-        Ok(GpuClustering {
-            centroids: survivors,
-            k: kept,
-            f,
-            labels: a.labels,
-            weights: a.weights,
-            representatives: reps,
-            members,
-            outcome: a.outcome,
-            geometry,
-        })
+        Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, outcome: a.outcome })
     }
 
     /// Counts of search outcomes over `n` points: [neighbourhood, widened, incompatible].

@@ -95,7 +95,6 @@ pub struct GpuScene {
     /// Ray offset, identical to the CPU's ([`Scene::ray_epsilon`]).
     pub eps: f32,
     pub camera: vplgi_scene::Camera,
-    pub triangles: usize,
 }
 
 impl GpuScene {
@@ -146,7 +145,6 @@ impl GpuScene {
             texels,
             eps: scene.ray_epsilon(),
             camera: scene.camera,
-            triangles: scene.triangle_count(),
         })
     }
 }

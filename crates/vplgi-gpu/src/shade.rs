@@ -4,7 +4,7 @@ use crate::buffers::{dispatch_windows, storage_zeroed, uniform, Window};
 use crate::context::validated;
 use crate::lights::GpuLights;
 use crate::scene::GpuScene;
-use crate::shader::RayPipeline;
+use crate::shader::{RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::ShadeParams;
@@ -79,9 +79,9 @@ impl ShadeKernel {
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {
-            Visibility::Own { first_row } => (0, first_row, 1, dummy.as_entire_buffer_binding(), dummy.as_entire_buffer_binding()),
+            Visibility::Own { first_row } => (SHADE_OWN_ROW, first_row, 1, dummy.as_entire_buffer_binding(), dummy.as_entire_buffer_binding()),
             Visibility::Fuzzy { labels, weights, f, window } => {
-                (1, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64))
+                (SHADE_FUZZY, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64))
             }
         };
         let params = Params {

@@ -41,11 +41,65 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
 ];
 
-/// The composed source of stage `name` (a file name from [`STAGES`]): its common files, then
-/// the stage file.
+/// Codes of `mode` in `shade.wgsl`'s parameters: where a shading point's visibility comes from.
+pub const SHADE_OWN_ROW: u32 = 0;
+pub const SHADE_FUZZY: u32 = 1;
+/// Codes of `fuzzy` in `cluster.wgsl`'s parameters: how a point's F clusters are weighted.
+pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
+pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
+
+/// Constants by WGSL name, with their Rust values.
+type Named<T> = Vec<(&'static str, T)>;
+
+/// The constants WGSL shares with Rust: the integers, then the floats.
+fn shared_constants() -> (Named<u32>, Named<f32>) {
+    use vplgi_types::Stream;
+    let u = vec![
+        ("MISS", vplgi_types::MISS),
+        ("MAX_F", vplgi_types::config::MAX_F),
+        ("STREAM_LIGHT_PATH", Stream::LightPath as u32),
+        ("STREAM_DIRECT", Stream::Direct as u32),
+        ("STREAM_CAMERA", Stream::Camera as u32),
+        ("STREAM_CLUSTER", Stream::Cluster as u32),
+        ("BVH_END", crate::bvh::END),
+        ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
+        ("TEXELS_SRGB8", crate::scene::TEXELS_SRGB8),
+        ("TEXELS_F32", crate::scene::TEXELS_F32),
+        ("SHADE_OWN_ROW", SHADE_OWN_ROW),
+        ("SHADE_FUZZY", SHADE_FUZZY),
+        ("WEIGHTS_PLAIN_MEAN", WEIGHTS_PLAIN_MEAN),
+        ("WEIGHTS_INVERSE_DISTANCE", WEIGHTS_INVERSE_DISTANCE),
+    ];
+    let f = vec![
+        ("PI", std::f32::consts::PI),
+        ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
+        ("MAX_SURVIVAL", vplgi_types::params::MAX_SURVIVAL),
+        ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
+    ];
+    (u, f)
+}
+
+/// The constants WGSL shares with Rust, written from the Rust values (never typed twice): the
+/// first lines of every composed module.
+pub fn prelude() -> String {
+    let (u, f) = shared_constants();
+    let mut src = String::from("// Generated from the Rust values by vplgi_gpu::shader::prelude.\n");
+    for (name, v) in u {
+        src.push_str(&format!("const {name}: u32 = {v}u;\n"));
+    }
+    for (name, v) in f {
+        // `{:?}` is the shortest decimal that reads back as the same f32, and always has a
+        // fraction or an exponent, so WGSL parses a float.
+        src.push_str(&format!("const {name}: f32 = {v:?};\n"));
+    }
+    src
+}
+
+/// The composed source of stage `name` (a file name from [`STAGES`]): the prelude, its common
+/// files, then the stage file.
 pub fn compose(name: &str) -> String {
     let (_, stage, includes) = STAGES.iter().find(|(n, _, _)| *n == name).unwrap_or_else(|| panic!("unknown stage shader {name}"));
-    let mut src = String::new();
+    let mut src = prelude();
     for inc in includes.iter() {
         let text = COMMON.iter().find(|(n, _)| n == inc).map(|(_, t)| *t).unwrap_or_else(|| panic!("unknown common shader {inc}"));
         src.push_str(&format!("// ---- {inc}\n{text}\n"));
@@ -159,6 +213,23 @@ mod tests {
             }
         }
         panic!("struct {name} not found in {stage}");
+    }
+
+    /// Every constant of the prelude reads back, in naga, as the bits of its Rust value.
+    #[test]
+    fn prelude_constants_are_the_rust_values() {
+        let module = naga::front::wgsl::parse_str(&prelude()).expect("the prelude parses");
+        let (u, f) = shared_constants();
+        assert_eq!(module.constants.len(), u.len() + f.len());
+        for (_, c) in module.constants.iter() {
+            let name = c.name.as_deref().unwrap_or_default();
+            let naga::Expression::Literal(lit) = module.global_expressions[c.init] else { panic!("{name} is not a literal") };
+            match lit {
+                naga::Literal::U32(v) => assert_eq!(Some(v), u.iter().find(|x| x.0 == name).map(|x| x.1), "{name}"),
+                naga::Literal::F32(v) => assert_eq!(Some(v.to_bits()), f.iter().find(|x| x.0 == name).map(|x| x.1.to_bits()), "{name}"),
+                other => panic!("{name}: unexpected literal {other:?}"),
+            }
+        }
     }
 
     /// One row of the layout table: a Rust record, the WGSL struct it is read as, and the

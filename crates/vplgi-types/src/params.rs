@@ -32,3 +32,15 @@ pub struct ShadeParams {
     /// The clamped geometry term's bound 1 / d_min² (infinity: no clamp).
     pub g_max: f32,
 }
+
+/// Russian roulette never keeps more than this share of paths (`trace_vpls`), so paths end in
+/// finite time even in a white furnace.
+pub const MAX_SURVIVAL: f32 = 0.95;
+
+/// Shadow segments start at this fraction of their length, not at 0 (`visibility`, direct
+/// light). A point in a concave corner (a camera ray that hit exactly the edge where ceiling
+/// meets wall) is pushed off its own surface into the plane of the other one, which the segment
+/// then touches at t = 0: whether such a touch counts differs between ray tracers (Embree no,
+/// Möller–Trumbore yes). Starting a hair later (1e-5 of the segment, well inside the eps offset)
+/// makes every backend ignore it.
+pub const SEGMENT_TNEAR: f32 = 1e-5;
