@@ -1,5 +1,8 @@
-//! Shared helpers for the cross-crate tests: image statistics, and the GPU context for
-//! differential tests.
+//! Shared helpers for the cross-crate tests: the SPEC's tolerances and the measured
+//! [`tolerance::Disagreement`] every differential test prints, image statistics, and the GPU
+//! context for differential tests.
+
+pub mod tolerance;
 
 use vplgi_gpu::GpuContext;
 

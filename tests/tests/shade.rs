@@ -1,0 +1,119 @@
+//! `shade`: the GPU kernel on the CPU's inputs (SPEC: relMSE <= 1e-4).
+//! Each test prints the adapter it ran on and the measured disagreement.
+
+use glam::Vec3;
+use vplgi_cpu::CpuScene;
+use vplgi_gpu::scene::GpuScene;
+use vplgi_gpu::visibility::words_per_row;
+use vplgi_scene::cornell::cornell_box;
+use vplgi_tests::tolerance::{Disagreement, SHADE_REL_MSE};
+use vplgi_types::ShadeParams;
+
+/// Shading given identical inputs — the CPU's shading points, VPL lights, visibility matrix and
+/// fuzzy clusters — in both visibility modes: relMSE(GPU, CPU) ≤ 1e-4 (SPEC).
+#[test]
+fn shade_matches_the_cpu_on_identical_inputs() {
+    use vplgi_cpu::cluster::{cluster, ClusterParams};
+    use vplgi_cpu::shade::{shade, VisibilitySource};
+    use vplgi_gpu::buffers::{read_back, storage};
+    use vplgi_gpu::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
+    use vplgi_types::{FuzzyMode, MISS};
+
+    let Some(ctx) = vplgi_tests::gpu("shade_matches_the_cpu_on_identical_inputs") else {
+        return;
+    };
+    let scene = cornell_box();
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let gs = GpuScene::new(&ctx.device, &scene).unwrap();
+    let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, &scene, &cs.lights);
+    let kernel = ShadeKernel::new(&ctx.device).unwrap();
+    let (w, h, spp, seed, direct) = (40u32, 36u32, 2u32, 5u32, 3u32);
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, seed);
+    let hits: Vec<u32> = (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
+    let mut row_of = vec![MISS; sps.len()];
+    for (r, &i) in hits.iter().enumerate() {
+        row_of[i as usize] = r as u32;
+    }
+    let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, seed, 400, 3, &vplgi_cpu::NoProgress).vpls;
+    let g_max = 1.0 / (0.05 * cs.extent).powi(2);
+    // The CPU's and the GPU's lights are the same records.
+    let to_gpu_lights = |ls: &[VplLight]| -> Vec<VplLight> { ls.to_vec() };
+    let n_pixels = (w * h) as usize;
+    let sps_buf = storage(&ctx.device, "sps", &sps);
+    let row_buf = storage(&ctx.device, "row_of", &row_of);
+
+    // (a) Unclustered shading points: each hit has its own row; VPLs unclustered.
+    let lights = vplgi_cpu::shade::vpl_lights(&vpls, None);
+    let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
+    let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
+    let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
+    let src = VisibilitySource::Own { matrix: &m, row_of: &row_of, first_row: 0 };
+    let cpu_own = shade(&cs, &sps, 0, 0..n_pixels, &lights, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
+    let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
+    let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
+    let inputs = ShadeInputs {
+        scene_lights: &gl,
+        sps: &sps_buf,
+        sp_first: 0,
+        row_of: &row_buf,
+        words: &words,
+        words_per_row: words_per_row(cols.len()) as u32,
+        vpl_lights: &light_buf,
+        light_count: lights.len() as u32,
+        visibility: Visibility::Own { first_row: 0 },
+    };
+    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
+    let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
+
+    // (b) Both clustered, fuzzy weighted F = 6.
+    let pos: Vec<Vec3> = vpls.iter().map(|v| v.position.into()).collect();
+    let nor: Vec<Vec3> = vpls.iter().map(|v| v.normal.into()).collect();
+    let vc = cluster(&pos, &nor, &ClusterParams { k: 60, gamma: 2, iterations: 5, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed });
+    let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc));
+    let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.iter().map(|l| l.endpoint()).collect();
+    let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
+    let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
+    let sc = cluster(&sp_pos, &sp_nor, &ClusterParams { k: 80, gamma: 2, iterations: 5, f: 6, fuzzy: FuzzyMode::Weighted, normal_threshold: 0.866, seed });
+    let reps: Vec<vplgi_cpu::visibility::Endpoint> =
+        sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
+    let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);
+    let src = VisibilitySource::Fuzzy { matrix: &mc, row_of: &row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
+    let cpu_fuzzy = shade(&cs, &sps, 0, 0..n_pixels, &lights_c, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
+    let words_c = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(mc.words()));
+    let light_buf_c = storage(&ctx.device, "lights", &to_gpu_lights(&lights_c));
+    let labels = storage(&ctx.device, "labels", &sc.labels);
+    let weights = storage(&ctx.device, "weights", &sc.weights);
+    let inputs = ShadeInputs {
+        scene_lights: &gl,
+        sps: &sps_buf,
+        sp_first: 0,
+        row_of: &row_buf,
+        words: &words_c,
+        words_per_row: words_per_row(cols_c.len()) as u32,
+        vpl_lights: &light_buf_c,
+        light_count: lights_c.len() as u32,
+        visibility: Visibility::Fuzzy {
+            labels: &labels,
+            weights: &weights,
+            f: sc.f as u32,
+            window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 },
+        },
+    };
+    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
+    let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
+
+    for (name, cpu, gpu) in [("own rows", &cpu_own, &gpu_own), ("fuzzy clusters", &cpu_fuzzy, &gpu_fuzzy)] {
+        let img = |p: Vec<[f32; 3]>| vplgi_image::Image { width: w, height: h, pixels: p };
+        let g: Vec<[f32; 3]> = gpu.iter().map(|p| [p[0], p[1], p[2]]).collect();
+        let metrics = vplgi_image::compare(&img(cpu.clone()), &img(g.clone())).unwrap().metrics;
+        let max_rel = cpu.iter().zip(&g).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3))).fold(0.0f32, f32::max);
+        println!("shade ({name}): relMSE(GPU, CPU) {:.2e}, max relative pixel difference {max_rel:.2e}", metrics.rel_mse);
+        assert!(cpu.iter().any(|p| p[0] > 0.0), "the image must not be black");
+        Disagreement::at_most(format!("shade ({name})"), "relMSE(GPU, CPU)", metrics.rel_mse, SHADE_REL_MSE).check();
+        // Tightened beyond the SPEC: a uniform 1 % bias still passes relMSE <= 1e-4 (measured
+        // 4e-5 when injected), while the twins agree bit for bit on lavapipe. Per-pixel
+        // relative differences above 1e-4 would expose such a bias.
+        assert!(max_rel <= 1e-4, "{name}: a pixel differs by {max_rel} relative");
+    }
+}

@@ -1,0 +1,91 @@
+//! `trace_vpls`: the GPU's VPLs against the CPU's (SPEC: same count, 1e-4 relative, <= 0.1 %
+//! diverging paths).
+//! Each test prints the adapter it ran on and the measured disagreement.
+
+use glam::Vec3;
+use vplgi_cpu::CpuScene;
+use vplgi_gpu::scene::GpuScene;
+use vplgi_scene::cornell::cornell_box;
+use vplgi_tests::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use vplgi_types::TraceParams;
+
+/// VPL tracing: the same count, particles and VPLs; positions within 1e-4 of the scene size,
+/// normals and fluxes within 1e-4 relative; at most 0.1 % of paths may diverge (SPEC), counted.
+/// Area light (Cornell box, 3 bounces), point light (plane, 1 bounce), spot light (Cornell box).
+#[test]
+fn trace_vpls_matches_the_cpu() {
+    use std::collections::BTreeMap;
+    use vplgi_gpu::buffers::read_back;
+    use vplgi_gpu::trace_vpls::TraceVplsKernel;
+    use vplgi_scene::PunctualLight;
+    use vplgi_types::Vpl;
+
+    let Some(ctx) = vplgi_tests::gpu("trace_vpls_matches_the_cpu") else {
+        return;
+    };
+    let kernel = TraceVplsKernel::new(&ctx.device).unwrap();
+    let mut spot_box = cornell_box();
+    spot_box.lights.push(PunctualLight::Spot {
+        position: Vec3::new(0.5, 1.5, 0.5),
+        direction: Vec3::new(-0.3, -1.0, -0.4).normalize(),
+        intensity: Vec3::new(3.0, 2.0, 1.0),
+        cos_inner: 0.9,
+        cos_outer: 0.7,
+    });
+    let cases = [
+        ("cornell box, area light", cornell_box(), 3000u32, 3u32),
+        ("plane, point light", vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0), 2000, 1),
+        ("cornell box + spot light", spot_box, 3000, 3),
+    ];
+    for (name, scene, count, bounces) in cases {
+        let device = vplgi_embree::Device::new(None).unwrap();
+        let cs = CpuScene::new(&scene, &device).unwrap();
+        let gs = GpuScene::new(&ctx.device, &scene).unwrap();
+        let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, &scene, &cs.lights);
+        let cpu = vplgi_cpu::trace_vpls::trace_vpls(&cs, 4, count, bounces, &vplgi_cpu::NoProgress);
+        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &TraceParams { seed: 4, count, bounces }).unwrap();
+        let gpu: Vec<Vpl> = read_back(&ctx.device, &ctx.queue, &g.buffer, g.count as usize).unwrap();
+        assert_eq!(gpu.len(), cpu.vpls.len(), "{name}: VPL count");
+        let by_path = |v: &[Vpl]| {
+            let mut m: BTreeMap<u32, Vec<Vpl>> = BTreeMap::new();
+            for x in v {
+                m.entry(x.path).or_default().push(*x);
+            }
+            m
+        };
+        let (cp, gp) = (by_path(&cpu.vpls), by_path(&gpu));
+        let close = |a: &Vpl, b: &Vpl| {
+            let rel = TRACE_VPLS_REL as f32;
+            let pos = (Vec3::from(a.position) - Vec3::from(b.position)).length() <= rel * cs.extent;
+            let nor = (Vec3::from(a.normal) - Vec3::from(b.normal)).length() <= rel;
+            let flux = (Vec3::from(a.flux) - Vec3::from(b.flux)).abs().max_element() <= rel * Vec3::from(a.flux).abs().max_element().max(1e-12);
+            pos && nor && flux && a.bounce == b.bounce
+        };
+        let mut diverged = 0;
+        let paths: std::collections::BTreeSet<u32> = cp.keys().chain(gp.keys()).copied().collect();
+        let last = *paths.iter().next_back().unwrap();
+        for p in &paths {
+            let (a, b) = (cp.get(p), gp.get(p));
+            let same = match (a, b) {
+                (Some(a), Some(b)) => {
+                    // The last path may be cut at a different length if an earlier one diverged.
+                    let n = if *p == last { a.len().min(b.len()) } else { a.len() };
+                    (a.len() == b.len() || *p == last) && a.iter().zip(b).take(n).all(|(x, y)| close(x, y))
+                }
+                _ => false,
+            };
+            diverged += !same as usize;
+        }
+        println!(
+            "trace_vpls ({name}): {} VPLs from {} (CPU) / {} (GPU) particles; {diverged} of {} paths diverge",
+            gpu.len(),
+            cpu.particles,
+            g.particles,
+            paths.len()
+        );
+        assert!(gpu.len() == count as usize);
+        Disagreement::at_most(format!("trace_vpls ({name})"), "share of diverging paths", diverged as f64 / paths.len() as f64, TRACE_VPLS_DIVERGED_PATHS)
+            .check();
+        assert!((cpu.particles as i64 - g.particles as i64).abs() <= diverged as i64 * bounces as i64, "{name}: particle counts");
+    }
+}
