@@ -108,21 +108,8 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         doc["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
     }
     doc["extensionsUsed"] = json!(used);
-    let mut text = serde_json::to_vec(&doc).map_err(|e| e.to_string())?;
-    text.resize(text.len().next_multiple_of(4), b' ');
-    bin.resize(bin.len().next_multiple_of(4), 0);
-    let total = 12 + 8 + text.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    Ok(out)
+    let text = serde_json::to_vec(&doc).map_err(|e| e.to_string())?;
+    Ok(crate::glb::container(&text, &bin))
 }
 
 fn light_json(intensity: &Vec3, mut light: Value) -> Value {

@@ -8,6 +8,7 @@
 
 pub mod cornell;
 pub mod generate;
+pub mod glb;
 pub mod gltf_load;
 pub mod gltf_write;
 pub mod lights;
