@@ -1,4 +1,4 @@
-//! Stage 3 on the GPU, `cluster` (`shaders/cluster.wgsl`), the twin of
+//! Stage 3 on the GPU, `cluster` (one pass per file, `shaders/cluster_*.wgsl`), the twin of
 //! `vplgi_cpu::cluster::cluster`: Alg. 1 (grid-accelerated k-means with fixed-point centroid
 //! sums) and Alg. 2 (F nearest clusters with weights), then empty-cluster removal and
 //! representatives. The host makes the same choices as the CPU through
@@ -78,28 +78,25 @@ pub struct AssignRule {
     pub fuzzy: FuzzyMode,
 }
 
+/// The clustering passes, one shader file each (`shaders/cluster_*.wgsl`).
 pub struct ClusterKernel {
-    p: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    gather: wgpu::ComputePipeline,
+    bounds: wgpu::ComputePipeline,
+    outcome_counts: wgpu::ComputePipeline,
+    occupancy: wgpu::ComputePipeline,
+    count_bits: wgpu::ComputePipeline,
+    grid_count: wgpu::ComputePipeline,
+    grid_scatter: wgpu::ComputePipeline,
+    assign: wgpu::ComputePipeline,
+    accumulate: wgpu::ComputePipeline,
+    finalize: wgpu::ComputePipeline,
+    count_labels: wgpu::ComputePipeline,
+    flags: wgpu::ComputePipeline,
+    compact: wgpu::ComputePipeline,
+    rep_d2: wgpu::ComputePipeline,
+    rep_index: wgpu::ComputePipeline,
     scan: ScanKernel,
 }
-
-const ENTRIES: [&str; 15] = [
-    "occupancy",
-    "count_bits",
-    "grid_count",
-    "grid_scatter",
-    "assign",
-    "sums_kernel",
-    "finalize",
-    "rep_d2",
-    "rep_index",
-    "gather",
-    "bounds",
-    "count_labels",
-    "flags",
-    "compact",
-    "outcome_counts",
-];
 
 /// The ring from which scanning every centroid is cheaper than the rings: the CPU's test
 /// `(2r + 1)^3 > 8K + 64`, evaluated once.
@@ -111,6 +108,11 @@ pub fn brute_ring(k: usize) -> i32 {
     r
 }
 
+/// The pipelines of the `N` entry points of one pass file, in order.
+fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [wgpu::ComputePipeline; N] {
+    pipelines(device, file, &entries).try_into().unwrap_or_else(|_| unreachable!("one pipeline per entry point"))
+}
+
 fn groups(n: u32) -> u32 {
     n.div_ceil(64).max(1)
 }
@@ -119,8 +121,31 @@ impl ClusterKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
         let scan = ScanKernel::new(device)?;
         validated(device, "cluster pipelines", || {
-            let p = pipelines(device, "cluster.wgsl", &ENTRIES);
-            ClusterKernel { p: ENTRIES.iter().copied().zip(p).collect(), scan }
+            let [gather, bounds, outcome_counts] = passes(device, "cluster_points.wgsl", ["gather", "bounds", "outcome_counts"]);
+            let [occupancy, count_bits] = passes(device, "cluster_occupancy.wgsl", ["occupancy", "count_bits"]);
+            let [grid_count, grid_scatter] = passes(device, "cluster_grid.wgsl", ["grid_count", "grid_scatter"]);
+            let [assign] = passes(device, "cluster_assign.wgsl", ["assign"]);
+            let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
+            let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
+            let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
+            ClusterKernel {
+                gather,
+                bounds,
+                outcome_counts,
+                occupancy,
+                count_bits,
+                grid_count,
+                grid_scatter,
+                assign,
+                accumulate,
+                finalize,
+                count_labels,
+                flags,
+                compact,
+                rep_d2,
+                rep_index,
+                scan,
+            }
         })
     }
 
@@ -128,29 +153,29 @@ impl ClusterKernel {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        entry: &str,
+        pass: &wgpu::ComputePipeline,
         params: &Params,
         bound: &[(u32, &wgpu::Buffer)],
         threads: u32,
     ) -> Result<(), GpuError> {
         let whole: Vec<(u32, wgpu::BufferBinding)> = bound.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
-        self.run_windows(device, queue, entry, params, &whole, threads)
+        self.run_windows(device, queue, pass, params, &whole, threads)
     }
 
     fn run_windows(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        entry: &str,
+        pass: &wgpu::ComputePipeline,
         params: &Params,
         bound: &[(u32, wgpu::BufferBinding)],
         threads: u32,
     ) -> Result<(), GpuError> {
-        validated(device, entry, || {
+        validated(device, "cluster pass", || {
             let p = uniform(device, "cluster params", params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
-            dispatch_windows(device, queue, &self.p[entry], &all, groups(threads));
+            dispatch_windows(device, queue, pass, &all, groups(threads));
         })
     }
 
@@ -174,7 +199,7 @@ impl ClusterKernel {
             for wi in Self::windows(device, m, 1) {
                 let p = Params { n: wo.count as u32, first: wi.first as u32, window: wi.count as u32, ..Default::default() };
                 let b = [(1, wi.of::<Endpoint>(points, 1)), (2, wo.of::<u32>(index, 1)), (3, wo.of::<Endpoint>(out, 1))];
-                self.run_windows(device, queue, "gather", &p, &b, wo.count as u32)?;
+                self.run_windows(device, queue, &self.gather, &p, &b, wo.count as u32)?;
             }
         }
         Ok(())
@@ -190,7 +215,7 @@ impl ClusterKernel {
         let keys = storage(device, "bounds", &init);
         for w in Self::windows(device, n, 1) {
             let b = [(1, w.of::<Endpoint>(points, 1)), (9, keys.as_entire_buffer_binding())];
-            self.run_windows(device, queue, "bounds", &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+            self.run_windows(device, queue, &self.bounds, &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
         }
         let k = read_back::<u32>(device, queue, &keys, 6)?;
         let decode = |u: u32| f32::from_bits(if u & 0x8000_0000 != 0 { u & 0x7fff_ffff } else { !u });
@@ -216,9 +241,9 @@ impl ClusterKernel {
         p.cells = words;
         for w in Self::windows(device, s, 1) {
             p.n = w.count as u32;
-            self.run_windows(device, queue, "occupancy", &p, &[(1, w.of::<Endpoint>(sample, 1)), (9, bitmap.as_entire_buffer_binding())], w.count as u32)?;
+            self.run_windows(device, queue, &self.occupancy, &p, &[(1, w.of::<Endpoint>(sample, 1)), (9, bitmap.as_entire_buffer_binding())], w.count as u32)?;
         }
-        self.run(device, queue, "count_bits", &p, &[(4, &total), (9, &bitmap)], words)?;
+        self.run(device, queue, &self.count_bits, &p, &[(4, &total), (9, &bitmap)], words)?;
         Ok(read_back::<u32>(device, queue, &total, 1)?[0] as usize)
     }
 
@@ -239,9 +264,9 @@ impl ClusterKernel {
         let offsets = storage_zeroed::<u32>(device, "cell offsets", cells as usize + 1);
         let cursor = storage_zeroed::<u32>(device, "cell cursor", cells as usize);
         let items = storage_zeroed::<u32>(device, "cell items", k as usize);
-        self.run(device, queue, "grid_count", &p, &[(3, centroids), (4, &counts)], k)?;
+        self.run(device, queue, &self.grid_count, &p, &[(3, centroids), (4, &counts)], k)?;
         self.scan.run(device, queue, &counts, cells, &offsets)?;
-        self.run(device, queue, "grid_scatter", &p, &[(3, centroids), (5, &offsets), (6, &items), (9, &cursor)], k)?;
+        self.run(device, queue, &self.grid_scatter, &p, &[(3, centroids), (5, &offsets), (6, &items), (9, &cursor)], k)?;
         Ok(GpuGrid { geometry: *geometry, brute_ring: brute, offsets, items })
     }
 
@@ -277,7 +302,7 @@ impl ClusterKernel {
                 (8, w.of::<f32>(&a.weights, f64)),
                 (10, w.of::<u32>(&a.outcome, 1)),
             ];
-            self.run_windows(device, queue, "assign", &p, &b, w.count as u32)?;
+            self.run_windows(device, queue, &self.assign, &p, &b, w.count as u32)?;
         }
         Ok(a)
     }
@@ -305,10 +330,10 @@ impl ClusterKernel {
                 (7, w.of::<u32>(labels, f as u64)),
                 (9, sums.as_entire_buffer_binding()),
             ];
-            self.run_windows(device, queue, "sums_kernel", &p, &b, w.count as u32)?;
+            self.run_windows(device, queue, &self.accumulate, &p, &b, w.count as u32)?;
         }
         p.n = n;
-        self.run(device, queue, "finalize", &p, &[(3, centroids), (4, &counts), (9, &sums)], k)?;
+        self.run(device, queue, &self.finalize, &p, &[(3, centroids), (4, &counts), (9, &sums)], k)?;
         Ok(counts)
     }
 
@@ -375,11 +400,18 @@ impl ClusterKernel {
         let counts = storage_zeroed::<u32>(device, "member counts", k as usize);
         for w in Self::windows(device, m, 1) {
             let p = Params { n: w.count as u32, k, f: 1, ..Default::default() };
-            self.run_windows(device, queue, "count_labels", &p, &[(4, counts.as_entire_buffer_binding()), (7, w.of::<u32>(&hard.labels, 1))], w.count as u32)?;
+            self.run_windows(
+                device,
+                queue,
+                &self.count_labels,
+                &p,
+                &[(4, counts.as_entire_buffer_binding()), (7, w.of::<u32>(&hard.labels, 1))],
+                w.count as u32,
+            )?;
         }
         let flags = storage_zeroed::<u32>(device, "flags", k as usize);
         let remap = storage_zeroed::<u32>(device, "remap", k as usize + 1);
-        self.run(device, queue, "flags", &Params { k, ..Default::default() }, &[(4, &counts), (9, &flags)], k)?;
+        self.run(device, queue, &self.flags, &Params { k, ..Default::default() }, &[(4, &counts), (9, &flags)], k)?;
         self.scan.run(device, queue, &flags, k, &remap)?;
         let kept = read_back::<u32>(device, queue, &remap, k as usize + 1)?[k as usize];
         let survivors = storage_zeroed::<Endpoint>(device, "surviving centroids", kept as usize);
@@ -387,7 +419,7 @@ impl ClusterKernel {
         self.run(
             device,
             queue,
-            "compact",
+            &self.compact,
             &Params { k, ..Default::default() },
             &[(3, &centroids), (4, &counts), (5, &remap), (6, &members), (11, &survivors)],
             k,
@@ -401,7 +433,7 @@ impl ClusterKernel {
         let rep_d2 = storage(device, "rep d2", &vec![u32::MAX; kept as usize]);
         let reps = storage(device, "representatives", &vec![u32::MAX; kept as usize]);
         let windows = Self::windows(device, m, f);
-        for entry in ["rep_d2", "rep_index"] {
+        for (pass, name) in [(&self.rep_d2, "rep_d2"), (&self.rep_index, "rep_index")] {
             for w in &windows {
                 let p = Params { n: w.count as u32, k: kept, f, first: w.first as u32, ..Default::default() };
                 let b = [
@@ -412,8 +444,8 @@ impl ClusterKernel {
                     (9, reps.as_entire_buffer_binding()),
                 ];
                 // rep_d2 does not use binding 9.
-                let b = if entry == "rep_d2" { &b[..4] } else { &b[..] };
-                self.run_windows(device, queue, entry, &p, b, w.count as u32)?;
+                let b = if name == "rep_d2" { &b[..4] } else { &b[..] };
+                self.run_windows(device, queue, pass, &p, b, w.count as u32)?;
             }
         }
         Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, outcome: a.outcome })
@@ -424,7 +456,7 @@ impl ClusterKernel {
         let counts = storage_zeroed::<u32>(device, "outcome counts", 3);
         for w in Self::windows(device, n, 1) {
             let b = [(4, counts.as_entire_buffer_binding()), (10, w.of::<u32>(outcome, 1))];
-            self.run_windows(device, queue, "outcome_counts", &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+            self.run_windows(device, queue, &self.outcome_counts, &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
         }
         let c = read_back::<u32>(device, queue, &counts, 3)?;
         Ok([c[0], c[1], c[2]])

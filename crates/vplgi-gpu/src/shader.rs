@@ -10,6 +10,7 @@ const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
 const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
 const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
 const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
+const CLUSTER_COMMON: &str = include_str!("../../../shaders/common/cluster.wgsl");
 
 /// Shared WGSL files by name.
 pub const COMMON: &[(&str, &str)] = &[
@@ -19,7 +20,11 @@ pub const COMMON: &[(&str, &str)] = &[
     ("common/lights.wgsl", LIGHTS),
     ("common/sampling.wgsl", SAMPLING),
     ("common/surface.wgsl", SURFACE),
+    ("common/cluster.wgsl", CLUSTER_COMMON),
 ];
+
+/// What every clustering pass includes.
+const CLUSTER: &[&str] = &["common/types.wgsl", "common/cluster.wgsl"];
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
@@ -35,7 +40,13 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"],
     ),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
-    ("cluster.wgsl", include_str!("../../../shaders/cluster.wgsl"), &["common/types.wgsl"]),
+    ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
+    ("cluster_occupancy.wgsl", include_str!("../../../shaders/cluster_occupancy.wgsl"), CLUSTER),
+    ("cluster_grid.wgsl", include_str!("../../../shaders/cluster_grid.wgsl"), CLUSTER),
+    ("cluster_assign.wgsl", include_str!("../../../shaders/cluster_assign.wgsl"), CLUSTER),
+    ("cluster_update.wgsl", include_str!("../../../shaders/cluster_update.wgsl"), CLUSTER),
+    ("cluster_compact.wgsl", include_str!("../../../shaders/cluster_compact.wgsl"), CLUSTER),
+    ("cluster_representatives.wgsl", include_str!("../../../shaders/cluster_representatives.wgsl"), CLUSTER),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
     ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
     ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
@@ -44,7 +55,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
 /// Codes of `mode` in `shade.wgsl`'s parameters: where a shading point's visibility comes from.
 pub const SHADE_OWN_ROW: u32 = 0;
 pub const SHADE_FUZZY: u32 = 1;
-/// Codes of `fuzzy` in `cluster.wgsl`'s parameters: how a point's F clusters are weighted.
+/// Codes of `fuzzy` in the clustering passes' parameters (`common/cluster.wgsl`): how a point's F clusters are weighted.
 pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
 pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
 
@@ -279,7 +290,7 @@ mod tests {
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
             [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
-            [crate::cluster::Params] "cluster.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window }
+            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
             [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, light_count, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count }
