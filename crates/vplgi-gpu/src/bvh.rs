@@ -12,15 +12,11 @@
 //! and on the conference scene; the numbers are in `docs/perf/optimisations.md`.
 
 use crate::GpuError;
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use glam::Vec3A;
 use obvhs::bvh2::node::Bvh2Node;
 use vplgi_scene::Scene;
-
-/// `skip` of the last node of the preorder: the traversal is over (`BVH_END` in bvh.wgsl).
-pub const END: u32 = u32::MAX;
-/// Low bits of [`BvhNode::leaf`] that hold a leaf's triangle count (`LEAF_COUNT_BITS`).
-pub const LEAF_COUNT_BITS: u32 = 4;
+pub use vplgi_types::device::{BvhNode, BvhTri, END, LEAF_COUNT_BITS};
 
 /// obvhs' medium preset without its coarse search near the root (`search_depth_threshold` 3
 /// there): on scenes whose walls are fine grids (the generated ones) the preset builds trees
@@ -28,30 +24,6 @@ pub const LEAF_COUNT_BITS: u32 = 4;
 /// same build time. `examples/bvh_visits.rs` measures both builds on a scene; the numbers are in
 /// commit b2f6076.
 pub const BUILD: obvhs::BvhBuildParams = obvhs::BvhBuildParams { search_depth_threshold: 0, ..obvhs::BvhBuildParams::medium_build() };
-
-/// A node of the threaded BVH as the WGSL traversal reads it (`BvhNode`, 32 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct BvhNode {
-    pub min: [f32; 3],
-    /// Index of the node after this node's subtree in preorder, or [`END`].
-    pub skip: u32,
-    pub max: [f32; 3],
-    /// 0 for an inner node (its first child is the next node); for a leaf, the first slot of its
-    /// triangles in [`BvhArrays::tris`] shifted left by [`LEAF_COUNT_BITS`], or'ed with their count.
-    pub leaf: u32,
-}
-
-/// A triangle as the WGSL traversal reads it (`BvhTri`): its vertices, v0 with the scene
-/// triangle index in w. Vertices rather than edges: the watertight test in bvh.wgsl needs the
-/// exact shared vertices.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct BvhTri {
-    pub v0: [f32; 4],
-    pub v1: [f32; 4],
-    pub v2: [f32; 4],
-}
 
 /// The flat arrays uploaded to the device.
 pub struct BvhArrays {

@@ -2,29 +2,9 @@
 //! both backends choose lights with the same realised probabilities.
 
 use crate::buffers::{storage, uniform};
-use bytemuck::{Pod, Zeroable};
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::{PunctualLight, Scene};
-
-/// `Emitter` in `shaders/common/lights.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct Emitter {
-    pub v0: [f32; 4],
-    pub e1: [f32; 4],
-    pub e2: [f32; 4],
-    pub normal: [f32; 4],
-    pub radiance: [f32; 4],
-}
-
-/// `Punctual` in `lights.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct Punctual {
-    pub position: [f32; 4],
-    pub direction: [f32; 4],
-    pub intensity: [f32; 4],
-}
+pub use vplgi_types::device::{Emitter, Punctual};
 
 pub struct GpuLights {
     pub counts: wgpu::Buffer,

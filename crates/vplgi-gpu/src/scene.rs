@@ -3,46 +3,9 @@
 use crate::buffers::storage;
 use crate::bvh;
 use crate::GpuError;
-use bytemuck::{Pod, Zeroable};
 use vplgi_scene::Scene;
+pub use vplgi_types::device::{GpuMaterial, SceneTri, TextureInfo, TEXELS_F32, TEXELS_SRGB8};
 use vplgi_types::MISS;
-
-/// Per-triangle shading data (`SceneTri` in `shaders/common/types.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct SceneTri {
-    pub ng: [f32; 4],
-    pub n0: [f32; 4],
-    pub n1: [f32; 4],
-    pub n2: [f32; 4],
-    pub uv01: [f32; 4],
-    pub uv2: [f32; 4],
-}
-
-/// `Material` in `types.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuMaterial {
-    pub base_color: [f32; 4],
-    pub emission: [f32; 4],
-}
-
-/// `TextureInfo` in `types.wgsl`: where a texture's texels start in the texel words, and how
-/// they are stored.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct TextureInfo {
-    pub offset: u32,
-    pub width: u32,
-    pub height: u32,
-    pub format: u32,
-}
-
-/// A texture whose every texel is exactly an 8-bit sRGB code's linear value (what 8-bit images
-/// decode to) is stored as the codes, one word per texel, and decoded through the table at the
-/// start of the texel words; any other texture as three f32 words per texel.
-pub const TEXELS_SRGB8: u32 = 0;
-pub const TEXELS_F32: u32 = 1;
 
 /// Texel words are paged over this many storage bindings (`texels`, `texels_1` ..), and the
 /// shaders' `texel_word` reads them with the `TEXEL_PAGE` override as page size.

@@ -7,10 +7,12 @@
 //! * [`sampling`]: the few warps used to turn uniform numbers into directions and points.
 //! * [`config`]: [`FrameConfig`], the parameters of one frame, with the paper's presets.
 //! * [`clustering`]: the host-side choices of Alg. 1 and 2 every backend shares.
+//! * [`device`]: the records the GPU reads, built on the host (BVH, shading data, lights).
 //! * [`params`]: the parameters of each stage, as every backend takes them.
 
 pub mod clustering;
 pub mod config;
+pub mod device;
 pub mod params;
 pub mod pod;
 pub mod rng;

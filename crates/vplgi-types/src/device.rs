@@ -1,0 +1,92 @@
+//! Records the GPU reads, built on the host from the scene: the threaded BVH, per-triangle
+//! shading data, materials, texture infos and light records. They cross between host and device
+//! only (the CPU reference reads the scene directly), and are laid out as their WGSL structs
+//! (`shaders/common/`), which a table-driven test in vplgi-gpu checks against naga's layouter.
+
+use bytemuck::{Pod, Zeroable};
+
+/// `skip` of the last node of the preorder: the traversal is over (`BVH_END` in bvh.wgsl).
+pub const END: u32 = u32::MAX;
+/// Low bits of [`BvhNode::leaf`] that hold a leaf's triangle count (`LEAF_COUNT_BITS`).
+pub const LEAF_COUNT_BITS: u32 = 4;
+
+/// A node of the threaded BVH as the WGSL traversal reads it (`BvhNode`, 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    /// Index of the node after this node's subtree in preorder, or [`END`].
+    pub skip: u32,
+    pub max: [f32; 3],
+    /// 0 for an inner node (its first child is the next node); for a leaf, the first slot of its
+    /// triangles in the BVH triangle array shifted left by [`LEAF_COUNT_BITS`], or'ed with their count.
+    pub leaf: u32,
+}
+
+/// A triangle as the WGSL traversal reads it (`BvhTri`): its vertices, v0 with the scene
+/// triangle index in w. Vertices rather than edges: the watertight test in bvh.wgsl needs the
+/// exact shared vertices.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct BvhTri {
+    pub v0: [f32; 4],
+    pub v1: [f32; 4],
+    pub v2: [f32; 4],
+}
+
+/// Per-triangle shading data (`SceneTri` in `shaders/common/types.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct SceneTri {
+    pub ng: [f32; 4],
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+    pub uv01: [f32; 4],
+    pub uv2: [f32; 4],
+}
+
+/// `Material` in `types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 4],
+    pub emission: [f32; 4],
+}
+
+/// `TextureInfo` in `types.wgsl`: where a texture's texels start in the texel words, and how
+/// they are stored.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub format: u32,
+}
+
+/// A texture whose every texel is exactly an 8-bit sRGB code's linear value (what 8-bit images
+/// decode to) is stored as the codes, one word per texel, and decoded through the table at the
+/// start of the texel words; any other texture as three f32 words per texel.
+pub const TEXELS_SRGB8: u32 = 0;
+pub const TEXELS_F32: u32 = 1;
+
+/// `Emitter` in `shaders/common/lights.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Emitter {
+    pub v0: [f32; 4],
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+    pub normal: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+/// `Punctual` in `lights.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Punctual {
+    pub position: [f32; 4],
+    pub direction: [f32; 4],
+    pub intensity: [f32; 4],
+}
