@@ -22,12 +22,6 @@ struct Params {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> light_counts: vec4<u32>;
-@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
-@group(0) @binding(5) var<storage, read> area_table: array<vec2<f32>>;
-@group(0) @binding(6) var<storage, read> punctual: array<Punctual>;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
 @group(0) @binding(8) var<storage, read> row_of: array<u32>;
 @group(0) @binding(9) var<storage, read> vis_words: array<u32>;
@@ -35,8 +29,6 @@ struct Params {
 @group(0) @binding(11) var<storage, read> weights: array<f32>;
 @group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
 @group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
-@group(0) @binding(14) var<storage, read> bvh_nodes_hi: array<BvhNode>;
-@group(0) @binding(15) var<storage, read> bvh_tris_hi: array<BvhTri>;
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
 fn sample_table_area(u: f32) -> u32 {

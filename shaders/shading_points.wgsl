@@ -18,21 +18,7 @@ struct Params {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(3) var<storage, read> scene_tris: array<SceneTri>;
-@group(0) @binding(4) var<storage, read> materials: array<Material>;
-@group(0) @binding(5) var<storage, read> texture_infos: array<TextureInfo>;
-@group(0) @binding(6) var<storage, read> texels: array<u32>;
 @group(0) @binding(7) var<storage, read_write> out: array<ShadingPoint>;
-@group(0) @binding(8) var<storage, read> bvh_nodes_hi: array<BvhNode>;
-@group(0) @binding(9) var<storage, read> bvh_tris_hi: array<BvhTri>;
-@group(0) @binding(10) var<storage, read> scene_tris_1: array<SceneTri>;
-@group(0) @binding(11) var<storage, read> texels_1: array<u32>;
-@group(0) @binding(12) var<storage, read> texels_2: array<u32>;
-@group(0) @binding(13) var<storage, read> texels_3: array<u32>;
-@group(0) @binding(14) var<storage, read> scene_tris_2: array<SceneTri>;
-@group(0) @binding(15) var<storage, read> scene_tris_3: array<SceneTri>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

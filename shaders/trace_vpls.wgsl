@@ -18,30 +18,12 @@ struct Params {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<uniform> light_counts: vec4<u32>;
-@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(4) var<storage, read> scene_tris: array<SceneTri>;
-@group(0) @binding(5) var<storage, read> materials: array<Material>;
-@group(0) @binding(6) var<storage, read> texture_infos: array<TextureInfo>;
-@group(0) @binding(7) var<storage, read> texels: array<u32>;
-@group(0) @binding(8) var<storage, read> emitters: array<Emitter>;
-@group(0) @binding(9) var<storage, read> all_table: array<vec2<f32>>;
-@group(0) @binding(10) var<storage, read> punctual: array<Punctual>;
 @group(0) @binding(11) var<storage, read_write> slots: array<Vpl>;
 @group(0) @binding(12) var<storage, read_write> counts: array<u32>;
 @group(0) @binding(13) var<storage, read_write> offsets: array<u32>;
 // [1] = particles used once the wanted count is reached (else 0); [0] unused.
 @group(0) @binding(14) var<storage, read_write> totals: array<u32>;
 @group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
-@group(0) @binding(16) var<storage, read> bvh_nodes_hi: array<BvhNode>;
-@group(0) @binding(17) var<storage, read> bvh_tris_hi: array<BvhTri>;
-@group(0) @binding(18) var<storage, read> scene_tris_1: array<SceneTri>;
-@group(0) @binding(19) var<storage, read> texels_1: array<u32>;
-@group(0) @binding(20) var<storage, read> texels_2: array<u32>;
-@group(0) @binding(21) var<storage, read> texels_3: array<u32>;
-@group(0) @binding(22) var<storage, read> scene_tris_2: array<SceneTri>;
-@group(0) @binding(23) var<storage, read> scene_tris_3: array<SceneTri>;
 
 // Distribution::sample on the all-light table (particles): first item whose CDF exceeds u.
 fn sample_table_all(u: f32) -> u32 {

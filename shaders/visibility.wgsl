@@ -15,13 +15,9 @@ struct Params {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(3) var<storage, read> rows: array<Endpoint>;
 @group(0) @binding(4) var<storage, read> cols: array<Endpoint>;
 @group(0) @binding(5) var<storage, read_write> words: array<u32>;
-@group(0) @binding(6) var<storage, read> bvh_nodes_hi: array<BvhNode>;
-@group(0) @binding(7) var<storage, read> bvh_tris_hi: array<BvhTri>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

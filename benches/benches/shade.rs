@@ -29,7 +29,6 @@ fn shade(c: &mut Criterion) {
             let lights = g.lights(&i.lights);
             let window = Window { first: 0, count: i.sp_points.0.len() as u64 };
             let inputs = ShadeInputs {
-                scene_lights: &g.lights,
                 sps: &sps,
                 sp_first: 0,
                 row_of: &row_of,

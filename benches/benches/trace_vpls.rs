@@ -18,7 +18,7 @@ fn trace_vpls(c: &mut Criterion) {
         });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let run = || {
-                k.run(&g.ctx.device, &g.ctx.queue, &g.scene, &g.lights, &cfg.trace_params()).expect("trace_vpls");
+                k.run(&g.ctx.device, &g.ctx.queue, &g.scene, &cfg.trace_params()).expect("trace_vpls");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));

@@ -137,8 +137,8 @@ impl Inputs {
 /// the GPU variants are skipped with a message (and fail under `CI=true`, as the tests do).
 pub struct Gpu {
     pub ctx: GpuContext,
+    /// The scene on the device, with its light tables.
     pub scene: vplgi_gpu::scene::GpuScene,
-    pub lights: vplgi_gpu::lights::GpuLights,
 }
 
 impl Gpu {
@@ -148,9 +148,7 @@ impl Gpu {
                 let clock = if vplgi_gpu::timing::supported(&ctx.device) { "device time from timestamp queries" } else { "wall time (no timestamp queries)" };
                 eprintln!("{bench}: GPU variants on {} ({clock})", ctx.describe());
                 let gs = vplgi_gpu::scene::GpuScene::new(&ctx.device, scene()).expect("GPU scene");
-                let sampler = vplgi_scene::lights::LightSampler::new(scene());
-                let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, scene(), &sampler);
-                Some(Gpu { ctx, scene: gs, lights: gl })
+                Some(Gpu { ctx, scene: gs })
             }
             Err(e) => {
                 if std::env::var("CI").is_ok_and(|v| v == "true") {

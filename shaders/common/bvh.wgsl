@@ -3,9 +3,9 @@
 // node's first child is the next node, and `skip` leads past the node's subtree, taken when the
 // ray misses the box or after a leaf. A ray's traversal state is one node index: no stack array
 // per invocation, and visibility.wgsl can chain its rays without waiting for other lanes.
-// A scene without triangles is uploaded as one leaf with an empty box. Expects these bindings in
-// the including shader:
-//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  vplgi_gpu::bvh::BvhNode, 32 bytes
+// A scene without triangles is uploaded as one leaf with an empty box. Reads the arrays of
+// scene.wgsl:
+//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  vplgi_types::device::BvhNode, 32 bytes
 //   bvh_tris, bvh_tris_hi:   array<BvhTri>   triangles reordered by the BVH's primitive_indices
 // Each array is paged over two bindings so it may exceed one storage binding: element i lives
 // in the first page if i < the page size (an override set from the device limit), else in `_hi`.

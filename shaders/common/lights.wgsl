@@ -3,20 +3,6 @@
 // ((cdf, realised pmf) pairs) are searched in the stages that bind them: `area_table` (emitters,
 // by power) in shade.wgsl, `all_table` (emitters then punctual lights) in trace_vpls.wgsl.
 
-struct Emitter {
-    v0: vec4<f32>,        // w = area
-    e1: vec4<f32>,
-    e2: vec4<f32>,
-    normal: vec4<f32>,    // unit front normal
-    radiance: vec4<f32>,
-}
-
-struct Punctual {
-    position: vec4<f32>,  // w = 0 point, 1 spot
-    direction: vec4<f32>, // w = cos_inner
-    intensity: vec4<f32>, // w = cos_outer
-}
-
 fn uniform_triangle(u1: f32, u2: f32) -> vec2<f32> {
     let s = sqrt(u1);
     return vec2<f32>(s * (1.0 - u2), s * u2);

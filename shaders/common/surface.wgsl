@@ -1,7 +1,7 @@
-// What a ray sees where it hits a surface (vplgi-cpu CpuScene::trace). Expects bindings
-// bvh_tris(_hi), the per-triangle shading data in four pages scene_tris, scene_tris_1 .. _3,
-// materials, texture_infos and the texel words in four pages texels, texels_1 .. _3
-// (vplgi-gpu/src/scene.rs). Page sizes are overrides set from the device limit.
+// What a ray sees where it hits a surface (vplgi-cpu CpuScene::trace). Reads the arrays of
+// scene.wgsl: bvh_tris(_hi), the per-triangle shading data in four pages scene_tris,
+// scene_tris_1 .. _3, materials, texture_infos and the texel words in four pages texels,
+// texels_1 .. _3 (vplgi-gpu/src/scene.rs). Page sizes are overrides set from the device limit.
 
 override SCENE_TRI_PAGE: u32 = 4294967295u;
 

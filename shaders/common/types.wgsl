@@ -57,6 +57,21 @@ struct TextureInfo {
     format: u32,          // 0: one word of 8-bit sRGB codes per texel, 1: three f32 words
 }
 
+// Light records (vplgi_types::device::{Emitter, Punctual}), read through lights.wgsl.
+struct Emitter {
+    v0: vec4<f32>,        // w = area
+    e1: vec4<f32>,
+    e2: vec4<f32>,
+    normal: vec4<f32>,    // unit front normal
+    radiance: vec4<f32>,
+}
+
+struct Punctual {
+    position: vec4<f32>,  // w = 0 point, 1 spot
+    direction: vec4<f32>, // w = cos_inner
+    intensity: vec4<f32>, // w = cos_outer
+}
+
 // The invocation's item index. Dispatches of more workgroups than one dimension allows are split
 // over y by vplgi_gpu::buffers::dispatch (64 invocations per workgroup everywhere).
 fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {

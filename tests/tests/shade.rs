@@ -26,7 +26,6 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
-    let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, &scene, &cs.lights);
     let kernel = ShadeKernel::new(&ctx.device).unwrap();
     let (w, h, spp, seed, direct) = (40u32, 36u32, 2u32, 5u32, 3u32);
     let sps = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, seed);
@@ -53,7 +52,6 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
     let inputs = ShadeInputs {
-        scene_lights: &gl,
         sps: &sps_buf,
         sp_first: 0,
         row_of: &row_buf,
@@ -85,7 +83,6 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let labels = storage(&ctx.device, "labels", &sc.labels);
     let weights = storage(&ctx.device, "weights", &sc.weights);
     let inputs = ShadeInputs {
-        scene_lights: &gl,
         sps: &sps_buf,
         sp_first: 0,
         row_of: &row_buf,

@@ -41,9 +41,8 @@ fn trace_vpls_matches_the_cpu() {
         let device = vplgi_embree::Device::new(None).unwrap();
         let cs = CpuScene::new(&scene, &device).unwrap();
         let gs = GpuScene::new(&ctx.device, &scene).unwrap();
-        let gl = vplgi_gpu::lights::GpuLights::new(&ctx.device, &scene, &cs.lights);
         let cpu = vplgi_cpu::trace_vpls::trace_vpls(&cs, 4, count, bounces, &vplgi_cpu::NoProgress);
-        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &gl, &TraceParams { seed: 4, count, bounces }).unwrap();
+        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &TraceParams { seed: 4, count, bounces }).unwrap();
         let gpu: Vec<Vpl> = read_back(&ctx.device, &ctx.queue, &g.buffer, g.count as usize).unwrap();
         assert_eq!(gpu.len(), cpu.vpls.len(), "{name}: VPL count");
         let by_path = |v: &[Vpl]| {

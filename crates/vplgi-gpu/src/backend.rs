@@ -6,7 +6,6 @@
 use crate::buffers::{dispatch_windows, read_back, read_word, storage_zeroed, sync, uniform, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
-use crate::lights::GpuLights;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
@@ -18,7 +17,6 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
-use vplgi_scene::lights::LightSampler;
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
 use vplgi_types::{CameraParams, FrameConfig, ShadeParams, ShadingPoint, TraceParams};
@@ -83,7 +81,6 @@ pub struct GpuBackend<'a> {
     queue: &'a wgpu::Queue,
     kernels: &'a GpuKernels,
     scene: GpuScene,
-    lights: GpuLights,
     extent: f32,
 }
 
@@ -105,9 +102,8 @@ impl<'a> GpuBackend<'a> {
     /// device.
     pub fn new(device: &'a wgpu::Device, queue: &'a wgpu::Queue, kernels: &'a GpuKernels, scene: &Scene) -> Result<GpuBackend<'a>, GpuError> {
         let gs = GpuScene::new(device, scene)?;
-        let lights = GpuLights::new(device, scene, &LightSampler::new(scene));
         sync(device)?;
-        Ok(GpuBackend { device, queue, kernels, scene: gs, lights, extent: scene.extent().max(1e-6) })
+        Ok(GpuBackend { device, queue, kernels, scene: gs, extent: scene.extent().max(1e-6) })
     }
 
     /// Runs a glue kernel of `frame.wgsl` over `threads` items.
@@ -180,7 +176,7 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn trace_vpls(&self, p: &TraceParams, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
-        let v = self.kernels.trace.run(self.device, self.queue, &self.scene, &self.lights, p)?;
+        let v = self.kernels.trace.run(self.device, self.queue, &self.scene, p)?;
         let counts = VplCounts { vpls: v.count, particles: v.particles };
         Ok((v, counts))
     }
@@ -303,7 +299,6 @@ impl Backend for GpuBackend<'_> {
             }
         };
         let inputs = ShadeInputs {
-            scene_lights: &self.lights,
             sps: &input.chunk.samples,
             sp_first: input.chunk.first,
             row_of: &input.hits.row_of,

@@ -2,6 +2,7 @@
 
 use crate::buffers::storage;
 use crate::bvh;
+use crate::lights::GpuLights;
 use crate::GpuError;
 use vplgi_scene::Scene;
 pub use vplgi_types::device::{GpuMaterial, SceneTri, TextureInfo, TEXELS_F32, TEXELS_SRGB8};
@@ -58,9 +59,52 @@ pub struct GpuScene {
     /// Ray offset, identical to the CPU's ([`Scene::ray_epsilon`]).
     pub eps: f32,
     pub camera: vplgi_scene::Camera,
+    /// The light tables (light particles and direct light).
+    pub lights: GpuLights,
 }
 
+/// Binding number of the scene's first array in group 0 (`shaders/common/scene.wgsl`); a stage's
+/// own bindings stay below it.
+pub const FIRST_SCENE_BINDING: u32 = 32;
+
+/// Where a scene binding's buffer is in a [`GpuScene`].
+pub type SceneBuffer = fn(&GpuScene) -> &wgpu::Buffer;
+
+/// The scene's arrays in the binding order of `scene.wgsl`, by their WGSL names (a test checks
+/// the two against each other).
+pub const SCENE_BINDINGS: [(&str, SceneBuffer); 19] = [
+    ("bvh_nodes", |s| &s.bvh_nodes),
+    ("bvh_nodes_hi", |s| &s.bvh_nodes_hi),
+    ("bvh_tris", |s| &s.bvh_tris),
+    ("bvh_tris_hi", |s| &s.bvh_tris_hi),
+    ("scene_tris", |s| &s.scene_tris[0]),
+    ("scene_tris_1", |s| &s.scene_tris[1]),
+    ("scene_tris_2", |s| &s.scene_tris[2]),
+    ("scene_tris_3", |s| &s.scene_tris[3]),
+    ("materials", |s| &s.materials),
+    ("texture_infos", |s| &s.texture_infos),
+    ("texels", |s| &s.texels[0]),
+    ("texels_1", |s| &s.texels[1]),
+    ("texels_2", |s| &s.texels[2]),
+    ("texels_3", |s| &s.texels[3]),
+    ("light_counts", |s| &s.lights.counts),
+    ("emitters", |s| &s.lights.emitters),
+    ("area_table", |s| &s.lights.area_table),
+    ("all_table", |s| &s.lights.all_table),
+    ("punctual", |s| &s.lights.punctual),
+];
+
 impl GpuScene {
+    /// The scene's arrays among the bindings `used` (those a pipeline reads).
+    pub fn bindings(&self, used: &[u32]) -> Vec<(u32, wgpu::BufferBinding<'_>)> {
+        (FIRST_SCENE_BINDING..)
+            .zip(SCENE_BINDINGS)
+            .filter(|(n, _)| used.contains(n))
+            .map(|(n, (_, buffer))| (n, buffer(self).as_entire_buffer_binding()))
+            .collect()
+    }
+
+    /// Uploads the scene: BVH, shading data, materials, texels and light tables.
     pub fn new(device: &wgpu::Device, scene: &Scene) -> Result<GpuScene, GpuError> {
         let arrays = bvh::build(scene)?;
         let tris: Vec<SceneTri> = (0..scene.triangle_count())
@@ -108,6 +152,7 @@ impl GpuScene {
             texels,
             eps: scene.ray_epsilon(),
             camera: scene.camera,
+            lights: GpuLights::new(device, scene, &vplgi_scene::lights::LightSampler::new(scene)),
         })
     }
 }

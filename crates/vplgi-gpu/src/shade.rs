@@ -2,7 +2,6 @@
 
 use crate::buffers::{dispatch_windows, storage_zeroed, uniform, Window};
 use crate::context::validated;
-use crate::lights::GpuLights;
 use crate::scene::GpuScene;
 use crate::shader::{RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
 use crate::GpuError;
@@ -41,8 +40,6 @@ pub enum Visibility<'a> {
 
 /// Device buffers shade reads.
 pub struct ShadeInputs<'a> {
-    /// The scene's light tables (direct light).
-    pub scene_lights: &'a GpuLights,
     /// Shading points from sample `sp_first` on (a chunk, or all of them with `sp_first = 0`).
     pub sps: &'a wgpu::Buffer,
     pub sp_first: u32,
@@ -74,7 +71,6 @@ impl ShadeKernel {
         pixels: std::ops::Range<u32>,
         shade: &ShadeParams,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let lights = inputs.scene_lights;
         let ShadeParams { spp, seed, direct_samples, g_max } = *shade;
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
@@ -103,24 +99,11 @@ impl ShadeKernel {
         validated(device, "shade", || {
             let p = uniform(device, "shade params", &params);
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
-            let whole = [
-                &p,
-                &lights.counts,
-                &scene.bvh_nodes,
-                &scene.bvh_tris,
-                &lights.emitters,
-                &lights.area_table,
-                &lights.punctual,
-                inputs.sps,
-                inputs.row_of,
-                inputs.words,
-            ];
-            let mut bindings: Vec<(u32, wgpu::BufferBinding)> = whole.iter().enumerate().map(|(i, b)| (i as u32, b.as_entire_buffer_binding())).collect();
+            let own = [(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (13, &out)];
+            let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
             bindings.push((10, labels));
             bindings.push((11, weights));
-            for (i, b) in [(12, inputs.vpl_lights), (13, &out), (14, &scene.bvh_nodes_hi), (15, &scene.bvh_tris_hi)] {
-                bindings.push((i, b.as_entire_buffer_binding()));
-            }
+            bindings.extend(self.pipeline.scene_bindings(scene));
             dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
             out
         })

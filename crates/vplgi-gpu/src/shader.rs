@@ -11,6 +11,7 @@ const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
 const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
 const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
 const CLUSTER_COMMON: &str = include_str!("../../../shaders/common/cluster.wgsl");
+const SCENE: &str = include_str!("../../../shaders/common/scene.wgsl");
 
 /// Shared WGSL files by name.
 pub const COMMON: &[(&str, &str)] = &[
@@ -21,6 +22,7 @@ pub const COMMON: &[(&str, &str)] = &[
     ("common/sampling.wgsl", SAMPLING),
     ("common/surface.wgsl", SURFACE),
     ("common/cluster.wgsl", CLUSTER_COMMON),
+    ("common/scene.wgsl", SCENE),
 ];
 
 /// What every clustering pass includes.
@@ -32,14 +34,14 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     (
         "shading_points.wgsl",
         include_str!("../../../shaders/shading_points.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl"],
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/scene.wgsl"],
     ),
     (
         "trace_vpls.wgsl",
         include_str!("../../../shaders/trace_vpls.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl"],
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
-    ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl"]),
+    ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl", "common/scene.wgsl"]),
     ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
     ("cluster_occupancy.wgsl", include_str!("../../../shaders/cluster_occupancy.wgsl"), CLUSTER),
     ("cluster_grid.wgsl", include_str!("../../../shaders/cluster_grid.wgsl"), CLUSTER),
@@ -49,7 +51,11 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("cluster_representatives.wgsl", include_str!("../../../shaders/cluster_representatives.wgsl"), CLUSTER),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
     ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
-    ("shade.wgsl", include_str!("../../../shaders/shade.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl"]),
+    (
+        "shade.wgsl",
+        include_str!("../../../shaders/shade.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
+    ),
 ];
 
 /// Codes of `mode` in `shade.wgsl`'s parameters: where a shading point's visibility comes from.
@@ -106,6 +112,20 @@ pub fn prelude() -> String {
     src
 }
 
+/// The bindings of group 0 that entry point `entry` of stage `name` reads or writes, by naga's
+/// analysis of the composed module: what wgpu derives the entry point's layout from. The sources
+/// are compiled in, so a failure here is a defect of vplgi (the naga validation test names it).
+pub fn used_bindings(name: &str, entry: &str) -> Vec<u32> {
+    let src = compose(name);
+    let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    let index = module.entry_points.iter().position(|e| e.name == entry).unwrap_or_else(|| panic!("{name} has no entry point {entry}"));
+    let uses = info.get_entry_point(index);
+    module.global_variables.iter().filter_map(|(h, v)| v.binding.as_ref().filter(|b| b.group == 0 && !uses[h].is_empty()).map(|b| b.binding)).collect()
+}
+
 /// The composed source of stage `name` (a file name from [`STAGES`]): the prelude, its common
 /// files, then the stage file.
 pub fn compose(name: &str) -> String {
@@ -135,11 +155,19 @@ pub struct RayPipeline {
     entry: &'static str,
     flat: wgpu::ComputePipeline,
     paged: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The bindings of group 0 the entry point uses (its layout is derived from them).
+    used: Vec<u32>,
 }
 
 impl RayPipeline {
     pub fn new(device: &wgpu::Device, name: &'static str, entry: &'static str) -> RayPipeline {
-        RayPipeline { name, entry, flat: compile(device, name, &[entry], false).remove(0), paged: std::sync::OnceLock::new() }
+        RayPipeline { name, entry, flat: compile(device, name, &[entry], false).remove(0), paged: std::sync::OnceLock::new(), used: used_bindings(name, entry) }
+    }
+
+    /// The arrays of `scene.wgsl` this entry point reads, bound from `scene`: a stage binds its
+    /// own arrays and these.
+    pub fn scene_bindings<'a>(&self, scene: &'a crate::scene::GpuScene) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
+        scene.bindings(&self.used)
     }
 
     /// The variant for `scene`.
@@ -224,6 +252,31 @@ mod tests {
             }
         }
         panic!("struct {name} not found in {stage}");
+    }
+
+    /// `scene.wgsl` declares the scene's arrays at the bindings and under the names of
+    /// `scene::SCENE_BINDINGS`, and every stage that includes it sees all of them.
+    #[test]
+    fn scene_declarations_match_the_binding_table() {
+        use crate::scene::{FIRST_SCENE_BINDING, SCENE_BINDINGS};
+        let with_scene: Vec<&str> = STAGES.iter().filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl")).map(|(n, _, _)| *n).collect();
+        assert_eq!(with_scene.len(), 4, "the ray-tracing stages: {with_scene:?}");
+        for stage in with_scene {
+            let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
+            let mut seen: Vec<(u32, String)> = module
+                .global_variables
+                .iter()
+                .filter_map(|(_, v)| v.binding.as_ref().filter(|b| b.binding >= FIRST_SCENE_BINDING).map(|b| (b.binding, v.name.clone().unwrap_or_default())))
+                .collect();
+            seen.sort();
+            let table: Vec<(u32, String)> = (FIRST_SCENE_BINDING..).zip(SCENE_BINDINGS).map(|(n, (name, _))| (n, name.to_string())).collect();
+            assert_eq!(seen, table, "{stage}");
+            // A stage's own bindings stay below the scene's.
+            assert!(module.global_variables.iter().all(|(_, v)| v.binding.as_ref().is_none_or(|b| b.group == 0)), "{stage}");
+        }
+        // Each pipeline binds what its entry point uses: visibility reads the BVH, not the texels.
+        let used = used_bindings("visibility.wgsl", "main");
+        assert!(used.contains(&FIRST_SCENE_BINDING) && !used.contains(&(FIRST_SCENE_BINDING + 10)), "{used:?}");
     }
 
     /// Every constant of the prelude reads back, in naga, as the bits of its Rust value.

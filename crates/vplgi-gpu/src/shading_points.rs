@@ -1,7 +1,7 @@
 //! Stage 2 on the GPU, `shading_points` (`shaders/shading_points.wgsl`), the twin of
 //! `vplgi_cpu::shading_points::shading_points`.
 
-use crate::buffers::{dispatch, read_back, storage_zeroed, uniform};
+use crate::buffers::{dispatch_windows, read_back, storage_zeroed, uniform};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
@@ -64,27 +64,9 @@ impl ShadingPointsKernel {
         validated(device, "shading_points", || {
             let p = uniform(device, "shading_points params", &params);
             let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
-            let [t0, t1, t2, t3] = &scene.texels;
-            let [s0, s1, s2, s3] = &scene.scene_tris;
-            let bindings = [
-                &p,
-                &scene.bvh_nodes,
-                &scene.bvh_tris,
-                s0,
-                &scene.materials,
-                &scene.texture_infos,
-                t0,
-                &buf,
-                &scene.bvh_nodes_hi,
-                &scene.bvh_tris_hi,
-                s1,
-                t1,
-                t2,
-                t3,
-                s2,
-                s3,
-            ];
-            dispatch(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
+            let mut bindings = vec![(0, p.as_entire_buffer_binding()), (7, buf.as_entire_buffer_binding())];
+            bindings.extend(self.pipeline.scene_bindings(scene));
+            dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
             buf
         })
     }

@@ -3,9 +3,8 @@
 //! normalisation. The VPLs stay on the device; only two counters per batch are read back to
 //! decide whether another batch is needed.
 
-use crate::buffers::{dispatch_bound, read_back, read_word, storage_zeroed, uniform};
+use crate::buffers::{dispatch_bound, dispatch_windows, read_back, read_word, storage_zeroed, uniform};
 use crate::context::validated;
-use crate::lights::GpuLights;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::shader::{pipelines, RayPipeline};
@@ -53,7 +52,8 @@ impl TraceVplsKernel {
     }
 
     /// Exactly `count` VPLs (fewer only if a budget of `64 count + 65536` particles runs out).
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, lights: &GpuLights, p: &TraceParams) -> Result<GpuVpls, GpuError> {
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, p: &TraceParams) -> Result<GpuVpls, GpuError> {
+        let lights = &scene.lights;
         let TraceParams { seed, count, bounces } = *p;
         let vpls = storage_zeroed::<Vpl>(device, "vpls", count.max(1) as usize);
         if count == 0 || bounces == 0 || lights.emitter_count + lights.punctual_count == 0 {
@@ -73,30 +73,10 @@ impl TraceVplsKernel {
             let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, pad: 0 };
             let params_buf = validated(device, "trace_vpls", || {
                 let p = uniform(device, "trace params", &params);
-                let common = [
-                    (0, &p),
-                    (1, &lights.counts),
-                    (2, &scene.bvh_nodes),
-                    (3, &scene.bvh_tris),
-                    (4, &scene.scene_tris[0]),
-                    (5, &scene.materials),
-                    (6, &scene.texture_infos),
-                    (7, &scene.texels[0]),
-                    (8, &lights.emitters),
-                    (9, &lights.all_table),
-                    (10, &lights.punctual),
-                    (11, &slots),
-                    (12, &counts),
-                    (16, &scene.bvh_nodes_hi),
-                    (17, &scene.bvh_tris_hi),
-                    (18, &scene.scene_tris[1]),
-                    (19, &scene.texels[1]),
-                    (20, &scene.texels[2]),
-                    (21, &scene.texels[3]),
-                    (22, &scene.scene_tris[2]),
-                    (23, &scene.scene_tris[3]),
-                ];
-                dispatch_bound(device, queue, self.trace.get(device, scene), &common, n.div_ceil(64));
+                let own = [(0, &p), (11, &slots), (12, &counts)];
+                let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+                bindings.extend(self.trace.scene_bindings(scene));
+                dispatch_windows(device, queue, self.trace.get(device, scene), &bindings, n.div_ceil(64));
                 p
             })?;
             self.scan.run(device, queue, &counts, n, &offsets)?;

@@ -59,12 +59,11 @@ impl VisibilityKernel {
         validated(device, "visibility", || {
             let p = uniform(device, "visibility params", &params);
             let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
-            let mut b: Vec<(u32, wgpu::BufferBinding)> =
-                [&p, &scene.bvh_nodes, &scene.bvh_tris].iter().enumerate().map(|(i, x)| (i as u32, x.as_entire_buffer_binding())).collect();
-            b.push((3, window.of::<Endpoint>(rows, 1)));
-            for (i, x) in [(4, cols), (5, &words), (6, &scene.bvh_nodes_hi), (7, &scene.bvh_tris_hi)] {
+            let mut b = vec![(0, p.as_entire_buffer_binding()), (3, window.of::<Endpoint>(rows, 1))];
+            for (i, x) in [(4, cols), (5, &words)] {
                 b.push((i, x.as_entire_buffer_binding()));
             }
+            b.extend(self.pipeline.scene_bindings(scene));
             dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count * wpr).div_ceil(64));
             words
         })
