@@ -4,7 +4,7 @@
 
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, BENCH};
-use crate::render::{load_scene, write_json};
+use crate::shared::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;

@@ -37,7 +37,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         "rel_mse_epsilon": vplgi_image::REL_MSE_EPSILON,
     });
     let json_path = out.join("compare.json");
-    crate::render::write_json(&json_path, &report)?;
+    crate::shared::write_json(&json_path, &report)?;
     let map_path = out.join("error_map.png");
     vplgi_image::write_error_map(&map_path, &cmp)?;
     println!("mse      {:.6e}\nrel_mse  {:.6e}\nflip     {:.6}", m.mse, m.rel_mse, m.flip);

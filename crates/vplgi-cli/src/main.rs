@@ -9,6 +9,7 @@ mod progress;
 mod reference;
 mod render;
 mod scene;
+mod shared;
 mod sweep;
 
 use clap::{CommandFactory, FromArgMatches, Subcommand};

@@ -3,7 +3,7 @@
 //! row tiles that `merge` joins bit-identically to the single run.
 
 use crate::frame_args::{FrameArgs, REFERENCE};
-use crate::render::{load_scene, write_json};
+use crate::shared::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};

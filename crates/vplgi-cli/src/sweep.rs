@@ -7,7 +7,7 @@
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, SWEEP};
 use crate::plot::{contact_sheet, heatmap, stacked_bars, Bar, Tile};
-use crate::render::{load_scene, write_json};
+use crate::shared::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
