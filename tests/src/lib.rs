@@ -1,7 +1,8 @@
 //! Shared helpers for the cross-crate tests: the SPEC's tolerances and the measured
-//! [`tolerance::Disagreement`] every differential test prints, image statistics, and the GPU
-//! context for differential tests.
+//! [`tolerance::Disagreement`] every differential test prints, shared inputs and proptest
+//! strategies ([`inputs`]), image statistics, and the GPU context for differential tests.
 
+pub mod inputs;
 pub mod tolerance;
 
 use vplgi_gpu::GpuContext;
