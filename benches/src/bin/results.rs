@@ -61,12 +61,8 @@ fn run(cmd: &mut Command) -> Result<()> {
     Ok(())
 }
 
-/// The typed report.json of a `vplgi render`.
-fn report_of(path: &Path) -> Result<Report> {
-    serde_json::from_slice(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?).with_context(|| format!("parsing {}", path.display()))
-}
-
-fn json_of(path: &Path) -> Result<Value> {
+/// A JSON file read as `T` (the typed `Report` of a `vplgi render`, or a plain `Value`).
+fn json_of<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_slice(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?).with_context(|| format!("parsing {}", path.display()))
 }
 
@@ -131,7 +127,7 @@ fn main() -> Result<()> {
             if !(o.reuse && out.join("report.json").exists()) {
                 vplgi(&args)?;
             }
-            report_of(&out.join("report.json"))
+            json_of::<Report>(&out.join("report.json"))
         };
         eprintln!("{}: the unclustered reference", sc.name);
         let ref_dir = dir.join("reference");
@@ -155,7 +151,7 @@ fn main() -> Result<()> {
                     "--out",
                     out.to_str().unwrap_or_default(),
                 ])?;
-                let c = json_of(&out.join("compare.json"))?;
+                let c: Value = json_of(&out.join("compare.json"))?;
                 if backend == "cpu" {
                     thumbnail(&out.join("image.png"), &docs.join(format!("{}-{config}.png", sc.name)))?;
                     thumbnail(&out.join("error_map.png"), &docs.join(format!("{}-{config}-error.png", sc.name)))?;

@@ -146,11 +146,22 @@ impl FrameArgs {
         let given = self.given()?;
         let mut fixed = u.fixed.iter().filter(|id| given.contains_key(**id) || (**id == "preset" && self.preset.is_some()));
         if let Some(id) = fixed.next() {
-            bail!("vplgi {} does not take --{}: {}", u.command, id.replace('_', "-").replace("g-clamp-rel", "g-clamp"), u.why);
+            bail!("vplgi {} does not take {}: {}", u.command, flag(id), u.why);
         }
         let config = self.over(&preset.config())?;
         config.validate().map_err(|e| anyhow::anyhow!("invalid parameters: {e}"))?;
         Ok(config)
+    }
+}
+
+/// How option `id` is written on the command line (`--k-sp`, `-F`, `--g-clamp`).
+fn flag(id: &str) -> String {
+    let cmd = <FrameArgs as Args>::augment_args(clap::Command::new("frame"));
+    let arg = cmd.get_arguments().find(|a| a.get_id() == id);
+    match (arg.and_then(|a| a.get_long()), arg.and_then(|a| a.get_short())) {
+        (Some(long), _) => format!("--{long}"),
+        (None, Some(short)) => format!("-{short}"),
+        (None, None) => id.to_string(),
     }
 }
 

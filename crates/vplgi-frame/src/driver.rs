@@ -68,7 +68,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     // Only surface hits take part in clustering, visibility and shading. Lights are one per VPL
     // cluster or one per VPL; shading points are clustered or each their own visibility row.
     progress.start(Stage::Cluster.name(), 1);
-    let (hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
+    let (hits, n_hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
         let (hits, n_hits) = b.compact_hits(&chunks, n_samples)?;
         stats.shading_point_hits = n_hits;
         let n_vpls = counts.vpls;
@@ -90,10 +90,9 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         } else {
             None
         };
-        Ok(((hits, n_hits), lights, n_lights, cols, sp_clusters))
+        Ok((hits, n_hits, lights, n_lights, cols, sp_clusters))
     })?;
     progress.finish();
-    let (hits, n_hits) = hits;
 
     let shade = cfg.shade_params(extent);
     let mut rays: Option<u64> = None;
@@ -135,11 +134,13 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
                 progress.finish();
             }
             None => {
+                // Hits are numbered in sample order: a block's hits are consecutive rows, starting
+                // where the previous block's ended (on the GPU each count is a read-back).
                 let mut px = px0;
+                let mut first_row = b.hits_before(&hits, px * spp)?;
                 while px < px1 {
                     let end = px.saturating_add(px_block).min(px1);
-                    // Hits are numbered in sample order: these pixels' hits are consecutive rows.
-                    let (first_row, last_row) = (b.hits_before(&hits, px * spp)?, b.hits_before(&hits, end * spp)?);
+                    let last_row = b.hits_before(&hits, end * spp)?;
                     let (matrix, r) =
                         timed(b, &mut t, Stage::Visibility, || b.visibility(b.hit_points(&hits), n_hits, first_row..last_row, &cols, n_lights, progress))?;
                     count_rays(r);
@@ -152,7 +153,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
                         visibility: ShadeVisibility::Own { first_row },
                     };
                     pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px..end, &shade))?);
-                    px = end;
+                    (px, first_row) = (end, last_row);
                 }
             }
         }

@@ -197,8 +197,9 @@ impl Backend for GpuBackend<'_> {
         let hits = read_word(device, self.queue, &offsets, n_samples as u64)?;
         let row_of = storage_zeroed::<u32>(device, "row of", n_samples as usize);
         let points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
+        let windows = Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, self.limit());
         for c in chunks {
-            for w in Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, self.limit()) {
+            for w in &windows {
                 let p = GlueParams { n: c.count, first: c.first, hit_first: w.first as u32, hit_count: w.count as u32, ..Default::default() };
                 let b = [
                     (1, c.samples.as_entire_buffer_binding()),
