@@ -2,6 +2,7 @@
 # Installs what vplgi needs on a fresh Debian 12 machine, idempotently:
 #   * libclang-dev (embree4-sys runs bindgen), mesa-vulkan-drivers + libvulkan1 (lavapipe, for the GPU backend)
 #   * fonts-dejavu-core (the text of `vplgi sweep`'s PNG charts)
+#   * chromium (headless: the test that loads `vplgi verify`'s HTML report in a real browser)
 #   * the Embree 4.4 runtime, taken from the embreex wheel on PyPI (Debian 12 only packages Embree 3).
 # The Embree libraries go to $VPLGI_EMBREE_DIR (default /usr/local/lib/vplgi-embree4) and are registered with
 # ldconfig, so every binary, test and bench finds them without rpath tricks.
@@ -15,7 +16,7 @@ TBB_SONAME="libtbb-dcf63f8c.so.12"
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
-apt_packages=(libclang-dev mesa-vulkan-drivers libvulkan1 python3-pip unzip fonts-dejavu-core)
+apt_packages=(libclang-dev mesa-vulkan-drivers libvulkan1 python3-pip unzip fonts-dejavu-core chromium)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

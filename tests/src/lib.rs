@@ -3,7 +3,7 @@
 //! strategies ([`inputs`]), image statistics, and the GPU context for differential tests.
 
 pub mod inputs;
-pub mod tolerance;
+pub use vplgi_verify::tolerance;
 
 use vplgi_gpu::GpuContext;
 

@@ -1,4 +1,5 @@
-//! The frame options every rendering subcommand shares (`render`, `reference`, `sweep`, `bench`):
+//! The frame options every rendering subcommand shares (`render`, `reference`, `sweep`, `bench`,
+//! `verify`):
 //! one `FrameArgs`, whose options are named after [`FrameConfig`]'s fields and override a preset.
 //! Defaults are never typed here: `--help` shows the preset's values, read from [`FrameConfig`]
 //! when the command line is built ([`document`]).
@@ -115,7 +116,8 @@ pub const BENCH: Use = Use {
     fixed: &["preset", "cluster", "k_sp", "k_vpl"],
     why: "the presets of --config set them; the other options override every preset",
 };
-pub const USES: [Use; 4] = [RENDER, REFERENCE, SWEEP, BENCH];
+pub const VERIFY: Use = Use { command: "verify", preset: Preset::Verify, fixed: &[], why: "" };
+pub const USES: [Use; 5] = [RENDER, REFERENCE, SWEEP, BENCH, VERIFY];
 
 impl FrameArgs {
     /// The options given, by [`FrameConfig`] field name.

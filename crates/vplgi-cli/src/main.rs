@@ -11,6 +11,7 @@ mod render;
 mod scene;
 mod shared;
 mod sweep;
+mod verify;
 
 use clap::{CommandFactory, FromArgMatches, Subcommand};
 use std::process::ExitCode;
@@ -48,6 +49,13 @@ enum Command {
     /// Join the folders of a reference's tiles (vplgi reference --tile I/N) into one reference,
     /// bit-identical to rendering it in one run.
     Merge(reference::MergeArgs),
+    /// Differential test of the GPU twin: every stage on both backends, each GPU stage fed the
+    /// CPU's outputs of the stages before it, measured against the SPEC's tolerance table; then
+    /// the whole frame. Writes DIR/verify.html (tables, CPU and GPU images and error maps),
+    /// DIR/verify.md and DIR/verify.json; exits non-zero, naming the stage, the worst item and
+    /// its values, when a tolerance is broken. --shaders DIR verifies edited WGSL without
+    /// rebuilding.
+    Verify(verify::VerifyArgs),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +73,7 @@ fn main() -> ExitCode {
         Command::Scene(args) => scene::run(args),
         Command::Reference(args) => reference::run(args),
         Command::Merge(args) => reference::merge(args),
+        Command::Verify(args) => verify::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

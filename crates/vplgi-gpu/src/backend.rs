@@ -31,13 +31,14 @@ struct GlueKernels {
     light_endpoints: wgpu::ComputePipeline,
 }
 
-/// Every pipeline of the frame, compiled once per device.
+/// Every pipeline of the frame, compiled once per device. The stage kernels are public so a
+/// stage can be run alone on inputs from elsewhere (`vplgi verify` feeds them the CPU's).
 pub struct GpuKernels {
-    trace: TraceVplsKernel,
-    shading_points: ShadingPointsKernel,
-    cluster: ClusterKernel,
-    visibility: VisibilityKernel,
-    shade: ShadeKernel,
+    pub trace: TraceVplsKernel,
+    pub shading_points: ShadingPointsKernel,
+    pub cluster: ClusterKernel,
+    pub visibility: VisibilityKernel,
+    pub shade: ShadeKernel,
     scan: ScanKernel,
     glue: GlueKernels,
 }
@@ -104,6 +105,21 @@ impl<'a> GpuBackend<'a> {
         let gs = GpuScene::new(device, scene)?;
         sync(device)?;
         Ok(GpuBackend { device, queue, kernels, scene: gs, extent: scene.extent().max(1e-6) })
+    }
+
+    /// The scene on the device.
+    pub fn scene(&self) -> &GpuScene {
+        &self.scene
+    }
+
+    /// The device and queue the scene lives on.
+    pub fn device(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (self.device, self.queue)
+    }
+
+    /// The kernels this backend runs.
+    pub fn kernels(&self) -> &GpuKernels {
+        self.kernels
     }
 
     /// Runs a glue kernel of `frame.wgsl` over `threads` items.

@@ -1,8 +1,15 @@
 //! WGSL sources. WGSL has no `#include`: a stage's module is the shared files of
 //! `shaders/common/` followed by the stage file. Every composed module is validated by naga in a
 //! CPU-only test.
+//!
+//! The sources are compiled in. A kernel author may replace any of them at run time with
+//! [`use_sources_from`] (`vplgi verify --shaders DIR`), so an edited shader is tested without
+//! rebuilding vplgi.
 
 use crate::scene::page_len;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
 const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
@@ -57,6 +64,76 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
 ];
+
+/// Sources read from a directory, by the names of [`COMMON`] and [`STAGES`]; set once per process.
+static REPLACED: OnceLock<BTreeMap<&'static str, String>> = OnceLock::new();
+
+/// Why shader sources from a directory cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    #[error("{path}: {message}")]
+    Read { path: PathBuf, message: String },
+    #[error("{dir} holds none of vplgi's shader files (expected e.g. shade.wgsl, common/rng.wgsl)")]
+    Empty { dir: PathBuf },
+    #[error("{file} does not compile as part of {stage}:\n{message}")]
+    Invalid { file: String, stage: String, message: String },
+    #[error("shader sources were already chosen for this process")]
+    AlreadySet,
+}
+
+/// A shader file read from a directory instead of the compiled-in copy.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ReplacedSource {
+    /// The name under `shaders/` (`shade.wgsl`, `common/rng.wgsl`).
+    pub name: &'static str,
+    pub path: PathBuf,
+    /// Whether its text differs from the compiled-in copy.
+    pub differs: bool,
+}
+
+/// Reads every known shader file present in `dir` (laid out like `shaders/`: stage files at the
+/// top, shared files in `common/`) and uses them instead of the compiled-in copies for every
+/// pipeline this process builds afterwards. Every stage module is validated by naga first, so a
+/// broken file is an error naming it, never a panic inside wgpu. Call before building kernels.
+pub fn use_sources_from(dir: &Path) -> Result<Vec<ReplacedSource>, SourceError> {
+    if !dir.is_dir() {
+        return Err(SourceError::Read { path: dir.to_path_buf(), message: "not a directory".into() });
+    }
+    let known = COMMON.iter().map(|(n, t)| (*n, *t)).chain(STAGES.iter().map(|(n, t, _)| (*n, *t)));
+    let mut map = BTreeMap::new();
+    let mut replaced = Vec::new();
+    for (name, builtin) in known {
+        let path = dir.join(name);
+        if !path.exists() {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| SourceError::Read { path: path.clone(), message: e.to_string() })?;
+        replaced.push(ReplacedSource { name, path, differs: text != builtin });
+        map.insert(name, text);
+    }
+    if map.is_empty() {
+        return Err(SourceError::Empty { dir: dir.to_path_buf() });
+    }
+    for (stage, _, includes) in STAGES {
+        let touched: Vec<&str> = std::iter::once(*stage).chain(includes.iter().copied()).filter(|n| map.contains_key(n)).collect();
+        if touched.is_empty() {
+            continue;
+        }
+        let src = compose_from(stage, &map);
+        validate(&src).map_err(|message| SourceError::Invalid { file: touched.join(", "), stage: stage.to_string(), message })?;
+    }
+    REPLACED.set(map).map_err(|_| SourceError::AlreadySet)?;
+    Ok(replaced)
+}
+
+/// Parses and validates a composed module; the error is naga's report, with the offending lines.
+fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(src))?;
+    Ok((module, info))
+}
 
 /// Codes of `mode` in `shade.wgsl`'s parameters: where a shading point's visibility comes from.
 pub const SHADE_OWN_ROW: u32 = 0;
@@ -117,25 +194,31 @@ pub fn prelude() -> String {
 /// are compiled in, so a failure here is a defect of vplgi (the naga validation test names it).
 pub fn used_bindings(name: &str, entry: &str) -> Vec<u32> {
     let src = compose(name);
-    let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    let (module, info) = validate(&src).unwrap_or_else(|e| panic!("{name}: {e}"));
     let index = module.entry_points.iter().position(|e| e.name == entry).unwrap_or_else(|| panic!("{name} has no entry point {entry}"));
     let uses = info.get_entry_point(index);
     module.global_variables.iter().filter_map(|(h, v)| v.binding.as_ref().filter(|b| b.group == 0 && !uses[h].is_empty()).map(|b| b.binding)).collect()
 }
 
 /// The composed source of stage `name` (a file name from [`STAGES`]): the prelude, its common
-/// files, then the stage file.
+/// files, then the stage file, each from the directory given to [`use_sources_from`] if it held
+/// that file.
 pub fn compose(name: &str) -> String {
+    match REPLACED.get() {
+        Some(map) => compose_from(name, map),
+        None => compose_from(name, &BTreeMap::new()),
+    }
+}
+
+fn compose_from(name: &str, replaced: &BTreeMap<&'static str, String>) -> String {
     let (_, stage, includes) = STAGES.iter().find(|(n, _, _)| *n == name).unwrap_or_else(|| panic!("unknown stage shader {name}"));
+    let text_of = |n: &str, builtin: &'static str| replaced.get(n).map_or(builtin, String::as_str);
     let mut src = prelude();
     for inc in includes.iter() {
-        let text = COMMON.iter().find(|(n, _)| n == inc).map(|(_, t)| *t).unwrap_or_else(|| panic!("unknown common shader {inc}"));
-        src.push_str(&format!("// ---- {inc}\n{text}\n"));
+        let builtin = COMMON.iter().find(|(n, _)| n == inc).map(|(_, t)| *t).unwrap_or_else(|| panic!("unknown common shader {inc}"));
+        src.push_str(&format!("// ---- {inc}\n{}\n", text_of(inc, builtin)));
     }
-    src.push_str(&format!("// ---- {name}\n{stage}\n"));
+    src.push_str(&format!("// ---- {name}\n{}\n", text_of(name, stage)));
     src
 }
 
@@ -229,12 +312,33 @@ mod tests {
     #[test]
     fn every_wgsl_file_validates() {
         for (name, _, _) in STAGES {
-            let src = compose(name);
-            let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-                .validate(&module)
-                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+            if let Err(e) = validate(&compose(name)) {
+                panic!("{name}: {e}");
+            }
         }
+    }
+
+    /// A directory of shader sources: its files are read by name, a broken one is refused with
+    /// its name and naga's report (without touching the process's sources), an empty one too.
+    #[test]
+    fn sources_from_a_directory_are_checked_before_use() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let empty = compose_from("shade.wgsl", &BTreeMap::new());
+        assert!(matches!(use_sources_from(dir.path()), Err(SourceError::Empty { .. })));
+        std::fs::create_dir(dir.path().join("common")).expect("mkdir");
+        let rng = COMMON.iter().find(|(n, _)| *n == "common/rng.wgsl").expect("rng.wgsl").1;
+        std::fs::write(dir.path().join("common/rng.wgsl"), rng.replacen("fn ", "fn broken(", 1)).expect("write");
+        match use_sources_from(dir.path()) {
+            Err(SourceError::Invalid { file, stage, message }) => {
+                assert_eq!(file, "common/rng.wgsl");
+                assert!(!stage.is_empty() && !message.is_empty());
+            }
+            other => panic!("a broken common file was accepted: {other:?}"),
+        }
+        assert!(REPLACED.get().is_none(), "a refused directory must not replace the sources");
+        let mut map = BTreeMap::new();
+        map.insert("shade.wgsl", "// replaced".to_string());
+        assert!(compose_from("shade.wgsl", &map).ends_with("// replaced\n") && !empty.ends_with("// replaced\n"));
     }
 
     /// Size and member offsets of a WGSL struct, from naga's layouter.

@@ -56,6 +56,9 @@ pub enum Preset {
     High,
     /// vplgi's default: 1,000 VPL / 8,000 SP clusters.
     Default,
+    /// `vplgi verify`'s default: the default method on a small frame (128x128, 2,000 VPLs,
+    /// 250 VPL / 1,500 SP clusters), so every stage runs on both backends in seconds.
+    Verify,
 }
 
 impl Preset {
@@ -66,6 +69,7 @@ impl Preset {
             Preset::Intermediate => FrameConfig::paper_intermediate(),
             Preset::High => FrameConfig::paper_high(),
             Preset::Default => FrameConfig::default(),
+            Preset::Verify => FrameConfig::verify(),
         }
     }
 }
@@ -140,6 +144,12 @@ impl FrameConfig {
     /// The paper's high-quality setting: 4k VPL clusters, 30k SP clusters.
     pub fn paper_high() -> Self {
         Self::clustered(4_000, 30_000)
+    }
+
+    /// Small enough for `vplgi verify` to run every stage of every mode on both backends in
+    /// seconds, large enough that each cluster has about ten members.
+    pub fn verify() -> Self {
+        FrameConfig { width: 128, height: 128, vpls: 2_000, ..Self::clustered(250, 1_500) }
     }
 
     /// The fuzziness actually used: `Hard` means one cluster whatever `f` says.
@@ -253,7 +263,14 @@ mod tests {
 
     #[test]
     fn presets_validate_and_bad_values_are_named() {
-        for c in [FrameConfig::default(), FrameConfig::reference(), FrameConfig::paper_light(), FrameConfig::paper_intermediate(), FrameConfig::paper_high()] {
+        for c in [
+            FrameConfig::default(),
+            FrameConfig::verify(),
+            FrameConfig::reference(),
+            FrameConfig::paper_light(),
+            FrameConfig::paper_intermediate(),
+            FrameConfig::paper_high(),
+        ] {
             assert_eq!(c.validate(), Ok(()));
         }
         let bad = |f: fn(&mut FrameConfig)| {

@@ -1,0 +1,205 @@
+//! `cluster`: assignment, centroid update and fuzzy assignment on the same inputs, and the whole
+//! clustering (Alg. 1 and 2) on the same points (SPEC: >= 99.99 % identical nearest labels;
+//! update bit-identical; >= 99.9 % identical F-index sets, weights within 1e-5 summing to 1).
+
+use crate::inputs::CpuFrame;
+use crate::tolerance::{Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, UPDATE_DIFFERING_CENTROIDS};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use glam::Vec3;
+use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
+use vplgi_gpu::buffers::{read_back, storage};
+use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
+use vplgi_types::clustering::{fuzzy_weights, FixedPoint, GridGeometry};
+use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, MISS};
+
+fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
+    ps.iter().zip(ns).map(|(&p, &n)| Endpoint::new(p, n)).collect()
+}
+
+/// The CPU's F nearest compatible centroids of each point on `grid` (Eq. 7), `MISS`-padded, and
+/// their weights (Eq. 8 or Eq. 9-10).
+pub fn cpu_assign(grid: &Grid, (ps, ns): (&[Vec3], &[Vec3]), rule: AssignRule) -> (Vec<u32>, Vec<f32>) {
+    let f = rule.f as usize;
+    let (mut labels, mut weights) = (vec![MISS; ps.len() * f], vec![0.0f32; ps.len() * f]);
+    for (i, (&p, &n)) in ps.iter().zip(ns).enumerate() {
+        let mut best = vec![(f32::INFINITY, MISS); f];
+        let (found, _) = grid.search(p, n, rule.threshold, &mut best);
+        fuzzy_weights(&best[..found], rule.fuzzy, grid.cell, &mut weights[i * f..i * f + found]);
+        for (j, b) in best.iter().enumerate() {
+            labels[i * f + j] = b.1;
+        }
+    }
+    (labels, weights)
+}
+
+/// Assigns the points to their F nearest of `centroids` on both backends, on the CPU's grid, and
+/// checks the SPEC's assignment row and (for F > 1) its fuzzy-assignment row.
+pub fn compare_assign(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernel: &ClusterKernel,
+    (ps, ns): (&[Vec3], &[Vec3]),
+    centroids: (&[Vec3], &[Vec3]),
+    rule: AssignRule,
+) -> Result<Vec<Disagreement>, VerifyError> {
+    let (m, k, f) = (ps.len(), centroids.0.len(), rule.f as usize);
+    let grid = Grid::for_data(bounds(ps), ps, k).fill(centroids.0, centroids.1);
+    let (cl, cw) = cpu_assign(&grid, (ps, ns), rule);
+    let pts = storage(device, "points", &endpoints(ps, ns));
+    let cents = storage(device, "centroids", &endpoints(centroids.0, centroids.1));
+    let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
+    let ggrid = kernel.fill_grid(device, queue, &geometry, &cents, k as u32)?;
+    let a = kernel.assign(device, queue, &ggrid, (&pts, m as u32), (&cents, k as u32), rule)?;
+    let gl: Vec<u32> = read_back(device, queue, &a.labels, m * f)?;
+    let gw: Vec<f32> = read_back(device, queue, &a.weights, m * f)?;
+    let (mut hard_same, mut set_same, mut max_w, mut max_sum) = (0usize, 0usize, 0.0f32, 0.0f32);
+    let (mut worst_label, mut worst_set, mut worst_w) = (None, None, None);
+    let d = |i: usize, c: u32| if c == MISS { f32::NAN } else { (ps[i] - centroids.0[c as usize]).length() };
+    for i in 0..m {
+        let (c, g) = (&cl[i * f..(i + 1) * f], &gl[i * f..(i + 1) * f]);
+        if c[0] == g[0] {
+            hard_same += 1;
+        } else {
+            worst_label.get_or_insert_with(|| {
+                format!(
+                    "point {i} at {}: CPU cluster {} at distance {:.7e}, GPU cluster {} at distance {:.7e}",
+                    v3(ps[i].into()),
+                    c[0],
+                    d(i, c[0]),
+                    g[0],
+                    d(i, g[0])
+                )
+            });
+        }
+        if c == g {
+            set_same += 1;
+            for j in 0..f {
+                let e = (gw[i * f + j] - cw[i * f + j]).abs();
+                if e > max_w {
+                    max_w = e;
+                    worst_w = Some(format!("point {i}, cluster {}: CPU weight {:.8}, GPU {:.8}", c[j], cw[i * f + j], gw[i * f + j]));
+                }
+            }
+        } else {
+            worst_set.get_or_insert_with(|| format!("point {i}: CPU clusters {c:?}, GPU {g:?}"));
+        }
+        if g[0] != MISS {
+            max_sum = max_sum.max((gw[i * f..(i + 1) * f].iter().sum::<f32>() - 1.0).abs());
+        }
+    }
+    let n = m.max(1) as f64;
+    let mut out = vec![
+        Disagreement::at_least("cluster assignment", "share of identical nearest labels", hard_same as f64 / n, ASSIGN_SAME_LABELS).with_worst(worst_label)
+    ];
+    if f > 1 {
+        out.push(Disagreement::at_least("fuzzy assignment", "share of identical F-index sets", set_same as f64 / n, FUZZY_SAME_SETS).with_worst(worst_set));
+        out.push(Disagreement::at_most("fuzzy assignment", "largest weight difference", max_w as f64, FUZZY_WEIGHTS_ABS).with_worst(worst_w));
+        out.push(Disagreement::at_most("fuzzy assignment", "largest |sum of a point's GPU weights - 1|", max_sum as f64, FUZZY_WEIGHTS_ABS));
+    }
+    Ok(out)
+}
+
+/// The centroid update (integer sums over the fixed-point box) given the same labels, on both
+/// backends: the centroids and member counts must be bit-identical.
+pub fn compare_update(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernel: &ClusterKernel,
+    (ps, ns): (&[Vec3], &[Vec3]),
+    centroids: (&[Vec3], &[Vec3]),
+    labels: &[u32],
+) -> Result<Disagreement, VerifyError> {
+    let (m, k) = (ps.len(), centroids.0.len());
+    let (lo, hi) = bounds(ps);
+    let fix = FixedPoint::new(lo, hi);
+    let (mut cp, mut cn) = (centroids.0.to_vec(), centroids.1.to_vec());
+    let cpu_counts = update(&fix, ps, ns, labels, &mut cp, &mut cn);
+    let pts = storage(device, "points", &endpoints(ps, ns));
+    let cents = storage(device, "centroids", &endpoints(centroids.0, centroids.1));
+    let lb = storage(device, "labels", labels);
+    let gcounts = kernel.update(device, queue, &fix, (&pts, m as u32), (&lb, 1), (&cents, k as u32))?;
+    let gc: Vec<Endpoint> = read_back(device, queue, &cents, k)?;
+    let gcount: Vec<u32> = read_back(device, queue, &gcounts, k)?;
+    let (mut differ, mut worst) = (0usize, None);
+    for j in 0..k {
+        let same = gc[j].position[..3] == cp[j].to_array() && gc[j].normal[..3] == cn[j].to_array() && gcount[j] == cpu_counts[j];
+        if !same {
+            differ += 1;
+            worst.get_or_insert_with(|| {
+                format!(
+                    "centroid {j}: CPU {} ({} members), GPU {} ({} members)",
+                    v3(cp[j].into()),
+                    cpu_counts[j],
+                    v3([gc[j].position[0], gc[j].position[1], gc[j].position[2]]),
+                    gcount[j]
+                )
+            });
+        }
+    }
+    Ok(Disagreement::at_most("centroid update", "centroids or member counts that differ", differ as f64, UPDATE_DIFFERING_CENTROIDS as f64).with_worst(worst))
+}
+
+/// The whole clustering (Alg. 1 iterations, empty-cluster removal, Alg. 2, representatives) on
+/// both backends from the same points and seed. Every step is one of the rows above on identical
+/// inputs, so the trajectories stay together: the cluster counts must agree, and the label rows
+/// meet the fuzzy-assignment row.
+pub fn compare_clustering(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernel: &ClusterKernel,
+    (ps, ns): (&[Vec3], &[Vec3]),
+    params: &ClusterParams,
+) -> Result<Vec<Disagreement>, VerifyError> {
+    let m = ps.len();
+    let cpu = cluster(ps, ns, params);
+    let pts = storage(device, "points", &endpoints(ps, ns));
+    let g = kernel.cluster(device, queue, &pts, m as u32, params)?;
+    let f = g.f as usize;
+    let gl: Vec<u32> = read_back(device, queue, &g.labels, m * f)?;
+    let gr: Vec<u32> = read_back(device, queue, &g.representatives, g.k as usize)?;
+    let rows_same = (0..m).filter(|&i| f == cpu.f && gl[i * f..(i + 1) * f] == cpu.labels[i * cpu.f..(i + 1) * cpu.f]).count();
+    let reps_differ = if g.k as usize == cpu.k() { gr.iter().zip(&cpu.representatives).filter(|(a, b)| a != b).count() } else { cpu.k().max(g.k as usize) };
+    let first_row = (0..m).find(|&i| f != cpu.f || gl[i * f..(i + 1) * f] != cpu.labels[i * cpu.f..(i + 1) * cpu.f]);
+    let worst = first_row.map(|i| format!("point {i}: CPU clusters {:?}, GPU {:?}", &cpu.labels[i * cpu.f..(i + 1) * cpu.f], &gl[i * f..(i + 1) * f]));
+    Ok(vec![
+        Disagreement::at_most("whole clustering", "cluster count, |CPU - GPU|", (cpu.k() as f64 - g.k as f64).abs(), 0.0).with_worst(Some(format!(
+            "CPU {} clusters, GPU {}",
+            cpu.k(),
+            g.k
+        ))),
+        Disagreement::at_least("whole clustering", "share of identical label rows", rows_same as f64 / m.max(1) as f64, FUZZY_SAME_SETS).with_worst(worst),
+        Disagreement::info("whole clustering", "representatives that differ", reps_differ as f64),
+    ])
+}
+
+/// All of the above on the frame's two point sets: its hits (the shading-point clustering's
+/// parameters) and its VPLs (the VPL clustering's), with centroids and labels from the CPU.
+pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+    let mut r = result(VerifyStage::Cluster);
+    let frame = CpuFrame::new(twins.cpu, cfg);
+    let (device, queue, kernel) = (twins.device(), twins.queue(), &twins.gpu.kernels().cluster);
+    let sets = [("hit points", frame.hit_points(), cfg.sp_cluster_params()), ("VPLs", frame.vpl_points(), cfg.vpl_cluster_params())];
+    for (name, (ps, ns), params) in sets {
+        if ps.is_empty() {
+            r.notes.push(format!("no {name} to cluster"));
+            continue;
+        }
+        let c = cluster(&ps, &ns, &ClusterParams { f: 1, fuzzy: FuzzyMode::Hard, ..params });
+        let case = format!("{} {name}, {} centroids", count(ps.len()), count(c.k()));
+        let centroids = (&c.positions[..], &c.normals[..]);
+        let rule = AssignRule { threshold: params.normal_threshold, f: params.f, fuzzy: params.fuzzy };
+        let fuzzy_case = if params.f > 1 { format!("{case}, F = {} {:?}", params.f, params.fuzzy) } else { case.clone() };
+        for d in compare_assign(device, queue, kernel, (&ps, &ns), centroids, rule)? {
+            r.checks.push(d.with_case(&fuzzy_case));
+        }
+        let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
+        let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, params.normal_threshold, None);
+        r.checks.push(compare_update(device, queue, kernel, (&ps, &ns), centroids, &hard)?.with_case(&case));
+        let whole = format!("{} {name}, K = {}, {} iterations, F = {}", count(ps.len()), params.k, params.iterations, params.f);
+        for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params)? {
+            r.checks.push(d.with_case(&whole));
+        }
+    }
+    r.notes.push("centroids come from a CPU clustering of the same points; assignment is compared on the CPU's grid, the update on the CPU's labels".into());
+    Ok(r)
+}

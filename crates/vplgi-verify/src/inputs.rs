@@ -1,0 +1,79 @@
+//! The CPU's intermediate results of a frame: what the chained GPU stages are fed.
+
+use glam::Vec3;
+use vplgi_cpu::cluster::{cluster, Clustering};
+use vplgi_cpu::shade::VplLight;
+use vplgi_cpu::CpuScene;
+use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, MISS};
+
+/// Points as clustering takes them: positions and normals.
+pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
+
+/// The CPU's stages 1 and 2 of a frame, and the hits among its samples.
+pub struct CpuFrame {
+    pub sps: Vec<ShadingPoint>,
+    /// Each sample's hit number (its visibility row), or [`MISS`].
+    pub row_of: Vec<u32>,
+    /// The samples that hit a surface, in sample order.
+    pub hits: Vec<u32>,
+    pub vpls: Vec<Vpl>,
+}
+
+impl CpuFrame {
+    pub fn new(cs: &CpuScene, cfg: &FrameConfig) -> CpuFrame {
+        let sps = vplgi_cpu::shading_points::shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+        let hits: Vec<u32> = (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
+        let mut row_of = vec![MISS; sps.len()];
+        for (r, &i) in hits.iter().enumerate() {
+            row_of[i as usize] = r as u32;
+        }
+        let p = cfg.trace_params();
+        let vpls = vplgi_cpu::trace_vpls::trace_vpls(cs, p.seed, p.count, p.bounces, &vplgi_cpu::NoProgress).vpls;
+        CpuFrame { sps, row_of, hits, vpls }
+    }
+
+    /// The hits as surface points (visibility rows when shading points are not clustered).
+    pub fn hit_endpoints(&self) -> Vec<Endpoint> {
+        self.hits.iter().map(|&i| Endpoint::of(&self.sps[i as usize])).collect()
+    }
+
+    /// The hits as clustering input.
+    pub fn hit_points(&self) -> PointSet {
+        self.hits.iter().map(|&i| (Vec3::from(self.sps[i as usize].position), Vec3::from(self.sps[i as usize].normal))).unzip()
+    }
+
+    /// The VPLs as clustering input.
+    pub fn vpl_points(&self) -> PointSet {
+        self.vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip()
+    }
+}
+
+/// The CPU's stage 3 of a frame in the frame's mode: lights, the visibility rows and columns, and
+/// the shading-point clustering if there is one.
+pub struct CpuClusters {
+    pub lights: Vec<VplLight>,
+    pub cols: Vec<Endpoint>,
+    /// One per hit, or one per shading-point cluster (its representative).
+    pub rows: Vec<Endpoint>,
+    pub sp_clusters: Option<Clustering>,
+}
+
+impl CpuClusters {
+    pub fn new(frame: &CpuFrame, cfg: &FrameConfig) -> CpuClusters {
+        let vpl_clusters = (cfg.cluster.clusters_vpls() && !frame.vpls.is_empty()).then(|| {
+            let (p, n) = frame.vpl_points();
+            cluster(&p, &n, &cfg.vpl_cluster_params())
+        });
+        let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref());
+        let cols = lights.iter().map(VplLight::endpoint).collect();
+        let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
+            let (p, n) = frame.hit_points();
+            cluster(&p, &n, &cfg.sp_cluster_params())
+        });
+        let rows = match &sp_clusters {
+            Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),
+            None => frame.hit_endpoints(),
+        };
+        CpuClusters { lights, cols, rows, sp_clusters }
+    }
+}

@@ -1,0 +1,201 @@
+//! The report of a verification: `verify.json` (every measurement), `verify.md` (tables) and a
+//! static `verify.html` (tables, and for image stages the CPU image, the GPU image and their FLIP
+//! error map side by side), with the images in `images/`.
+
+use crate::{ImagePair, StageResult};
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+use vplgi_image::{write_atomically, Image, ImageError};
+
+/// Everything a verification run measured, and on what.
+#[derive(Serialize)]
+pub struct VerifyReport {
+    pub scene: String,
+    /// The GPU adapter (on machines without a GPU: lavapipe, a CPU Vulkan).
+    pub adapter: String,
+    pub config: vplgi_types::FrameConfig,
+    pub modes: Vec<String>,
+    /// Shader files read from `--shaders DIR` instead of the compiled-in copies.
+    pub shaders: Vec<vplgi_gpu::shader::ReplacedSource>,
+    pub stages: Vec<StageResult>,
+    pub images: Vec<ImageFiles>,
+    pub passed: bool,
+    pub seconds: f64,
+}
+
+/// The files of one image pair, relative to the report's directory.
+#[derive(Clone, Debug, Serialize)]
+pub struct ImageFiles {
+    pub stage: String,
+    pub case: String,
+    pub cpu: String,
+    pub gpu: String,
+    /// The FLIP error map, absent when an image holds a non-finite pixel.
+    pub error_map: Option<String>,
+    pub flip: Option<f64>,
+}
+
+impl VerifyReport {
+    /// Judged checks that fail, over all stages.
+    pub fn failures(&self) -> impl Iterator<Item = &crate::tolerance::Disagreement> {
+        self.stages.iter().flat_map(StageResult::failures)
+    }
+}
+
+fn image(pair: &ImagePair, pixels: &[[f32; 3]]) -> Image {
+    Image { width: pair.width, height: pair.height, pixels: pixels.to_vec() }
+}
+
+/// Writes each stage's image pairs into `dir/images` and returns their files.
+pub fn write_images(dir: &Path, stages: &[StageResult]) -> Result<Vec<ImageFiles>, ImageError> {
+    std::fs::create_dir_all(dir.join("images")).map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
+    let mut files = Vec::new();
+    for s in stages {
+        for pair in &s.images {
+            let (cpu, gpu) = (image(pair, &pair.cpu), image(pair, &pair.gpu));
+            let name = |what: &str| format!("images/{}-{what}.png", pair.case);
+            vplgi_image::write_png(&dir.join(name("cpu")), &cpu, 1.0)?;
+            vplgi_image::write_png(&dir.join(name("gpu")), &gpu, 1.0)?;
+            let (error_map, flip) = match vplgi_image::compare(&cpu, &gpu) {
+                Ok(cmp) => {
+                    vplgi_image::write_error_map(&dir.join(name("error")), &cmp)?;
+                    (Some(name("error")), Some(cmp.metrics.flip))
+                }
+                Err(_) => (None, None),
+            };
+            files.push(ImageFiles { stage: s.stage.name().into(), case: pair.case.clone(), cpu: name("cpu"), gpu: name("gpu"), error_map, flip });
+        }
+    }
+    Ok(files)
+}
+
+/// Writes `verify.json`, `verify.md` and `verify.html` into `dir`, each atomically.
+pub fn write(dir: &Path, report: &VerifyReport) -> Result<(), ImageError> {
+    let json = serde_json::to_string_pretty(report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    write_atomically(&dir.join("verify.json"), |w| w.write_all(json.as_bytes()))?;
+    let md = markdown(report);
+    write_atomically(&dir.join("verify.md"), |w| w.write_all(md.as_bytes()))?;
+    let html = html(report);
+    write_atomically(&dir.join("verify.html"), |w| w.write_all(html.as_bytes()))
+}
+
+fn verdict(passed: bool) -> &'static str {
+    if passed {
+        "PASS"
+    } else {
+        "FAIL"
+    }
+}
+
+fn config_line(r: &VerifyReport) -> String {
+    let c = &r.config;
+    format!(
+        "{}x{} at {} spp, {} VPLs ({} bounces), K_vpl {}, K_sp {}, F {}, seed {}",
+        c.width, c.height, c.spp, c.vpls, c.bounces, c.k_vpl, c.k_sp, c.f, c.seed
+    )
+}
+
+/// The report as Markdown.
+pub fn markdown(r: &VerifyReport) -> String {
+    let mut s = format!("# vplgi verify: {}\n\n", verdict(r.passed));
+    s += &format!("- scene: {}\n- GPU: {} (on lavapipe the GPU runs on the CPU)\n- frame: {}\n", r.scene, r.adapter, config_line(r));
+    s += &format!("- modes: {}\n- {:.1} s\n", r.modes.join(", "), r.seconds);
+    for sh in &r.shaders {
+        s += &format!("- shader `{}` read from {}{}\n", sh.name, sh.path.display(), if sh.differs { " (differs from the built-in copy)" } else { "" });
+    }
+    for st in &r.stages {
+        s += &format!("\n## {} — {} ({:.1} s)\n\n", st.stage.name(), verdict(st.passed()), st.seconds);
+        s += "| SPEC row | case | measured | value | bound | verdict |\n|---|---|---|---|---|---|\n";
+        for c in &st.checks {
+            s += &format!("| {} | {} | {} | {} | {} | {} |\n", c.stage, c.case, c.what, c.measured_text(), c.bound_text(), c.verdict());
+        }
+        let worst: Vec<_> = st.checks.iter().filter(|c| c.worst.is_some() && (!c.holds() || c.judged())).collect();
+        if !worst.is_empty() {
+            s += "\nWorst items:\n\n";
+            for c in worst {
+                s += &format!("- {} ({}), {}: {}\n", c.stage, c.case, c.what, c.worst.as_deref().unwrap_or_default());
+            }
+        }
+        for n in &st.notes {
+            s += &format!("\n{n}\n");
+        }
+        for im in r.images.iter().filter(|i| i.stage == st.stage.name()) {
+            let err = im.error_map.as_deref().map_or(String::from("(no error map: a pixel is not finite)"), |e| format!("![error]({e})"));
+            s += &format!("\n{}: ![CPU]({}) ![GPU]({}) {err}\n", im.case, im.cpu, im.gpu);
+        }
+    }
+    s
+}
+
+/// Escapes text for HTML.
+fn esc(t: &str) -> String {
+    t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// The report as one static HTML page (no scripts).
+pub fn html(r: &VerifyReport) -> String {
+    let mut s = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>vplgi verify</title>\n<style>\
+         body{font-family:sans-serif;margin:2em;max-width:90em}table{border-collapse:collapse;margin:1em 0}\
+         td,th{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}td.n{font-family:monospace;text-align:right}\
+         .ok{color:#070}.FAILS{color:#b00;font-weight:bold}.info{color:#666}.PASS{color:#070}.FAIL{color:#b00}\
+         figure{display:inline-block;margin:.5em}figure img{image-rendering:pixelated;width:256px;border:1px solid #ccc}\
+         .worst{font-family:monospace;font-size:.85em}</style></head><body>\n",
+    );
+    s += &format!("<h1>vplgi verify: <span class=\"{0}\">{0}</span></h1>\n<ul>", verdict(r.passed));
+    s += &format!(
+        "<li>scene: {}</li><li>GPU: {} (on lavapipe the GPU runs on the CPU)</li><li>frame: {}</li><li>modes: {}</li><li>{:.1} s</li>",
+        esc(&r.scene),
+        esc(&r.adapter),
+        esc(&config_line(r)),
+        esc(&r.modes.join(", ")),
+        r.seconds
+    );
+    for sh in &r.shaders {
+        s += &format!(
+            "<li>shader <code>{}</code> read from {}{}</li>",
+            esc(sh.name),
+            esc(&sh.path.display().to_string()),
+            if sh.differs { " (differs from the built-in copy)" } else { "" }
+        );
+    }
+    s += "</ul>\n";
+    for st in &r.stages {
+        let v = verdict(st.passed());
+        s += &format!("<section id=\"{0}\"><h2>{0}: <span class=\"{v}\">{v}</span> ({1:.1} s)</h2>\n", st.stage.name(), st.seconds);
+        s += "<table><tr><th>SPEC row</th><th>case</th><th>measured</th><th>value</th><th>bound</th><th>verdict</th><th>worst item</th></tr>\n";
+        for c in &st.checks {
+            s += &format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"{}\">{}</td><td class=\"worst\">{}</td></tr>\n",
+                esc(&c.stage),
+                esc(&c.case),
+                esc(&c.what),
+                c.measured_text(),
+                esc(&c.bound_text()),
+                c.verdict(),
+                c.verdict(),
+                esc(c.worst.as_deref().unwrap_or(""))
+            );
+        }
+        s += "</table>\n";
+        for n in &st.notes {
+            s += &format!("<p>{}</p>\n", esc(n));
+        }
+        for im in r.images.iter().filter(|i| i.stage == st.stage.name()) {
+            s += &format!("<div class=\"pair\"><h3>{}</h3>", esc(&im.case));
+            s += &format!("<figure><img src=\"{}\" alt=\"CPU image\"><figcaption>CPU</figcaption></figure>", esc(&im.cpu));
+            s += &format!("<figure><img src=\"{}\" alt=\"GPU image\"><figcaption>GPU</figcaption></figure>", esc(&im.gpu));
+            match (&im.error_map, im.flip) {
+                (Some(e), Some(f)) => {
+                    s += &format!("<figure><img src=\"{}\" alt=\"FLIP error map\"><figcaption>FLIP error map (mean {f:.2e})</figcaption></figure>", esc(e))
+                }
+                _ => s += "<figure><figcaption>no error map: a pixel is not finite</figcaption></figure>",
+            }
+            s += "</div>\n";
+        }
+        s += "</section>\n";
+    }
+    s += "</body></html>\n";
+    s
+}

@@ -1,0 +1,129 @@
+//! `shade`, and the final image on identical inputs: the GPU's shade kernel fed the CPU's shading
+//! points, lights, shading-point clusters and visibility matrix, in every mode (SPEC: relMSE(GPU,
+//! CPU) <= 1e-4).
+
+use crate::inputs::{CpuClusters, CpuFrame};
+use crate::tolerance::{Disagreement, SHADE_REL_MSE};
+use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_cpu::shade::VisibilitySource;
+use vplgi_gpu::buffers::{read_back, storage, Window};
+use vplgi_gpu::shade::{ShadeInputs, Visibility};
+use vplgi_gpu::visibility::words_per_row;
+use vplgi_types::FrameConfig;
+
+/// An image's pixels, row-major.
+pub type Pixels = Vec<[f32; 3]>;
+
+/// relMSE of `test` against `reference` (`vplgi_image`'s definition); NaN if either has a NaN.
+pub fn rel_mse(reference: &[[f32; 3]], test: &[[f32; 3]]) -> f64 {
+    let mut sum = 0.0f64;
+    for (a, b) in reference.iter().zip(test) {
+        for c in 0..3 {
+            let (x, y) = (a[c] as f64, b[c] as f64);
+            sum += (x - y).powi(2) / (x * x + vplgi_image::REL_MSE_EPSILON);
+        }
+    }
+    if reference.len() != test.len() {
+        return f64::NAN;
+    }
+    sum / (3 * reference.len().max(1)) as f64
+}
+
+/// The pixel whose channels differ most relative to the CPU's value, with both values, among
+/// the pixels `include` accepts.
+pub fn worst_pixel(cpu: &[[f32; 3]], gpu: &[[f32; 3]], width: u32, include: impl Fn(usize) -> bool) -> (f32, Option<String>) {
+    let mut worst = (0.0f32, None);
+    for (i, (a, b)) in cpu.iter().zip(gpu).enumerate().filter(|(i, _)| include(*i)) {
+        let d = (0..3).map(|c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3)).fold(0.0f32, |m, x| if x.is_nan() || m.is_nan() { f32::NAN } else { m.max(x) });
+        if d > worst.0 || (d.is_nan() && !worst.0.is_nan()) {
+            let at = format!("pixel ({}, {}): CPU {}, GPU {}", i as u32 % width, i as u32 / width, crate::v3(*a), crate::v3(*b));
+            worst = (d, Some(at));
+        }
+    }
+    worst
+}
+
+/// Shades every pixel of `cfg` on both backends from the CPU's inputs `frame` and `clusters`.
+pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: &CpuClusters) -> Result<(Pixels, Pixels), VerifyError> {
+    let cs = twins.cpu;
+    let (device, queue) = (twins.device(), twins.queue());
+    let n_pixels = (cfg.width * cfg.height) as usize;
+    let limit = device.limits().max_storage_buffer_binding_size;
+    let wpr = words_per_row(clusters.cols.len());
+    let needed = [
+        ("shading points", std::mem::size_of_val(&frame.sps[..]) as u64),
+        ("visibility words", (clusters.rows.len() * wpr * 4) as u64),
+        ("lights", std::mem::size_of_val(&clusters.lights[..]) as u64),
+    ];
+    if let Some((what, bytes)) = needed.iter().find(|(_, b)| *b > limit) {
+        return Err(VerifyError::TooLarge(format!(
+            "verify shades the whole frame in one dispatch: its {what} need {bytes} B, this adapter binds at most {limit} B (use a smaller --width/--height/--spp or --vpls)"
+        )));
+    }
+    let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
+    let params = cfg.shade_params(cs.extent);
+    let src = match &clusters.sp_clusters {
+        Some(sc) => VisibilitySource::Fuzzy { matrix: &matrix, row_of: &frame.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f },
+        None => VisibilitySource::Own { matrix: &matrix, row_of: &frame.row_of, first_row: 0 },
+    };
+    let cpu = vplgi_cpu::shade::shade(cs, &frame.sps, 0, 0..n_pixels, &clusters.lights, &src, &params);
+
+    let sps = storage(device, "sps", &frame.sps);
+    let row_of = storage(device, "row_of", &frame.row_of);
+    let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+    let lights = storage(device, "lights", &clusters.lights);
+    let (labels, weights) = match &clusters.sp_clusters {
+        Some(sc) => (storage(device, "labels", &sc.labels), storage(device, "weights", &sc.weights)),
+        None => (storage::<u32>(device, "labels", &[]), storage::<f32>(device, "weights", &[])),
+    };
+    let visibility = match &clusters.sp_clusters {
+        Some(sc) => Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: Window { first: 0, count: frame.hits.len() as u64 } },
+        None => Visibility::Own { first_row: 0 },
+    };
+    let inputs = ShadeInputs {
+        sps: &sps,
+        sp_first: 0,
+        row_of: &row_of,
+        words: &words,
+        words_per_row: wpr as u32,
+        vpl_lights: &lights,
+        light_count: clusters.lights.len() as u32,
+        visibility,
+    };
+    let out = twins.gpu.kernels().shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?;
+    let gpu: Vec<[f32; 4]> = read_back(device, queue, &out, n_pixels)?;
+    Ok((cpu, gpu.into_iter().map(|p| [p[0], p[1], p[2]]).collect()))
+}
+
+/// Compares the two images of one mode.
+pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
+    let frame = CpuFrame::new(twins.cpu, cfg);
+    let clusters = CpuClusters::new(&frame, cfg);
+    let (cpu, gpu) = shade_both(twins, cfg, &frame, &clusters)?;
+    let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, |_| true);
+    let case = Mode::of(cfg).name();
+    let checks = vec![
+        Disagreement::at_most("shade / final image", "relMSE(GPU, CPU) on the same inputs", rel_mse(&cpu, &gpu), SHADE_REL_MSE)
+            .with_case(&case)
+            .with_worst(worst),
+        Disagreement::info("shade / final image", "largest relative pixel difference", max_rel as f64).with_case(&case),
+    ];
+    let pair = ImagePair { case: format!("shade-{}", case.replace('/', "-")), width: cfg.width, height: cfg.height, cpu, gpu };
+    Ok((checks, pair))
+}
+
+/// The final image of every mode in `modes`, each on its own CPU inputs.
+pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
+    let mut r = result(VerifyStage::Shade);
+    for mode in modes {
+        let (checks, pair) = compare(twins, &mode.apply(cfg))?;
+        r.checks.extend(checks);
+        r.images.push(pair);
+    }
+    r.notes.push(
+        "the GPU's shade kernel reads the CPU's shading points, lights (VPLs or VPL clusters), shading-point clusters and visibility matrix: \
+         the final image of each mode on identical inputs"
+            .into(),
+    );
+    Ok(r)
+}

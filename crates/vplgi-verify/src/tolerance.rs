@@ -1,0 +1,172 @@
+//! The agreement contract of `../shared/SPEC.md` ("Stated tolerances"), one named constant per
+//! bound, and [`Disagreement`]: what a comparison measured against its bound, printed by every
+//! test and written by `vplgi verify`, so the margin is visible when it passes, not only when it
+//! fails.
+
+use serde::Serialize;
+
+/// RNG: bit-identical streams.
+pub const RNG_DIFFERING_DRAWS: u64 = 0;
+/// VPL tracing: positions, normals and fluxes within this, relative.
+pub const TRACE_VPLS_REL: f64 = 1e-4;
+/// VPL tracing: at most this share of paths may diverge at grazing hits.
+pub const TRACE_VPLS_DIVERGED_PATHS: f64 = 1e-3;
+/// Shading points: at least this share hit the same triangle (or the same point on a shared edge).
+pub const SHADING_POINTS_SAME_SURFACE: f64 = 0.999;
+/// Shading points: positions within this share of the scene extent.
+pub const SHADING_POINTS_POSITION_REL: f64 = 1e-4;
+/// K-means assignment given the same centroids: at least this share of identical labels.
+pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
+/// Centroid update given the same labels: bit-identical (integer sums): no differing centroid.
+pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
+/// Fuzzy assignment: at least this share of points with identical F-index sets.
+pub const FUZZY_SAME_SETS: f64 = 0.999;
+/// Fuzzy assignment: weights within this, absolute, and summing to 1 within this.
+pub const FUZZY_WEIGHTS_ABS: f64 = 1e-5;
+/// Visibility: at least this share of identical bits between any two of Embree, obvhs, GPU.
+pub const VISIBILITY_SAME_BITS: f64 = 0.999;
+/// Shading and the final image on the same inputs: relMSE(GPU, CPU) at most this.
+pub const SHADE_REL_MSE: f64 = 1e-4;
+
+/// The side of its bound a measurement must be on.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bound {
+    AtMost(f64),
+    AtLeast(f64),
+    /// Measured and reported, not judged (context for the judged rows).
+    Info,
+}
+
+/// A measured disagreement between two implementations of a stage, with its bound.
+#[derive(Clone, Debug, Serialize)]
+pub struct Disagreement {
+    /// The SPEC row (and, in tests, the case) compared.
+    pub stage: String,
+    /// The inputs it was measured on ("both/weighted", "1,843 hit points, F = 6"); may be empty.
+    pub case: String,
+    /// What was measured, in words ("share of identical labels", "relMSE(GPU, CPU)").
+    pub what: String,
+    pub measured: f64,
+    pub bound: Bound,
+    /// The item that disagrees most, with both backends' values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub worst: Option<String>,
+}
+
+impl Disagreement {
+    fn new(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: Bound) -> Disagreement {
+        Disagreement { stage: stage.into(), case: String::new(), what: what.into(), measured, bound, worst: None }
+    }
+
+    /// `measured` must be at most `bound`.
+    pub fn at_most(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: f64) -> Disagreement {
+        Disagreement::new(stage, what, measured, Bound::AtMost(bound))
+    }
+
+    /// `measured` must be at least `bound` (agreement shares).
+    pub fn at_least(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: f64) -> Disagreement {
+        Disagreement::new(stage, what, measured, Bound::AtLeast(bound))
+    }
+
+    /// A measurement reported beside the judged ones.
+    pub fn info(stage: impl Into<String>, what: impl Into<String>, measured: f64) -> Disagreement {
+        Disagreement::new(stage, what, measured, Bound::Info)
+    }
+
+    pub fn with_case(mut self, case: impl Into<String>) -> Disagreement {
+        self.case = case.into();
+        self
+    }
+
+    pub fn with_worst(mut self, worst: Option<String>) -> Disagreement {
+        self.worst = worst;
+        self
+    }
+
+    /// Whether the measurement is judged against a bound.
+    pub fn judged(&self) -> bool {
+        self.bound != Bound::Info
+    }
+
+    /// Whether the bound holds (always, for a measurement that is not judged). NaN never holds.
+    pub fn holds(&self) -> bool {
+        match self.bound {
+            Bound::AtMost(b) => self.measured <= b,
+            Bound::AtLeast(b) => self.measured >= b,
+            Bound::Info => true,
+        }
+    }
+
+    /// The measured value as the report prints it: shares to the digit their bounds need,
+    /// counts as integers, other measures in scientific form.
+    pub fn measured_text(&self) -> String {
+        let m = self.measured;
+        match self.bound {
+            Bound::AtLeast(_) => format!("{m:.6}"),
+            _ if m.fract() == 0.0 && m.abs() < 1e15 => format!("{m:.0}"),
+            _ => format!("{m:.3e}"),
+        }
+    }
+
+    /// The bound as the report prints it (`<= 1e-4`, `>= 0.999`, or `-`).
+    pub fn bound_text(&self) -> String {
+        match self.bound {
+            Bound::AtMost(b) => format!("<= {b}"),
+            Bound::AtLeast(b) => format!(">= {b}"),
+            Bound::Info => "-".into(),
+        }
+    }
+
+    /// `ok`, `FAILS`, or `info`.
+    pub fn verdict(&self) -> &'static str {
+        match (self.judged(), self.holds()) {
+            (false, _) => "info",
+            (true, true) => "ok",
+            (true, false) => "FAILS",
+        }
+    }
+
+    /// Prints the measurement and panics if the bound does not hold.
+    pub fn check(&self) {
+        println!("{self}");
+        assert!(self.holds(), "{self}");
+    }
+}
+
+impl std::fmt::Display for Disagreement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let case = if self.case.is_empty() { String::new() } else { format!(" ({})", self.case) };
+        write!(f, "[{}{case}] {}: {}", self.stage, self.what, self.measured_text())?;
+        if self.judged() {
+            write!(f, " (bound {}) {}", self.bound_text(), self.verdict())?;
+        }
+        if let Some(w) = &self.worst {
+            write!(f, "; worst: {w}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_hold_and_fail_on_the_right_side() {
+        assert!(Disagreement::at_most("s", "x", 1e-5, SHADE_REL_MSE).holds());
+        assert!(!Disagreement::at_most("s", "x", 2e-4, SHADE_REL_MSE).holds());
+        assert!(Disagreement::at_least("s", "x", 0.9995, VISIBILITY_SAME_BITS).holds());
+        assert!(!Disagreement::at_least("s", "x", 0.99, VISIBILITY_SAME_BITS).holds());
+        assert!(!Disagreement::at_most("s", "x", f64::NAN, SHADE_REL_MSE).holds(), "NaN must fail");
+        assert!(Disagreement::info("s", "x", f64::NAN).holds() && !Disagreement::info("s", "x", 1.0).judged());
+        assert!(std::panic::catch_unwind(|| Disagreement::at_most("s", "x", 1.0, 0.0).check()).is_err());
+    }
+
+    #[test]
+    fn the_printed_line_names_case_bound_verdict_and_worst_item() {
+        let d = Disagreement::at_most("shade", "relMSE(GPU, CPU)", 3.2e-2, SHADE_REL_MSE).with_case("both/weighted").with_worst(Some("pixel (3, 4)".into()));
+        assert_eq!(d.to_string(), "[shade (both/weighted)] relMSE(GPU, CPU): 3.200e-2 (bound <= 0.0001) FAILS; worst: pixel (3, 4)");
+        assert_eq!(Disagreement::at_most("rng", "draws that differ", 0.0, 0.0).to_string(), "[rng] draws that differ: 0 (bound <= 0) ok");
+    }
+}

@@ -1,0 +1,90 @@
+//! `trace_vpls`: the GPU's VPLs against the CPU's (SPEC: same count; positions, normals and
+//! fluxes within 1e-4 relative; at most 0.1 % of paths diverge, counted).
+
+use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use glam::Vec3;
+use std::collections::{BTreeMap, BTreeSet};
+use vplgi_gpu::buffers::read_back;
+use vplgi_types::{FrameConfig, TraceParams, Vpl};
+
+/// The VPLs of each light path, in order.
+fn by_path(v: &[Vpl]) -> BTreeMap<u32, Vec<Vpl>> {
+    let mut m: BTreeMap<u32, Vec<Vpl>> = BTreeMap::new();
+    for x in v {
+        m.entry(x.path).or_default().push(*x);
+    }
+    m
+}
+
+/// The largest relative difference between two VPLs: position over the scene extent, normal,
+/// flux over its largest channel; infinite if they are at different bounces.
+fn difference(a: &Vpl, b: &Vpl, extent: f32) -> f32 {
+    if a.bounce != b.bounce {
+        return f32::INFINITY;
+    }
+    let pos = (Vec3::from(a.position) - Vec3::from(b.position)).length() / extent;
+    let nor = (Vec3::from(a.normal) - Vec3::from(b.normal)).length();
+    let flux = (Vec3::from(a.flux) - Vec3::from(b.flux)).abs().max_element() / Vec3::from(a.flux).abs().max_element().max(1e-12);
+    pos.max(nor).max(flux)
+}
+
+/// Traces `params` on both backends and compares path by path. A path agrees when it has the
+/// same VPLs, each within [`TRACE_VPLS_REL`]; the last path may be cut at a different length
+/// (the VPL budget runs out inside it) if an earlier one diverged.
+pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>, VerifyError> {
+    let cs = twins.cpu;
+    let cpu = vplgi_cpu::trace_vpls::trace_vpls(cs, params.seed, params.count, params.bounces, &vplgi_cpu::NoProgress);
+    let g = twins.gpu.kernels().trace.run(twins.device(), twins.queue(), twins.gpu.scene(), params)?;
+    let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
+    let (cp, gp) = (by_path(&cpu.vpls), by_path(&gpu));
+    let paths: BTreeSet<u32> = cp.keys().chain(gp.keys()).copied().collect();
+    let last = paths.iter().next_back().copied();
+    let (mut diverged, mut worst_diff, mut worst) = (0usize, 0.0f32, None);
+    let mut max_agreeing = 0.0f32;
+    for p in &paths {
+        let (a, b) = (cp.get(p).map_or(&[][..], Vec::as_slice), gp.get(p).map_or(&[][..], Vec::as_slice));
+        let cut = Some(*p) == last;
+        let n = if cut { a.len().min(b.len()) } else { a.len().max(b.len()) };
+        let mut path_diff = 0.0f32;
+        let mut at = None;
+        for i in 0..n {
+            let d = match (a.get(i), b.get(i)) {
+                (Some(x), Some(y)) => difference(x, y, cs.extent),
+                _ => f32::INFINITY,
+            };
+            if d > path_diff {
+                (path_diff, at) = (d, Some(i));
+            }
+        }
+        if path_diff > TRACE_VPLS_REL as f32 {
+            diverged += 1;
+            if path_diff > worst_diff || worst.is_none() {
+                worst_diff = path_diff;
+                let i = at.unwrap_or(0);
+                let show = |v: Option<&Vpl>| v.map_or("none".to_string(), |v| format!("bounce {} at {} flux {}", v.bounce, v3(v.position), v3(v.flux)));
+                worst = Some(format!("path {p}, VPL {i}: CPU {}, GPU {}", show(a.get(i)), show(b.get(i))));
+            }
+        } else {
+            max_agreeing = max_agreeing.max(path_diff);
+        }
+    }
+    let case = format!("{} VPLs, {} bounces, seed {}", count(params.count as usize), params.bounces, params.seed);
+    let n_paths = paths.len().max(1) as f64;
+    Ok(vec![
+        Disagreement::at_most("trace_vpls", "VPL count, |CPU - GPU|", (cpu.vpls.len() as f64 - gpu.len() as f64).abs(), 0.0).with_case(&case),
+        Disagreement::at_most("trace_vpls", "share of light paths that diverge", diverged as f64 / n_paths, TRACE_VPLS_DIVERGED_PATHS)
+            .with_case(&case)
+            .with_worst(worst),
+        Disagreement::info("trace_vpls", "largest relative difference on agreeing paths", max_agreeing as f64).with_case(&case),
+        Disagreement::info("trace_vpls", "light particles, |CPU - GPU|", (cpu.particles as f64 - g.particles as f64).abs()).with_case(&case),
+    ])
+}
+
+/// The frame's VPLs.
+pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+    let mut r = result(VerifyStage::TraceVpls);
+    r.checks = compare(twins, &cfg.trace_params())?;
+    r.notes.push("VPLs are matched by light path; a path agrees when every VPL is within 1e-4 (position relative to the scene extent, normal, flux relative to its largest channel) at the same bounce".into());
+    Ok(r)
+}
