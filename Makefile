@@ -1,6 +1,6 @@
 # The two commands of the README:
 #   make demo   installs what is missing, builds, renders the built-in Cornell box (clustered and
-#               the unclustered reference) and compares them.
+#               the unclustered reference), compares them, and verifies the GPU twin against the CPU.
 #   make test   installs what is missing, builds and runs every test.
 # Both run ci/install-deps.sh first (idempotent: apt packages, the Embree 4 runtime).
 
@@ -23,11 +23,13 @@ demo: build
 	$(VPLGI) render --cluster none --width 256 --height 256 --out $(DEMO_OUT)/reference-256
 	$(VPLGI) render --width 256 --height 256 --out $(DEMO_OUT)/clustered-256
 	$(VPLGI) compare $(DEMO_OUT)/reference-256/image.exr $(DEMO_OUT)/clustered-256/image.exr --out $(DEMO_OUT)/compare-256
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(VPLGI) verify --out $(DEMO_OUT)/verify
 	@echo
 	@echo "Pictures:"
 	@echo "  $(DEMO_OUT)/clustered/image.png         the default render (512x512, --cluster both, 1k VPL / 8k SP clusters)"
 	@echo "  $(DEMO_OUT)/reference-256/image.png     the unclustered reference (--cluster none) at 256x256"
 	@echo "  $(DEMO_OUT)/compare-256/error_map.png   FLIP error map of the clustered 256x256 render against it"
+	@echo "  $(DEMO_OUT)/verify/verify.html          vplgi verify: every GPU stage against the CPU, images and error maps per mode"
 	@echo "Reports: report.json beside each image (parameters, counts, per-stage timings), $(DEMO_OUT)/compare-256/compare.json"
 
 # Tests run on the release profile: rayon code is ~30x slower unoptimised, and the demo's build
@@ -43,7 +45,9 @@ demo: build
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
 CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli results perf_report
-GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs))))
+# The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
+# (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
+GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify
 test: setup
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --release --workspace --all-targets -- -D warnings

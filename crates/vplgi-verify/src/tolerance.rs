@@ -111,9 +111,10 @@ impl Disagreement {
 
     /// The bound as the report prints it (`<= 1e-4`, `>= 0.999`, or `-`).
     pub fn bound_text(&self) -> String {
+        let show = |b: f64| if b != 0.0 && b.abs() < 1e-3 { format!("{b:e}") } else { b.to_string() };
         match self.bound {
-            Bound::AtMost(b) => format!("<= {b}"),
-            Bound::AtLeast(b) => format!(">= {b}"),
+            Bound::AtMost(b) => format!("<= {}", show(b)),
+            Bound::AtLeast(b) => format!(">= {}", show(b)),
             Bound::Info => "-".into(),
         }
     }
@@ -166,7 +167,7 @@ mod tests {
     #[test]
     fn the_printed_line_names_case_bound_verdict_and_worst_item() {
         let d = Disagreement::at_most("shade", "relMSE(GPU, CPU)", 3.2e-2, SHADE_REL_MSE).with_case("both/weighted").with_worst(Some("pixel (3, 4)".into()));
-        assert_eq!(d.to_string(), "[shade (both/weighted)] relMSE(GPU, CPU): 3.200e-2 (bound <= 0.0001) FAILS; worst: pixel (3, 4)");
+        assert_eq!(d.to_string(), "[shade (both/weighted)] relMSE(GPU, CPU): 3.200e-2 (bound <= 1e-4) FAILS; worst: pixel (3, 4)");
         assert_eq!(Disagreement::at_most("rng", "draws that differ", 0.0, 0.0).to_string(), "[rng] draws that differ: 0 (bound <= 0) ok");
     }
 }

@@ -1,0 +1,121 @@
+//! `vplgi verify` as a kernel author runs it: a passing run and its report in a real browser, a
+//! shader broken on purpose through `--shaders`, and bad arguments.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn vplgi(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vplgi")).args(args).output().expect("run vplgi")
+}
+
+/// A small frame: every stage and mode in seconds.
+const SMALL: [&str; 10] = ["--width", "40", "--height", "32", "--vpls", "600", "--k-sp", "150", "--k-vpl", "60"];
+
+/// Skips (outside CI) when there is no GPU adapter; otherwise the run's output.
+fn verify(out: &Path, extra: &[&str]) -> Option<Output> {
+    let mut args = vec!["verify", "--out", out.to_str().expect("utf-8 path")];
+    args.extend_from_slice(extra);
+    let o = vplgi(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    if err.contains("no GPU adapter") && std::env::var("CI").map_or(true, |v| v != "true") {
+        eprintln!("\n*** SKIPPED: {err} ***\n");
+        return None;
+    }
+    Some(o)
+}
+
+/// Loads `page` in headless chromium with a script appended that reports, on the console, every
+/// image that did not decode and the sections shown; returns the console lines and the DOM.
+fn load_in_chromium(page: &Path) -> (Vec<String>, String) {
+    let probe = page.with_file_name("probe.html");
+    let html = std::fs::read_to_string(page).expect("read the page");
+    let script = "<script>window.addEventListener('load', () => { for (const i of document.images) { if (!i.complete || i.naturalWidth === 0) \
+                  console.error('image not loaded: ' + i.getAttribute('src')); } console.log('probe: ' + document.querySelectorAll('section').length + ' sections, ' \
+                  + document.images.length + ' images'); });</script>";
+    std::fs::write(&probe, html.replace("</body>", &format!("{script}</body>"))).expect("write the probe page");
+    let o = Command::new("chromium")
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0", "--virtual-time-budget=10000", "--dump-dom"])
+        .arg(format!("file://{}", probe.display()))
+        .output()
+        .expect("chromium (installed by ci/install-deps.sh) runs");
+    assert!(o.status.success(), "chromium failed: {}", String::from_utf8_lossy(&o.stderr));
+    let console = String::from_utf8_lossy(&o.stderr).lines().filter(|l| l.contains(":CONSOLE")).map(String::from).collect();
+    (console, String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+/// Every stage passes on the Cornell box; the report's three files exist, and the HTML page,
+/// loaded in a real browser, shows every stage and every image without a console error.
+#[test]
+fn verify_passes_and_its_page_loads_in_a_browser() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let Some(o) = verify(dir.path(), &SMALL) else { return };
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "verify failed:\n{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("verify: PASS"), "{stdout}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("verify.json")).expect("verify.json")).expect("JSON");
+    assert_eq!(report["passed"], true);
+    let stages: Vec<&str> = report["stages"].as_array().expect("stages").iter().filter_map(|s| s["stage"].as_str()).collect();
+    assert_eq!(stages, ["rng", "trace_vpls", "shading_points", "cluster", "visibility", "shade", "frame"]);
+    assert_eq!(report["modes"].as_array().map(Vec::len), Some(8), "every mode by default");
+    // 8 modes x (shade, frame), three pictures each.
+    assert_eq!(report["images"].as_array().map(Vec::len), Some(16));
+    assert!(std::fs::read_to_string(dir.path().join("verify.md")).expect("verify.md").contains("## shade"));
+
+    let (console, dom) = load_in_chromium(&dir.path().join("verify.html"));
+    println!("console: {console:#?}");
+    for s in stages {
+        assert!(dom.contains(&format!("<section id=\"{s}\">")), "the page does not show stage {s}");
+    }
+    let errors: Vec<&String> = console.iter().filter(|l| !l.contains("probe: ")).collect();
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    assert!(console.iter().any(|l| l.contains("probe: 7 sections, 48 images")), "the probe did not run: {console:#?}");
+}
+
+/// The probe itself sees a missing image: the browser check can fail.
+#[test]
+fn the_browser_probe_reports_a_missing_image() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let page = dir.path().join("page.html");
+    std::fs::write(&page, "<!DOCTYPE html><html><body><section id=\"x\"></section><img src=\"missing.png\"></body></html>").expect("write");
+    let (console, _) = load_in_chromium(&page);
+    assert!(console.iter().any(|l| l.contains("image not loaded: missing.png")), "{console:#?}");
+}
+
+/// The shade kernel with its geometry-term clamp removed, given with --shaders: verify exits
+/// non-zero, names the stage and its worst pixel, and still writes the report. At verify's default
+/// size (the clamp bites near the contact edges of the boxes; at 40x32 with 600 VPLs it changes
+/// the image by less than the tolerance).
+#[test]
+fn a_broken_shader_fails_naming_the_stage() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let shaders = dir.path().join("shaders");
+    std::fs::create_dir(&shaders).expect("mkdir");
+    let original = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shade.wgsl")).expect("shade.wgsl");
+    let clamp = "return min(cos_p * cos_x / d2, params.g_max);";
+    assert!(original.contains(clamp), "shade.wgsl changed: update this test's edit");
+    std::fs::write(shaders.join("shade.wgsl"), original.replace(clamp, "return cos_p * cos_x / d2;")).expect("write");
+    let out = dir.path().join("out");
+    let Some(o) = verify(&out, &["--shaders", shaders.to_str().expect("utf-8"), "--stages", "shade", "--cluster", "both"]) else { return };
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    println!("{stderr}");
+    assert!(!o.status.success(), "a shader without the clamp passed verify");
+    assert!(stderr.contains("differs from the built-in copy"), "{stderr}");
+    assert!(stderr.contains("stage shade / final image (both/weighted)") && stderr.contains("worst: pixel ("), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json")).expect("JSON");
+    assert_eq!(report["passed"], false);
+}
+
+/// A shader that does not compile is refused before any GPU work, naming the file; an unknown
+/// stage is refused with the list of stages.
+#[test]
+fn bad_shaders_and_stages_are_refused_by_name() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    std::fs::write(dir.path().join("visibility.wgsl"), "fn main( {").expect("write");
+    let o = vplgi(&["verify", "--shaders", dir.path().to_str().expect("utf-8"), "--out", dir.path().join("out").to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("visibility.wgsl does not compile"), "{err}");
+    assert!(!dir.path().join("out/verify.json").exists(), "a refused run wrote a report");
+    let o = vplgi(&["verify", "--stages", "shade,bogus"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("unknown stage 'bogus'") && err.contains("trace_vpls"), "{err}");
+}
