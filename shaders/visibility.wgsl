@@ -34,7 +34,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     // traversal ends, the next starts in the same iteration count, so a SIMD lane that finished
     // does not idle until the slowest lane of its group finishes the same segment (bvh.wgsl).
     // Each segment is CpuScene::visible: both ends pushed off their surfaces, any hit in
-    // (SEGMENT_TNEAR, 1).
+    // (SEGMENT_TNEAR, SEGMENT_TFAR).
     var bits = 0u;
     var b = 0u;                 // the column bit in flight, or the next to start
     var node = BVH_END;         // BVH_END: no segment in flight
@@ -50,7 +50,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 }
                 let e = cols[w * 32u + b];
                 let ae = e.position.xyz - a.position.xyz;
-                if (dot(a.normal.xyz, ae) > 0.0 && dot(e.normal.xyz, ae) < 0.0) {
+                let bound = FACING_COS * length(ae);
+                if (dot(a.normal.xyz, ae) > bound && dot(e.normal.xyz, ae) < -bound) {
                     o = offset_toward(a.position.xyz, a.normal.xyz, e.position.xyz, params.eps);
                     let d = offset_toward(e.position.xyz, e.normal.xyz, a.position.xyz, params.eps) - o;
                     inv_d = safe_inverse(d);
@@ -67,10 +68,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let n = bvh_node(node);
         var next = n.skip;
         var blocked = false;
-        if (hits_box(n, o, inv_d, SEGMENT_TNEAR, 1.0)) {
+        if (hits_box(n, o, inv_d, SEGMENT_TNEAR, SEGMENT_TFAR)) {
             if (n.leaf == 0u) {
                 next = node + 1u;
-            } else if (leaf_blocks(n.leaf, o, shear, SEGMENT_TNEAR, 1.0)) {
+            } else if (leaf_blocks(n.leaf, o, shear, SEGMENT_TNEAR, SEGMENT_TFAR)) {
                 blocked = true;
                 next = BVH_END;
             }

@@ -196,7 +196,7 @@ fn leaf_blocks(leaf: u32, o: vec3<f32>, shear: RayShear, tmin: f32, tmax: f32) -
 fn visible(p: vec3<f32>, np: vec3<f32>, q: vec3<f32>, nq: vec3<f32>, eps: f32) -> bool {
     let a = offset_toward(p, np, q, eps);
     let b = offset_toward(q, nq, p, eps);
-    return bvh_trace(a, b - a, SEGMENT_TNEAR, 1.0, true).triangle == NO_HIT;
+    return bvh_trace(a, b - a, SEGMENT_TNEAR, SEGMENT_TFAR, true).triangle == NO_HIT;
 }
 
 // CpuScene::visible_from_surface: to a point light, stopping eps short of it.

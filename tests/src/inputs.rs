@@ -1,10 +1,12 @@
 //! Inputs the differential tests share: fixed point sets from real scenes, and proptest
-//! strategies for random ones.
+//! strategies for random ones: point sets, triangle soups and rooms with random lights.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use vplgi_cpu::CpuScene;
 use vplgi_scene::cornell::cornell_box;
+use vplgi_scene::{Camera, Material, PunctualLight, Scene};
+use vplgi_types::{Rng, Stream};
 
 /// The Cornell box's shading points (surfaces meeting at edges, both orientations of thin walls)
 /// at `width` x `height`, one per pixel: positions and normals of the hits.
@@ -31,7 +33,7 @@ pub fn surface_points() -> impl Strategy<Value = (Vec<Vec3>, Vec<Vec3>)> {
     let patch = (0f32..1.0, 0f32..1.0, 0f32..1.0, 0f32..1.0, -1f32..1.0, -1f32..1.0, -1f32..1.0, 0.05f32..1.0, any::<bool>());
     (prop::collection::vec(patch, 1..=6), 100usize..1500, -2f32..2.0, any::<u64>()).prop_map(|(patches, n, log_scale, seed)| {
         let scale = 10f32.powf(log_scale);
-        let mut rng = vplgi_types::Rng::new(seed as u32, vplgi_types::Stream::Oracle, (seed >> 32) as u32);
+        let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
         let (mut ps, mut ns) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for i in 0..n {
             let (nu, nv, tu, tv, ox, oy, oz, size, two_sided) = patches[i % patches.len()];
@@ -46,4 +48,206 @@ pub fn surface_points() -> impl Strategy<Value = (Vec<Vec3>, Vec<Vec3>)> {
         }
         (ps, ns)
     })
+}
+
+/// A material with albedo `albedo` and emission `emission`; its index.
+fn material(s: &mut Scene, albedo: Vec3, emission: Vec3) -> u32 {
+    s.materials.push(Material { name: format!("m{}", s.materials.len()), base_color: albedo, base_color_texture: None, emission });
+    s.materials.len() as u32 - 1
+}
+
+/// Adds triangle `t` (any winding) with its front facing `facing`, flat-shaded.
+fn triangle(s: &mut Scene, mut t: [Vec3; 3], facing: Vec3, material: u32) {
+    if (t[1] - t[0]).cross(t[2] - t[0]).dot(facing) < 0.0 {
+        t.swap(1, 2);
+    }
+    let normal = (t[1] - t[0]).cross(t[2] - t[0]).try_normalize().unwrap_or(facing.try_normalize().unwrap_or(Vec3::Y));
+    let base = s.positions.len() as u32;
+    for p in t {
+        s.positions.push(p);
+        s.normals.push(normal);
+        s.uvs.push(Vec2::ZERO);
+    }
+    s.indices.push([base, base + 1, base + 2]);
+    s.material_ids.push(material);
+}
+
+/// Adds the parallelogram `origin + [0, 1] u + [0, 1] v` as an `n` x `n` grid of cells of two
+/// triangles over shared vertices (so shared edges and diagonals, as in the generated scenes),
+/// front facing `facing`.
+fn grid_quad(s: &mut Scene, origin: Vec3, (u, v): (Vec3, Vec3), n: u32, facing: Vec3, material: u32) {
+    let (u, v) = if u.cross(v).dot(facing) < 0.0 { (v, u) } else { (u, v) };
+    let normal = u.cross(v).try_normalize().unwrap_or(Vec3::Y);
+    let base = s.positions.len() as u32;
+    for j in 0..=n {
+        for i in 0..=n {
+            s.positions.push(origin + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
+            s.normals.push(normal);
+            s.uvs.push(Vec2::ZERO);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let at = |di: u32, dj: u32| base + (j + dj) * (n + 1) + i + di;
+            s.indices.push([at(0, 0), at(1, 0), at(1, 1)]);
+            s.indices.push([at(0, 0), at(1, 1), at(0, 1)]);
+            s.material_ids.extend([material, material]);
+        }
+    }
+}
+
+/// What lights a random scene.
+#[derive(Clone, Copy, Debug)]
+pub enum LightKind {
+    /// Emissive triangles (area lights).
+    Area,
+    Point,
+    Spot,
+}
+
+fn light_kind() -> impl Strategy<Value = LightKind> {
+    prop_oneof![Just(LightKind::Area), Just(LightKind::Point), Just(LightKind::Spot)]
+}
+
+/// A camera at `position` looking at `target`.
+fn camera(position: Vec3, target: Vec3, yfov: f32) -> Camera {
+    let forward = (target - position).try_normalize().unwrap_or(-Vec3::Z);
+    let up = (Vec3::Y - forward * forward.y).try_normalize().unwrap_or(forward.any_orthonormal_vector());
+    Camera { position, forward, up, yfov }
+}
+
+/// A punctual light of `kind` at `position`, aimed at `target` if a spot.
+fn punctual(kind: LightKind, position: Vec3, target: Vec3, rng: &mut Rng) -> PunctualLight {
+    let intensity = Vec3::new(0.5 + rng.next_f32(), 0.5 + rng.next_f32(), 0.5 + rng.next_f32()) * 3.0;
+    match kind {
+        LightKind::Spot => {
+            let cos_outer = 0.3 + 0.6 * rng.next_f32();
+            let cos_inner = cos_outer + (1.0 - cos_outer) * rng.next_f32();
+            let direction = (target - position).try_normalize().unwrap_or(-Vec3::Y);
+            PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer }
+        }
+        _ => PunctualLight::Point { position, intensity },
+    }
+}
+
+/// A triangle soup: 4 to 80 random triangles in [-1, 1]^3, each sharing an edge with the next
+/// (a strip of copied vertices), lit by 1 to 3 lights of random kinds (emissive triangles among
+/// them, point or spot lights), seen from a random direction.
+pub fn triangle_soup() -> impl Strategy<Value = Scene> {
+    (4usize..80, prop::collection::vec(light_kind(), 1..=3), any::<u64>()).prop_map(|(n, lights, seed)| {
+        let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
+        let mut s = Scene { name: format!("soup of {n}"), ..Scene::default() };
+        let mut point = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+        let corners: Vec<Vec3> = (0..n + 2).map(|_| point()).collect();
+        let mut rng = Rng::new(seed as u32, Stream::Oracle, !(seed >> 32) as u32);
+        let albedos: Vec<u32> =
+            (0..3).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.8 + 0.1).map(|a| material(&mut s, a, Vec3::ZERO)).collect();
+        let emitter = material(&mut s, Vec3::splat(0.5), Vec3::new(4.0, 3.0, 2.0));
+        let areas = lights.iter().filter(|k| matches!(k, LightKind::Area)).count();
+        for i in 0..n {
+            let t = [corners[i], corners[i + 1], corners[i + 2]];
+            let m = if i < areas { emitter } else { albedos[i % 3] };
+            let facing = (t[1] - t[0]).cross(t[2] - t[0]);
+            triangle(&mut s, t, if i % 2 == 0 { facing } else { -facing }, m);
+        }
+        for k in lights.iter().filter(|k| !matches!(k, LightKind::Area)) {
+            let at = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 - 1.5;
+            s.lights.push(punctual(*k, at, Vec3::ZERO, &mut rng));
+        }
+        let dir = direction(rng.next_f32(), rng.next_f32());
+        s.camera = camera(dir * 3.5, Vec3::ZERO, 0.6 + 0.6 * rng.next_f32());
+        s
+    })
+}
+
+/// A closed room of random size (1 to 4 units a side) whose walls are tessellated 1x1 to 4x4,
+/// with 0 to 4 boxes standing on the floor, lit by a ceiling area light, a point light or a spot
+/// light aimed down, and seen from inside, near the front wall.
+pub fn room() -> impl Strategy<Value = Scene> {
+    (1u32..=4, 0usize..=4, light_kind(), any::<u64>()).prop_map(|(n, boxes, kind, seed)| {
+        let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
+        let mut r = || rng.next_f32();
+        let size = Vec3::new(1.0 + 3.0 * r(), 1.0 + 3.0 * r(), 1.0 + 3.0 * r());
+        let mut s = Scene { name: format!("room {:.2} x {:.2} x {:.2}, {boxes} boxes", size.x, size.y, size.z), ..Scene::default() };
+        let wall = material(&mut s, Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()), Vec3::ZERO);
+        let other = material(&mut s, Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()), Vec3::ZERO);
+        let (x, y, z) = (Vec3::X * size.x, Vec3::Y * size.y, Vec3::Z * size.z);
+        // Six walls facing in: origin, two sides, and the inward direction.
+        for (o, u, v, inward) in [
+            (Vec3::ZERO, x, z, Vec3::Y),
+            (y, x, z, -Vec3::Y),
+            (Vec3::ZERO, x, y, Vec3::Z),
+            (z, x, y, -Vec3::Z),
+            (Vec3::ZERO, y, z, Vec3::X),
+            (x, y, z, -Vec3::X),
+        ] {
+            grid_quad(&mut s, o, (u, v), n, inward, if inward == Vec3::X { other } else { wall });
+        }
+        for _ in 0..boxes {
+            let half = Vec3::new(0.05 + 0.2 * r(), 0.05 + 0.3 * r(), 0.05 + 0.2 * r()) * size;
+            let c = Vec3::new(half.x + (size.x - 2.0 * half.x) * r(), half.y, half.z + (size.z - 2.0 * half.z) * r());
+            let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
+            for (o, u, v, out) in [
+                (c - hx - hz + hy, 2.0 * hx, 2.0 * hz, Vec3::Y),
+                (c - hx - hy - hz, 2.0 * hx, 2.0 * hy, -Vec3::Z),
+                (c - hx - hy + hz, 2.0 * hx, 2.0 * hy, Vec3::Z),
+                (c - hx - hy - hz, 2.0 * hy, 2.0 * hz, -Vec3::X),
+                (c + hx - hy - hz, 2.0 * hy, 2.0 * hz, Vec3::X),
+            ] {
+                grid_quad(&mut s, o, (u, v), 1, out, other);
+            }
+        }
+        let centre = size * 0.5;
+        match kind {
+            LightKind::Area => {
+                let emitter = material(&mut s, Vec3::splat(0.5), Vec3::new(8.0, 6.0, 4.0) / (size.x * size.z));
+                let (lx, lz) = (size.x * (0.1 + 0.3 * r()), size.z * (0.1 + 0.3 * r()));
+                let o = Vec3::new(centre.x - 0.5 * lx, size.y * 0.999, centre.z - 0.5 * lz);
+                grid_quad(&mut s, o, (Vec3::X * lx, Vec3::Z * lz), 1, -Vec3::Y, emitter);
+            }
+            _ => {
+                let at = Vec3::new(size.x * (0.2 + 0.6 * r()), size.y * 0.9, size.z * (0.2 + 0.6 * r()));
+                let below = Vec3::new(at.x, 0.0, at.z);
+                s.lights.push(punctual(kind, at, below, &mut rng));
+            }
+        }
+        let eye = Vec3::new(size.x * (0.3 + 0.4 * rng.next_f32()), size.y * (0.3 + 0.4 * rng.next_f32()), size.z * 0.95);
+        s.camera = camera(eye, centre - Vec3::Z * size.z * 0.2, 1.0);
+        s
+    })
+}
+
+/// A random scene: a triangle soup or a room.
+pub fn random_scene() -> impl Strategy<Value = Scene> {
+    prop_oneof![triangle_soup(), room()].prop_map(|s| {
+        s.validate().unwrap_or_else(|e| panic!("a generated scene is invalid: {e}"));
+        s
+    })
+}
+
+/// `n` points on the surfaces of `scene`, each with its triangle's normal (flipped for a fifth of
+/// them: a shadow ray may start on either side of a thin surface). A share `on_edges` lies
+/// exactly on a triangle's edge (two thirds) or vertex (one third), where triangles meet and rays
+/// graze; the rest inside a triangle.
+pub fn surface_endpoints(scene: &Scene, n: usize, seed: u64, on_edges: f32) -> Vec<vplgi_types::Endpoint> {
+    let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
+    (0..n)
+        .map(|_| {
+            let t = scene.indices[(rng.next_u32() as usize) % scene.indices.len()];
+            let [a, b, c] = t.map(|i| scene.positions[i as usize]);
+            let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let place = rng.next_f32();
+            if place < on_edges / 3.0 {
+                (u, v) = (1.0, 0.0);
+            } else if place < on_edges {
+                v = 0.0;
+            }
+            let p = a + (b - a) * u + (c - a) * v;
+            let normal = (b - a).cross(c - a).try_normalize().unwrap_or(Vec3::Y);
+            vplgi_types::Endpoint::new(p, if rng.next_f32() < 0.2 { -normal } else { normal })
+        })
+        .collect()
 }

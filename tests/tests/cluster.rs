@@ -4,143 +4,91 @@
 
 use glam::Vec3;
 use proptest::prelude::*;
-use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
+use vplgi_cpu::cluster::{bounds, cluster, ClusterParams, Grid};
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
 use vplgi_gpu::visibility::Endpoint;
-use vplgi_tests::tolerance::{Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, UPDATE_DIFFERING_CENTROIDS};
-use vplgi_types::clustering::{FixedPoint, GridGeometry};
 use vplgi_types::FuzzyMode;
+use vplgi_verify::cluster::{compare_assign, compare_update};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
     ps.iter().zip(ns).map(|(&p, &n)| Endpoint::new(p, n)).collect()
 }
 
-/// How the GPU's assignment agrees with the CPU's on the same points, centroids and grid.
-struct AssignAgreement {
-    points: usize,
-    hard_same: usize,
-    set_same: usize,
-    max_w: f32,
+fn fuzzy_mode() -> impl Strategy<Value = FuzzyMode> {
+    prop_oneof![Just(FuzzyMode::Hard), Just(FuzzyMode::Average), Just(FuzzyMode::Weighted)]
 }
 
-impl AssignAgreement {
-    /// Checks the SPEC's rows for assignment and fuzzy assignment, printing the measurements.
-    fn check(&self, case: &str) {
-        let m = self.points as f64;
-        Disagreement::at_least(case, "share of identical nearest labels", self.hard_same as f64 / m, ASSIGN_SAME_LABELS).check();
-        Disagreement::at_least(case, "share of identical F-index sets", self.set_same as f64 / m, FUZZY_SAME_SETS).check();
-        Disagreement::at_most(case, "largest weight difference", self.max_w as f64, FUZZY_WEIGHTS_ABS).check();
-    }
-}
-
-/// Assigns the points to their `f` nearest of `centroids` (weighted) on the CPU's grid, on both
-/// backends, and compares.
-fn compare_assign(
-    ctx: &vplgi_gpu::GpuContext,
-    kernel: &ClusterKernel,
-    (ps, ns): (&[Vec3], &[Vec3]),
-    centroids: (&[Vec3], &[Vec3]),
-    f: usize,
-) -> AssignAgreement {
-    let m = ps.len();
-    let k = centroids.0.len();
-    let grid = Grid::for_data(bounds(ps), ps, k).fill(centroids.0, centroids.1);
-    let (cpu_labels, cpu_w): (Vec<Vec<u32>>, Vec<Vec<f32>>) = ps
-        .iter()
-        .zip(ns)
-        .map(|(&p, &n)| {
-            let mut best = vec![(f32::INFINITY, vplgi_types::MISS); f];
-            let (count, _) = grid.search(p, n, 0.866, &mut best);
-            let mut w = vec![0.0f32; f];
-            vplgi_types::clustering::fuzzy_weights(&best[..count], FuzzyMode::Weighted, grid.cell, &mut w[..count]);
-            (best.iter().map(|b| b.1).collect(), w)
+/// Centroids for a point set: `k` of its points, each moved by up to `jitter` of the set's size
+/// and given a random normal in a quarter of the cases (centroids far from any point's normal
+/// make the search widen).
+fn centroids_of((ps, ns): (&[Vec3], &[Vec3]), k: usize, jitter: f32, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng = vplgi_types::Rng::new(seed as u32, vplgi_types::Stream::Oracle, (seed >> 32) as u32);
+    let (lo, hi) = bounds(ps);
+    let size = (hi - lo).length().max(1e-6);
+    (0..k)
+        .map(|_| {
+            let i = rng.next_u32() as usize % ps.len();
+            let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+            let n =
+                if rng.next_u32().is_multiple_of(4) { (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::Y) } else { ns[i] };
+            (ps[i] + d * jitter * size, n)
         })
-        .unzip();
-    let pts = storage(&ctx.device, "points", &endpoints(ps, ns));
-    let cents = storage(&ctx.device, "centroids", &endpoints(centroids.0, centroids.1));
-    let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
-    let ggrid = kernel.fill_grid(&ctx.device, &ctx.queue, &geometry, &cents, k as u32).unwrap();
-    let rule = AssignRule { threshold: 0.866, f: f as u32, fuzzy: FuzzyMode::Weighted };
-    let a = kernel.assign(&ctx.device, &ctx.queue, &ggrid, (&pts, m as u32), (&cents, k as u32), rule).unwrap();
-    let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &a.labels, m * f).unwrap();
-    let gw: Vec<f32> = read_back(&ctx.device, &ctx.queue, &a.weights, m * f).unwrap();
-    let mut agreement = AssignAgreement { points: m, hard_same: 0, set_same: 0, max_w: 0.0 };
-    for i in 0..m {
-        agreement.hard_same += (gl[i * f] == cpu_labels[i][0]) as usize;
-        let same_set = gl[i * f..(i + 1) * f] == cpu_labels[i][..];
-        agreement.set_same += same_set as usize;
-        if same_set {
-            for j in 0..f {
-                agreement.max_w = agreement.max_w.max((gw[i * f + j] - cpu_w[i][j]).abs());
-            }
-        }
-    }
-    agreement
+        .unzip()
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(vplgi_tests::proptest_config(12))]
 
     /// Assignment on random surface-like point sets (patches of any orientation, seen from one or
-    /// both sides, at scales from 1e-2 to 1e2), with centroids from a CPU clustering of them:
-    /// the SPEC's assignment and fuzzy-assignment rows.
+    /// both sides, at scales from 1e-2 to 1e2) to random centroids (points of the set moved by up
+    /// to 20 % of its size, some with unrelated normals), any K, F and weighting: the SPEC's
+    /// assignment and fuzzy-assignment rows, measured by `vplgi verify`'s comparison.
     #[test]
-    fn cluster_assign_matches_the_cpu_on_random_points((ps, ns) in vplgi_tests::inputs::surface_points(), k_div in 4usize..40, f in 1usize..=8) {
-        let Some(ctx) = vplgi_tests::gpu("cluster_assign_matches_the_cpu_on_random_points") else { return Ok(()) };
-        let kernel = ClusterKernel::new(&ctx.device).unwrap();
-        let k = (ps.len() / k_div).max(1) as u32;
-        let c = cluster(&ps, &ns, &ClusterParams { k, gamma: 1, iterations: 2, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 5 });
-        let agreement = compare_assign(&ctx, &kernel, (&ps, &ns), (&c.positions, &c.normals), f);
-        agreement.check(&format!("cluster assign, {} random points, {} centroids, F = {f}", ps.len(), c.k()));
+    fn cluster_assign_matches_the_cpu_on_random_points((ps, ns) in vplgi_tests::inputs::surface_points(), k_div in 2usize..60, f in 1u32..=8, fuzzy in fuzzy_mode(), jitter in 0f32..0.2, seed in any::<u64>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("cluster_assign_matches_the_cpu_on_random_points") else { return Ok(()) };
+        let k = (ps.len() / k_div).max(1);
+        let (cp, cn) = centroids_of((&ps, &ns), k, jitter, seed);
+        let f = if fuzzy == FuzzyMode::Hard { 1 } else { f };
+        let rule = AssignRule { threshold: 0.866, f, fuzzy };
+        let checks = compare_assign(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster, (&ps, &ns), (&cp, &cn), rule).expect("GPU");
+        println!("{} points, {k} centroids, F = {f} {fuzzy:?}", ps.len());
+        vplgi_tests::hold(&checks)?;
+    }
+
+    /// The centroid update on random point sets with random labels (some clusters left empty):
+    /// bit-identical centroids and member counts (SPEC).
+    #[test]
+    fn cluster_update_matches_the_cpu_on_random_labels((ps, ns) in vplgi_tests::inputs::surface_points(), k in 1usize..200, seed in any::<u64>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("cluster_update_matches_the_cpu_on_random_labels") else { return Ok(()) };
+        let (cp, cn) = centroids_of((&ps, &ns), k, 0.1, seed);
+        let mut rng = vplgi_types::Rng::new(seed as u32, vplgi_types::Stream::Oracle, 1);
+        let labels: Vec<u32> = ps.iter().map(|_| rng.next_u32() % (k as u32 * 3 / 2 + 1)).map(|l| l.min(k as u32 - 1)).collect();
+        let d = compare_update(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster, (&ps, &ns), (&cp, &cn), &labels).expect("GPU");
+        println!("{} points, {k} clusters", ps.len());
+        vplgi_tests::hold(&[d])?;
     }
 }
 
-/// Assignment given identical centroids and grid: ≥ 99.99 % identical nearest labels, ≥ 99.9 %
-/// identical F-index sets, weights within 1e-5 (SPEC); centroid update given identical labels:
-/// bit-identical (integer sums).
+/// Assignment given identical centroids and grid on the Cornell box's shading points: ≥ 99.99 %
+/// identical nearest labels, ≥ 99.9 % identical F-index sets, weights within 1e-5 (SPEC);
+/// centroid update given identical labels: bit-identical (integer sums).
 #[test]
 fn cluster_assign_and_update_match_the_cpu() {
-    let Some(ctx) = vplgi_tests::gpu("cluster_assign_and_update_match_the_cpu") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("cluster_assign_and_update_match_the_cpu") else {
         return;
     };
-    let kernel = ClusterKernel::new(&ctx.device).unwrap();
     let (ps, ns) = vplgi_tests::inputs::cornell_points(72, 64, 2);
-    let m = ps.len();
     // Centroids from a CPU clustering: realistic, and shared by both sides.
     let c = cluster(&ps, &ns, &ClusterParams { k: 300, gamma: 2, iterations: 3, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 3 });
-    let f = 6;
-    let agreement = compare_assign(&ctx, &kernel, (&ps, &ns), (&c.positions, &c.normals), f);
-    println!(
-        "cluster assign ({m} points, {} centroids, F = {f}): nearest label identical {}/{m}, F-sets identical {}/{m}, max weight difference {:.2e}",
-        c.k(),
-        agreement.hard_same,
-        agreement.set_same,
-        agreement.max_w
-    );
-    agreement.check("cluster assign");
-
-    // Update given identical labels (the CPU's hard labels).
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    let rule = AssignRule { threshold: 0.866, f: 6, fuzzy: FuzzyMode::Weighted };
+    for d in compare_assign(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), rule).unwrap() {
+        d.with_case("cornell points").check();
+    }
     let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
     let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, 0.866, None);
-    let pts = storage(&ctx.device, "points", &endpoints(&ps, &ns));
-    let cents = storage(&ctx.device, "centroids", &endpoints(&c.positions, &c.normals));
-    let (lo, hi) = bounds(&ps);
-    let fix = FixedPoint::new(lo, hi);
-    let (mut cp, mut cn) = (c.positions.clone(), c.normals.clone());
-    let cpu_counts = update(&fix, &ps, &ns, &hard, &mut cp, &mut cn);
-    let labels = storage(&ctx.device, "labels", &hard);
-    let gcounts = kernel.update(&ctx.device, &ctx.queue, &fix, (&pts, m as u32), (&labels, 1), (&cents, c.k() as u32)).unwrap();
-    let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &cents, c.k()).unwrap();
-    let gcount: Vec<u32> = read_back(&ctx.device, &ctx.queue, &gcounts, c.k()).unwrap();
-    assert_eq!(gcount, cpu_counts);
-    let mut differ = 0;
-    for k in 0..c.k() {
-        let same = gc[k].position[..3] == cp[k].to_array() && gc[k].normal[..3] == cn[k].to_array();
-        differ += !same as usize;
-    }
-    println!("cluster update: {differ} of {} centroids differ from the CPU's (bit-identical required)", c.k());
-    Disagreement::at_most("cluster update", "centroids that differ", differ as f64, UPDATE_DIFFERING_CENTROIDS as f64).check();
+    compare_update(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), &hard).unwrap().with_case("cornell points").check();
 }
 
 /// The whole clustering (Alg. 1 iterations, empty-cluster removal, Alg. 2, representatives)

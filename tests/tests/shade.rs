@@ -114,3 +114,30 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         assert!(max_rel <= 1e-4, "{name}: a pixel differs by {max_rel} relative");
     }
 }
+
+fn mode() -> impl proptest::strategy::Strategy<Value = vplgi_verify::Mode> {
+    proptest::sample::select(vplgi_verify::Mode::ALL.to_vec())
+}
+
+proptest::proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// The final image on identical inputs — the CPU's shading points, lights, clusters and
+    /// visibility — on random triangle soups and rooms with random lights, in a random mode with
+    /// random cluster counts, F and clamp: the SPEC's shading row (relMSE <= 1e-4), measured by
+    /// `vplgi verify`'s comparison.
+    #[test]
+    fn shade_matches_the_cpu_on_random_scenes(
+        scene in vplgi_tests::inputs::random_scene(),
+        mode in mode(),
+        (width, height, spp) in (4u32..32, 4u32..32, 1u32..=2),
+        (vpls, k_vpl, k_sp, f) in (1u32..600, 1u32..120, 1u32..300, 1u32..=8),
+        (g_clamp_rel, direct_samples, seed) in (0f32..0.2, 1u32..4, proptest::prelude::any::<u32>()),
+    ) {
+        let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_on_random_scenes") else { return Ok(()) };
+        let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, ..vplgi_types::FrameConfig::verify() });
+        println!("{}: {} {width}x{height}x{spp}, {vpls} VPLs, K {k_vpl}/{k_sp}, F {f}", scene.name, mode.name());
+        let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
+        vplgi_tests::hold(&checks)?;
+    }
+}

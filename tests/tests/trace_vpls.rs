@@ -88,3 +88,18 @@ fn trace_vpls_matches_the_cpu() {
         assert!((cpu.particles as i64 - g.particles as i64).abs() <= diverged as i64 * bounces as i64, "{name}: particle counts");
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// VPL tracing on random triangle soups and rooms with random lights (area, point, spot), any
+    /// VPL count, bounce count and seed: the SPEC's trace_vpls row, measured by `vplgi verify`'s
+    /// comparison.
+    #[test]
+    fn trace_vpls_matches_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), count in 1u32..1500, bounces in 1u32..=4, seed in proptest::prelude::any::<u32>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("trace_vpls_matches_the_cpu_on_random_scenes") else { return Ok(()) };
+        println!("{}", scene.name);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::trace_vpls::compare(t, &TraceParams { seed, count, bounces })).expect("GPU");
+        vplgi_tests::hold(&checks)?;
+    }
+}

@@ -20,7 +20,7 @@ fn obvhs_visible(
 ) -> bool {
     let p = cs.offset_toward(a.p(), a.n(), b.p());
     let q = cs.offset_toward(b.p(), b.n(), a.p());
-    let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, 1.0);
+    let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR);
     bvh.ray_traverse_miss(ray, |r, id| tris[bvh.primitive_indices[id] as usize].intersect(r))
 }
 
@@ -149,4 +149,42 @@ fn segments_through_shared_edges_find_no_cracks() {
     println!("{} segments aimed at shared vertices and edges: {aimed_gpu} leak on the GPU, {aimed_embree} on Embree; {} others: {other_gpu} leak on the GPU, {other_embree} on Embree", cols.len(), cols.len() * (rows.len() - 1));
     assert_eq!((aimed_embree, other_embree), (0, 0), "Embree leaks through the wall");
     assert_eq!((aimed_gpu, other_gpu), (0, 0), "the GPU leaks through shared edges");
+}
+
+proptest::proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// Shadow rays on random triangle soups and rooms between random points on their surfaces,
+    /// 5 % of them exactly on a triangle's edge or vertex (about ten times the share of camera hits
+    /// on edges in the axis-aligned Cornell box), some normals flipped, three ways: the SPEC's
+    /// visibility row, measured by `vplgi verify`'s comparison.
+    #[test]
+    fn visibility_agrees_three_ways_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), rows in 1usize..48, cols in 1usize..48, seed in proptest::prelude::any::<u64>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("visibility_agrees_three_ways_on_random_scenes") else { return Ok(()) };
+        let r = vplgi_tests::inputs::surface_endpoints(&scene, rows, seed, 0.05);
+        let c = vplgi_tests::inputs::surface_endpoints(&scene, cols, !seed, 0.05);
+        let obvhs = vplgi_verify::visibility::ObvhsScene::new(&scene);
+        println!("{}: {rows} x {cols}", scene.name);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU");
+        vplgi_tests::hold(&checks)?;
+    }
+
+    /// The same with 40 % of the endpoints on edges and vertices: segments that touch an edge or
+    /// lie in a surface's plane (two points on the line where a box meets the floor). Embree and
+    /// the GPU both use a watertight triangle test and must still meet the SPEC's row between
+    /// them; obvhs' Möller–Trumbore test decides such touches its own way, so its agreement is
+    /// measured and printed, not judged (in 1,000 cases, as low as 0.989 in one).
+    #[test]
+    fn watertight_visibility_agrees_on_grazing_rays(scene in vplgi_tests::inputs::random_scene(), rows in 1usize..48, cols in 1usize..48, seed in proptest::prelude::any::<u64>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("watertight_visibility_agrees_on_grazing_rays") else { return Ok(()) };
+        let r = vplgi_tests::inputs::surface_endpoints(&scene, rows, seed, 0.4);
+        let c = vplgi_tests::inputs::surface_endpoints(&scene, cols, !seed, 0.4);
+        let obvhs = vplgi_verify::visibility::ObvhsScene::new(&scene);
+        println!("{}: {rows} x {cols}", scene.name);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU");
+        let (watertight, others): (Vec<_>, Vec<_>) = checks.into_iter().partition(|c| c.what.ends_with("Embree / GPU"));
+        others.iter().for_each(|c| println!("(not judged) {c}"));
+        proptest::prop_assert_eq!(watertight.len(), 1);
+        vplgi_tests::hold(&watertight)?;
+    }
 }

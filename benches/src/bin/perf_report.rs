@@ -184,7 +184,7 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
         stage.push(secs(t));
         (traced, stage_visible) = (n, m.count_ones());
         let t = Instant::now();
-        raw_visible = rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, vplgi_cpu::SEGMENT_TNEAR, 1.0)).count() as u64;
+        raw_visible = rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR)).count() as u64;
         raw.push(secs(t));
     }
     assert_eq!(traced as usize, rays.len(), "the stage traced other rays");

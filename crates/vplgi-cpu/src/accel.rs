@@ -17,7 +17,7 @@ pub struct CpuScene<'a> {
     pub eps: f32,
 }
 
-pub use vplgi_types::params::SEGMENT_TNEAR;
+pub use vplgi_types::params::{SEGMENT_TFAR, SEGMENT_TNEAR};
 
 /// What a ray sees where it hits a surface.
 #[derive(Clone, Copy, Debug)]
@@ -73,7 +73,7 @@ impl<'a> CpuScene<'a> {
     pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
         let a = self.offset_toward(p, np, q);
         let b = self.offset_toward(q, nq, p);
-        !self.rt.occluded(a, b - a, SEGMENT_TNEAR, 1.0)
+        !self.rt.occluded(a, b - a, SEGMENT_TNEAR, SEGMENT_TFAR)
     }
 
     /// Visibility between a surface point and a point in free space (a punctual light). The

@@ -8,6 +8,7 @@
 use crate::CpuScene;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
+use vplgi_types::params::FACING_COS;
 
 pub use vplgi_types::Endpoint;
 
@@ -61,7 +62,8 @@ impl BitMatrix {
 #[inline]
 pub fn facing(a: &Endpoint, b: &Endpoint) -> bool {
     let d = b.p() - a.p();
-    a.n().dot(d) > 0.0 && b.n().dot(d) < 0.0
+    let bound = FACING_COS * d.length();
+    a.n().dot(d) > bound && b.n().dot(d) < -bound
 }
 
 /// Fills the visibility matrix; returns it with the number of shadow rays traced.

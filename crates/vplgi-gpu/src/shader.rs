@@ -169,6 +169,8 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
         ("MAX_SURVIVAL", vplgi_types::params::MAX_SURVIVAL),
         ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
+        ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
+        ("FACING_COS", vplgi_types::params::FACING_COS),
     ];
     (u, f)
 }

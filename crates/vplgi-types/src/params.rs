@@ -44,3 +44,19 @@ pub const MAX_SURVIVAL: f32 = 0.95;
 /// Möller–Trumbore yes). Starting a hair later (1e-5 of the segment, well inside the eps offset)
 /// makes every backend ignore it.
 pub const SEGMENT_TNEAR: f32 = 1e-5;
+
+/// Shadow segments between two surface points end at this fraction of their length, not at 1:
+/// the same corner case at the other end. A point on the edge where a box stands on the floor,
+/// pushed off the box's side, stays in the floor's plane, and the segment touches the floor at
+/// t = 1 (Embree counted that touch as a blocker, obvhs and the WGSL test did not: found by the
+/// visibility property test, with endpoints on edges of random rooms).
+pub const SEGMENT_TFAR: f32 = 1.0 - SEGMENT_TNEAR;
+
+/// Two surface points face each other when each one's normal makes a cosine above this with the
+/// direction to the other. Points on one plane (a shading point and a VPL on the same tilted
+/// wall) have cosines of 0 give or take rounding, so with a bound of 0 the sign of the rounding
+/// decided whether a shadow ray was traced, and where it ran (grazing the plane, pushed to either
+/// side) the answer differed between ray tracers (found by the visibility property test on random
+/// triangle soups). Their transport is cos x cos = 1e-8 of a head-on pair's at most: 0 changes
+/// no image, and every backend agrees.
+pub const FACING_COS: f32 = 1e-4;

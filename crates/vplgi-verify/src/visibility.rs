@@ -34,7 +34,7 @@ impl ObvhsScene {
         }
         let p = cs.offset_toward(a.p(), a.n(), b.p());
         let q = cs.offset_toward(b.p(), b.n(), a.p());
-        let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, 1.0);
+        let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR);
         self.bvh.ray_traverse_miss(ray, |r, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(r))
     }
 }
