@@ -80,7 +80,9 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
                 let cos_outer = l.intensity.w;
                 dir = uniform_cone(l.direction.xyz, cos_outer, u3, u4);
                 let inv_pdf = 2.0 * PI * (1.0 - cos_outer);
-                power = l.intensity.xyz * (punctual_falloff(l, dir) * inv_pdf / pmf);
+                // The falloff of the sampled cosine, not of the direction built from it: a narrow
+                // ramp between the cones multiplies the direction's rounding by up to 1,000.
+                power = l.intensity.xyz * (punctual_falloff_cos(l, uniform_cone_cos(cos_outer, u3)) * inv_pdf / pmf);
             }
         }
         origin = origin + surface_normal * params.eps;

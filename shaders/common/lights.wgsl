@@ -10,12 +10,17 @@ fn uniform_triangle(u1: f32, u2: f32) -> vec2<f32> {
 
 // PunctualLight::falloff
 fn punctual_falloff(l: Punctual, dir_from_light: vec3<f32>) -> f32 {
+    return punctual_falloff_cos(l, dot(l.direction.xyz, dir_from_light));
+}
+
+// PunctualLight::falloff_cos
+fn punctual_falloff_cos(l: Punctual, cos_axis: f32) -> f32 {
     if (l.position.w == 0.0) {
         return 1.0;
     }
     let cos_inner = l.direction.w;
     let cos_outer = l.intensity.w;
     let scale = 1.0 / max(cos_inner - cos_outer, 1e-3);
-    let t = clamp((dot(l.direction.xyz, dir_from_light) - cos_outer) * scale, 0.0, 1.0);
+    let t = clamp((cos_axis - cos_outer) * scale, 0.0, 1.0);
     return t * t;
 }

@@ -26,8 +26,13 @@ fn uniform_sphere(u1: f32, u2: f32) -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
+// sampling::uniform_cone_cos
+fn uniform_cone_cos(cos_max: f32, u1: f32) -> f32 {
+    return 1.0 - u1 * (1.0 - cos_max);
+}
+
 fn uniform_cone(axis: vec3<f32>, cos_max: f32, u1: f32, u2: f32) -> vec3<f32> {
-    let cos_t = 1.0 - u1 * (1.0 - cos_max);
+    let cos_t = uniform_cone_cos(cos_max, u1);
     let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
     let phi = 2.0 * PI * u2;
     let tb = orthonormal_basis(axis);

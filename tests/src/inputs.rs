@@ -132,7 +132,7 @@ fn punctual(kind: LightKind, position: Vec3, target: Vec3, rng: &mut Rng) -> Pun
 
 /// A triangle soup: 4 to 80 random triangles in [-1, 1]^3, each sharing an edge with the next
 /// (a strip of copied vertices), lit by 1 to 3 lights of random kinds (emissive triangles among
-/// them, point or spot lights), seen from a random direction.
+/// them, or point and spot lights outside the cube), seen from a random direction.
 pub fn triangle_soup() -> impl Strategy<Value = Scene> {
     (4usize..80, prop::collection::vec(light_kind(), 1..=3), any::<u64>()).prop_map(|(n, lights, seed)| {
         let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
@@ -150,8 +150,12 @@ pub fn triangle_soup() -> impl Strategy<Value = Scene> {
             let facing = (t[1] - t[0]).cross(t[2] - t[0]);
             triangle(&mut s, t, if i % 2 == 0 { facing } else { -facing }, m);
         }
+        // Punctual lights outside the soup's cube, aimed at its centre. Inside it, a light a few
+        // hundredths from two folded triangles sees their crease nearly edge-on, and rays that
+        // graze it (hit on one backend, missed on the other by rounding: both legitimately) were
+        // 0.1 % of the paths on their own.
         for k in lights.iter().filter(|k| !matches!(k, LightKind::Area)) {
-            let at = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 3.0 - 1.5;
+            let at = direction(rng.next_f32(), rng.next_f32()) * (1.8 + rng.next_f32());
             s.lights.push(punctual(*k, at, Vec3::ZERO, &mut rng));
         }
         let dir = direction(rng.next_f32(), rng.next_f32());

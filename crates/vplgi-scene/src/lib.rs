@@ -125,9 +125,17 @@ impl PunctualLight {
     pub fn falloff(&self, dir_from_light: Vec3) -> f32 {
         match *self {
             PunctualLight::Point { .. } => 1.0,
-            PunctualLight::Spot { direction, cos_inner, cos_outer, .. } => {
+            PunctualLight::Spot { direction, .. } => self.falloff_cos(direction.dot(dir_from_light)),
+        }
+    }
+
+    /// [`falloff`](Self::falloff) of a direction whose cosine to the spot's axis is `cos_axis`.
+    pub fn falloff_cos(&self, cos_axis: f32) -> f32 {
+        match *self {
+            PunctualLight::Point { .. } => 1.0,
+            PunctualLight::Spot { cos_inner, cos_outer, .. } => {
                 let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
-                let t = ((direction.dot(dir_from_light) - cos_outer) * scale).clamp(0.0, 1.0);
+                let t = ((cos_axis - cos_outer) * scale).clamp(0.0, 1.0);
                 t * t
             }
         }

@@ -37,11 +37,17 @@ pub fn uniform_sphere(u1: f32, u2: f32) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// The cosine to the axis of [`uniform_cone`]'s direction for the same `u1`.
+#[inline]
+pub fn uniform_cone_cos(cos_max: f32, u1: f32) -> f32 {
+    1.0 - u1 * (1.0 - cos_max)
+}
+
 /// Uniform direction inside the cone of half-angle acos(`cos_max`) around the unit axis;
 /// pdf = 1 / (2 pi (1 - cos_max)).
 #[inline]
 pub fn uniform_cone(axis: Vec3, cos_max: f32, u1: f32, u2: f32) -> Vec3 {
-    let cos_t = 1.0 - u1 * (1.0 - cos_max);
+    let cos_t = uniform_cone_cos(cos_max, u1);
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let phi = 2.0 * PI * u2;
     let (t, b) = orthonormal_basis(axis);
