@@ -8,7 +8,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test bench perf-report references results clean
+.PHONY: all setup build demo test verify-long bench perf-report references results clean
 
 all: build
 
@@ -55,6 +55,18 @@ test: setup
 	$(TEST) --lib --bins $(addprefix --test ,$(CPU_TESTS)) -- --skip shader:: --skip layouts
 	$(TEST) $(addprefix --test ,$(GPU_TESTS))
 	$(TEST_ENV) VPLGI_BENCH_SMOKE=1 $(CARGO) test --release --workspace --benches
+
+# Every stage's property test (random scenes, point sets and rays against the SPEC's tolerance
+# table, through vplgi-verify's comparisons) at 10,000 cases each instead of make test's few.
+# Override with VPLGI_PROPTEST_CASES=N. Shrunk failures are written next to the test file
+# (tests/tests/<stage>.proptest-regressions): commit them, every later run replays them first.
+PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster
+verify-long: setup
+	@for t in $(PROPERTY_TESTS); do \
+	  start=$$(date +%s); \
+	  $(TEST_ENV) VPLGI_PROPTEST_CASES=$${VPLGI_PROPTEST_CASES:-10000} $(CARGO) test -q --release --workspace --test $$t -- --test-threads 1 rng_streams random grazing || exit 1; \
+	  echo "verify-long: $$t passed in $$(( $$(date +%s) - start )) s"; \
+	done
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores
 # with lavapipe). One stage: make bench BENCH=visibility
