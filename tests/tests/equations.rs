@@ -1,0 +1,172 @@
+//! The paper's equations, each computed independently on a small hand-checked case and compared
+//! with both backends. The differential tests prove the twins agree; these prove they agree with
+//! the paper: a mistake made in both (say Eq. 10 with an inverse squared distance in
+//! `vplgi-types` and in `cluster_assign.wgsl`) fails here.
+
+use glam::Vec3;
+use std::f32::consts::PI;
+use vplgi_cpu::cluster::{bounds, Grid};
+use vplgi_cpu::shade::{indirect, LightArrays, VisibilitySource};
+use vplgi_cpu::visibility::BitMatrix;
+use vplgi_gpu::buffers::{read_back, storage};
+use vplgi_gpu::cluster::AssignRule;
+use vplgi_gpu::shade::{ShadeInputs, Visibility};
+use vplgi_gpu::visibility::words_per_row;
+use vplgi_types::clustering::GridGeometry;
+use vplgi_types::{Endpoint, FuzzyMode, ShadeParams, ShadingPoint, VplLight};
+
+/// A point at the origin facing up, and five centroids on the +x axis: at distances 1, 2 and 4
+/// facing up, one at 0.5 whose normal is 60° from the point's (cos 0.5, below n_t = cos 30°),
+/// and one at 8 facing up.
+fn hand_checked_assignment() -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
+    let tilted = Vec3::new(60f32.to_radians().sin(), 60f32.to_radians().cos(), 0.0);
+    let centroids = vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0), Vec3::new(8.0, 0.0, 0.0)];
+    let normals = vec![Vec3::Y, Vec3::Y, Vec3::Y, tilted, Vec3::Y];
+    (vec![Vec3::ZERO], vec![Vec3::Y], centroids, normals)
+}
+
+/// Both backends' labels and weights for the point of [`hand_checked_assignment`] with F = 3.
+fn assign_both(fuzzy: FuzzyMode) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
+    let gpu = vplgi_tests::shared_gpu("equations: assignment")?;
+    let (ps, ns, cs, cn) = hand_checked_assignment();
+    let rule = AssignRule { threshold: 0.866_025_4, f: 3, fuzzy };
+    // The grid is laid over the points and the centroids, so every centroid has a cell.
+    let all: Vec<Vec3> = ps.iter().chain(&cs).copied().collect();
+    let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
+    let cpu = vplgi_verify::cluster::cpu_assign(&grid, (&ps, &ns), rule);
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    let ends = |p: &[Vec3], n: &[Vec3]| -> Vec<Endpoint> { p.iter().zip(n).map(|(&p, &n)| Endpoint::new(p, n)).collect() };
+    let (pts, cents) = (storage(device, "points", &ends(&ps, &ns)), storage(device, "centroids", &ends(&cs, &cn)));
+    let g = kernel.fill_grid(device, queue, &GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims }, &cents, cs.len() as u32).expect("grid");
+    let a = kernel.assign(device, queue, &g, (&pts, 1), (&cents, cs.len() as u32), rule).expect("assign");
+    let gpu_result = (read_back(device, queue, &a.labels, 3).expect("labels"), read_back(device, queue, &a.weights, 3).expect("weights"));
+    Some([cpu, gpu_result])
+}
+
+/// Eq. 7 and Eq. 10: the F = 3 nearest compatible centroids are those at 1, 2 and 4 (the one at
+/// 0.5 is nearer but its normal is beyond n_t), and their weights are the normalised inverse
+/// distances (1, 1/2, 1/4) / (7/4) = (4/7, 2/7, 1/7). An inverse squared distance would give
+/// (16/21, 4/21, 1/21).
+#[test]
+fn eq_7_and_eq_10_on_a_hand_checked_point() {
+    let Some(both) = assign_both(FuzzyMode::Weighted) else { return };
+    for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
+        println!("{name}: labels {labels:?}, weights {weights:?}");
+        assert_eq!(labels, [0, 1, 2], "{name}: Eq. 7 picks the three compatible centroids, nearest first");
+        for (w, expected) in weights.iter().zip([4.0 / 7.0, 2.0 / 7.0, 1.0 / 7.0f32]) {
+            assert!((w - expected).abs() <= 1e-6, "{name}: Eq. 10 weights {weights:?}, expected (4/7, 2/7, 1/7)");
+        }
+    }
+}
+
+/// Eq. 8: the plain mean, 1/F for each of the F clusters.
+#[test]
+fn eq_8_on_a_hand_checked_point() {
+    let Some(both) = assign_both(FuzzyMode::Average) else { return };
+    for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
+        println!("{name}: labels {labels:?}, weights {weights:?}");
+        assert_eq!(labels, [0, 1, 2], "{name}");
+        assert!(weights.iter().all(|w| (w - 1.0 / 3.0).abs() <= 1e-6), "{name}: Eq. 8 weights {weights:?}, expected 1/3 each");
+    }
+}
+
+/// Eq. 6 with Eq. 9 on one shading point, both backends: one VPL of flux Φ at height h above a
+/// plane, facing down; the point at horizontal distance r sees it with G = cos θ_p cos θ_v / d²
+/// = h² / d⁴, clamped at g_max (the geometry-term clamp), and reflects Φ/π · ρ/π · G · Ṽ, where
+/// Ṽ = Σ w_f V(p_f, p_c) over the point's three shading-point clusters (Eq. 9): with weights
+/// (0.5, 0.3, 0.2) and only the second cluster blocked, Ṽ = 0.7.
+#[test]
+fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
+    let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points") else { return };
+    let (h, rho) = (0.8f32, 0.5f32);
+    let flux = Vec3::new(2.0, 1.0, 0.5);
+    let light = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
+    let rs = [0.0f32, 0.3, 1.0, 2.5];
+    let sps: Vec<ShadingPoint> = rs
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| ShadingPoint { position: [r, 0.0, 0.0], normal: [0.0, 1.0, 0.0], albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .collect();
+    // Three shading-point clusters; the light is visible from the first and third.
+    let mut matrix = BitMatrix::new(3, 1);
+    matrix.set(0, 0, true);
+    matrix.set(2, 0, true);
+    let labels: Vec<u32> = rs.iter().flat_map(|_| [0u32, 1, 2]).collect();
+    let weights: Vec<f32> = rs.iter().flat_map(|_| [0.5f32, 0.3, 0.2]).collect();
+    let row_of: Vec<u32> = (0..rs.len() as u32).collect();
+    // No light in the scene: the pixels hold indirect light only.
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, rho, 1.0);
+    scene.lights.clear();
+    for g_max in [f32::INFINITY, 1.0 / (4.0 * h * h)] {
+        let expected: Vec<Vec3> = rs
+            .iter()
+            .map(|r| {
+                let d2 = h * h + r * r;
+                flux * (rho / PI) * ((h * h / d2) / d2).min(g_max) * 0.7 / PI
+            })
+            .collect();
+        let lights = LightArrays::new(&[light]);
+        let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: 3 };
+        let cpu: Vec<Vec3> = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
+        let gpu_pixels = vplgi_tests::with_twins(gpu, &scene, |t| {
+            let (device, queue) = (t.device(), t.queue());
+            let (sb, rb) = (storage(device, "sps", &sps), storage(device, "row_of", &row_of));
+            let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+            let (lb, wb, lights) = (storage(device, "labels", &labels), storage(device, "weights", &weights), storage(device, "lights", &[light]));
+            let inputs = ShadeInputs {
+                sps: &sb,
+                sp_first: 0,
+                row_of: &rb,
+                words: &words,
+                words_per_row: words_per_row(1) as u32,
+                vpl_lights: &lights,
+                light_count: 1,
+                visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 3, window: vplgi_gpu::buffers::Window { first: 0, count: rs.len() as u64 } },
+            };
+            let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max };
+            let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..rs.len() as u32, &params).expect("shade");
+            read_back::<[f32; 4]>(device, queue, &out, rs.len()).expect("read back")
+        });
+        for (i, e) in expected.iter().enumerate() {
+            let g = Vec3::new(gpu_pixels[i][0], gpu_pixels[i][1], gpu_pixels[i][2]);
+            println!("g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", rs[i], cpu[i]);
+            assert!((cpu[i] - *e).abs().max_element() <= 1e-6 * e.max_element(), "CPU: r = {}: {} vs {e}", rs[i], cpu[i]);
+            assert!((g - *e).abs().max_element() <= 1e-6 * e.max_element(), "GPU: r = {}: {g} vs {e}", rs[i]);
+        }
+    }
+}
+
+/// Alg. 1's update: a centroid is the mean of its members' positions (and its normal their
+/// normalised mean). Two separated blobs of 50 points, K = 2: after the iterations each centroid
+/// is its blob's mean, computed here in f64, on both backends (whose sums are fixed-point: within
+/// 1e-6 of the data's extent).
+#[test]
+fn alg_1_centroids_are_the_means_of_their_members() {
+    let Some(gpu) = vplgi_tests::shared_gpu("alg_1_centroids_are_the_means_of_their_members") else { return };
+    let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Oracle, 0);
+    let mut ps = Vec::new();
+    for centre in [Vec3::new(-5.0, 0.0, 0.0), Vec3::new(5.0, 1.0, 0.0)] {
+        for _ in 0..50 {
+            ps.push(centre + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5);
+        }
+    }
+    let ns = vec![Vec3::Y; ps.len()];
+    let mean = |half: &[Vec3]| half.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3()) / half.len() as f64;
+    let expected = [mean(&ps[..50]), mean(&ps[50..])];
+    let params = vplgi_types::clustering::ClusterParams { k: 2, gamma: 1, iterations: 4, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 1 };
+    let cpu = vplgi_cpu::cluster::cluster(&ps, &ns, &params);
+    let (device, queue) = (&gpu.ctx.device, &gpu.ctx.queue);
+    let pts = storage(device, "points", &ps.iter().zip(&ns).map(|(&p, &n)| Endpoint::new(p, n)).collect::<Vec<_>>());
+    let g = gpu.kernels.cluster.cluster(device, queue, &pts, ps.len() as u32, &params).expect("cluster");
+    let gc: Vec<Endpoint> = read_back(device, queue, &g.centroids, g.k as usize).expect("centroids");
+    let gpu_centroids: Vec<Vec3> = gc.iter().map(Endpoint::p).collect();
+    let extent = 11.0;
+    for (name, mut got) in [("CPU", cpu.positions.clone()), ("GPU", gpu_centroids)] {
+        got.sort_by(|a, b| a.x.total_cmp(&b.x));
+        println!("{name}: centroids {got:?}, expected {expected:?}");
+        assert_eq!(got.len(), 2, "{name}");
+        for (c, e) in got.iter().zip(&expected) {
+            assert!((c.as_dvec3() - *e).abs().max_element() <= 1e-6 * extent, "{name}: centroid {c} is not its members' mean {e}");
+        }
+    }
+}
