@@ -83,9 +83,12 @@ perf-report: build
 
 # The small references the regression tests compare against (tests/tests/regression.rs), made
 # with the CPU reference: 128x128, 1,000 VPLs, 16 seeds, for the built-in Cornell box and the
-# two generated rooms (20,000 triangles). Say why they change: make references WHY="..."
+# two generated rooms (20,000 triangles), unclustered and in the default clustered mode (both
+# point sets clustered, F = 6 weighted, at 250 VPL / 1,500 shading-point clusters for this
+# size). Say why they change: make references WHY="..."
 REF_DIR := fixtures/references
 REF_ARGS := --width 128 --height 128 --vpls 1000 --seeds 16
+CLUSTERED := --cluster both --k-vpl 250 --k-sp 1500
 references: build
 	@test -n "$(WHY)" || { echo 'say why the references change: make references WHY="..."'; exit 1; }
 	mkdir -p target/fixture-scenes
@@ -94,6 +97,9 @@ references: build
 	$(VPLGI) reference $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/cornell-box
 	$(VPLGI) reference target/fixture-scenes/conference.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/conference
 	$(VPLGI) reference target/fixture-scenes/living-room.glb $(REF_ARGS) --why "$(WHY)" --out $(REF_DIR)/living-room
+	$(VPLGI) reference $(REF_ARGS) $(CLUSTERED) --why "$(WHY)" --out $(REF_DIR)/cornell-box-clustered
+	$(VPLGI) reference target/fixture-scenes/conference.glb $(REF_ARGS) $(CLUSTERED) --why "$(WHY)" --out $(REF_DIR)/conference-clustered
+	$(VPLGI) reference target/fixture-scenes/living-room.glb $(REF_ARGS) $(CLUSTERED) --why "$(WHY)" --out $(REF_DIR)/living-room-clustered
 	rm -f $(REF_DIR)/*/mean.png
 
 # The paper's table on the three generated scenes at the paper's resolutions and VPL counts:

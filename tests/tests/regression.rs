@@ -1,5 +1,5 @@
 //! Regression tests against the committed references in `fixtures/references/` (made by
-//! `make references WHY="..."`). A fresh render with a seed the reference did not use must agree
+//! `make references WHY="..."`), unclustered and in the default clustered mode. A fresh render with a seed the reference did not use must agree
 //! with the reference's mean, within the reference's own per-pixel variance
 //! (`vplgi_image::regression`), in three ways:
 //!
@@ -22,8 +22,10 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
 }
 
-/// The fixture scenes, built exactly as `make references` built them.
+/// The fixture scenes, built exactly as `make references` built them (`<scene>-clustered` is the
+/// same scene's reference of the default clustered mode).
 fn scene(name: &str) -> vplgi_scene::Scene {
+    let name = name.strip_suffix("-clustered").unwrap_or(name);
     if name == "cornell-box" {
         return vplgi_scene::cornell::cornell_box();
     }
@@ -114,4 +116,22 @@ fn conference_matches_its_reference() {
 #[test]
 fn living_room_matches_its_reference() {
     check("living-room");
+}
+
+/// Clustered frames (both point sets, F = 6 weighted) against the mean and variance of 16 seeds
+/// of the same configuration: the same three tests. A fresh seed changes the clustering as well
+/// as the samples, and the reference's variance holds both.
+#[test]
+fn clustered_cornell_box_matches_its_reference() {
+    check("cornell-box-clustered");
+}
+
+#[test]
+fn clustered_conference_matches_its_reference() {
+    check("conference-clustered");
+}
+
+#[test]
+fn clustered_living_room_matches_its_reference() {
+    check("living-room-clustered");
 }

@@ -101,8 +101,8 @@ pub const RENDER: Use = Use { command: "render", preset: Preset::Default, fixed:
 pub const REFERENCE: Use = Use {
     command: "reference",
     preset: Preset::Reference,
-    fixed: &["preset", "cluster", "fuzzy", "f", "k_sp", "k_vpl", "gamma", "iterations", "normal_threshold"],
-    why: "references are unclustered (--cluster none)",
+    fixed: &["preset"],
+    why: "a reference starts from the unclustered reference preset (--cluster and the cluster counts make it the mean of a clustered configuration)",
 };
 pub const SWEEP: Use = Use {
     command: "sweep",
@@ -216,8 +216,8 @@ mod tests {
 
     #[test]
     fn fixed_and_invalid_options_are_refused_by_name() {
-        let e = FrameArgs { k_sp: Some(5), ..Default::default() }.config(&REFERENCE).unwrap_err().to_string();
-        assert!(e.contains("--k-sp") && e.contains("unclustered"), "{e}");
+        let e = FrameArgs { k_sp: Some(5), ..Default::default() }.config(&SWEEP).unwrap_err().to_string();
+        assert!(e.contains("--k-sp") && e.contains("the sweep sets them"), "{e}");
         let e = FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&SWEEP).unwrap_err().to_string();
         assert!(e.contains("--preset"), "{e}");
         let e = FrameArgs { spp: Some(0), ..Default::default() }.config(&RENDER).unwrap_err().to_string();

@@ -1,6 +1,8 @@
 //! `vplgi reference` and `vplgi merge`: unclustered reference images as the mean and per-pixel
 //! variance of several independent renders (seeds), with a JSON sidecar, optionally cut into
-//! row tiles that `merge` joins bit-identically to the single run.
+//! row tiles that `merge` joins bit-identically to the single run. With `--cluster`, the same
+//! statistics of a clustered configuration: the baseline that regression tests hold clustered
+//! frames to (not cut into tiles: a clustering depends on the whole image).
 
 use crate::frame_args::{FrameArgs, REFERENCE};
 use crate::shared::{load_scene, write_json};
@@ -71,6 +73,9 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         None => (1, 1),
     };
     let base = args.frame.config(&REFERENCE)?;
+    if count > 1 && base.cluster != vplgi_types::ClusterMode::None {
+        bail!("--tile {index}/{count}: only unclustered references (--cluster none) can be cut into tiles; a clustering depends on the whole image");
+    }
     if count > base.height {
         bail!("--tile {index}/{count}: more tiles than the {} rows", base.height);
     }

@@ -420,3 +420,37 @@ fn reference_tiles_merge_into_the_single_run() {
     let o = vplgi(&["reference", "--seeds", "1", "--out", &p("one")]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("at least 2 seeds"));
 }
+
+/// `vplgi reference --cluster both` is the mean of a clustered configuration (a regression
+/// baseline); it cannot be cut into tiles, and says so before any work.
+#[test]
+fn clustered_references_are_whole_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("clustered");
+    let o = vplgi(&["reference", "--cluster", "both", "--tile", "1/2", "--width", "16", "--height", "16", "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("only unclustered references"), "{err}");
+    assert!(!out.exists(), "a refused reference created its folder");
+    let o = vplgi(&[
+        "reference",
+        "--cluster",
+        "both",
+        "--k-sp",
+        "60",
+        "--k-vpl",
+        "30",
+        "--vpls",
+        "200",
+        "--seeds",
+        "2",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sidecar: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("reference.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["params"]["cluster"], "both");
+}
