@@ -7,6 +7,23 @@ use gltf::accessor::{DataType, Dimensions};
 /// (sparse only) would otherwise let a tiny file request gigabytes of zeros.
 pub(super) const MAX_ACCESSOR_COUNT: usize = 1 << 28;
 
+/// Every primitive's `POSITION` names an existing accessor. The `gltf` crate's own validation
+/// indexes the accessors with it before checking it (and panics on, say, 2^31), so this runs on
+/// the raw JSON before that validation.
+pub(super) fn check_position_accessors(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.get(&Checked::Valid(gltf::json::mesh::Semantic::Positions)) {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!("mesh {m}, primitive {p}: POSITION names accessor {} but the file has {}", index.value(), root.accessors.len()));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Every buffer view must lie inside its buffer: the `gltf` crate slices without checking.
 pub(super) fn check_views(document: &gltf::Document, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
     for view in document.views() {

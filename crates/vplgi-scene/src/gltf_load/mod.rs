@@ -22,7 +22,7 @@ mod tests;
 mod texture;
 
 use crate::{Scene, SceneError};
-use checks::{check_uri, check_views, short_uri};
+use checks::{check_position_accessors, check_uri, check_views, short_uri};
 use loader::Loader;
 use std::path::Path;
 
@@ -36,7 +36,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     // The checks below cover every malformed input known to upset the `gltf` crate; this is
     // the last line of defence for what they miss, so that a bad file still cannot take the
     // whole renderer down.
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, &bytes)));
+    let result = quietly(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, &bytes))));
     let scene = match result {
         Ok(scene) => scene?,
         Err(payload) => {
@@ -46,6 +46,30 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     };
     scene.validate().map_err(|message| invalid(path, format!("inconsistent scene: {message}")))?;
     Ok(scene)
+}
+
+thread_local! {
+    /// Whether a panic on this thread is caught and reported as an error (see [`quietly`]).
+    static CAUGHT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with the panic message of this thread silenced: `load` turns a panic inside the
+/// `gltf` crate into an error naming the file, and the user must see that one line, not the
+/// panic's message and backtrace too. Panics on other threads, or outside `f`, still print.
+fn quietly<T>(f: impl FnOnce() -> T) -> T {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !CAUGHT.with(|c| c.get()) {
+                previous(info);
+            }
+        }));
+    });
+    let before = CAUGHT.with(|c| c.replace(true));
+    let out = f();
+    CAUGHT.with(|c| c.set(before));
+    out
 }
 
 fn invalid(path: &Path, message: impl Into<String>) -> SceneError {
@@ -68,7 +92,9 @@ fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
             format!("the file requires the glTF extension(s) {} (supported: {})", unknown.join(", "), SUPPORTED_REQUIRED_EXTENSIONS.join(", ")),
         ));
     }
-    let document = gltf::Document::from_json(document.into_json()).map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
+    let root = document.into_json();
+    check_position_accessors(&root).map_err(|m| invalid(path, format!("not a valid glTF 2.0 document: {m}")))?;
+    let document = gltf::Document::from_json(root).map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
 
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, &document, base, blob)?;

@@ -553,6 +553,7 @@ fn broken_files_are_errors_naming_the_file() {
         (points.write_embedded(d, "points"), "no triangles"),
         (edited(d, "badbuffer", |j| j["bufferViews"][0]["buffer"] = json!(7)), "not a valid glTF 2.0"),
         (edited(d, "badaccessor", |j| j["meshes"][0]["primitives"][0]["indices"] = json!(99)), "not a valid glTF 2.0"),
+        (edited(d, "hugeposition", |j| j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(1u64 << 31)), "POSITION names accessor 2147483648"),
         (edited(d, "viewpastend", |j| j["bufferViews"][1]["byteLength"] = json!(4096)), "lies outside buffer 0"),
         (edited(d, "accessorpastend", |j| j["accessors"][0]["count"] = json!(400)), "run past the end"),
         (edited(d, "zerocount", |j| j["accessors"][2]["count"] = json!(0)), "invalid element count"),
