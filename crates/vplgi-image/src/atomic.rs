@@ -1,4 +1,8 @@
 //! Atomic file replacement: write a temporary sibling, fsync it, rename it over the target.
+//!
+//! On Linux the temporary file has no name while it is written (`O_TMPFILE`): a process killed
+//! outright (SIGKILL, the OOM killer) leaves nothing in the directory. It is linked under a
+//! temporary name only once complete, and renamed over the target at once.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter};
@@ -11,9 +15,10 @@ use crate::ImageError;
 /// would make two threads writing the same target share, and corrupt, one temporary file).
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
-/// Writes `path` atomically: `write` fills a temporary file `.<name>.tmp-<pid>-<n>` in the same
-/// directory (same directory = same filesystem, so the final rename is atomic), which is then
-/// flushed, fsynced and renamed over `path`.
+/// Writes `path` atomically: `write` fills a temporary file in the same directory (same
+/// directory = same filesystem, so the final rename is atomic): unnamed where the filesystem
+/// supports it, else `.<name>.tmp-<pid>-<n>`. It is then flushed, fsynced, given the temporary
+/// name if it had none, and renamed over `path`.
 ///
 /// If `write` (or any later step) fails, or panics, the temporary file is removed and `path` is
 /// left untouched: it keeps its old content, or stays absent if it did not exist.
@@ -29,15 +34,25 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     let mut temp_name = std::ffi::OsString::from(".");
     temp_name.push(file_name);
     temp_name.push(format!(".tmp-{}-{}", std::process::id(), TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
-    let mut guard = TempGuard { path: dir.join(temp_name), renamed: false };
+    let mut guard = TempGuard { path: dir.join(temp_name), named: false, renamed: false };
 
-    // Truncate rather than create_new: a leftover with exactly this name can only come from a
-    // dead process that had our pid, and it is ours to overwrite.
-    let file = OpenOptions::new().write(true).create(true).truncate(true).open(&guard.path).map_err(wrap)?;
+    let (file, unnamed) = match open_unnamed(dir) {
+        Some(file) => (file, true),
+        // Truncate rather than create_new: a leftover with exactly this name can only come
+        // from a dead process that had our pid, and it is ours to overwrite.
+        None => {
+            guard.named = true;
+            (OpenOptions::new().write(true).create(true).truncate(true).open(&guard.path).map_err(wrap)?, false)
+        }
+    };
     let mut writer = BufWriter::new(file);
     write(&mut writer).map_err(wrap)?;
     let file = writer.into_inner().map_err(|e| wrap(e.into_error()))?;
     file.sync_all().map_err(wrap)?;
+    if unnamed {
+        link_unnamed(&file, &guard.path).map_err(wrap)?;
+        guard.named = true;
+    }
     drop(file);
     fs::rename(&guard.path, path).map_err(wrap)?;
     // The rename consumed the temporary file: removing its old name now could only hit an
@@ -52,16 +67,54 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     Ok(())
 }
 
+/// A file without a name in `dir`, or `None` where the platform or filesystem has no
+/// `O_TMPFILE` (the caller then uses a named temporary file).
+#[cfg(target_os = "linux")]
+fn open_unnamed(dir: &Path) -> Option<File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    OpenOptions::new().write(true).custom_flags(libc::O_TMPFILE).mode(0o666).open(dir).ok()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn open_unnamed(_dir: &Path) -> Option<File> {
+    None
+}
+
+/// Gives the unnamed `file` the name `to` (linkat through /proc/self/fd, as open(2) documents
+/// for O_TMPFILE).
+#[cfg(target_os = "linux")]
+fn link_unnamed(file: &File, to: &Path) -> io::Result<()> {
+    use std::os::unix::ffi::OsStrExt;
+    use std::os::unix::io::AsRawFd;
+    let invalid = |_| io::Error::new(io::ErrorKind::InvalidInput, "a path with a NUL byte");
+    let from = std::ffi::CString::new(format!("/proc/self/fd/{}", file.as_raw_fd())).map_err(invalid)?;
+    let to = std::ffi::CString::new(to.as_os_str().as_bytes()).map_err(invalid)?;
+    // SAFETY: both arguments are NUL-terminated strings that outlive the call.
+    let r = unsafe { libc::linkat(libc::AT_FDCWD, from.as_ptr(), libc::AT_FDCWD, to.as_ptr(), libc::AT_SYMLINK_FOLLOW) };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(io::Error::last_os_error())
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn link_unnamed(_file: &File, _to: &Path) -> io::Result<()> {
+    unreachable!("no unnamed files off Linux")
+}
+
 /// Removes the temporary file when dropped, so that every early return and a panic inside the
 /// caller's closure clean up after themselves.
 struct TempGuard {
     path: PathBuf,
+    /// Whether `path` exists (an unnamed file gets its name only when complete).
+    named: bool,
     renamed: bool,
 }
 
 impl Drop for TempGuard {
     fn drop(&mut self) {
-        if self.renamed {
+        if self.renamed || !self.named {
             return;
         }
         // Ignored: we are already reporting the error that got us here, and a failed cleanup
@@ -121,6 +174,22 @@ mod tests {
         let result = write_atomically(&target, |_| Err(io::Error::other("nope")));
         assert!(result.is_err());
         assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn the_file_has_no_name_while_it_is_written() {
+        // A process killed here leaves nothing: there is nothing to see in the directory.
+        let dir = tempfile::tempdir().expect("tempdir");
+        let target = dir.path().join("unnamed.exr");
+        write_atomically(&target, |w| {
+            w.write_all(b"partial")?;
+            assert!(entries(dir.path()).is_empty(), "a named file appeared while writing: {:?}", entries(dir.path()));
+            w.write_all(b" and complete")
+        })
+        .expect("write");
+        assert_eq!(fs::read(&target).expect("read"), b"partial and complete");
+        assert_eq!(entries(dir.path()), ["unnamed.exr"]);
     }
 
     #[test]

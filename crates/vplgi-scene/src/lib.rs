@@ -199,6 +199,12 @@ impl Scene {
         gltf_load::load(path)
     }
 
+    /// Loads `.gltf` or `.glb` content already in memory, as if read from `path` (which names
+    /// it in errors and against which relative URIs resolve).
+    pub fn load_slice(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
+        gltf_load::load_slice(path, bytes)
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
     }

@@ -33,10 +33,16 @@ const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_mat
 /// Loads a `.gltf` or `.glb` file into a world-space triangle soup.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+    load_slice(path, &bytes)
+}
+
+/// Loads the glTF or GLB file content `bytes` as if read from `path` (which names it in errors
+/// and against which relative URIs resolve): what the fuzz target feeds.
+pub fn load_slice(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
     // The checks below cover every malformed input known to upset the `gltf` crate; this is
     // the last line of defence for what they miss, so that a bad file still cannot take the
     // whole renderer down.
-    let result = quietly(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, &bytes))));
+    let result = quietly(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, bytes))));
     let scene = match result {
         Ok(scene) => scene?,
         Err(payload) => {
