@@ -1,3 +1,5 @@
+SHELL := /bin/bash
+
 # The two commands of the README:
 #   make demo   installs what is missing, builds, renders the built-in Cornell box (clustered and
 #               the unclustered reference), compares them, and verifies the GPU twin against the CPU.
@@ -8,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long bench perf-report references results clean
+.PHONY: all setup build demo test verify-long fuzz bench perf-report references results clean
 
 all: build
 
@@ -40,7 +42,8 @@ demo: build
 #   2. WGSL validation: every composed shader through naga, and the Rust/WGSL layout tests;
 #   3. unit tests of every crate and the CPU-only integration tests;
 #   4. the CPU-vs-GPU integration tests (every other file in tests/tests/, on lavapipe here);
-#   5. every criterion bench once at tiny sizes (proof that they work, not a measurement).
+#   5. every criterion bench once at tiny sizes (proof that they work, not a measurement);
+#   6. each fuzz target for 20 seconds from its seeds (proof that it builds and runs).
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
@@ -55,6 +58,7 @@ test: setup
 	$(TEST) --lib --bins $(addprefix --test ,$(CPU_TESTS)) -- --skip shader:: --skip layouts
 	$(TEST) $(addprefix --test ,$(GPU_TESTS))
 	$(TEST_ENV) VPLGI_BENCH_SMOKE=1 $(CARGO) test --release --workspace --benches
+	$(MAKE) --no-print-directory fuzz FUZZ_SECONDS=20
 
 # Every stage's property test (random scenes, point sets and rays against the SPEC's tolerance
 # table, through vplgi-verify's comparisons) at 10,000 cases each instead of make test's few.
@@ -66,6 +70,18 @@ verify-long: setup
 	  start=$$(date +%s); \
 	  $(TEST_ENV) VPLGI_PROPTEST_CASES=$${VPLGI_PROPTEST_CASES:-10000} $(CARGO) test -q --release --workspace --test $$t -- --test-threads 1 rng_streams random grazing || exit 1; \
 	  echo "verify-long: $$t passed in $$(( $$(date +%s) - start )) s"; \
+	done
+
+# Coverage-guided fuzzing (cargo-fuzz, libFuzzer, nightly) of what users feed vplgi: the glTF
+# loader (gltf_load) and the EXR reader of compare and merge (exr_read), FUZZ_SECONDS each
+# (default 30 minutes). The corpus grows in fuzz/corpus/ (not committed); a crash is saved in
+# fuzz/artifacts/<target>/ and stops the run. The seeds are in fuzz/seeds/. See fuzz/README.md.
+FUZZ_TARGETS := gltf_load exr_read
+FUZZ_SECONDS ?= 1800
+fuzz: setup
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p fuzz/corpus/$$t; \
+	  (cd fuzz && cargo +nightly fuzz run -O $$t corpus/$$t seeds/$$t -- -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 2>&1 | grep -E "^(stat::number_of_executed_units|stat::new_units_added|==[0-9]+==|SUMMARY|thread)|panicked|Done [0-9]+ runs"; exit $${PIPESTATUS[0]}) || exit 1; \
 	done
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores

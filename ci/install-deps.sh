@@ -3,7 +3,8 @@
 #   * libclang-dev (embree4-sys runs bindgen), mesa-vulkan-drivers + libvulkan1 (lavapipe, for the GPU backend)
 #   * fonts-dejavu-core (the text of `vplgi sweep`'s PNG charts)
 #   * chromium (headless: the test that loads `vplgi verify`'s HTML report in a real browser)
-#   * the Embree 4.4 runtime, taken from the embreex wheel on PyPI (Debian 12 only packages Embree 3).
+#   * the Embree 4.4 runtime, taken from the embreex wheel on PyPI (Debian 12 only packages Embree 3);
+#   * for fuzzing: the nightly toolchain (rustup) and cargo-fuzz (cargo install), in ~/.cargo.
 # The Embree libraries go to $VPLGI_EMBREE_DIR (default /usr/local/lib/vplgi-embree4) and are registered with
 # ldconfig, so every binary, test and bench finds them without rpath tricks.
 set -euo pipefail
@@ -54,6 +55,17 @@ if [ ! -f "$conf" ] || ! grep -qx "$EMBREE_DIR" "$conf"; then
 fi
 if ! ldconfig -p | grep -q "$EMBREE_SONAME"; then
   $SUDO ldconfig
+fi
+
+# Fuzzing (make fuzz; 20 s of each target in make test): a nightly toolchain and cargo-fuzz,
+# installed for this user only.
+if ! rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
+  echo "vplgi setup: installing the nightly toolchain (cargo-fuzz needs it)"
+  rustup toolchain install nightly --profile minimal
+fi
+if ! command -v cargo-fuzz >/dev/null 2>&1; then
+  echo "vplgi setup: installing cargo-fuzz (a few minutes, once)"
+  cargo install --locked --quiet cargo-fuzz --version 0.13.2
 fi
 
 echo "vplgi setup: ok (Embree 4 runtime in $EMBREE_DIR)"
