@@ -80,8 +80,13 @@ FUZZ_TARGETS := gltf_load exr_read
 FUZZ_SECONDS ?= 1800
 fuzz: setup
 	@for t in $(FUZZ_TARGETS); do \
-	  mkdir -p fuzz/corpus/$$t; \
-	  (cd fuzz && cargo +nightly fuzz run -O $$t corpus/$$t seeds/$$t -- -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 2>&1 | grep -E "^(stat::number_of_executed_units|stat::new_units_added|==[0-9]+==|SUMMARY|thread)|panicked|Done [0-9]+ runs"; exit $${PIPESTATUS[0]}) || exit 1; \
+	  mkdir -p fuzz/corpus/$$t fuzz/target; \
+	  log=fuzz/target/$$t.log; \
+	  if (cd fuzz && cargo +nightly fuzz run -O $$t corpus/$$t seeds/$$t -- -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1) > $$log 2>&1; then \
+	    echo "fuzz $$t: $$(grep -E '^Done [0-9]+ runs' $$log), no crash (log: $$log)"; \
+	  else \
+	    tail -40 $$log; echo "fuzz $$t failed: see $$log and fuzz/artifacts/$$t/"; exit 1; \
+	  fi; \
 	done
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores

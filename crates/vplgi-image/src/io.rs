@@ -31,12 +31,16 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
     })
 }
 
+/// The largest image [`read_exr`] decodes: 8192 x 8192 pixels (768 MiB of RGB floats).
+pub const MAX_EXR_PIXELS: usize = 1 << 26;
+
 /// Reads the first layer of an OpenEXR file that has R, G and B channels (any of f16, f32 or
 /// u32 samples, converted to f32; other channels such as A are ignored). The image covers the
 /// layer's data window, row 0 at the top.
 ///
 /// Errors name the path: [`ImageError::Read`] if the file cannot be opened, [`ImageError::Exr`]
-/// if it is not a valid OpenEXR file, [`ImageError::MissingChannels`] if no layer has R, G and B.
+/// if it is not a valid OpenEXR file, [`ImageError::MissingChannels`] if no layer has R, G and B,
+/// [`ImageError::TooLarge`] if a layer declares more than [`MAX_EXR_PIXELS`].
 pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
     let read_err = |source: io::Error| ImageError::Read { path: path.to_path_buf(), source };
     let exr_err = |source: exr::error::Error| ImageError::Exr { path: path.to_path_buf(), source };
@@ -57,6 +61,10 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
             }
         }
         return Err(ImageError::MissingChannels { path: path.to_path_buf(), found });
+    }
+    // Found by fuzzing: a header declaring billions of pixels made the decoder allocate them.
+    if let Some(h) = meta.headers.iter().find(|h| h.layer_size.width().saturating_mul(h.layer_size.height()) > MAX_EXR_PIXELS) {
+        return Err(ImageError::TooLarge { path: path.to_path_buf(), width: h.layer_size.width(), height: h.layer_size.height(), max: MAX_EXR_PIXELS });
     }
     reader.rewind().map_err(read_err)?;
 

@@ -111,6 +111,10 @@ pub enum ImageError {
         if found.is_empty() { "none".to_string() } else { found.join(", ") }
     )]
     MissingChannels { path: PathBuf, found: Vec<String> },
+    /// The EXR header declares more pixels than vplgi reads (a corrupt or hostile header would
+    /// otherwise make the decoder allocate them).
+    #[error("{} declares a {width}x{height} image; vplgi reads images of at most {max} pixels", path.display())]
+    TooLarge { path: PathBuf, width: usize, height: usize, max: usize },
     /// A pixel or byte buffer does not match the stated image size.
     #[error("{what}: buffer holds {actual} values but a {width}x{height} image needs {expected}")]
     BufferSize { what: String, width: u32, height: u32, expected: usize, actual: usize },
