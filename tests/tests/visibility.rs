@@ -151,6 +151,22 @@ fn segments_through_shared_edges_find_no_cracks() {
     assert_eq!((aimed_gpu, other_gpu), (0, 0), "the GPU leaks through shared edges");
 }
 
+/// Visibility three ways between random points on the surfaces of `scene`, a share `on_edges`
+/// of them on edges and vertices, as `vplgi verify` compares it.
+fn three_ways(
+    gpu: &vplgi_tests::SharedGpu,
+    scene: &vplgi_scene::Scene,
+    (rows, cols): (usize, usize),
+    seed: u64,
+    on_edges: f32,
+) -> Vec<vplgi_verify::tolerance::Disagreement> {
+    let r = vplgi_tests::inputs::surface_endpoints(scene, rows, seed, on_edges);
+    let c = vplgi_tests::inputs::surface_endpoints(scene, cols, !seed, on_edges);
+    let obvhs = vplgi_verify::visibility::ObvhsScene::new(scene);
+    println!("{}: {rows} x {cols}", scene.name);
+    vplgi_tests::with_twins(gpu, scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU")
+}
+
 proptest::proptest! {
     #![proptest_config(vplgi_tests::proptest_config(8))]
 
@@ -162,11 +178,7 @@ proptest::proptest! {
     #[test]
     fn visibility_agrees_three_ways_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), rows in 32usize..64, cols in 32usize..64, seed in proptest::prelude::any::<u64>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("visibility_agrees_three_ways_on_random_scenes") else { return Ok(()) };
-        let r = vplgi_tests::inputs::surface_endpoints(&scene, rows, seed, 0.05);
-        let c = vplgi_tests::inputs::surface_endpoints(&scene, cols, !seed, 0.05);
-        let obvhs = vplgi_verify::visibility::ObvhsScene::new(&scene);
-        println!("{}: {rows} x {cols}", scene.name);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU");
+        let checks = three_ways(gpu, &scene, (rows, cols), seed, 0.05);
         vplgi_tests::hold(&checks)?;
     }
 
@@ -178,11 +190,7 @@ proptest::proptest! {
     #[test]
     fn watertight_visibility_agrees_on_grazing_rays(scene in vplgi_tests::inputs::random_scene(), rows in 32usize..64, cols in 32usize..64, seed in proptest::prelude::any::<u64>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("watertight_visibility_agrees_on_grazing_rays") else { return Ok(()) };
-        let r = vplgi_tests::inputs::surface_endpoints(&scene, rows, seed, 0.4);
-        let c = vplgi_tests::inputs::surface_endpoints(&scene, cols, !seed, 0.4);
-        let obvhs = vplgi_verify::visibility::ObvhsScene::new(&scene);
-        println!("{}: {rows} x {cols}", scene.name);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU");
+        let checks = three_ways(gpu, &scene, (rows, cols), seed, 0.4);
         let (watertight, others): (Vec<_>, Vec<_>) = checks.into_iter().partition(|c| c.what.ends_with("Embree / GPU"));
         others.iter().for_each(|c| println!("(not judged) {c}"));
         proptest::prop_assert_eq!(watertight.len(), 1);

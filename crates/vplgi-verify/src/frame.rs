@@ -4,17 +4,39 @@
 //! measured on the generated rooms, relMSE 2e-4 to 2e-3 in `--cluster vpl`).
 
 use crate::shade::{rel_mse, worst_pixel};
-use crate::shading_points::hit_differences;
+use crate::shading_points::{hit_differences, HitDifferences};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE, SHADING_POINTS_SAME_SURFACE};
 use crate::{count, result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_types::{ClusterMode, FrameConfig};
+use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint};
+
+/// What the modes of one frame share: both backends' primary hits, and how far the VPLs differ
+/// by rounding (measured only if some mode clusters them).
+struct Shared {
+    c_sp: Vec<ShadingPoint>,
+    g_sp: Vec<ShadingPoint>,
+    hits: HitDifferences,
+    vpl_rounding: Option<f64>,
+}
+
+impl Shared {
+    fn new(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<Shared, VerifyError> {
+        let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params())?;
+        let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, cfg.width, cfg.spp);
+        let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
+            let checks = crate::trace_vpls::compare(twins, &cfg.trace_params())?;
+            Some(checks.into_iter().find(|c| c.what.starts_with("largest relative difference")).map_or(f64::NAN, |c| c.measured))
+        } else {
+            None
+        };
+        Ok(Shared { c_sp, g_sp, hits, vpl_rounding })
+    }
+}
 
 /// One mode's frame on both backends.
-pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair), VerifyError> {
+fn compare(twins: &Twins, cfg: &FrameConfig, shared: &Shared) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair), VerifyError> {
     let cpu = vplgi_frame::render(twins.cpu, cfg, &vplgi_frame::NoProgress)?;
     let gpu = vplgi_frame::render(twins.gpu, cfg, &vplgi_frame::NoProgress)?;
-    let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params())?;
-    let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, cfg.width, cfg.spp);
+    let Shared { c_sp, g_sp, hits, vpl_rounding } = shared;
     let mode = Mode::of(cfg);
     let case = mode.name();
     let spp = cfg.spp as usize;
@@ -48,11 +70,7 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, V
     // smallest difference of its input, so clustered frames are explained here, and judged by
     // the shade stage on identical inputs.
     let mut inputs = Vec::new();
-    if mode.cluster.clusters_vpls() {
-        let rounding = crate::trace_vpls::compare(twins, &cfg.trace_params())?
-            .into_iter()
-            .find(|c| c.what.starts_with("largest relative difference"))
-            .map_or(f64::NAN, |c| c.measured);
+    if let (true, Some(rounding)) = (mode.cluster.clusters_vpls(), vpl_rounding) {
         inputs.push(format!("the VPLs differ by rounding (largest {rounding:.1e}, relative)"));
     }
     if mode.cluster.clusters_sps() {
@@ -83,8 +101,9 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, V
 /// The frame of every mode in `modes`.
 pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Frame);
+    let shared = Shared::new(twins, cfg, modes)?;
     for mode in modes {
-        let (checks, notes, pair) = compare(twins, &mode.apply(cfg))?;
+        let (checks, notes, pair) = compare(twins, &mode.apply(cfg), &shared)?;
         r.checks.extend(checks);
         r.notes.extend(notes);
         r.images.push(pair);

@@ -97,9 +97,13 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
 
 /// Compares the two images of one mode.
 pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
-    let frame = CpuFrame::new(twins.cpu, cfg);
-    let clusters = CpuClusters::new(&frame, cfg);
-    let (cpu, gpu) = shade_both(twins, cfg, &frame, &clusters)?;
+    compare_on(twins, cfg, &CpuFrame::new(twins.cpu, cfg))
+}
+
+/// [`compare`] on the CPU's stages 1 and 2 already made (they do not depend on the mode).
+fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
+    let clusters = CpuClusters::new(frame, cfg);
+    let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, |_| true);
     let case = Mode::of(cfg).name();
     let checks = vec![
@@ -115,8 +119,9 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, I
 /// The final image of every mode in `modes`, each on its own CPU inputs.
 pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Shade);
+    let frame = CpuFrame::new(twins.cpu, cfg);
     for mode in modes {
-        let (checks, pair) = compare(twins, &mode.apply(cfg))?;
+        let (checks, pair) = compare_on(twins, &mode.apply(cfg), &frame)?;
         r.checks.extend(checks);
         r.images.push(pair);
     }
