@@ -2,7 +2,6 @@
 
 use crate::GpuError;
 use bytemuck::Pod;
-use wgpu::util::DeviceExt;
 
 /// How long a read-back may wait for the device before it counts as lost (lavapipe is slow, but
 /// not this slow).
@@ -15,11 +14,23 @@ pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::
     let bytes: &[u8] = bytemuck::cast_slice(data);
     let zeros = vec![0u8; std::mem::size_of::<T>().max(16)];
     let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    })
+    filled(device, label, contents, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST)
+}
+
+/// A buffer created mapped and filled with `contents` (padded to 4 bytes). Unlike wgpu's
+/// `create_buffer_init`, which panics when the mapping fails, a device that is lost (or out of
+/// memory) leaves the buffer unfilled: the buffer is invalid, wgpu reports that to the error
+/// scope around the call or to the context's error sink, and the next read-back fails with
+/// [`GpuError::Lost`].
+fn filled(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    let size = (contents.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT).max(wgpu::COPY_BUFFER_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: true });
+    if let Ok(mut view) = buffer.get_mapped_range_mut(..) {
+        view.slice(..contents.len()).copy_from_slice(contents);
+        drop(view);
+        buffer.unmap();
+    }
+    buffer
 }
 
 /// A zeroed storage buffer of `len` elements of `T` (at least one element and 16 bytes, like
@@ -35,7 +46,7 @@ pub fn storage_zeroed<T: Pod>(device: &wgpu::Device, label: &str, len: usize) ->
 
 /// A uniform buffer holding `value`.
 pub fn uniform<T: Pod>(device: &wgpu::Device, label: &str, value: &T) -> wgpu::Buffer {
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytemuck::bytes_of(value), usage: wgpu::BufferUsages::UNIFORM })
+    filled(device, label, bytemuck::bytes_of(value), wgpu::BufferUsages::UNIFORM)
 }
 
 /// Copies the first `len` elements of `buffer` back to the host. Waits with a timeout, so a lost

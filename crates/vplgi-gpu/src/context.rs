@@ -13,6 +13,8 @@ pub enum GpuError {
     Validation { what: String, message: String },
     #[error("GPU device lost or timed out in {what}: {message}")]
     Lost { what: String, message: String },
+    #[error("the GPU ran out of memory in {what} (use a smaller frame, or --backend cpu): {message}")]
+    OutOfMemory { what: String, message: String },
     /// `what` names the quantity and its unit.
     #[error("{what}: {needed} needed, this adapter allows {limit} (use --backend cpu, or a smaller input)")]
     TooLarge { what: String, needed: u64, limit: u64 },
@@ -118,13 +120,19 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
     format!("{:?}/{}", info.backend, info.name)
 }
 
-/// Runs `f` inside a validation error scope and turns a captured error into [`GpuError`].
+/// Runs `f` inside validation and out-of-memory error scopes and turns a captured error into
+/// [`GpuError`]. Running out of memory is reported first: the invalid buffer it leaves behind
+/// also fails validation, and "out of memory" is the cause a user can act on.
 pub fn validated<T>(device: &wgpu::Device, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let value = crate::timing::in_kernel(what, f);
-    match pollster::block_on(scope.pop()) {
-        None => Ok(value),
-        Some(e) => Err(GpuError::Validation { what: what.to_string(), message: e.to_string() }),
+    let invalid = pollster::block_on(validation.pop());
+    let exhausted = pollster::block_on(memory.pop());
+    match (exhausted, invalid) {
+        (Some(e), _) => Err(GpuError::OutOfMemory { what: what.to_string(), message: e.to_string() }),
+        (None, Some(e)) => Err(GpuError::Validation { what: what.to_string(), message: e.to_string() }),
+        (None, None) => Ok(value),
     }
 }
 
@@ -155,6 +163,47 @@ mod tests {
             .status()
             .expect("run the child test");
         assert!(status.success(), "the child process did not see the expected error");
+    }
+
+    /// Running out of device memory inside `validated` is `GpuError::OutOfMemory`, naming the
+    /// step: no panic, no abort. Forced in a child process (the address-space cap stays local to
+    /// it): once the device is open, the cap is set just above what the process has mapped, so
+    /// lavapipe cannot back a 1 GiB buffer. A cap set before the device opens only makes the
+    /// device or the driver fail (measured), which `GpuError::Device` already covers.
+    #[test]
+    fn out_of_memory_is_a_clear_error() {
+        if std::env::var("VPLGI_CHILD_OUT_OF_MEMORY").is_ok() {
+            let ctx = GpuContext::new().expect("a GPU adapter (the parent found one)");
+            let status = std::fs::read_to_string("/proc/self/status").expect("/proc/self/status");
+            let mapped_kib: u64 =
+                status.lines().find_map(|l| l.strip_prefix("VmSize:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok()).expect("VmSize");
+            let cap = (mapped_kib + 256 * 1024) * 1024;
+            // SAFETY: setrlimit reads the struct it is given and nothing else.
+            let set = unsafe { libc::setrlimit(libc::RLIMIT_AS, &libc::rlimit { rlim_cur: cap, rlim_max: cap }) };
+            assert_eq!(set, 0, "setrlimit failed");
+            let r = validated(&ctx.device, "a 1 GiB buffer", || crate::buffers::storage_zeroed::<u32>(&ctx.device, "huge", 1 << 28));
+            match r {
+                Err(e @ GpuError::OutOfMemory { .. }) => println!("captured: {e}"),
+                Err(e) => panic!("expected out of memory, got {e}"),
+                Ok(_) => panic!("a 1 GiB buffer fit under a cap of {} MiB more than mapped", 256),
+            }
+            return;
+        }
+        if GpuContext::new().is_err() {
+            eprintln!("\n*** SKIPPED out_of_memory_is_a_clear_error: no GPU adapter ***\n");
+            assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "no GPU adapter under CI");
+            return;
+        }
+        let exe = std::env::current_exe().expect("test binary");
+        let out = std::process::Command::new(exe)
+            .args(["--exact", "context::tests::out_of_memory_is_a_clear_error", "--nocapture"])
+            .env("VPLGI_CHILD_OUT_OF_MEMORY", "1")
+            .output()
+            .expect("run the child test");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+        assert!(out.status.success(), "the child process did not see the expected error");
+        assert!(stdout.contains("ran out of memory in a 1 GiB buffer"), "the message names neither the cause nor the step");
     }
 
     /// A wgpu validation error inside `validated` comes back as `GpuError::Validation`, not a
