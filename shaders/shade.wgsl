@@ -21,7 +21,7 @@ struct Params {
     pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
 @group(0) @binding(8) var<storage, read> row_of: array<u32>;
 @group(0) @binding(9) var<storage, read> vis_words: array<u32>;

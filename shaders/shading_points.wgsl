@@ -17,7 +17,7 @@ struct Params {
     pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read_write> out: array<ShadingPoint>;
 
 @compute @workgroup_size(64)

@@ -17,7 +17,7 @@ struct Params {
     pad: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(11) var<storage, read_write> slots: array<Vpl>;
 @group(0) @binding(12) var<storage, read_write> counts: array<u32>;
 @group(0) @binding(13) var<storage, read_write> offsets: array<u32>;

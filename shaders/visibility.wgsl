@@ -14,7 +14,7 @@ struct Params {
     pad1: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(3) var<storage, read> rows: array<Endpoint>;
 @group(0) @binding(4) var<storage, read> cols: array<Endpoint>;
 @group(0) @binding(5) var<storage, read_write> words: array<u32>;

@@ -18,7 +18,7 @@ struct Params {
     window: u32,            // points in the bound window (gather)
 }
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 
 fn dist2(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let dx = a.x - b.x;

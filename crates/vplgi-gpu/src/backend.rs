@@ -3,7 +3,7 @@
 //! hit count and the hit numbers at block boundaries, each clustering's data box and occupancy
 //! counts) and the shaded pixels. The frame itself is [`vplgi_frame::render`].
 
-use crate::buffers::{dispatch_windows, read_back, read_word, storage_zeroed, sync, uniform, Window, WINDOW_ALIGN};
+use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
 use crate::scan::ScanKernel;
@@ -125,7 +125,7 @@ impl<'a> GpuBackend<'a> {
     /// Runs a glue kernel of `frame.wgsl` over `threads` items.
     fn glue(&self, pipeline: &wgpu::ComputePipeline, params: GlueParams, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
         validated(self.device, "frame glue", || {
-            let p = uniform(self.device, "frame params", &params);
+            let p = kernel_params(self.device, "frame params", &params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
             dispatch_windows(self.device, self.queue, pipeline, &all, threads.div_ceil(64).max(1));

@@ -10,7 +10,7 @@
 //! binding: every per-point step runs over [`Window`]s of them, and gathers by index (seeds, the
 //! downsampled set, representatives) run over every pair of output and point windows.
 
-use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
+use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::shader::{pipelines, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN};
@@ -172,7 +172,7 @@ impl ClusterKernel {
         threads: u32,
     ) -> Result<(), GpuError> {
         validated(device, "cluster pass", || {
-            let p = uniform(device, "cluster params", params);
+            let p = kernel_params(device, "cluster params", params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
             dispatch_windows(device, queue, pass, &all, groups(threads));

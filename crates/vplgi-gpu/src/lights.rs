@@ -1,7 +1,7 @@
 //! Light tables on the device: the host-built `vplgi_scene::lights::LightSampler`, uploaded, so
 //! both backends choose lights with the same realised probabilities.
 
-use crate::buffers::{storage, uniform};
+use crate::buffers::{kernel_params, storage};
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::{PunctualLight, Scene};
 pub use vplgi_types::device::{Emitter, Punctual};
@@ -54,7 +54,7 @@ impl GpuLights {
             .collect();
         let counts = [emitters.len() as u32, punctual.len() as u32, 0, 0];
         GpuLights {
-            counts: uniform(device, "light counts", &counts),
+            counts: kernel_params(device, "light counts", &counts),
             emitters: storage(device, "emitters", &emitters),
             area_table: storage(device, "area table", &table(sampler.area_distribution())),
             all_table: storage(device, "all-light table", &table(sampler.all_distribution())),

@@ -1,7 +1,7 @@
 //! The RNG twin (`shaders/common/rng.wgsl`) and a diagnostic kernel that draws whole streams, for
 //! the bit-identity test against `vplgi_types::Rng`.
 
-use crate::buffers::{dispatch, read_back, storage_zeroed, uniform};
+use crate::buffers::{dispatch, kernel_params, read_back, storage_zeroed};
 use crate::context::validated;
 use crate::shader::pipeline;
 use crate::GpuError;
@@ -24,7 +24,7 @@ pub fn rng_streams(device: &wgpu::Device, queue: &wgpu::Queue, seed: u32, stream
     let n = count as usize * draws as usize;
     let (pipe, params, out) = validated(device, "rng_streams", || {
         let pipe = pipeline(device, "rng_streams.wgsl", "main");
-        let params = uniform(device, "rng params", &Params { seed, stream, first_index, count, draws, pad: [0; 3] });
+        let params = kernel_params(device, "rng params", &Params { seed, stream, first_index, count, draws, pad: [0; 3] });
         let out = storage_zeroed::<u32>(device, "rng out", n);
         (pipe, params, out)
     })?;

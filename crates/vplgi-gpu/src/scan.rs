@@ -1,6 +1,6 @@
 //! Exclusive prefix sums on the device (`shaders/scan.wgsl`), shared by the stages that compact.
 
-use crate::buffers::{dispatch, uniform};
+use crate::buffers::{dispatch, kernel_params};
 use crate::context::validated;
 use crate::shader::pipeline;
 use crate::GpuError;
@@ -18,7 +18,7 @@ impl ScanKernel {
     /// last is the total).
     pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, counts: &wgpu::Buffer, n: u32, offsets: &wgpu::Buffer) -> Result<(), GpuError> {
         validated(device, "scan", || {
-            let p = uniform(device, "scan params", &[n, 0u32, 0, 0]);
+            let p = kernel_params(device, "scan params", &[n, 0u32, 0, 0]);
             dispatch(device, queue, &self.pipeline, &[&p, counts, offsets], 1);
         })
     }

@@ -1,6 +1,6 @@
 //! Stage 5 on the GPU, `shade` (`shaders/shade.wgsl`), the twin of `vplgi_cpu::shade::shade`.
 
-use crate::buffers::{dispatch_windows, storage_zeroed, uniform, Window};
+use crate::buffers::{dispatch_windows, kernel_params, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::{RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
@@ -97,7 +97,7 @@ impl ShadeKernel {
             pad: [0; 3],
         };
         validated(device, "shade", || {
-            let p = uniform(device, "shade params", &params);
+            let p = kernel_params(device, "shade params", &params);
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
             let own = [(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (13, &out)];
             let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();

@@ -1,7 +1,7 @@
 //! Stage 2 on the GPU, `shading_points` (`shaders/shading_points.wgsl`), the twin of
 //! `vplgi_cpu::shading_points::shading_points`.
 
-use crate::buffers::{dispatch_windows, read_back, storage_zeroed, uniform};
+use crate::buffers::{dispatch_windows, kernel_params, read_back, storage_zeroed};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
@@ -62,7 +62,7 @@ impl ShadingPointsKernel {
             pad: [0; 2],
         };
         validated(device, "shading_points", || {
-            let p = uniform(device, "shading_points params", &params);
+            let p = kernel_params(device, "shading_points params", &params);
             let buf = storage_zeroed::<ShadingPoint>(device, "shading points", count as usize);
             let mut bindings = vec![(0, p.as_entire_buffer_binding()), (7, buf.as_entire_buffer_binding())];
             bindings.extend(self.pipeline.scene_bindings(scene));

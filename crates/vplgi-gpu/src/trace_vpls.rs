@@ -3,7 +3,7 @@
 //! normalisation. The VPLs stay on the device; only two counters per batch are read back to
 //! decide whether another batch is needed.
 
-use crate::buffers::{dispatch_bound, dispatch_windows, read_back, read_word, storage_zeroed, uniform};
+use crate::buffers::{dispatch_bound, dispatch_windows, kernel_params, read_back, read_word, storage_zeroed};
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
@@ -72,7 +72,7 @@ impl TraceVplsKernel {
             let n = batch.min(budget - next);
             let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, pad: 0 };
             let params_buf = validated(device, "trace_vpls", || {
-                let p = uniform(device, "trace params", &params);
+                let p = kernel_params(device, "trace params", &params);
                 let own = [(0, &p), (11, &slots), (12, &counts)];
                 let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
                 bindings.extend(self.trace.scene_bindings(scene));
@@ -103,7 +103,7 @@ impl TraceVplsKernel {
         let particles = if recorded != 0 { recorded } else { next };
         let params = Params { seed, bounces, first: 0, count: particles, wanted: count, kept, eps: scene.eps, pad: 0 };
         validated(device, "trace_vpls normalize", || {
-            let p = uniform(device, "normalize params", &params);
+            let p = kernel_params(device, "normalize params", &params);
             dispatch_bound(device, queue, &self.normalize, &[(0, &p), (14, &totals), (15, &vpls)], kept.div_ceil(64));
         })?;
         Ok(GpuVpls { buffer: vpls, count: kept, particles })

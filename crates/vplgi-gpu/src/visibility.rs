@@ -3,7 +3,7 @@
 //! row r, column c is bit c % 32 of word `r * words_per_row + c / 32`, with `words_per_row`
 //! twice the CPU's 64-bit words per row, so the bytes are identical.
 
-use crate::buffers::{dispatch_windows, read_back, storage, storage_zeroed, uniform, Window};
+use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
@@ -57,7 +57,7 @@ impl VisibilityKernel {
         let params =
             Params { rows: n_rows, cols: n_cols, words_per_row: wpr, first_row: first_row - window.first as u32, row_count, eps: scene.eps, pad: [0; 2] };
         validated(device, "visibility", || {
-            let p = uniform(device, "visibility params", &params);
+            let p = kernel_params(device, "visibility params", &params);
             let words = storage_zeroed::<u32>(device, "visibility words", (row_count * wpr) as usize);
             let mut b = vec![(0, p.as_entire_buffer_binding()), (3, window.of::<Endpoint>(rows, 1))];
             for (i, x) in [(4, cols), (5, &words)] {
