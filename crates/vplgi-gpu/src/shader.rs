@@ -426,7 +426,7 @@ mod tests {
         };
     }
 
-    /// Every record that crosses between host and device, and every kernel's uniform parameters,
+    /// Every record that crosses between host and device, and every kernel's parameters,
     /// has the same size and field offsets in Rust as naga lays out in WGSL. One table: a new
     /// record is one row.
     #[test]
