@@ -90,6 +90,7 @@ mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
 	$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants $(CARGO) test -q --profile mutants $(MUTANTS_TEST_ARGS)
 	mkdir -p $(MUTANTS_RUN)
+	cargo mutants --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)') --list > $(MUTANTS_OUT)/all-mutants.txt
 	@$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants cargo mutants --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)') \
 	  --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
 	  $(if $(MUTANTS_SHARD),--shard $(MUTANTS_SHARD)) $(addprefix --cargo-test-arg=,$(MUTANTS_TEST_ARGS)) -o $(MUTANTS_RUN); \

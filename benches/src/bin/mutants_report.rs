@@ -80,6 +80,13 @@ fn main() -> Result<()> {
             }
         }
     }
+    // Every mutant `make mutants` selects (its --list), to say how much of it has been run.
+    let selected: Vec<String> = std::fs::read_to_string(Path::new(dir).join("all-mutants.txt"))
+        .map(|t| t.lines().filter(|l| !l.trim().is_empty()).map(str::to_string).collect())
+        .unwrap_or_default();
+    for l in &selected {
+        by_file.entry(l.split(':').next().unwrap_or("?").to_string()).or_default();
+    }
     let count = |list: &str| by_file.values().map(|o| o.get(list).map_or(0, Vec::len)).sum::<usize>();
     let mut md = String::new();
     writeln!(md, "# Mutation testing\n")?;
@@ -94,13 +101,30 @@ fn main() -> Result<()> {
         runs.len()
     )?;
     let total: usize = OUTCOMES.iter().map(|(l, _)| count(l)).sum();
-    writeln!(md, "| file | mutants | caught | survived | timed out | did not build |\n|---|---:|---:|---:|---:|---:|")?;
+    if !selected.is_empty() {
+        writeln!(
+            md,
+            "**{total} of the {} selected mutants have been run{}.**\n",
+            selected.len(),
+            if total < selected.len() { " so far (the run continues shard by shard: `make mutants MUTANTS_SHARD=k/n`)" } else { "" }
+        )?;
+    }
+    let selected_in = |file: &str| selected.iter().filter(|l| l.split(':').next() == Some(file)).count();
+    writeln!(md, "| file | selected | run | caught | survived | timed out | did not build |\n|---|---:|---:|---:|---:|---:|---:|")?;
     for (file, o) in &by_file {
         let n = |l: &str| o.get(l).map_or(0, Vec::len);
         let all: usize = OUTCOMES.iter().map(|(l, _)| n(l)).sum();
-        writeln!(md, "| `{file}` | {all} | {} | {} | {} | {} |", n("caught"), n("missed"), n("timeout"), n("unviable"))?;
+        writeln!(md, "| `{file}` | {} | {all} | {} | {} | {} | {} |", selected_in(file), n("caught"), n("missed"), n("timeout"), n("unviable"))?;
     }
-    writeln!(md, "| **all** | **{total}** | **{}** | **{}** | **{}** | **{}** |\n", count("caught"), count("missed"), count("timeout"), count("unviable"))?;
+    writeln!(
+        md,
+        "| **all** | **{}** | **{total}** | **{}** | **{}** | **{}** | **{}** |\n",
+        selected.len(),
+        count("caught"),
+        count("missed"),
+        count("timeout"),
+        count("unviable")
+    )?;
     let mut unexplained = 0;
     writeln!(md, "## Survivors\n")?;
     for (list, what) in [("missed", "survived"), ("timeout", "timed out")] {
