@@ -21,7 +21,7 @@ struct Shared {
 impl Shared {
     fn new(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<Shared, VerifyError> {
         let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params())?;
-        let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, cfg.width, cfg.spp);
+        let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, twins.scene.camera.position, (cfg.width, cfg.spp));
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
             let checks = crate::trace_vpls::compare(twins, &cfg.trace_params())?;
             Some(checks.into_iter().find(|c| c.what.starts_with("largest relative difference")).map_or(f64::NAN, |c| c.measured))
