@@ -243,6 +243,26 @@ mod tests {
         assert!(msg.contains("luma.exr") && msg.contains('Y'), "{msg}");
     }
 
+    /// A header that declares more pixels than `MAX_EXR_PIXELS` is refused before the decoder
+    /// allocates them, with an error naming the file and the declared size. Made by writing a
+    /// 5x3 image and rewriting its data window to 10000 x 10000.
+    #[test]
+    fn exr_declaring_too_many_pixels_is_refused_before_decoding() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("huge.exr");
+        write_exr(&path, &sample_image()).expect("write exr");
+        let mut bytes = std::fs::read(&path).expect("read back");
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes.windows(key.len()).position(|w| w == key).expect("a dataWindow attribute") + key.len() + 4;
+        for (i, v) in [0i32, 0, 9999, 9999].into_iter().enumerate() {
+            bytes[at + 4 * i..at + 4 * i + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&path, bytes).expect("rewrite");
+        let err = read_exr(&path).unwrap_err();
+        assert!(matches!(err, ImageError::TooLarge { width: 10000, height: 10000, .. }), "{err:?}");
+        assert!(err.to_string().contains("huge.exr") && err.to_string().contains("10000x10000"), "{err}");
+    }
+
     #[test]
     fn missing_exr_is_an_error_naming_the_path() {
         let dir = tempfile::tempdir().expect("tempdir");
