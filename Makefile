@@ -83,6 +83,7 @@ verify-long: setup
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
+MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_TEST_ARGS := --workspace --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_OUT := target/mutants-report
 MUTANTS_RUN := $(MUTANTS_OUT)/$(if $(MUTANTS_SHARD),shard-$(subst /,-of-,$(MUTANTS_SHARD)),all)
@@ -90,8 +91,8 @@ mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
 	$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants $(CARGO) test -q --profile mutants $(MUTANTS_TEST_ARGS)
 	mkdir -p $(MUTANTS_RUN)
-	cargo mutants --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)') --list > $(MUTANTS_OUT)/all-mutants.txt
-	@$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants cargo mutants --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)') \
+	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
+	@$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants cargo mutants $(MUTANTS_SELECT) \
 	  --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
 	  $(if $(MUTANTS_SHARD),--shard $(MUTANTS_SHARD)) $(addprefix --cargo-test-arg=,$(MUTANTS_TEST_ARGS)) -o $(MUTANTS_RUN); \
 	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out

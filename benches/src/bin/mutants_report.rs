@@ -81,11 +81,11 @@ fn main() -> Result<()> {
         }
     }
     // Every mutant `make mutants` selects (its --list), to say how much of it has been run.
-    let selected: Vec<String> = std::fs::read_to_string(Path::new(dir).join("all-mutants.txt"))
-        .map(|t| t.lines().filter(|l| !l.trim().is_empty()).map(str::to_string).collect())
+    let selected: Vec<Mutant> = std::fs::read_to_string(Path::new(dir).join("all-mutants.txt"))
+        .map(|t| t.lines().filter(|l| !l.trim().is_empty()).map(mutant).collect())
         .unwrap_or_default();
-    for l in &selected {
-        by_file.entry(l.split(':').next().unwrap_or("?").to_string()).or_default();
+    for m in &selected {
+        by_file.entry(m.file.clone()).or_default();
     }
     let count = |list: &str| by_file.values().map(|o| o.get(list).map_or(0, Vec::len)).sum::<usize>();
     let mut md = String::new();
@@ -109,7 +109,7 @@ fn main() -> Result<()> {
             if total < selected.len() { " so far (the run continues shard by shard: `make mutants MUTANTS_SHARD=k/n`)" } else { "" }
         )?;
     }
-    let selected_in = |file: &str| selected.iter().filter(|l| l.split(':').next() == Some(file)).count();
+    let selected_in = |file: &str| selected.iter().filter(|m| m.file == file).count();
     writeln!(md, "| file | selected | run | caught | survived | timed out | did not build |\n|---|---:|---:|---:|---:|---:|---:|")?;
     for (file, o) in &by_file {
         let n = |l: &str| o.get(l).map_or(0, Vec::len);
@@ -127,7 +127,7 @@ fn main() -> Result<()> {
     )?;
     let mut unexplained = 0;
     writeln!(md, "## Survivors\n")?;
-    for (list, what) in [("missed", "survived"), ("timeout", "timed out")] {
+    for (list, what) in OUTCOMES.into_iter().filter(|(list, _)| matches!(*list, "missed" | "timeout")) {
         for (file, o) in &by_file {
             for m in o.get(list).into_iter().flatten() {
                 let why = reasons.iter().find(|(p, _)| m.line.contains(p.as_str())).map(|(_, w)| w.as_str());
