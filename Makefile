@@ -77,24 +77,30 @@ verify-long: setup
 # the tests that compute the paper's equations independently, the analytic and path-traced
 # oracles, the committed references, and the CPU-vs-GPU tests). Survivors are written to
 # docs/MUTANTS.md, each with why it is harmless (ci/mutants-harmless.tsv) or marked unexplained.
-# One run builds ~1,000 mutants: hours on 2 cores. MUTANTS_SHARD=k/n runs one shard (kept in its own
-# folder; the report covers every shard run so far). The unmutated tests run first (cargo-mutants'
-# own baseline would run only the mutated crate's tests).
+# One run builds ~1,000 mutants: many hours on 2 cores. It can be stopped and resumed: a rerun
+# skips the mutants already caught or unbuildable (--iterate) as long as HEAD is the commit the
+# run started on (recorded in target/mutants-report/commit); on another commit it starts over.
+# cargo-mutants builds in a scratch copy of the tree with its own target folder (a shared target
+# folder would leave the last mutant's binaries looking fresh to the real tree), and first runs the
+# unmutated tests there with the same arguments, so a bad argument stops the run instead of
+# counting every mutant as caught. The test targets are given to every cargo call (-C), so each
+# mutant links only the test binaries that run.
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
-MUTANTS_TEST_ARGS := --workspace --lib $(addprefix --test ,$(MUTANTS_TESTS))
+MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_OUT := target/mutants-report
-MUTANTS_RUN := $(MUTANTS_OUT)/$(if $(MUTANTS_SHARD),shard-$(subst /,-of-,$(MUTANTS_SHARD)),all)
 mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
-	$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants $(CARGO) test -q --profile mutants $(MUTANTS_TEST_ARGS)
-	mkdir -p $(MUTANTS_RUN)
+	@mkdir -p $(MUTANTS_OUT); head=$$(git rev-parse HEAD); \
+	  if [ "$$(cat $(MUTANTS_OUT)/commit 2>/dev/null)" != "$$head" ]; then \
+	    rm -rf $(MUTANTS_OUT)/mutants.out $(MUTANTS_OUT)/mutants.out.old; echo "$$head" > $(MUTANTS_OUT)/commit; \
+	  else echo "make mutants: resuming the run on $$head"; fi
 	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
-	@$(TEST_ENV) CARGO_TARGET_DIR=$(CURDIR)/target/mutants cargo mutants $(MUTANTS_SELECT) \
-	  --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
-	  $(if $(MUTANTS_SHARD),--shard $(MUTANTS_SHARD)) $(addprefix --cargo-test-arg=,$(MUTANTS_TEST_ARGS)) -o $(MUTANTS_RUN); \
+	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate \
+	  --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
+	  $(addprefix --cargo-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out
 	$(CARGO) run -q --release -p vplgi-benches --bin mutants_report -- $(MUTANTS_OUT) ci/mutants-harmless.tsv docs/MUTANTS.md
 
