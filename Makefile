@@ -83,8 +83,8 @@ verify-long: setup
 # cargo-mutants builds in a scratch copy of the tree with its own target folder (a shared target
 # folder would leave the last mutant's binaries looking fresh to the real tree), and first runs the
 # unmutated tests there with the same arguments, so a bad argument stops the run instead of
-# counting every mutant as caught. The test targets are given to every cargo call (-C), so each
-# mutant links only the test binaries that run.
+# counting every mutant as caught. (cargo-mutants builds only the mutated packages; the test
+# phase adds --workspace and builds the test targets it is given.)
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
@@ -100,7 +100,7 @@ mutants: setup
 	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
 	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate \
 	  --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
-	  $(addprefix --cargo-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
+	  $(addprefix --cargo-test-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out
 	$(CARGO) run -q --release -p vplgi-benches --bin mutants_report -- $(MUTANTS_OUT) ci/mutants-harmless.tsv docs/MUTANTS.md
 
