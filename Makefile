@@ -81,10 +81,11 @@ verify-long: setup
 # skips the mutants already caught or unbuildable (--iterate) as long as HEAD is the commit the
 # run started on (recorded in target/mutants-report/commit); on another commit it starts over.
 # cargo-mutants builds in a scratch copy of the tree with its own target folder (a shared target
-# folder would leave the last mutant's binaries looking fresh to the real tree), and first runs the
-# unmutated tests there with the same arguments, so a bad argument stops the run instead of
-# counting every mutant as caught. (cargo-mutants builds only the mutated packages; the test
-# phase adds --workspace and builds the test targets it is given.)
+# folder would leave the last mutant's binaries looking fresh to the real tree). Its own baseline
+# would run only the mutated packages' tests, so the unmutated tests run first here, with exactly
+# the arguments each mutant's run gets (--workspace comes from --test-workspace); and the report
+# refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
+# as caught.
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
@@ -98,7 +99,8 @@ mutants: setup
 	    rm -rf $(MUTANTS_OUT)/mutants.out $(MUTANTS_OUT)/mutants.out.old; echo "$$head" > $(MUTANTS_OUT)/commit; \
 	  else echo "make mutants: resuming the run on $$head"; fi
 	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
-	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate \
+	$(TEST_ENV) $(CARGO) test -q --profile mutants --workspace $(MUTANTS_TARGETS)
+	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate --baseline skip \
 	  --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
 	  $(addprefix --cargo-test-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out

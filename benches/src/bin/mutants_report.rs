@@ -40,6 +40,22 @@ fn run_folder(dir: &Path) -> Result<PathBuf> {
     Ok(run)
 }
 
+/// Fails if cargo refused the arguments of any run in `run`'s logs: each mutant would then count as
+/// caught without a test having run (a doubled `--workspace` once did exactly that).
+fn check_logs(run: &Path) -> Result<()> {
+    const REFUSALS: [&str; 3] = ["error: the argument", "error: unexpected argument", "error: no test target named"];
+    let dir = run.join("log");
+    let Ok(entries) = std::fs::read_dir(&dir) else { return Ok(()) };
+    for e in entries {
+        let path = e?.path();
+        let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+        if let Some(r) = REFUSALS.iter().find(|r| text.contains(*r)) {
+            bail!("{}: cargo refused the test arguments (\"{r}...\"), so no test ran for that mutant: fix the Makefile's MUTANTS_TARGETS", path.display());
+        }
+    }
+    Ok(())
+}
+
 /// The harmless-mutant table: tab-separated lines "text the mutant's line contains<TAB>why it
 /// is harmless"; `#` starts a comment.
 fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
@@ -63,6 +79,7 @@ fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [dir, table, out] = &args[..] else { bail!("usage: mutants_report REPORT_DIR HARMLESS_TSV OUT_MD") };
     let run = run_folder(Path::new(dir))?;
+    check_logs(&run)?;
     let reasons = harmless(Path::new(table))?;
     // file -> outcome -> mutants
     let mut by_file: BTreeMap<String, BTreeMap<&str, Vec<Mutant>>> = BTreeMap::new();
