@@ -40,7 +40,8 @@ enum Command {
     /// (MSE, FLIP) as the cluster counts vary, as PNG and SVG charts, plus a contact sheet of
     /// every configuration's image and error map; writes into DIR.
     Sweep(sweep::SweepArgs),
-    /// Procedural scenes at the paper's scale: `vplgi scene generate NAME` writes a .glb.
+    /// Scenes: `vplgi scene generate NAME` writes a procedural scene at the paper's scale as .glb;
+    /// `vplgi scene export --format mitsuba SCENE --out DIR` writes any scene for Mitsuba 3.
     Scene(scene::SceneArgs),
     /// Render an unclustered reference as the mean and per-pixel variance of several seeds:
     /// DIR/mean.exr, DIR/variance.exr, DIR/mean.png and the sidecar DIR/reference.json.

@@ -1,9 +1,13 @@
-//! `vplgi scene`: procedural scenes at the paper's scale, written as `.glb`.
+//! `vplgi scene`: procedural scenes at the paper's scale, written as `.glb`, and any scene
+//! exported for Mitsuba 3.
 
-use anyhow::{Context, Result};
+use crate::shared::load_scene;
+use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use vplgi_scene::generate::{generate, GENERATORS};
+use vplgi_scene::mitsuba::{export, RenderDefaults};
+use vplgi_types::FrameConfig;
 
 #[derive(Args)]
 pub struct SceneArgs {
@@ -17,6 +21,36 @@ enum SceneCommand {
     /// box tessellated, ~1.9 M triangles), conference (tables and chairs on thin legs, ~300 k),
     /// living-room (large smooth walls, sofas, a window-like light, ~300 k).
     Generate(GenerateArgs),
+    /// Write a scene for another renderer, to cross-check vplgi's references against it:
+    /// `--format mitsuba` writes DIR/scene.xml (Mitsuba 3, `path` integrator) with one PLY mesh per
+    /// material in DIR/meshes/. Render it with `mitsuba -D spp=1024 DIR/scene.xml` or from Python
+    /// (`mi.load_file`); width, height, spp and max_depth are overridable defaults.
+    Export(ExportArgs),
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    /// Scene file (.gltf / .glb) [default: the built-in Cornell box; `cornell-box` names it too].
+    #[arg(value_name = "SCENE")]
+    scene: Option<PathBuf>,
+    /// Target renderer (only Mitsuba 3 for now).
+    #[arg(long, value_parser = ["mitsuba"], default_value = "mitsuba")]
+    format: String,
+    /// Output folder (created; files already in it are replaced one by one).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Image width written as the default (vplgi render's default).
+    #[arg(long, default_value_t = FrameConfig::default().width)]
+    width: u32,
+    /// Image height written as the default.
+    #[arg(long, default_value_t = FrameConfig::default().height)]
+    height: u32,
+    /// Samples per pixel written as the default.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// vplgi's light bounces; Mitsuba's max_depth is written as this + 2, the same paths.
+    #[arg(long, default_value_t = FrameConfig::default().bounces)]
+    bounces: u32,
 }
 
 #[derive(Args)]
@@ -34,7 +68,54 @@ struct GenerateArgs {
 }
 
 pub fn run(args: SceneArgs) -> Result<()> {
-    let SceneCommand::Generate(g) = args.command;
+    match args.command {
+        SceneCommand::Generate(g) => run_generate(g),
+        SceneCommand::Export(e) => run_export(e),
+    }
+}
+
+fn run_export(args: ExportArgs) -> Result<()> {
+    if args.width == 0 || args.height == 0 || args.spp == 0 {
+        bail!("--width, --height and --spp must be at least 1");
+    }
+    let (scene, source) = load_scene(args.scene.as_deref())?;
+    let defaults = RenderDefaults { width: args.width, height: args.height, spp: args.spp, max_depth: args.bounces + 2 };
+    let exported = export(&scene, defaults);
+    // scene.xml is written last, so an interrupted export has no scene file to render.
+    let mut files = exported.files;
+    files.rotate_left(1);
+    for (name, bytes) in &files {
+        let path = args.out.join(name);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+        write_file(&path, bytes)?;
+    }
+    for w in &exported.warnings {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "{source}: {} triangles, {} materials, {} punctual lights -> {} ({} files)",
+        scene.triangle_count(),
+        scene.materials.len(),
+        scene.lights.len(),
+        args.out.join("scene.xml").display(),
+        files.len()
+    );
+    println!("render it: mitsuba -D spp=1024 {}", args.out.join("scene.xml").display());
+    Ok(())
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    vplgi_image::write_atomically(path, |w| {
+        use std::io::Write;
+        w.write_all(bytes)
+    })
+    .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+fn run_generate(g: GenerateArgs) -> Result<()> {
     let default = GENERATORS.iter().find(|x| x.0 == g.name).map_or(300_000, |x| x.1);
     let scene = generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
     let out = g.out.unwrap_or_else(|| PathBuf::from(format!("out/scenes/{}.glb", g.name)));
@@ -42,11 +123,7 @@ pub fn run(args: SceneArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let bytes = vplgi_scene::gltf_write::glb(&scene).map_err(|e| anyhow::anyhow!("{e}"))?;
-    vplgi_image::write_atomically(&out, |w| {
-        use std::io::Write;
-        w.write_all(&bytes)
-    })
-    .with_context(|| format!("writing {}", out.display()))?;
+    write_file(&out, &bytes)?;
     let emissive = scene.material_ids.iter().filter(|&&m| scene.materials[m as usize].emission.max_element() > 0.0).count();
     println!("{}: {} triangles ({} emissive), {:.1} MB", scene.name, scene.triangle_count(), emissive, bytes.len() as f64 / 1e6);
     println!("wrote {}\nrender it: vplgi render {}", out.display(), out.display());

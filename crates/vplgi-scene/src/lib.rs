@@ -4,6 +4,7 @@
 //! * [`cornell`]: the built-in procedural Cornell box (the default scene).
 //! * [`generate`]: procedural scenes at the paper's scale (`vplgi scene generate`).
 //! * [`gltf_load`]: glTF 2.0 (`.gltf` / `.glb`) loading; [`gltf_write`]: `.glb` writing.
+//! * [`mitsuba`]: export for Mitsuba 3 (XML and PLY), for cross-checking references.
 //! * [`lights`]: light-selection tables shared by the backends.
 
 pub mod cornell;
@@ -12,6 +13,7 @@ pub mod glb;
 pub mod gltf_load;
 pub mod gltf_write;
 pub mod lights;
+pub mod mitsuba;
 
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
