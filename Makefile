@@ -10,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench perf-report references results clean
+.PHONY: all setup build demo test verify-long fuzz mutants bench perf-report references results validate clean
 
 all: build
 
@@ -163,6 +163,16 @@ references: build
 # RESULTS_ARGS=--reuse keeps frames already in target/results (after an interrupted run).
 results: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
+
+# vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
+# under target/ with numpy (nothing system-wide): each of the four scenes exported with
+# `vplgi scene export --format mitsuba`, rendered by both, compared per channel and per third of the
+# image against both images' noise: docs/VALIDATION.md. About 40 minutes on 2 cores; a subset:
+# make validate VALIDATE_ARGS="--scenes cornell-box --width 128"
+MITSUBA_PY := target/mitsuba-python
+validate: build
+	@test -d $(MITSUBA_PY)/mitsuba || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(MITSUBA_PY) "mitsuba==3.9.1" "numpy<3"
+	PYTHONPATH=$(MITSUBA_PY) $(CARGO) run --release -p vplgi-benches --bin validate -- --out docs/VALIDATION.md $(VALIDATE_ARGS)
 
 clean:
 	$(CARGO) clean

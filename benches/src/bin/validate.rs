@@ -1,0 +1,348 @@
+//! `make validate`: vplgi's references against an independent renderer, Mitsuba 3's `path`
+//! integrator, on the built-in Cornell box and the three generated scenes, written to
+//! `docs/VALIDATION.md` (numbers in `docs/validation/validation.json`, pictures beside it,
+//! full-size images under `target/validate/`).
+//!
+//! Per scene: `vplgi scene export --format mitsuba`, then Mitsuba (scalar_rgb, `max_depth` =
+//! bounces + 2, box-filtered pixels) in independent passes, and `vplgi reference` with jittered
+//! pixel samples (so both integrate over the pixel) at the same size and bounces. Each side's
+//! per-pixel variance gives its noise, so a difference can be judged against what noise alone
+//! would explain:
+//! * the ratio of the image means, per channel, over the whole image and over each third of its
+//!   rows (ceiling, walls, floor in these scenes), with the 2-sigma noise of that ratio;
+//! * relMSE (vplgi's definition, Mitsuba as the reference) against the relMSE the two images'
+//!   noise alone would give, sum over pixels of (var_v / n_v + var_m / n_m) / (m^2 + eps);
+//! * FLIP, and a map of where vplgi is darker or brighter.
+
+use anyhow::{bail, Context, Result};
+use clap::Parser;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use vplgi_image::{Image, REL_MSE_EPSILON};
+
+#[derive(Parser)]
+#[command(about = "Checks vplgi's references against Mitsuba 3; writes docs/VALIDATION.md")]
+struct Opts {
+    /// The report; numbers and pictures go to validation/ beside it.
+    #[arg(long, default_value = "docs/VALIDATION.md")]
+    out: PathBuf,
+    /// The vplgi binary.
+    #[arg(long, default_value = "target/release/vplgi")]
+    vplgi: PathBuf,
+    /// Python interpreter that can `import mitsuba` (make validate installs it for it).
+    #[arg(long, default_value = "python3")]
+    python: String,
+    /// Mitsuba's side.
+    #[arg(long, default_value = "benches/mitsuba_render.py")]
+    mitsuba_script: PathBuf,
+    /// Image width (height: 0.7 of it, as the paper's 1024x720).
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    /// Mitsuba's samples per pixel in all (split into 8 passes).
+    #[arg(long, default_value_t = 1024)]
+    mitsuba_spp: u32,
+    /// vplgi's seeds (each a full render with its own VPLs).
+    #[arg(long, default_value_t = 4)]
+    seeds: u32,
+    /// vplgi's jittered camera samples per pixel.
+    #[arg(long, default_value_t = 2)]
+    spp: u32,
+    /// VPLs per seed.
+    #[arg(long, default_value_t = 8000)]
+    vpls: u32,
+    /// Light bounces (vplgi's --bounces; Mitsuba's max_depth is this + 2).
+    #[arg(long, default_value_t = 3)]
+    bounces: u32,
+    /// Triangles of the generated scenes.
+    #[arg(long, default_value_t = 20_000)]
+    triangles: usize,
+    /// Only these scenes (comma-separated) [default: all four].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Where scenes and full-size images go.
+    #[arg(long, default_value = "target/validate")]
+    work: PathBuf,
+}
+
+const SCENES: [&str; 4] = ["cornell-box", "cornell-fine", "conference", "living-room"];
+const MITSUBA_PASSES: u32 = 8;
+
+fn run(cmd: &mut Command) -> Result<String> {
+    let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
+    if !out.status.success() {
+        bail!("{cmd:?} failed:\n{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+fn shell(cmd: &str, args: &[&str]) -> String {
+    Command::new(cmd).args(args).output().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()).unwrap_or_default()
+}
+
+/// One side of a comparison: the mean image, its per-pixel variance of one sample (seed or
+/// pass), and how many samples the mean averages.
+struct Side {
+    mean: Image,
+    variance: Image,
+    n: f64,
+}
+
+fn side(dir: &Path, mean: &str, n: u32) -> Result<Side> {
+    Ok(Side { mean: vplgi_image::read_exr(&dir.join(mean))?, variance: vplgi_image::read_exr(&dir.join("variance.exr"))?, n: n as f64 })
+}
+
+/// Ratio vplgi / Mitsuba of the mean of channel `c` over rows `rows`, and the 2-sigma noise of
+/// that ratio (first-order, from both sides' variances of the mean).
+fn band_ratio(v: &Side, m: &Side, rows: std::ops::Range<u32>, c: usize) -> (f64, f64) {
+    let w = v.mean.width as usize;
+    let px = (rows.start as usize * w)..(rows.end as usize * w);
+    let sum = |img: &Image| img.pixels[px.clone()].iter().map(|p| p[c] as f64).sum::<f64>();
+    let (sv, sm) = (sum(&v.mean), sum(&m.mean));
+    let (vv, vm) = (sum(&v.variance) / v.n, sum(&m.variance) / m.n);
+    let r = sv / sm;
+    let sigma = r * (vv / (sv * sv) + vm / (sm * sm)).sqrt();
+    (r, 2.0 * sigma)
+}
+
+/// The relMSE the two sides' noise alone would give (Mitsuba's mean as the reference).
+fn noise_rel_mse(v: &Side, m: &Side) -> f64 {
+    let mut total = 0.0;
+    for i in 0..m.mean.pixels.len() {
+        for c in 0..3 {
+            let r = m.mean.pixels[i][c] as f64;
+            total += (v.variance.pixels[i][c] as f64 / v.n + m.variance.pixels[i][c] as f64 / m.n) / (r * r + REL_MSE_EPSILON);
+        }
+    }
+    total / (m.mean.pixels.len() * 3) as f64
+}
+
+/// A picture of where vplgi is darker (blue) or brighter (red) than Mitsuba: the luminance ratio
+/// over 8x8-pixel blocks, saturating at +-5 %; grey where both are black.
+fn ratio_map(v: &Image, m: &Image) -> Vec<u8> {
+    let (w, h) = (v.width as usize, v.height as usize);
+    let lum = |p: [f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+    let mut rgb = vec![0u8; w * h * 3];
+    for by in (0..h).step_by(8) {
+        for bx in (0..w).step_by(8) {
+            let (mut sv, mut sm) = (0.0, 0.0);
+            for y in by..(by + 8).min(h) {
+                for x in bx..(bx + 8).min(w) {
+                    sv += lum(v.pixels[y * w + x]);
+                    sm += lum(m.pixels[y * w + x]);
+                }
+            }
+            let colour = if sm <= 1e-6 {
+                [128, 128, 128]
+            } else {
+                let t = ((sv / sm - 1.0) / 0.05).clamp(-1.0, 1.0);
+                let fade = |x: f64| (255.0 * (1.0 - x.abs())) as u8;
+                if t < 0.0 {
+                    [fade(t), fade(t), 255]
+                } else {
+                    [255, fade(t), fade(t)]
+                }
+            };
+            for y in by..(by + 8).min(h) {
+                for x in bx..(bx + 8).min(w) {
+                    rgb[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&colour);
+                }
+            }
+        }
+    }
+    rgb
+}
+
+fn main() -> Result<()> {
+    let o = Opts::parse();
+    let (w, h) = (o.width, (o.width as f64 * 0.7).round() as u32);
+    let scenes: Vec<&str> = if o.scenes.is_empty() { SCENES.to_vec() } else { o.scenes.iter().map(String::as_str).collect() };
+    if let Some(bad) = scenes.iter().find(|s| !SCENES.contains(s)) {
+        bail!("--scenes: unknown scene {bad:?} (known: {})", SCENES.join(", "));
+    }
+    let docs = o.out.parent().map_or_else(|| PathBuf::from("validation"), |p| p.join("validation"));
+    std::fs::create_dir_all(&docs).with_context(|| format!("cannot create {}", docs.display()))?;
+    let vplgi = |args: &[&str]| run(Command::new(&o.vplgi).args(args));
+    let mut rows = Vec::new();
+    for name in &scenes {
+        let dir = o.work.join(name);
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let scene_arg = if *name == "cornell-box" {
+            "cornell-box".to_string()
+        } else {
+            let glb = o.work.join("scenes").join(format!("{name}-{}.glb", o.triangles));
+            if !glb.exists() {
+                eprintln!("{name}: generating ({} triangles)", o.triangles);
+                vplgi(&["scene", "generate", name, "--triangles", &o.triangles.to_string(), "--out", &glb.to_string_lossy()])?;
+            }
+            glb.to_string_lossy().into_owned()
+        };
+        let (ws, hs) = (w.to_string(), h.to_string());
+        let export = dir.join("mitsuba");
+        vplgi(&[
+            "scene",
+            "export",
+            "--format",
+            "mitsuba",
+            &scene_arg,
+            "--out",
+            &export.to_string_lossy(),
+            "--width",
+            &ws,
+            "--height",
+            &hs,
+            "--bounces",
+            &o.bounces.to_string(),
+        ])?;
+        eprintln!("{name}: Mitsuba, {} spp", o.mitsuba_spp);
+        let per_pass = o.mitsuba_spp.div_ceil(MITSUBA_PASSES);
+        let mitsuba_out = run(Command::new(&o.python).args([
+            o.mitsuba_script.to_string_lossy().as_ref(),
+            &export.join("scene.xml").to_string_lossy(),
+            &dir.join("mitsuba-render").to_string_lossy(),
+            "--width",
+            &ws,
+            "--height",
+            &hs,
+            "--spp-per-pass",
+            &per_pass.to_string(),
+            "--passes",
+            &MITSUBA_PASSES.to_string(),
+        ]))?;
+        let mitsuba_run: Value = serde_json::from_str(mitsuba_out.lines().last().unwrap_or_default()).context("reading Mitsuba's timing line")?;
+        eprintln!("{name}: vplgi reference, {} seeds x {} spp, {} VPLs", o.seeds, o.spp, o.vpls);
+        let vplgi_dir = dir.join("vplgi");
+        let start = Instant::now();
+        vplgi(&[
+            "reference",
+            &scene_arg,
+            "--width",
+            &ws,
+            "--height",
+            &hs,
+            "--spp",
+            &o.spp.to_string(),
+            "--seeds",
+            &o.seeds.to_string(),
+            "--vpls",
+            &o.vpls.to_string(),
+            "--bounces",
+            &o.bounces.to_string(),
+            "--out",
+            &vplgi_dir.to_string_lossy(),
+        ])?;
+        let vplgi_seconds = start.elapsed().as_secs_f64();
+        let v = side(&vplgi_dir, "mean.exr", o.seeds)?;
+        let m = side(&dir.join("mitsuba-render"), "mean.exr", MITSUBA_PASSES)?;
+        let cmp = vplgi_image::compare(&m.mean, &v.mean)?;
+        let noise = noise_rel_mse(&v, &m);
+        let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
+            .into_iter()
+            .map(|(band, rows)| {
+                let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&v, &m, rows.clone(), c)).collect();
+                json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()})
+            })
+            .collect();
+        vplgi_image::write_png(&docs.join(format!("{name}-vplgi.png")), &v.mean, 1.0)?;
+        vplgi_image::write_png(&docs.join(format!("{name}-mitsuba.png")), &m.mean, 1.0)?;
+        vplgi_image::write_error_map(&docs.join(format!("{name}-flip.png")), &cmp)?;
+        vplgi_image::write_rgb8_png(&docs.join(format!("{name}-ratio.png")), w, h, &ratio_map(&v.mean, &m.mean))?;
+        let reference: Value = serde_json::from_slice(&std::fs::read(vplgi_dir.join("reference.json"))?)?;
+        rows.push(json!({
+            "scene": name,
+            "bands": bands,
+            "rel_mse": cmp.metrics.rel_mse,
+            "noise_rel_mse": noise,
+            "flip": cmp.metrics.flip,
+            "vplgi_seconds": vplgi_seconds,
+            "mitsuba_seconds": mitsuba_run["seconds"],
+            "g_clamp": reference["params"]["g_clamp_rel"],
+        }));
+    }
+    let report = json!({
+        "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
+        "commit": shell("git", &["rev-parse", "--short", "HEAD"]),
+        "width": w, "height": h, "mitsuba_spp": o.mitsuba_spp, "mitsuba_passes": MITSUBA_PASSES,
+        "seeds": o.seeds, "spp": o.spp, "vpls": o.vpls, "bounces": o.bounces, "triangles": o.triangles,
+        "mitsuba": shell(&o.python, &["-c", "import mitsuba; print(mitsuba.__version__)"]),
+        "scenes": rows,
+    });
+    std::fs::write(docs.join("validation.json"), serde_json::to_string_pretty(&report)? + "\n")?;
+    std::fs::write(&o.out, markdown(&report)?)?;
+    println!("wrote {} and {}", o.out.display(), docs.join("validation.json").display());
+    Ok(())
+}
+
+fn markdown(r: &Value) -> Result<String> {
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut s = String::new();
+    writeln!(s, "# Validation: vplgi's references against Mitsuba 3\n")?;
+    writeln!(
+        s,
+        "Generated by `make validate` on {}, commit {}, Mitsuba {} (`scalar_rgb`, `path` integrator). Numbers: \
+         [validation/validation.json](validation/validation.json); full-size images under `target/validate/` after a run.\n",
+        r["date"].as_str().unwrap_or("?"),
+        r["commit"].as_str().unwrap_or("?"),
+        r["mitsuba"].as_str().unwrap_or("?")
+    )?;
+    writeln!(
+        s,
+        "Each scene is written by `vplgi scene export --format mitsuba` and rendered by both at {}x{}: Mitsuba with {} samples \
+         per pixel in {} independent passes and `max_depth` = {} (the same paths as vplgi's {} bounces); vplgi with \
+         `vplgi reference --seeds {} --spp {} --vpls {} --bounces {}` (jittered samples, so both integrate over each pixel). \
+         Generated scenes have {} triangles. Both run on the same 2 CPU cores; times are wall-clock seconds of each \
+         render.\n",
+        r["width"],
+        r["height"],
+        r["mitsuba_spp"],
+        r["mitsuba_passes"],
+        f(&r["bounces"]) + 2.0,
+        r["bounces"],
+        r["seeds"],
+        r["spp"],
+        r["vpls"],
+        r["bounces"],
+        r["triangles"]
+    )?;
+    writeln!(
+        s,
+        "How to read it. **Ratio** is vplgi's mean over Mitsuba's, per channel, over the image and over each third of its \
+         rows, with the 2-sigma noise of that ratio from both images' per-pixel variances: a ratio further from 1 than its \
+         noise is a bias. The target is agreement within +-0.3 %. **relMSE** is vplgi's (Mitsuba as the reference; \
+         epsilon 0.01), beside the relMSE the two images' noise alone would give: their quotient is at most 2 when the \
+         images differ only by noise. The ratio map shows where vplgi is darker (blue) or brighter (red), over 8x8-pixel \
+         blocks, saturating at 5 %.\n"
+    )?;
+    writeln!(
+        s,
+        "| scene | geometry-term clamp | relMSE | noise relMSE | quotient | FLIP | vplgi (s) | Mitsuba (s) |\n|---|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
+    let scenes = r["scenes"].as_array().cloned().unwrap_or_default();
+    for sc in &scenes {
+        writeln!(
+            s,
+            "| {} | {:.3} | {:.3e} | {:.3e} | {:.2} | {:.4} | {:.0} | {:.0} |",
+            sc["scene"].as_str().unwrap_or("?"),
+            f(&sc["g_clamp"]),
+            f(&sc["rel_mse"]),
+            f(&sc["noise_rel_mse"]),
+            f(&sc["rel_mse"]) / f(&sc["noise_rel_mse"]),
+            f(&sc["flip"]),
+            f(&sc["vplgi_seconds"]),
+            f(&sc["mitsuba_seconds"])
+        )?;
+    }
+    for sc in &scenes {
+        let n = sc["scene"].as_str().unwrap_or("?");
+        writeln!(s, "\n## {n}\n\n| band | R | G | B |\n|---|---:|---:|---:|")?;
+        for b in sc["bands"].as_array().cloned().unwrap_or_default() {
+            let cell = |c: usize| format!("{:.4} +- {:.4}", f(&b["ratio"][c]), f(&b["two_sigma"][c]));
+            writeln!(s, "| {} | {} | {} | {} |", b["band"].as_str().unwrap_or("?"), cell(0), cell(1), cell(2))?;
+        }
+        writeln!(s, "\n| vplgi | Mitsuba | FLIP error | darker (blue) / brighter (red) |\n|---|---|---|---|")?;
+        writeln!(s, "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio.png) |")?;
+    }
+    Ok(s)
+}
