@@ -66,7 +66,8 @@ fn vpl_endpoints(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     endpoints[i] = Endpoint(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0));
 }
 
-// One light per VPL.
+// One light per VPL; VPLs deposited at more than params.k surfaces carry no flux (the lights of
+// a bias-compensation level).
 @compute @workgroup_size(64)
 fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -74,7 +75,8 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let v = vpls[i];
-    lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(v.flux, 0.0));
+    let flux = select(v.flux, vec3<f32>(0.0), v.bounce > params.k);
+    lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(flux, 0.0));
 }
 
 // One light per VPL cluster: its representative, carrying the members' flux summed in VPL

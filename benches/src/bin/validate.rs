@@ -69,6 +69,9 @@ struct Opts {
 
 const SCENES: [&str; 4] = ["cornell-box", "cornell-fine", "conference", "living-room"];
 const MITSUBA_PASSES: u32 = 8;
+/// vplgi's two references: with the clamp's bias compensation (`vplgi reference`'s default), and
+/// clamped as the paper's clustered frames are.
+const VARIANTS: [(&str, bool); 2] = [("compensated", true), ("clamped", false)];
 
 fn run(cmd: &mut Command) -> Result<String> {
     let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
@@ -212,54 +215,59 @@ fn main() -> Result<()> {
             &MITSUBA_PASSES.to_string(),
         ]))?;
         let mitsuba_run: Value = serde_json::from_str(mitsuba_out.lines().last().unwrap_or_default()).context("reading Mitsuba's timing line")?;
-        eprintln!("{name}: vplgi reference, {} seeds x {} spp, {} VPLs", o.seeds, o.spp, o.vpls);
-        let vplgi_dir = dir.join("vplgi");
-        let start = Instant::now();
-        vplgi(&[
-            "reference",
-            &scene_arg,
-            "--width",
-            &ws,
-            "--height",
-            &hs,
-            "--spp",
-            &o.spp.to_string(),
-            "--seeds",
-            &o.seeds.to_string(),
-            "--vpls",
-            &o.vpls.to_string(),
-            "--bounces",
-            &o.bounces.to_string(),
-            "--out",
-            &vplgi_dir.to_string_lossy(),
-        ])?;
-        let vplgi_seconds = start.elapsed().as_secs_f64();
-        let v = side(&vplgi_dir, "mean.exr", o.seeds)?;
         let m = side(&dir.join("mitsuba-render"), "mean.exr", MITSUBA_PASSES)?;
-        let cmp = vplgi_image::compare(&m.mean, &v.mean)?;
-        let noise = noise_rel_mse(&v, &m);
-        let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
-            .into_iter()
-            .map(|(band, rows)| {
-                let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&v, &m, rows.clone(), c)).collect();
-                json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()})
-            })
-            .collect();
-        vplgi_image::write_png(&docs.join(format!("{name}-vplgi.png")), &v.mean, 1.0)?;
         vplgi_image::write_png(&docs.join(format!("{name}-mitsuba.png")), &m.mean, 1.0)?;
-        vplgi_image::write_error_map(&docs.join(format!("{name}-flip.png")), &cmp)?;
-        vplgi_image::write_rgb8_png(&docs.join(format!("{name}-ratio.png")), w, h, &ratio_map(&v.mean, &m.mean))?;
-        let reference: Value = serde_json::from_slice(&std::fs::read(vplgi_dir.join("reference.json"))?)?;
-        rows.push(json!({
-            "scene": name,
-            "bands": bands,
-            "rel_mse": cmp.metrics.rel_mse,
-            "noise_rel_mse": noise,
-            "flip": cmp.metrics.flip,
-            "vplgi_seconds": vplgi_seconds,
-            "mitsuba_seconds": mitsuba_run["seconds"],
-            "g_clamp": reference["params"]["g_clamp_rel"],
-        }));
+        let mut variants = Vec::new();
+        for (variant, compensated) in VARIANTS {
+            eprintln!("{name}: vplgi reference ({variant}), {} seeds x {} spp, {} VPLs", o.seeds, o.spp, o.vpls);
+            let vplgi_dir = dir.join(format!("vplgi-{variant}"));
+            let start = Instant::now();
+            let (seeds, spp, vpls, bounces) = (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
+            vplgi(&[
+                "reference",
+                &scene_arg,
+                "--width",
+                &ws,
+                "--height",
+                &hs,
+                "--spp",
+                &spp,
+                "--seeds",
+                &seeds,
+                "--vpls",
+                &vpls,
+                "--bounces",
+                &bounces,
+                "--bias-compensation",
+                if compensated { "true" } else { "false" },
+                "--out",
+                &vplgi_dir.to_string_lossy(),
+            ])?;
+            let vplgi_seconds = start.elapsed().as_secs_f64();
+            let v = side(&vplgi_dir, "mean.exr", o.seeds)?;
+            let cmp = vplgi_image::compare(&m.mean, &v.mean)?;
+            let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
+                .into_iter()
+                .map(|(band, rows)| {
+                    let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&v, &m, rows.clone(), c)).collect();
+                    json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()})
+                })
+                .collect();
+            if compensated {
+                vplgi_image::write_png(&docs.join(format!("{name}-vplgi.png")), &v.mean, 1.0)?;
+                vplgi_image::write_error_map(&docs.join(format!("{name}-flip.png")), &cmp)?;
+            }
+            vplgi_image::write_rgb8_png(&docs.join(format!("{name}-ratio-{variant}.png")), w, h, &ratio_map(&v.mean, &m.mean))?;
+            variants.push(json!({
+                "variant": variant,
+                "bands": bands,
+                "rel_mse": cmp.metrics.rel_mse,
+                "noise_rel_mse": noise_rel_mse(&v, &m),
+                "flip": cmp.metrics.flip,
+                "vplgi_seconds": vplgi_seconds,
+            }));
+        }
+        rows.push(json!({"scene": name, "mitsuba_seconds": mitsuba_run["seconds"], "variants": variants}));
     }
     let report = json!({
         "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
@@ -317,32 +325,42 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     writeln!(
         s,
-        "| scene | geometry-term clamp | relMSE | noise relMSE | quotient | FLIP | vplgi (s) | Mitsuba (s) |\n|---|---:|---:|---:|---:|---:|---:|---:|"
+        "vplgi renders each scene twice: **compensated** (`vplgi reference`'s default: the light the geometry-term clamp \
+         removes is put back, `--bias-compensation true`) and **clamped** (`--bias-compensation false`, the transport \
+         the paper's clustered frames approximate). Both use the default clamp, d_min = 0.05 of the scene's diagonal.\n"
     )?;
+    writeln!(s, "| scene | vplgi | relMSE | noise relMSE | quotient | FLIP | vplgi (s) | Mitsuba (s) |\n|---|---|---:|---:|---:|---:|---:|---:|")?;
     let scenes = r["scenes"].as_array().cloned().unwrap_or_default();
     for sc in &scenes {
-        writeln!(
-            s,
-            "| {} | {:.3} | {:.3e} | {:.3e} | {:.2} | {:.4} | {:.0} | {:.0} |",
-            sc["scene"].as_str().unwrap_or("?"),
-            f(&sc["g_clamp"]),
-            f(&sc["rel_mse"]),
-            f(&sc["noise_rel_mse"]),
-            f(&sc["rel_mse"]) / f(&sc["noise_rel_mse"]),
-            f(&sc["flip"]),
-            f(&sc["vplgi_seconds"]),
-            f(&sc["mitsuba_seconds"])
-        )?;
+        for v in sc["variants"].as_array().cloned().unwrap_or_default() {
+            writeln!(
+                s,
+                "| {} | {} | {:.3e} | {:.3e} | {:.2} | {:.4} | {:.0} | {:.0} |",
+                sc["scene"].as_str().unwrap_or("?"),
+                v["variant"].as_str().unwrap_or("?"),
+                f(&v["rel_mse"]),
+                f(&v["noise_rel_mse"]),
+                f(&v["rel_mse"]) / f(&v["noise_rel_mse"]),
+                f(&v["flip"]),
+                f(&v["vplgi_seconds"]),
+                f(&sc["mitsuba_seconds"])
+            )?;
+        }
     }
     for sc in &scenes {
         let n = sc["scene"].as_str().unwrap_or("?");
-        writeln!(s, "\n## {n}\n\n| band | R | G | B |\n|---|---:|---:|---:|")?;
-        for b in sc["bands"].as_array().cloned().unwrap_or_default() {
-            let cell = |c: usize| format!("{:.4} +- {:.4}", f(&b["ratio"][c]), f(&b["two_sigma"][c]));
-            writeln!(s, "| {} | {} | {} | {} |", b["band"].as_str().unwrap_or("?"), cell(0), cell(1), cell(2))?;
+        writeln!(s, "\n## {n}\n\nvplgi's mean over Mitsuba's (+- 2 sigma of noise):\n\n| vplgi | band | R | G | B |\n|---|---|---:|---:|---:|")?;
+        for v in sc["variants"].as_array().cloned().unwrap_or_default() {
+            for b in v["bands"].as_array().cloned().unwrap_or_default() {
+                let cell = |c: usize| format!("{:.4} +- {:.4}", f(&b["ratio"][c]), f(&b["two_sigma"][c]));
+                writeln!(s, "| {} | {} | {} | {} | {} |", v["variant"].as_str().unwrap_or("?"), b["band"].as_str().unwrap_or("?"), cell(0), cell(1), cell(2))?;
+            }
         }
-        writeln!(s, "\n| vplgi | Mitsuba | FLIP error | darker (blue) / brighter (red) |\n|---|---|---|---|")?;
-        writeln!(s, "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio.png) |")?;
+        writeln!(s, "\n| vplgi (compensated) | Mitsuba | FLIP error (compensated) | darker / brighter: compensated | darker / brighter: clamped |\n|---|---|---|---|---|")?;
+        writeln!(
+            s,
+            "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio-compensated.png) | ![](validation/{n}-ratio-clamped.png) |"
+        )?;
     }
     Ok(s)
 }

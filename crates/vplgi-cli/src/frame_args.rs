@@ -84,6 +84,13 @@ pub struct FrameArgs {
     #[arg(long = "g-clamp")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub g_clamp_rel: Option<f32>,
+    /// Put back the light the geometry-term clamp removes (Kollig and Keller's bias
+    /// compensation: short segments from each shading point where the clamp bites, shaded in
+    /// turn): the unclamped, unbiased transport, at the cost of extra shadow rays where surfaces
+    /// are close. The paper's clustered settings keep the clamp as measured.
+    #[arg(long, value_name = "true|false", action = clap::ArgAction::Set)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_compensation: Option<bool>,
 }
 
 /// How a subcommand uses the frame options.

@@ -72,7 +72,12 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         Some(t) => parse_tile(t)?,
         None => (1, 1),
     };
-    let base = args.frame.config(&REFERENCE)?;
+    let mut base = args.frame.config(&REFERENCE)?;
+    if base.cluster != vplgi_types::ClusterMode::None && args.frame.bias_compensation.is_none() {
+        // The mean of a clustered configuration is a baseline for `render` of that
+        // configuration, which keeps the clamp unless told otherwise.
+        base.bias_compensation = false;
+    }
     if count > 1 && base.cluster != vplgi_types::ClusterMode::None {
         bail!("--tile {index}/{count}: only unclustered references (--cluster none) can be cut into tiles; a clustering depends on the whole image");
     }

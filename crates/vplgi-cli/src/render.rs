@@ -94,7 +94,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         params: cfg.clone(),
         vpls: stats.vpls,
         clusters: Clusters { vpl: stats.vpl_clusters, sp: stats.sp_clusters },
-        g_clamp: GClamp { relative: cfg.g_clamp_rel, d_min: stats.g_clamp_d_min },
+        g_clamp: GClamp { relative: cfg.g_clamp_rel, d_min: stats.g_clamp_d_min, compensated: cfg.bias_compensation && cfg.g_clamp_rel > 0.0 },
         stats,
         timings_ms: frame.timings,
         setup_ms: Setup { load: load_ms, scene_build: setup_ms },

@@ -1,6 +1,7 @@
 //! The CPU reference as a [`Backend`]: every stage on host vectors, each a call into its stage
 //! module. The frame itself is [`vplgi_frame::render`].
 
+use crate::bias_points::bias_points;
 use crate::cluster::{cluster, Clustering};
 use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
 use crate::shading_points::shading_points_of;
@@ -9,9 +10,9 @@ use crate::visibility::{visibility, BitMatrix, Endpoint};
 use crate::CpuScene;
 use glam::Vec3;
 use std::ops::Range;
-use vplgi_frame::{Backend, ClusterCounts, FrameError, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{CameraParams, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
+use vplgi_types::{BiasParams, CameraParams, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
 /// surface points.
@@ -84,8 +85,20 @@ impl Backend for CpuScene<'_> {
         Ok(c.representatives.iter().map(|&r| points[r as usize]).collect())
     }
 
-    fn vpl_lights(&self, vpls: &Vec<Vpl>, _n: u32, clusters: Option<(&Clustering, u32)>) -> Result<Vec<VplLight>, FrameError> {
-        Ok(vpl_lights(vpls, clusters.map(|(c, _)| c)))
+    fn vpl_lights(&self, vpls: &Vec<Vpl>, n: u32, set: LightSet<'_, Clustering>) -> Result<Vec<VplLight>, FrameError> {
+        let vpls = &vpls[..n as usize];
+        Ok(match set {
+            LightSet::Clusters(c, _) => vpl_lights(vpls, Some(c)),
+            LightSet::EachVpl { max_bounce } => {
+                let mut lights = vpl_lights(vpls, None);
+                for (l, v) in lights.iter_mut().zip(vpls) {
+                    if v.bounce > max_bounce {
+                        l.flux = [0.0; 3];
+                    }
+                }
+                lights
+            }
+        })
     }
 
     fn light_points(&self, lights: &Vec<VplLight>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
@@ -113,5 +126,9 @@ impl Backend for CpuScene<'_> {
         };
         let pixels = pixels.start as usize..pixels.end as usize;
         Ok(shade(self, &input.chunk.samples, input.chunk.first as usize, pixels, input.lights, &src, params))
+    }
+
+    fn bias_points(&self, parent: &Vec<ShadingPoint>, samples: Range<u32>, params: &BiasParams) -> Result<Vec<ShadingPoint>, FrameError> {
+        Ok(bias_points(self, parent, samples.start, params))
     }
 }

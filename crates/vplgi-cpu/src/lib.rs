@@ -2,7 +2,8 @@
 //!
 //! One module per stage, each exposing a function named after the stage:
 //! [`trace_vpls::trace_vpls`], [`shading_points::shading_points`], [`cluster::cluster`],
-//! [`visibility::visibility`] and [`shade::shade`]. [`CpuScene`] implements
+//! [`visibility::visibility`], [`shade::shade`] and [`bias_points::bias_points`] (the clamp's
+//! bias compensation). [`CpuScene`] implements
 //! [`vplgi_frame::Backend`] with them, so [`render`] (the one frame driver) chains them for one
 //! frame. Every stage is parallel with rayon and deterministic: each item (particle, pixel,
 //! point, matrix row) is a pure function of its inputs and of the counter-based RNG, and all
@@ -10,6 +11,7 @@
 //! bit-identical results.
 
 mod backend;
+pub mod bias_points;
 pub mod cluster;
 pub mod shade;
 pub mod shading_points;

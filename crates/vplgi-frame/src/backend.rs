@@ -5,7 +5,7 @@
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{CameraParams, FrameConfig, ShadeParams, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, FrameConfig, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -39,6 +39,16 @@ pub enum ShadeVisibility<'a, C> {
     /// The matrix has one row per shading-point cluster; a hit combines its F clusters' rows by
     /// the clustering's labels and weights. `hits` are the hits of the shaded samples.
     Fuzzy { clustering: &'a C, hits: Range<u32> },
+}
+
+/// Which lights [`Backend::vpl_lights`] makes.
+pub enum LightSet<'a, C> {
+    /// One light per VPL. VPLs deposited at more than `max_bounce` surfaces carry no flux: the
+    /// lights of a bias-compensation level, whose paths already have surfaces of their own.
+    EachVpl { max_bounce: u32 },
+    /// One light per VPL cluster (at its representative, with its members' summed flux), of a
+    /// clustering into this many clusters.
+    Clusters(&'a C, u32),
 }
 
 /// Everything `shade` reads for a range of pixels whose samples lie in `chunk`.
@@ -119,9 +129,8 @@ pub trait Backend {
     /// Each cluster's representative member, as surface points.
     fn representatives(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32) -> Result<Self::Points, Self::Error>;
 
-    /// One light per VPL, or per VPL cluster (at its representative, with its members' summed
-    /// flux).
-    fn vpl_lights(&self, vpls: &Self::Vpls, n: u32, clusters: Option<(&Self::Clustering, u32)>) -> Result<Self::Lights, Self::Error>;
+    /// The lights of `n` VPLs: one per VPL or per VPL cluster.
+    fn vpl_lights(&self, vpls: &Self::Vpls, n: u32, set: LightSet<'_, Self::Clustering>) -> Result<Self::Lights, Self::Error>;
 
     /// The lights as surface points (visibility columns).
     fn light_points(&self, lights: &Self::Lights, n: u32) -> Result<Self::Points, Self::Error>;
@@ -140,4 +149,10 @@ pub trait Backend {
 
     /// Stage 5: the radiance of `pixels` (all of whose samples are in `input.chunk`).
     fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, Self::Error>;
+
+    /// Bias compensation: from each shading point of `parent` (camera samples `samples`), a
+    /// cosine-sampled segment to the surface it sees, kept as a shading point where the clamp
+    /// bites (albedo = its albedo x the parent's x the clamped share 1 - g_max / G, no emission,
+    /// the parent's pixel), and a miss elsewhere.
+    fn bias_points(&self, parent: &Self::Samples, samples: Range<u32>, params: &BiasParams) -> Result<Self::Samples, Self::Error>;
 }

@@ -1,11 +1,11 @@
 //! The frame, written once over [`Backend`]: which stages run in which variant, how work is cut
 //! into chunks that fit the backend, and what is timed and counted.
 
-use crate::backend::{Backend, SampleChunk, ShadeInput, ShadeVisibility};
+use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility};
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig};
+use vplgi_types::{ClusterMode, FrameConfig, ShadeParams};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -53,7 +53,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     let camera = cfg.camera_params();
     let per_chunk = (b.max_samples_per_chunk() / spp).max(1) * spp;
     let (first_sample, end_sample) = (rows.start * cfg.width * spp, rows.end * cfg.width * spp);
-    let chunks = timed(b, &mut t, Stage::ShadingPoints, || {
+    let mut chunks = timed(b, &mut t, Stage::ShadingPoints, || {
         let mut chunks = Vec::new();
         let mut first = first_sample;
         while first < end_sample {
@@ -76,9 +76,9 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
             let points = b.vpl_points(&vpls, n_vpls)?;
             let (c, k) = b.cluster(&points, n_vpls, &cfg.vpl_cluster_params())?;
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
-            (b.vpl_lights(&vpls, n_vpls, Some((&c, k.k)))?, k.k)
+            (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters(&c, k.k))?, k.k)
         } else {
-            (b.vpl_lights(&vpls, n_vpls, None)?, n_vpls)
+            (b.vpl_lights(&vpls, n_vpls, LightSet::EachVpl { max_bounce: cfg.bounces })?, n_vpls)
         };
         let cols = b.light_points(&lights, n_lights)?;
         let sp_clusters = if cfg.cluster.clusters_sps() && n_hits > 0 {
@@ -110,11 +110,6 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         }
         None => None,
     };
-    // Otherwise each hit is its own row: visibility and shading proceed in pixel blocks whose
-    // rows fit the memory bound and the backend.
-    let row_bits = 64 * (n_lights as u64).div_ceil(64).max(1);
-    let row_budget = (ROW_CHUNK_BITS / row_bits).min(b.max_visibility_rows(n_lights));
-    let px_block = ((row_budget / spp as u64).min(u32::MAX as u64) as u32).max(1);
     let mut pixels = Vec::with_capacity((rows.end - rows.start) as usize * cfg.width as usize);
     for chunk in &chunks {
         let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
@@ -134,27 +129,48 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
                 progress.finish();
             }
             None => {
-                // Hits are numbered in sample order: a block's hits are consecutive rows, starting
-                // where the previous block's ended (on the GPU each count is a read-back).
-                let mut px = px0;
-                let mut first_row = b.hits_before(&hits, px * spp)?;
-                while px < px1 {
-                    let end = px.saturating_add(px_block).min(px1);
-                    let last_row = b.hits_before(&hits, end * spp)?;
-                    let (matrix, r) =
-                        timed(b, &mut t, Stage::Visibility, || b.visibility(b.hit_points(&hits), n_hits, first_row..last_row, &cols, n_lights, progress))?;
-                    count_rays(r);
-                    let input = ShadeInput {
-                        chunk,
-                        hits: &hits,
-                        lights: &lights,
-                        light_count: n_lights,
-                        matrix: &matrix,
-                        visibility: ShadeVisibility::Own { first_row },
-                    };
-                    pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px..end, &shade))?);
-                    (px, first_row) = (end, last_row);
+                let own = OwnRows { chunk, hits: &hits, n_hits, lights: &lights, cols: &cols, n_lights };
+                pixels.extend(shade_own_rows(b, &mut t, &own, &shade, progress, &mut count_rays)?);
+            }
+        }
+    }
+
+    // Bias compensation, level by level (Kollig and Keller): level j's points are surfaces seen
+    // from level j - 1's where the clamp bit, shaded like camera hits (each its own visibility
+    // row) by the VPLs of at most bounces - j surfaces, so no path is longer than the frame's.
+    // Their radiance, already weighted by their parents' albedos and clamped shares, adds to the
+    // pixels. Without a clamp or without VPLs nothing was clamped.
+    if cfg.bias_compensation && shade.g_max.is_finite() && counts.vpls > 0 {
+        for level in 1..=cfg.bounces {
+            let max_bounce = cfg.bounces - level;
+            let (lights, n_lights) = timed(b, &mut t, Stage::BiasPoints, || {
+                let n = if max_bounce == 0 { 0 } else { counts.vpls };
+                Ok((b.vpl_lights(&vpls, n, LightSet::EachVpl { max_bounce })?, n))
+            })?;
+            let cols = b.light_points(&lights, n_lights)?;
+            let level_shade = ShadeParams { seed: vplgi_types::params::level_seed(cfg.seed, level), ..shade };
+            let mut any = false;
+            for chunk in chunks.iter_mut() {
+                let range = chunk.first..chunk.first + chunk.count;
+                let samples = timed(b, &mut t, Stage::BiasPoints, || b.bias_points(&chunk.samples, range, &cfg.bias_params(extent, level)))?;
+                chunk.samples = samples;
+                let (hits, n_hits) = timed(b, &mut t, Stage::BiasPoints, || b.compact_hits(std::slice::from_ref(chunk), n_samples))?;
+                if n_hits == 0 {
+                    continue;
                 }
+                any = true;
+                stats.bias_points += n_hits as u64;
+                let own = OwnRows { chunk, hits: &hits, n_hits, lights: &lights, cols: &cols, n_lights };
+                let added = shade_own_rows(b, &mut t, &own, &level_shade, progress, &mut count_rays)?;
+                let px0 = ((chunk.first - first_sample) / spp) as usize;
+                for (p, a) in pixels[px0..px0 + added.len()].iter_mut().zip(added) {
+                    for c in 0..3 {
+                        p[c] += a[c];
+                    }
+                }
+            }
+            if !any {
+                break;
             }
         }
     }
@@ -162,4 +178,47 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     stats.visibility_rays = rays;
     stats.visibility_mrays_per_s = rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
     Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats })
+}
+
+/// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).
+struct OwnRows<'a, B: Backend> {
+    chunk: &'a SampleChunk<B::Samples>,
+    hits: &'a B::Hits,
+    n_hits: u32,
+    lights: &'a B::Lights,
+    cols: &'a B::Points,
+    n_lights: u32,
+}
+
+/// The radiance of a chunk's pixels when each hit is its own visibility row: visibility and
+/// shading proceed in pixel blocks whose rows fit the memory bound and the backend.
+fn shade_own_rows<B: Backend>(
+    b: &B,
+    t: &mut StageTimings,
+    own: &OwnRows<'_, B>,
+    shade: &ShadeParams,
+    progress: &dyn Progress,
+    count_rays: &mut impl FnMut(Option<u64>),
+) -> Result<Vec<[f32; 3]>, B::Error> {
+    let OwnRows { chunk, hits, n_hits, lights, cols, n_lights } = *own;
+    let spp = shade.spp;
+    let row_bits = 64 * (n_lights as u64).div_ceil(64).max(1);
+    let row_budget = (ROW_CHUNK_BITS / row_bits).min(b.max_visibility_rows(n_lights));
+    let px_block = ((row_budget / spp as u64).min(u32::MAX as u64) as u32).max(1);
+    let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
+    let mut pixels = Vec::with_capacity((px1 - px0) as usize);
+    // Hits are numbered in sample order: a block's hits are consecutive rows, starting where the
+    // previous block's ended (on the GPU each count is a read-back).
+    let mut px = px0;
+    let mut first_row = b.hits_before(hits, px * spp)?;
+    while px < px1 {
+        let end = px.saturating_add(px_block).min(px1);
+        let last_row = b.hits_before(hits, end * spp)?;
+        let (matrix, r) = timed(b, t, Stage::Visibility, || b.visibility(b.hit_points(hits), n_hits, first_row..last_row, cols, n_lights, progress))?;
+        count_rays(r);
+        let input = ShadeInput { chunk, hits, lights, light_count: n_lights, matrix: &matrix, visibility: ShadeVisibility::Own { first_row } };
+        pixels.extend(timed(b, t, Stage::Shade, || b.shade(&input, px..end, shade))?);
+        (px, first_row) = (end, last_row);
+    }
+    Ok(pixels)
 }

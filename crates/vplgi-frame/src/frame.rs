@@ -13,11 +13,14 @@ pub enum Stage {
     Cluster,
     Visibility,
     Shade,
+    /// The bias compensation's segments (their visibility and shading count as `visibility` and
+    /// `shade`).
+    BiasPoints,
 }
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 5] = [Stage::TraceVpls, Stage::ShadingPoints, Stage::Cluster, Stage::Visibility, Stage::Shade];
+    pub const ALL: [Stage; 6] = [Stage::TraceVpls, Stage::ShadingPoints, Stage::Cluster, Stage::Visibility, Stage::Shade, Stage::BiasPoints];
 
     /// The stage's name: the same for the CPU function, the GPU kernel, the shader, the test and
     /// the bench.
@@ -28,6 +31,7 @@ impl Stage {
             Stage::Cluster => "cluster",
             Stage::Visibility => "visibility",
             Stage::Shade => "shade",
+            Stage::BiasPoints => "bias_points",
         }
     }
 
@@ -139,6 +143,9 @@ pub struct FrameStats {
     /// The geometry-term clamp: G <= 1 / d_min², d_min = g_clamp_rel * scene extent.
     pub g_clamp_d_min: f32,
     pub scene_extent: f32,
+    /// Surface points shaded for the bias compensation, over all levels (0 without it).
+    #[serde(default)]
+    pub bias_points: u64,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.
@@ -190,7 +197,8 @@ mod tests {
         let m = StageTimings::median(&[t(1.0, 1.0), t(10.0, 10.0), t(0.5, 30.0)]);
         assert_eq!((m.get(Stage::TraceVpls), m.get(Stage::Shade), m.total()), (1.0, 10.0, 20.0));
         assert_eq!(StageTimings::median(&[]).total(), 0.0);
-        assert_eq!(t(1.0, 2.0).iter().last(), Some((Stage::Shade, 2.0)));
+        assert_eq!(t(1.0, 2.0).iter().last(), Some((Stage::BiasPoints, 0.0)));
+        assert_eq!(t(1.0, 2.0).iter().nth(4), Some((Stage::Shade, 2.0)));
     }
 
     #[test]

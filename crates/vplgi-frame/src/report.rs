@@ -63,6 +63,10 @@ pub struct GClamp {
     /// d_min as a fraction of the scene's extent (`--g-clamp`).
     pub relative: f32,
     pub d_min: f32,
+    /// Whether the light the clamp removes was put back (`--bias-compensation`; how many points
+    /// it shaded is `stats.bias_points`).
+    #[serde(default)]
+    pub compensated: bool,
 }
 
 /// Work before the frame, in milliseconds.

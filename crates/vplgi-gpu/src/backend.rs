@@ -3,6 +3,7 @@
 //! hit count and the hit numbers at block boundaries, each clustering's data box and occupancy
 //! counts) and the shaded pixels. The frame itself is [`vplgi_frame::render`].
 
+use crate::bias_points::BiasPointsKernel;
 use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
@@ -16,10 +17,10 @@ use crate::visibility::{words_per_row, Endpoint, VisibilityKernel};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
-use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{CameraParams, FrameConfig, ShadeParams, ShadingPoint, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, FrameConfig, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
 struct GlueKernels {
@@ -39,6 +40,7 @@ pub struct GpuKernels {
     pub cluster: ClusterKernel,
     pub visibility: VisibilityKernel,
     pub shade: ShadeKernel,
+    pub bias_points: BiasPointsKernel,
     scan: ScanKernel,
     glue: GlueKernels,
 }
@@ -70,6 +72,7 @@ impl GpuKernels {
             cluster: ClusterKernel::new(device)?,
             visibility: VisibilityKernel::new(device)?,
             shade: ShadeKernel::new(device)?,
+            bias_points: BiasPointsKernel::new(device)?,
             scan: ScanKernel::new(device)?,
             glue,
         })
@@ -261,11 +264,11 @@ impl Backend for GpuBackend<'_> {
         Ok(rows)
     }
 
-    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, clusters: Option<(&GpuClustering, u32)>) -> Result<wgpu::Buffer, GpuError> {
+    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, set: LightSet<'_, GpuClustering>) -> Result<wgpu::Buffer, GpuError> {
         let g = &self.kernels.glue;
         let vb = vpls.buffer.as_entire_buffer_binding();
-        Ok(match clusters {
-            Some((c, k)) => {
+        Ok(match set {
+            LightSet::Clusters(c, k) => {
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
                 let b = [
                     (6, vb),
@@ -276,9 +279,9 @@ impl Backend for GpuBackend<'_> {
                 self.glue(&g.cluster_lights, GlueParams { n, k, ..Default::default() }, &b, k)?;
                 lights
             }
-            None => {
+            LightSet::EachVpl { max_bounce } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
-                self.glue(&g.vpl_lights, GlueParams { n, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
+                self.glue(&g.vpl_lights, GlueParams { n, k: max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
                 lights
             }
         })
@@ -328,6 +331,10 @@ impl Backend for GpuBackend<'_> {
         let n = (pixels.end - pixels.start) as usize;
         let out = self.kernels.shade.run(self.device, self.queue, &self.scene, &inputs, pixels, params)?;
         Ok(read_back::<[f32; 4]>(self.device, self.queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    fn bias_points(&self, parent: &wgpu::Buffer, samples: Range<u32>, params: &BiasParams) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.bias_points.run(self.device, self.queue, &self.scene, parent, samples, params)
     }
 }
 

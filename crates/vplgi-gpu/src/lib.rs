@@ -5,11 +5,13 @@
 //! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
 //! ([`shader::compose`]).
 //!
-//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`].
+//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`],
+//! [`bias_points`] (the clamp's bias compensation).
 //! [`GpuBackend`] implements [`vplgi_frame::Backend`] with them on device buffers, so the one
 //! frame driver ([`vplgi_frame::render`]) chains them.
 
 pub mod backend;
+pub mod bias_points;
 pub mod buffers;
 pub mod bvh;
 pub mod cluster;

@@ -63,6 +63,11 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         include_str!("../../../shaders/shade.wgsl"),
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
+    (
+        "bias_points.wgsl",
+        include_str!("../../../shaders/bias_points.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/scene.wgsl"],
+    ),
 ];
 
 /// Sources read from a directory, by the names of [`COMMON`] and [`STAGES`]; set once per process.
@@ -155,6 +160,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_DIRECT", Stream::Direct as u32),
         ("STREAM_CAMERA", Stream::Camera as u32),
         ("STREAM_CLUSTER", Stream::Cluster as u32),
+        ("STREAM_BIAS", Stream::Bias as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("TEXELS_SRGB8", crate::scene::TEXELS_SRGB8),
@@ -366,7 +372,7 @@ mod tests {
     fn scene_declarations_match_the_binding_table() {
         use crate::scene::{FIRST_SCENE_BINDING, SCENE_BINDINGS};
         let with_scene: Vec<&str> = STAGES.iter().filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl")).map(|(n, _, _)| *n).collect();
-        assert_eq!(with_scene.len(), 4, "the ray-tracing stages: {with_scene:?}");
+        assert_eq!(with_scene.len(), 5, "the ray-tracing stages: {with_scene:?}");
         for stage in with_scene {
             let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
             let mut seen: Vec<(u32, String)> = module
@@ -454,6 +460,7 @@ mod tests {
             [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, light_count, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
+            [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
         };
         for row in table {
             let (size, members) = wgsl_layout(row.stage, row.wgsl);

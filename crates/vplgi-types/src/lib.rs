@@ -19,6 +19,6 @@ pub mod rng;
 pub mod sampling;
 
 pub use config::{ClusterMode, FrameConfig, FuzzyMode, Preset};
-pub use params::{CameraParams, ShadeParams, TraceParams};
+pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -33,6 +33,27 @@ pub struct ShadeParams {
     pub g_max: f32,
 }
 
+/// `bias_points`: one segment of a bias-compensation path per shading point, which puts back the
+/// light the geometry-term clamp removes (Kollig and Keller 2004).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BiasParams {
+    /// The seed of this compensation level ([`level_seed`]).
+    pub seed: u32,
+    /// The clamp's bound 1 / d_min² (the same as [`ShadeParams::g_max`]).
+    pub g_max: f32,
+}
+
+/// The seed of the random decisions of compensation level `level` (0: the frame's own shading
+/// points, whose seed is the frame's): each level's directions and direct-light samples are
+/// independent of every other level's.
+pub fn level_seed(seed: u32, level: u32) -> u32 {
+    if level == 0 {
+        seed
+    } else {
+        crate::rng::pcg_hash(seed ^ crate::rng::pcg_hash(0x6a09_e667 ^ level))
+    }
+}
+
 /// Russian roulette never keeps more than this share of paths (`trace_vpls`), so paths end in
 /// finite time even in a white furnace.
 pub const MAX_SURVIVAL: f32 = 0.95;

@@ -25,6 +25,8 @@ pub enum Stream {
     Cluster = 4,
     /// Reserved for independent estimators written by tests (the brute-force path tracer).
     Oracle = 5,
+    /// The direction of a bias-compensation segment (`bias_points`).
+    Bias = 6,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.

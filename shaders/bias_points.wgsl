@@ -1,0 +1,82 @@
+// Stage bias_points: the bias compensation of the geometry-term clamp (vplgi-cpu/src/bias_points.rs).
+// From each parent shading point, one cosine-sampled segment (stream (seed, STREAM_BIAS, i)) to
+// the surface it sees; kept as a shading point where the clamp bites, with albedo = its albedo x
+// the parent's x the clamped share 1 - g_max / G, no emission and the parent's pixel.
+
+struct Params {
+    first: u32,   // first sample of this chunk
+    count: u32,   // samples in this chunk
+    seed: u32,    // the level's seed
+    g_max: f32,
+    eps: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<storage, read> params: Params;
+@group(0) @binding(6) var<storage, read> parents: array<ShadingPoint>;
+@group(0) @binding(7) var<storage, read_write> out: array<ShadingPoint>;
+
+// bias_points::clamped_share: 1 - g_max / G where the clamp bites, else 0.
+fn clamped_share(p: vec3<f32>, np: vec3<f32>, y: vec3<f32>, ny: vec3<f32>, g_max: f32) -> f32 {
+    let d = y - p;
+    let d2 = dot(d, d);
+    if (d2 <= 0.0) {
+        return 0.0;
+    }
+    let inv_d = 1.0 / sqrt(d2);
+    let cos_p = dot(np, d) * inv_d;
+    let cos_y = -dot(ny, d) * inv_d;
+    if (cos_p <= 0.0 || cos_y <= 0.0) {
+        return 0.0;
+    }
+    let g = cos_p * cos_y / d2;
+    if (g > g_max) {
+        return 1.0 - g_max / g;
+    }
+    return 0.0;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let local = thread_index(gid, groups);
+    if (local >= params.count) {
+        return;
+    }
+    let sp = parents[local];
+    var child: ShadingPoint;
+    child.pixel = sp.pixel;
+    child.triangle = MISS;
+    out[local] = child;
+    if (sp.triangle == MISS) {
+        return;
+    }
+    var rng = rng_new(params.seed, STREAM_BIAS, params.first + local);
+    let u1 = rng_next_f32(&rng);
+    let u2 = rng_next_f32(&rng);
+    let dir = cosine_hemisphere(sp.normal, u1, u2);
+    var ng = scene_tri(sp.triangle).ng.xyz;
+    if (dot(ng, sp.normal) < 0.0) {
+        ng = -ng;
+    }
+    if (dot(dir, ng) <= 0.0) {
+        return;
+    }
+    let inf = bitcast<f32>(0x7f800000u);
+    let hit = bvh_trace(sp.position + ng * params.eps, dir, 0.0, inf, false);
+    if (hit.triangle == NO_HIT) {
+        return;
+    }
+    let surf = surface_at(hit, dir);
+    let w = clamped_share(sp.position, sp.normal, surf.position, surf.ns, params.g_max);
+    if (w <= 0.0) {
+        return;
+    }
+    child.position = surf.position;
+    child.normal = surf.ns;
+    child.triangle = hit.triangle;
+    child.albedo = surf.albedo * sp.albedo * w;
+    child.emitted = vec3<f32>(0.0);
+    out[local] = child;
+}
