@@ -160,6 +160,8 @@ fn ratio_map(v: &Image, m: &Image) -> Vec<u8> {
 
 fn main() -> Result<()> {
     let o = Opts::parse();
+    // The commit the run starts on (a long run may outlive it in a working tree).
+    let commit = shell("git", &["rev-parse", "--short", "HEAD"]);
     let (w, h) = (o.width, (o.width as f64 * 0.7).round() as u32);
     let scenes: Vec<&str> = if o.scenes.is_empty() { SCENES.to_vec() } else { o.scenes.iter().map(String::as_str).collect() };
     if let Some(bad) = scenes.iter().find(|s| !SCENES.contains(s)) {
@@ -271,7 +273,7 @@ fn main() -> Result<()> {
     }
     let report = json!({
         "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
-        "commit": shell("git", &["rev-parse", "--short", "HEAD"]),
+        "commit": commit,
         "width": w, "height": h, "mitsuba_spp": o.mitsuba_spp, "mitsuba_passes": MITSUBA_PASSES,
         "seeds": o.seeds, "spp": o.spp, "vpls": o.vpls, "bounces": o.bounces, "triangles": o.triangles,
         "mitsuba": shell(&o.python, &["-c", "import mitsuba; print(mitsuba.__version__)"]),
