@@ -3,15 +3,11 @@
 //! clamped frames lose a measured share of their light), and the GPU's compensation points
 //! against the CPU's. Each test prints the measured disagreement.
 
-use glam::Vec3;
 use vplgi_cpu::CpuScene;
 use vplgi_frame::{render, Backend};
-use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::GpuBackend;
 use vplgi_scene::cornell::cornell_box;
-use vplgi_tests::tolerance::{Disagreement, BIAS_POINTS_WEIGHT_ABS, SHADING_POINTS_SAME_SURFACE};
-use vplgi_types::{BiasParams, ClusterMode, FrameConfig, ShadingPoint};
-use vplgi_verify::shading_points::hit_differences;
+use vplgi_types::{ClusterMode, FrameConfig};
 
 /// A large clamp (d_min = half the diagonal) so that it removes a good share of the light.
 const G_CLAMP: f32 = 0.5;
@@ -81,51 +77,59 @@ fn compensation_puts_back_what_the_clamp_removes_on_the_gpu() {
     check_compensation("gpu", &three_ways(&gb, 1..7));
 }
 
-/// The GPU's compensation points of the CPU's shading points: the same surfaces (ties on shared
-/// edges counted as agreement; SPEC's shading-point bound) and the same weights (absolute: where
-/// G is barely above g_max the share 1 - g_max / G is small and its relative rounding large).
+/// The GPU's compensation points of the CPU's shading points, by `vplgi verify`'s comparison:
+/// the same surfaces (ties on shared edges counted as agreement; SPEC's shading-point bound) and
+/// the same weights; and each level draws its own directions.
 #[test]
 fn bias_points_match_the_cpu() {
     let Some(gpu) = vplgi_tests::shared_gpu("bias_points_match_the_cpu") else {
         return;
     };
     let scene = cornell_box();
-    let device = vplgi_embree::Device::new(None).unwrap();
-    let cs = CpuScene::new(&scene, &device).unwrap();
-    let gb = GpuBackend::new(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels, &scene).unwrap();
     let (w, h, spp) = (64, 64, 2);
-    let parents = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, 5);
-    let n = parents.len() as u32;
-    let mut checks = Vec::new();
-    for level in 1..=2 {
-        let params = BiasParams { seed: vplgi_types::params::level_seed(5, level), g_max: config(5).g_max(cs.extent) };
-        let cpu = vplgi_cpu::bias_points::bias_points(&cs, &parents, 0, &params);
-        let buf = storage(&gpu.ctx.device, "parents", &parents);
-        let out = gb.bias_points(&buf, 0..n, &params).unwrap();
-        let gpu_points: Vec<ShadingPoint> = read_back(&gpu.ctx.device, &gpu.ctx.queue, &out, n as usize).unwrap();
-        let kept = cpu.iter().filter(|p| !p.is_miss()).count();
-        assert!(kept > 200, "level {level}: only {kept} compensation points: the test would prove little");
-        let d = hit_differences(&cpu, &gpu_points, cs.extent, scene.camera.position, (w, spp));
-        let mut weight = 0.0f32;
-        for (c, g) in cpu.iter().zip(&gpu_points) {
-            assert_eq!(c.pixel, g.pixel);
-            assert_eq!(g.emitted, [0.0; 3], "a compensation point emits nothing");
-            if c.triangle == g.triangle && !c.is_miss() {
-                let (a, b) = (Vec3::from(c.albedo), Vec3::from(g.albedo));
-                weight = weight.max((a - b).abs().max_element());
+    vplgi_tests::with_twins(gpu, &scene, |t| {
+        let mut parents = vplgi_cpu::shading_points::shading_points(t.cpu, w, h, spp, 5);
+        for level in 1..=2 {
+            let params = config(5).bias_params(t.cpu.extent, level);
+            let kept = vplgi_cpu::bias_points::bias_points(t.cpu, &parents, 0, &params);
+            let n = kept.iter().filter(|p| !p.is_miss()).count();
+            println!("level {level}: {n} of {} parents kept", parents.len());
+            assert!(n > 200, "level {level}: only {n} compensation points: the test would prove little");
+            for c in vplgi_verify::bias_points::compare(t, &parents, (w, spp), &params).expect("GPU") {
+                c.check();
             }
+            // Each level draws its own directions: level 2's from level 1's parents differ.
+            if level == 1 {
+                let again = vplgi_cpu::bias_points::bias_points(t.cpu, &parents, 0, &config(5).bias_params(t.cpu.extent, 2));
+                assert_ne!(kept, again, "levels 1 and 2 drew the same directions");
+            }
+            parents = kept;
         }
-        println!("level {level}: {kept} of {n} parents kept; {} agree, {} ties, {} differ; largest weight difference {weight:.2e}", d.same, d.ties, d.other);
-        checks.push(Disagreement::at_least("bias_points", "share of identical surfaces", (d.same + d.ties) as f64 / n as f64, SHADING_POINTS_SAME_SURFACE));
-        checks.push(Disagreement::at_most("bias_points", "largest weight difference", weight as f64, BIAS_POINTS_WEIGHT_ABS));
-        // Each level's directions are its own.
-        let level1 = BiasParams { seed: vplgi_types::params::level_seed(5, 1), ..params };
-        if level == 2 {
-            let again = vplgi_cpu::bias_points::bias_points(&cs, &parents, 0, &level1);
-            assert_ne!(cpu, again, "levels 1 and 2 drew the same directions");
-        }
-    }
-    for c in &checks {
-        c.check();
+    });
+}
+
+proptest::proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// Compensation points on random triangle soups and rooms, from the CPU's camera samples,
+    /// with a random clamp (d_min from 2 % to 40 % of the diagonal) and seed: `vplgi verify`'s
+    /// comparison, against the SPEC's shading-point row and the weight bound.
+    #[test]
+    fn bias_points_match_the_cpu_on_random_scenes(
+        scene in vplgi_tests::inputs::random_scene(),
+        width in 32u32..64,
+        height in 32u32..64,
+        g_clamp in 0.02f32..0.4,
+        seed in proptest::prelude::any::<u32>(),
+    ) {
+        let Some(gpu) = vplgi_tests::shared_gpu("bias_points_match_the_cpu_on_random_scenes") else { return Ok(()) };
+        println!("{}", scene.name);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
+            let cfg = FrameConfig { width, height, spp: 1, seed, g_clamp_rel: g_clamp, ..FrameConfig::reference() };
+            let parents = vplgi_cpu::shading_points::shading_points(t.cpu, width, height, 1, seed);
+            vplgi_verify::bias_points::compare(t, &parents, (width, 1), &cfg.bias_params(t.cpu.extent, 1))
+        })
+        .expect("GPU");
+        vplgi_tests::hold(&checks)?;
     }
 }

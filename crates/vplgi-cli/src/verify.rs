@@ -18,8 +18,9 @@ pub struct VerifyArgs {
     #[command(flatten)]
     frame: FrameArgs,
     /// Stages to verify, comma-separated [default: all]: rng, trace_vpls, shading_points,
-    /// cluster, visibility, shade, frame. The shade and frame stages run in every mode (--cluster
-    /// x --fuzzy) unless --cluster or --fuzzy picks one.
+    /// cluster, visibility, shade, bias_points (the clamp's bias compensation), frame. The shade
+    /// and frame stages run in every mode (--cluster x --fuzzy) unless --cluster or --fuzzy picks
+    /// one.
     #[arg(long, value_delimiter = ',', value_parser = parse_stage, value_name = "LIST")]
     stages: Vec<VerifyStage>,
     /// Read the WGSL from DIR instead of the compiled-in copies: every file DIR holds under the

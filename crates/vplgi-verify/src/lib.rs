@@ -10,6 +10,7 @@
 //! One module per stage, named like the stage, holds the comparison both `vplgi verify` and the
 //! property tests in `tests/` run: the measurement is written once.
 
+pub mod bias_points;
 pub mod cluster;
 pub mod frame;
 pub mod inputs;
@@ -73,18 +74,21 @@ pub enum VerifyStage {
     /// Stage 5 and the final image: the GPU's shade on the CPU's shading points, lights,
     /// clusters and visibility, in every mode.
     Shade,
+    /// The clamp's bias compensation: compensation points of the CPU's shading points.
+    BiasPoints,
     /// The whole frame, each backend chaining its own stages.
     Frame,
 }
 
 impl VerifyStage {
-    pub const ALL: [VerifyStage; 7] = [
+    pub const ALL: [VerifyStage; 8] = [
         VerifyStage::Rng,
         VerifyStage::TraceVpls,
         VerifyStage::ShadingPoints,
         VerifyStage::Cluster,
         VerifyStage::Visibility,
         VerifyStage::Shade,
+        VerifyStage::BiasPoints,
         VerifyStage::Frame,
     ];
 
@@ -97,6 +101,7 @@ impl VerifyStage {
             VerifyStage::Cluster => "cluster",
             VerifyStage::Visibility => "visibility",
             VerifyStage::Shade => "shade",
+            VerifyStage::BiasPoints => "bias_points",
             VerifyStage::Frame => "frame",
         }
     }
@@ -216,6 +221,7 @@ pub fn run(twins: &Twins, plan: &Plan, listener: &dyn Listener) -> Result<Vec<St
             VerifyStage::Cluster => cluster::verify(twins, &plan.config)?,
             VerifyStage::Visibility => visibility::verify(twins, &plan.config)?,
             VerifyStage::Shade => shade::verify(twins, &plan.config, &plan.modes)?,
+            VerifyStage::BiasPoints => bias_points::verify(twins, &plan.config)?,
             VerifyStage::Frame => frame::verify(twins, &plan.config, &plan.modes)?,
         };
         r.seconds = clock.elapsed().as_secs_f64();

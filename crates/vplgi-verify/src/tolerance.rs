@@ -17,8 +17,11 @@ pub const SHADING_POINTS_SAME_SURFACE: f64 = 0.999;
 pub const SHADING_POINTS_POSITION_REL: f64 = 1e-4;
 /// Bias-compensation points (`bias_points`): the same surfaces as shading points (the bound
 /// above), and weights (albedo x parent albedo x clamped share 1 - g_max / G, each at most 1)
-/// within this absolute difference. Absolute, because where G barely exceeds g_max the share is
-/// near 0 and its relative rounding large; measured 2.6e-6 on the Cornell box.
+/// within this absolute difference of the weight the CPU's arithmetic gives at the GPU's point.
+/// At the GPU's point, because the share moves with the pair's distance d (by about 2 δd / d
+/// for a position rounding δd, already judged by the position row): compared at their own
+/// points, corner pairs differed by up to 1.1e-4. Absolute, because where G barely exceeds
+/// g_max the share is near 0 and its relative rounding large.
 pub const BIAS_POINTS_WEIGHT_ABS: f64 = 1e-5;
 /// K-means assignment given the same centroids: at least this share of identical labels.
 pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
