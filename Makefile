@@ -85,7 +85,8 @@ verify-long: setup
 # would run only the mutated packages' tests, so the unmutated tests run first here, with exactly
 # the arguments each mutant's run gets (--workspace comes from --test-workspace); and the report
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
-# as caught.
+# as caught. The first mutant builds the scratch copy from nothing (over 20 minutes on 2 busy
+# cores, hence the hour's build timeout).
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
@@ -101,7 +102,7 @@ mutants: setup
 	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
 	$(TEST_ENV) $(CARGO) test -q --profile mutants --workspace $(MUTANTS_TARGETS)
 	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate --baseline skip \
-	  --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
+	  --timeout 300 --build-timeout 3600 --profile mutants --test-workspace true \
 	  $(addprefix --cargo-test-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out
 	$(CARGO) run -q --release -p vplgi-benches --bin mutants_report -- $(MUTANTS_OUT) ci/mutants-harmless.tsv docs/MUTANTS.md
