@@ -87,9 +87,9 @@ verify-long: setup
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
 # as caught. The first mutant builds the scratch copy from nothing (over 20 minutes on 2 busy
 # cores, hence the hour's build timeout).
-MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs \
+MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
-MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster
+MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_OUT := target/mutants-report
