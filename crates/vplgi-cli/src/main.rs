@@ -45,8 +45,10 @@ enum Command {
     Scene(scene::SceneArgs),
     /// Render an unclustered reference as the mean and per-pixel variance of several seeds:
     /// DIR/mean.exr, DIR/variance.exr, DIR/mean.png and the sidecar DIR/reference.json.
-    /// --tile I/N renders a band of rows, for several machines or a job array. With --cluster,
-    /// the mean and variance of a clustered configuration instead (a regression baseline).
+    /// The geometry-term clamp's bias is compensated (--bias-compensation). --tile I/N renders a
+    /// band of rows, for several machines or a job array. With --cluster, the mean and variance
+    /// of a clustered configuration instead (a regression baseline: clamped, as `render` draws
+    /// it, unless --bias-compensation is given).
     Reference(reference::ReferenceArgs),
     /// Join the folders of a reference's tiles (vplgi reference --tile I/N) into one reference,
     /// bit-identical to rendering it in one run.
