@@ -44,8 +44,13 @@ struct Opts {
     /// Mitsuba's samples per pixel in all (split into 8 passes).
     #[arg(long, default_value_t = 1024)]
     mitsuba_spp: u32,
-    /// vplgi's seeds (each a full render with its own VPLs).
+    /// vplgi's independent `vplgi reference` runs. Their spread gives the noise of a mean over
+    /// many pixels: all pixels of one seed share its VPLs, so their errors are correlated and the
+    /// per-pixel variances alone understate it (by about ten times on the Cornell box's thirds).
     #[arg(long, default_value_t = 4)]
+    runs: u32,
+    /// Seeds per run (each a full render with its own VPLs).
+    #[arg(long, default_value_t = 2)]
     seeds: u32,
     /// vplgi's jittered camera samples per pixel.
     #[arg(long, default_value_t = 2)]
@@ -98,16 +103,32 @@ fn side(dir: &Path, mean: &str, n: u32) -> Result<Side> {
 }
 
 /// Ratio vplgi / Mitsuba of the mean of channel `c` over rows `rows`, and the 2-sigma noise of
-/// that ratio (first-order, from both sides' variances of the mean).
-fn band_ratio(v: &Side, m: &Side, rows: std::ops::Range<u32>, c: usize) -> (f64, f64) {
+/// that ratio (first-order). vplgi's noise is the spread of its runs' means over the band (its
+/// pixels' errors are correlated through the VPLs they share); Mitsuba's, the sum of its
+/// per-pixel variances (its paths are independent from pixel to pixel).
+fn band_ratio(runs: &[Image], v: &Side, m: &Side, rows: std::ops::Range<u32>, c: usize) -> (f64, f64) {
     let w = v.mean.width as usize;
     let px = (rows.start as usize * w)..(rows.end as usize * w);
     let sum = |img: &Image| img.pixels[px.clone()].iter().map(|p| p[c] as f64).sum::<f64>();
     let (sv, sm) = (sum(&v.mean), sum(&m.mean));
-    let (vv, vm) = (sum(&v.variance) / v.n, sum(&m.variance) / m.n);
+    let k = runs.len() as f64;
+    let per_run: Vec<f64> = runs.iter().map(sum).collect();
+    let vv = per_run.iter().map(|s| (s - sv).powi(2)).sum::<f64>() / (k - 1.0) / k;
+    let vm = sum(&m.variance) / m.n;
     let r = sv / sm;
     let sigma = r * (vv / (sv * sv) + vm / (sm * sm)).sqrt();
     (r, 2.0 * sigma)
+}
+
+/// The mean of `images` (same size), in f64.
+fn average(images: &[Image]) -> Image {
+    let mut out = Image::new(images[0].width, images[0].height);
+    for (i, p) in out.pixels.iter_mut().enumerate() {
+        for c in 0..3 {
+            p[c] = (images.iter().map(|img| img.pixels[i][c] as f64).sum::<f64>() / images.len() as f64) as f32;
+        }
+    }
+    out
 }
 
 /// The relMSE the two sides' noise alone would give (Mitsuba's mean as the reference).
@@ -164,6 +185,9 @@ fn main() -> Result<()> {
     let commit = shell("git", &["rev-parse", "--short", "HEAD"]);
     let (w, h) = (o.width, (o.width as f64 * 0.7).round() as u32);
     let scenes: Vec<&str> = if o.scenes.is_empty() { SCENES.to_vec() } else { o.scenes.iter().map(String::as_str).collect() };
+    if o.runs < 2 || o.seeds < 2 {
+        bail!("--runs and --seeds must be at least 2 (the noise estimates need two of each)");
+    }
     if let Some(bad) = scenes.iter().find(|s| !SCENES.contains(s)) {
         bail!("--scenes: unknown scene {bad:?} (known: {})", SCENES.join(", "));
     }
@@ -221,37 +245,45 @@ fn main() -> Result<()> {
         vplgi_image::write_png(&docs.join(format!("{name}-mitsuba.png")), &m.mean, 1.0)?;
         let mut variants = Vec::new();
         for (variant, compensated) in VARIANTS {
-            eprintln!("{name}: vplgi reference ({variant}), {} seeds x {} spp, {} VPLs", o.seeds, o.spp, o.vpls);
-            let vplgi_dir = dir.join(format!("vplgi-{variant}"));
+            eprintln!("{name}: vplgi reference ({variant}), {} runs of {} seeds x {} spp, {} VPLs", o.runs, o.seeds, o.spp, o.vpls);
             let start = Instant::now();
             let (seeds, spp, vpls, bounces) = (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
-            vplgi(&[
-                "reference",
-                &scene_arg,
-                "--width",
-                &ws,
-                "--height",
-                &hs,
-                "--spp",
-                &spp,
-                "--seeds",
-                &seeds,
-                "--vpls",
-                &vpls,
-                "--bounces",
-                &bounces,
-                "--bias-compensation",
-                if compensated { "true" } else { "false" },
-                "--out",
-                &vplgi_dir.to_string_lossy(),
-            ])?;
+            let (mut means, mut variances) = (Vec::new(), Vec::new());
+            for run in 0..o.runs {
+                let run_dir = dir.join(format!("vplgi-{variant}")).join(format!("run-{run}"));
+                let first_seed = (1 + run * o.seeds).to_string();
+                vplgi(&[
+                    "reference",
+                    &scene_arg,
+                    "--width",
+                    &ws,
+                    "--height",
+                    &hs,
+                    "--spp",
+                    &spp,
+                    "--seeds",
+                    &seeds,
+                    "--seed",
+                    &first_seed,
+                    "--vpls",
+                    &vpls,
+                    "--bounces",
+                    &bounces,
+                    "--bias-compensation",
+                    if compensated { "true" } else { "false" },
+                    "--out",
+                    &run_dir.to_string_lossy(),
+                ])?;
+                means.push(vplgi_image::read_exr(&run_dir.join("mean.exr"))?);
+                variances.push(vplgi_image::read_exr(&run_dir.join("variance.exr"))?);
+            }
             let vplgi_seconds = start.elapsed().as_secs_f64();
-            let v = side(&vplgi_dir, "mean.exr", o.seeds)?;
+            let v = Side { mean: average(&means), variance: average(&variances), n: (o.runs * o.seeds) as f64 };
             let cmp = vplgi_image::compare(&m.mean, &v.mean)?;
             let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
                 .into_iter()
                 .map(|(band, rows)| {
-                    let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&v, &m, rows.clone(), c)).collect();
+                    let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&means, &v, &m, rows.clone(), c)).collect();
                     json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()})
                 })
                 .collect();
@@ -275,7 +307,7 @@ fn main() -> Result<()> {
         "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
         "commit": commit,
         "width": w, "height": h, "mitsuba_spp": o.mitsuba_spp, "mitsuba_passes": MITSUBA_PASSES,
-        "seeds": o.seeds, "spp": o.spp, "vpls": o.vpls, "bounces": o.bounces, "triangles": o.triangles,
+        "runs": o.runs, "seeds": o.seeds, "spp": o.spp, "vpls": o.vpls, "bounces": o.bounces, "triangles": o.triangles,
         "mitsuba": shell(&o.python, &["-c", "import mitsuba; print(mitsuba.__version__)"]),
         "scenes": rows,
     });
@@ -300,8 +332,9 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(
         s,
         "Each scene is written by `vplgi scene export --format mitsuba` and rendered by both at {}x{}: Mitsuba with {} samples \
-         per pixel in {} independent passes and `max_depth` = {} (the same paths as vplgi's {} bounces); vplgi with \
-         `vplgi reference --seeds {} --spp {} --vpls {} --bounces {}` (jittered samples, so both integrate over each pixel). \
+         per pixel in {} independent passes and `max_depth` = {} (the same paths as vplgi's {} bounces); vplgi with {} \
+         independent runs of `vplgi reference --seeds {} --spp {} --vpls {} --bounces {}` (jittered samples, so both \
+         integrate over each pixel). \
          Generated scenes have {} triangles. Both run on the same 2 CPU cores; times are wall-clock seconds of each \
          render.\n",
         r["width"],
@@ -310,6 +343,7 @@ fn markdown(r: &Value) -> Result<String> {
         r["mitsuba_passes"],
         f(&r["bounces"]) + 2.0,
         r["bounces"],
+        r["runs"],
         r["seeds"],
         r["spp"],
         r["vpls"],
@@ -319,8 +353,10 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(
         s,
         "How to read it. **Ratio** is vplgi's mean over Mitsuba's, per channel, over the image and over each third of its \
-         rows, with the 2-sigma noise of that ratio from both images' per-pixel variances: a ratio further from 1 than its \
-         noise is a bias. The target is agreement within +-0.3 %. **relMSE** is vplgi's (Mitsuba as the reference; \
+         rows, with the 2-sigma noise of that ratio: Mitsuba's from its per-pixel variances (its paths are independent \
+         from pixel to pixel), vplgi's from the spread of its runs' means over the band (all pixels of a seed share its \
+         VPLs, so their errors are correlated and the per-pixel variances alone understate the noise of a mean over many \
+         pixels). A ratio further from 1 than its noise is a bias. The target is agreement within +-0.3 %. **relMSE** is vplgi's (Mitsuba as the reference; \
          epsilon 0.01), beside the relMSE the two images' noise alone would give: their quotient is at most 2 when the \
          images differ only by noise. The ratio map shows where vplgi is darker (blue) or brighter (red), over 8x8-pixel \
          blocks, saturating at 5 %.\n"
