@@ -124,9 +124,7 @@ fn band_ratio(runs: &[Image], v: &Side, m: &Side, rows: std::ops::Range<u32>, c:
 fn average(images: &[Image]) -> Image {
     let mut out = Image::new(images[0].width, images[0].height);
     for (i, p) in out.pixels.iter_mut().enumerate() {
-        for c in 0..3 {
-            p[c] = (images.iter().map(|img| img.pixels[i][c] as f64).sum::<f64>() / images.len() as f64) as f32;
-        }
+        *p = std::array::from_fn(|c| (images.iter().map(|img| img.pixels[i][c] as f64).sum::<f64>() / images.len() as f64) as f32);
     }
     out
 }
