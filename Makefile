@@ -169,7 +169,7 @@ results: build
 # under target/ with numpy (nothing system-wide): each of the four scenes exported with
 # `vplgi scene export --format mitsuba`, rendered by Mitsuba and by vplgi (compensated and clamped),
 # compared per channel and per third of the image against both images' noise: docs/VALIDATION.md.
-# About 45 minutes on 2 cores; a subset:
+# About 40 minutes on 2 cores (11 at --width 128); a subset:
 # make validate VALIDATE_ARGS="--scenes cornell-box --width 128"
 MITSUBA_PY := target/mitsuba-python
 validate: build
