@@ -20,18 +20,7 @@ struct Params {
 
 // bias_points::clamped_share: 1 - g_max / G where the clamp bites, else 0.
 fn clamped_share(p: vec3<f32>, np: vec3<f32>, y: vec3<f32>, ny: vec3<f32>, g_max: f32) -> f32 {
-    let d = y - p;
-    let d2 = dot(d, d);
-    if (d2 <= 0.0) {
-        return 0.0;
-    }
-    let inv_d = 1.0 / sqrt(d2);
-    let cos_p = dot(np, d) * inv_d;
-    let cos_y = -dot(ny, d) * inv_d;
-    if (cos_p <= 0.0 || cos_y <= 0.0) {
-        return 0.0;
-    }
-    let g = cos_p * cos_y / d2;
+    let g = unclamped_geometry_term(p, np, y, ny);
     if (g > g_max) {
         return 1.0 - g_max / g;
     }

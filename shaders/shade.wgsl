@@ -48,18 +48,7 @@ fn sample_table_area(u: f32) -> u32 {
 
 // shade::geometry_term
 fn geometry_term(p: vec3<f32>, np: vec3<f32>, x: vec3<f32>, nx: vec3<f32>) -> f32 {
-    let d = x - p;
-    let d2 = dot(d, d);
-    if (d2 <= 0.0) {
-        return 0.0;
-    }
-    let inv_d = 1.0 / sqrt(d2);
-    let cos_p = dot(np, d) * inv_d;
-    let cos_x = -dot(nx, d) * inv_d;
-    if (cos_p <= 0.0 || cos_x <= 0.0) {
-        return 0.0;
-    }
-    return min(cos_p * cos_x / d2, params.g_max);
+    return min(unclamped_geometry_term(p, np, x, nx), params.g_max);
 }
 
 // shade::direct

@@ -78,6 +78,24 @@ fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * 64u;
 }
 
+// G = cos cos / d^2 between surface points p and x (normals np, nx), 0 where either faces away
+// (vplgi-cpu shade::geometry_term without its clamp; shade clamps it, bias_points compares it
+// with the clamp's bound).
+fn unclamped_geometry_term(p: vec3<f32>, np: vec3<f32>, x: vec3<f32>, nx: vec3<f32>) -> f32 {
+    let d = x - p;
+    let d2 = dot(d, d);
+    if (d2 <= 0.0) {
+        return 0.0;
+    }
+    let inv_d = 1.0 / sqrt(d2);
+    let cos_p = dot(np, d) * inv_d;
+    let cos_x = -dot(nx, d) * inv_d;
+    if (cos_p <= 0.0 || cos_x <= 0.0) {
+        return 0.0;
+    }
+    return cos_p * cos_x / d2;
+}
+
 // Pushes p off its surface (normal n) towards the side where `toward` lies
 // (vplgi-cpu CpuScene::offset_toward).
 fn offset_toward(p: vec3<f32>, n: vec3<f32>, toward: vec3<f32>, eps: f32) -> vec3<f32> {

@@ -17,6 +17,7 @@
 //! miss and costs nothing more. y's emission is not counted: light emitted from y towards p is
 //! p's direct light, which `shade` samples without a clamp.
 
+use crate::shade::geometry_term;
 use crate::CpuScene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,18 +28,8 @@ use vplgi_types::{sampling, BiasParams, Rng, ShadingPoint, Stream, MISS};
 /// not bite.
 #[inline]
 pub fn clamped_share(p: Vec3, np: Vec3, y: Vec3, ny: Vec3, g_max: f32) -> f32 {
-    let d = y - p;
-    let d2 = d.length_squared();
-    if d2 <= 0.0 {
-        return 0.0;
-    }
-    let inv_d = d2.sqrt().recip();
-    let cos_p = np.dot(d) * inv_d;
-    let cos_y = -ny.dot(d) * inv_d;
-    if cos_p <= 0.0 || cos_y <= 0.0 {
-        return 0.0;
-    }
-    let g = cos_p * cos_y / d2;
+    // The unclamped G (0 where the pair faces away), which the clamp would cut at g_max.
+    let g = geometry_term(p, np, y, ny, f32::INFINITY);
     if g > g_max {
         1.0 - g_max / g
     } else {

@@ -148,11 +148,12 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
                 Ok((b.vpl_lights(&vpls, n, LightSet::EachVpl { max_bounce })?, n))
             })?;
             let cols = b.light_points(&lights, n_lights)?;
-            let level_shade = ShadeParams { seed: vplgi_types::params::level_seed(cfg.seed, level), ..shade };
+            let bias = cfg.bias_params(extent, level);
+            let level_shade = ShadeParams { seed: bias.seed, ..shade };
             let mut any = false;
             for chunk in chunks.iter_mut() {
                 let range = chunk.first..chunk.first + chunk.count;
-                let samples = timed(b, &mut t, Stage::BiasPoints, || b.bias_points(&chunk.samples, range, &cfg.bias_params(extent, level)))?;
+                let samples = timed(b, &mut t, Stage::BiasPoints, || b.bias_points(&chunk.samples, range, &bias))?;
                 chunk.samples = samples;
                 let (hits, n_hits) = timed(b, &mut t, Stage::BiasPoints, || b.compact_hits(std::slice::from_ref(chunk), n_samples))?;
                 if n_hits == 0 {
