@@ -77,35 +77,44 @@ verify-long: setup
 # the tests that compute the paper's equations independently, the analytic and path-traced
 # oracles, the committed references, and the CPU-vs-GPU tests). Survivors are written to
 # docs/MUTANTS.md, each with why it is harmless (ci/mutants-harmless.tsv) or marked unexplained.
-# One run builds ~1,000 mutants: many hours on 2 cores. It can be stopped and resumed: a rerun
-# skips the mutants already caught or unbuildable (--iterate) as long as HEAD is the commit the
-# run started on (recorded in target/mutants-report/commit); on another commit it starts over.
-# cargo-mutants builds in a scratch copy of the tree with its own target folder (a shared target
-# folder would leave the last mutant's binaries looking fresh to the real tree). Its own baseline
+# The selection is ~1,100 mutants, many hours on 2 cores: longer than a working session. So
+# outcomes accumulate in the committed ledger ci/mutants-ledger.tsv, each with the git blob of the
+# file it mutated; a run tests only mutants without a valid outcome (a file's outcomes lapse when
+# the file changes) and records what it learned even when stopped, so runs add up across machines
+# and sessions. MUTANTS_MINUTES=N stops a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests
+# the recorded survivors again (after adding tests). Commit the ledger and docs/MUTANTS.md after.
+# The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
+# target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
+# every mutant's incremental rebuild, and the working tree is never touched. Its own baseline
 # would run only the mutated packages' tests, so the unmutated tests run first here, with exactly
-# the arguments each mutant's run gets (--workspace comes from --test-workspace); and the report
+# the arguments each mutant's run gets (--workspace comes from --test-workspace); and the ledger
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
-# as caught. The first mutant builds the scratch copy from nothing (over 20 minutes on 2 busy
-# cores, hence the hour's build timeout).
+# as caught.
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
-MUTANTS_OUT := target/mutants-report
+MUTANTS_TREE := target/mutants-tree
+MUTANTS_OUT := ../mutants-report
+MUTANTS_LEDGER := ../../ci/mutants-ledger.tsv
+MUTANTS_MINUTES ?= 0
+MUTANTS_RETEST ?=
+MUTANTS_TOOL = $(CARGO) run -q --profile mutants -p vplgi-benches --bin mutants_report --
 mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
-	@mkdir -p $(MUTANTS_OUT); head=$$(git rev-parse HEAD); \
-	  if [ "$$(cat $(MUTANTS_OUT)/commit 2>/dev/null)" != "$$head" ]; then \
-	    rm -rf $(MUTANTS_OUT)/mutants.out $(MUTANTS_OUT)/mutants.out.old; echo "$$head" > $(MUTANTS_OUT)/commit; \
-	  else echo "make mutants: resuming the run on $$head"; fi
-	cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
-	$(TEST_ENV) $(CARGO) test -q --profile mutants --workspace $(MUTANTS_TARGETS)
-	@env -u CARGO_TARGET_DIR $(TEST_ENV) cargo mutants $(MUTANTS_SELECT) --iterate --baseline skip \
-	  --timeout 300 --build-timeout 3600 --profile mutants --test-workspace true \
+	@git worktree prune; if [ -d $(MUTANTS_TREE) ]; then git -C $(MUTANTS_TREE) checkout -q -f --detach $$(git rev-parse HEAD); \
+	  else git worktree add -q --detach $(MUTANTS_TREE) HEAD; fi; mkdir -p target/mutants-report
+	@echo "make mutants: testing HEAD ($$(git rev-parse --short HEAD)) in $(MUTANTS_TREE)"
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors)
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) $(CARGO) test -q --profile mutants --workspace $(MUTANTS_TARGETS)
+	@cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) timeout -s INT $(MUTANTS_MINUTES)m cargo mutants $(MUTANTS_SELECT) \
+	  --in-place --iterate --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
 	  $(addprefix --cargo-test-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
-	  rc=$$?; [ $$rc = 0 ] || [ $$rc = 2 ] || [ $$rc = 3 ] || exit $$rc  # 2: some survived, 3: some timed out
-	$(CARGO) run -q --release -p vplgi-benches --bin mutants_report -- $(MUTANTS_OUT) ci/mutants-harmless.tsv docs/MUTANTS.md
+	  rc=$$?; case $$rc in 0|2|3) ;; 124) echo "make mutants: stopped after $(MUTANTS_MINUTES) minutes; recording what it tested";; *) exit $$rc;; esac
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) record $(MUTANTS_LEDGER) $(MUTANTS_OUT)
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT) ../../ci/mutants-harmless.tsv ../../docs/MUTANTS.md
 
 # Coverage-guided fuzzing (cargo-fuzz, libFuzzer, nightly) of what users feed vplgi: the glTF
 # loader (gltf_load) and the EXR reader of compare and merge (exr_read), FUZZ_SECONDS each
