@@ -13,7 +13,7 @@ use serde_json::{json, Value};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vplgi_image::Image;
+use vplgi_image::{Image, REL_MSE_EPSILON};
 use vplgi_types::FrameConfig;
 
 #[derive(Args)]
@@ -22,8 +22,20 @@ pub struct ReferenceArgs {
     scene: Option<PathBuf>,
     /// Independent renders, with seeds --seed, --seed + 1, ...; the mean and the per-pixel
     /// variance are taken over them (at least 2).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, conflicts_with = "target_error")]
     seeds: u32,
+    /// Render seeds until the mean image's relative standard error is at most this, e.g. `0.5%`
+    /// or `0.005`, instead of a fixed --seeds. The error is aggregated over the image as the
+    /// square root of the relMSE the mean is expected to have against the converged image, from
+    /// the per-pixel variances: sqrt(mean over pixels and channels of (variance / seeds) /
+    /// (mean^2 + 0.01)), the relMSE of `vplgi compare`. At least 4 seeds; the achieved error (and
+    /// the error of each third of the image's mean) is recorded in reference.json.
+    #[arg(long, value_name = "ERROR", conflicts_with = "tile")]
+    target_error: Option<String>,
+    /// With --target-error: stop after this many seeds even if the target is not reached (the
+    /// reference is written, and vplgi exits with an error that says how far it got).
+    #[arg(long, default_value_t = 256, requires = "target_error")]
+    max_seeds: u32,
     #[command(flatten)]
     frame: FrameArgs,
     /// Render only tile I of N: rows (I-1)*H/N .. I*H/N. Join the tiles' folders with
@@ -59,6 +71,24 @@ fn parse_tile(s: &str) -> Result<(u32, u32)> {
     Ok((i, n))
 }
 
+/// Parses a relative error: `0.5%` or `0.005`, strictly between 0 and 1.
+fn parse_error(s: &str) -> Result<f64> {
+    let bad = || anyhow::anyhow!("--target-error {s:?}: expected a relative error such as 0.5% or 0.005");
+    let t = s.trim();
+    let e = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f64>().map_err(|_| bad())? / 100.0,
+        None => t.parse::<f64>().map_err(|_| bad())?,
+    };
+    if !(e > 0.0 && e < 1.0) {
+        return Err(bad());
+    }
+    Ok(e)
+}
+
+/// A target error needs a variance estimate it can trust before it stops: with fewer seeds the
+/// sample variance itself is too noisy (its relative spread is about sqrt(2 / (n - 1))).
+const MIN_SEEDS: u32 = 4;
+
 /// Rows of tile `i` of `n` (1-based).
 fn tile_rows(i: u32, n: u32, height: u32) -> std::ops::Range<u32> {
     ((i - 1) as u64 * height as u64 / n as u64) as u32..(i as u64 * height as u64 / n as u64) as u32
@@ -68,6 +98,12 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     if args.seeds < 2 {
         bail!("--seeds {}: the per-pixel variance needs at least 2 seeds", args.seeds);
     }
+    let target = args.target_error.as_deref().map(parse_error).transpose()?;
+    let (min_seeds, max_seeds) = match target {
+        Some(_) if args.max_seeds < MIN_SEEDS => bail!("--max-seeds {}: a target error needs at least {MIN_SEEDS} seeds", args.max_seeds),
+        Some(_) => (MIN_SEEDS, args.max_seeds),
+        None => (args.seeds, args.seeds),
+    };
     let (index, count) = match &args.tile {
         Some(t) => parse_tile(t)?,
         None => (1, 1),
@@ -91,22 +127,43 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
 
     let started = Instant::now();
-    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(args.seeds as u64) } else { ProgressBar::hidden() };
-    if let Ok(style) = ProgressStyle::with_template("reference seeds [{bar:40}] {pos}/{len} ({eta} left)") {
+    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(min_seeds as u64) } else { ProgressBar::hidden() };
+    if let Ok(style) = ProgressStyle::with_template("reference [{bar:40}] {pos}/{len} seeds {msg} ({eta} left)") {
         bar.set_style(style.progress_chars("=> "));
     }
-    let seeds: Vec<u32> = (0..args.seeds).map(|k| base.seed.wrapping_add(k)).collect();
-    let mut renders = Vec::new();
-    for &seed in &seeds {
+    let mut stats = Moments::new(base.width, rows.end - rows.start);
+    let mut seeds: Vec<u32> = Vec::new();
+    let mut error = f64::INFINITY;
+    loop {
+        let n = seeds.len() as u32;
+        let converged = target.is_some_and(|t| n >= min_seeds && error <= t);
+        if n >= max_seeds || converged {
+            break;
+        }
+        let seed = base.seed.wrapping_add(n);
         let f = vplgi_cpu::render_rows(&cs, &FrameConfig { seed, ..base.clone() }, rows.clone(), &vplgi_cpu::NoProgress)?;
-        renders.push(f.pixels);
+        stats.add(&f.pixels);
+        seeds.push(seed);
         bar.inc(1);
+        if seeds.len() >= 2 {
+            error = stats.relative_standard_error();
+            bar.set_message(match target {
+                Some(t) => format!("error {:.3}% (target {:.3}%)", 100.0 * error, 100.0 * t),
+                None => format!("error {:.3}%", 100.0 * error),
+            });
+        }
+        if let Some(t) = target {
+            // The error falls as 1/sqrt(seeds): the seeds it will take at this rate, which is
+            // what the bar's length and time estimate show.
+            let n = seeds.len() as f64;
+            let needed = if error.is_finite() { (n * (error / t).powi(2)).ceil() as u32 } else { min_seeds };
+            bar.set_length(needed.clamp(min_seeds.max(seeds.len() as u32), max_seeds) as u64);
+        }
     }
     bar.finish_and_clear();
-    let (mean, variance) = mean_and_variance(&renders);
     let h = rows.end - rows.start;
-    let mean = Image { width: base.width, height: h, pixels: mean };
-    let variance = Image { width: base.width, height: h, pixels: variance };
+    let mean = Image { width: base.width, height: h, pixels: stats.mean() };
+    let variance = Image { width: base.width, height: h, pixels: stats.variance() };
     let wall = started.elapsed().as_secs_f64();
     vplgi_image::write_exr(&args.out.join("mean.exr"), &mean)?;
     vplgi_image::write_exr(&args.out.join("variance.exr"), &variance)?;
@@ -125,10 +182,26 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         "threads": rayon::current_num_threads(),
         "files": { "mean": "mean.exr", "variance": "variance.exr" },
         "variance": "per-pixel sample variance (divided by seeds - 1) of the per-seed renders; the mean's variance is this divided by the number of seeds",
+        "error": {
+            "relative_standard_error": error,
+            "aggregate": ERROR_AGGREGATE,
+            "target": target,
+            "reached": target.map(|t| error <= t),
+            "thirds": if count > 1 { Value::Null } else { json!(stats.thirds_relative_standard_error()) },
+            "thirds_aggregate": "per third of the image's rows (top, middle, bottom) and channel: the standard error of the third's mean over the seeds, from the spread of the per-seed means (all pixels of a seed share its VPLs, so per-pixel variances cannot give it), relative to the mean",
+        },
     });
     write_json(&args.out.join("reference.json"), &sidecar)?;
     let what = if count > 1 { format!("tile {index}/{count} (rows {}..{}) of ", rows.start, rows.end) } else { String::new() };
-    println!("{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s", scene.name, args.seeds, base.vpls, base.width, base.height);
+    println!(
+        "{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s, relative standard error {:.3}%",
+        scene.name,
+        seeds.len(),
+        base.vpls,
+        base.width,
+        base.height,
+        100.0 * error
+    );
     println!(
         "wrote {}\n      {}\n      {}\n      {}",
         args.out.join("mean.exr").display(),
@@ -139,22 +212,108 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     if count > 1 {
         println!("join the tiles with: vplgi merge DIR... --out DIR");
     }
+    if let Some(t) = target.filter(|&t| error > t) {
+        bail!(
+            "--target-error {:.3}% not reached: {:.3}% after --max-seeds {} seeds (about {} would do; the reference above holds what was rendered)",
+            100.0 * t,
+            100.0 * error,
+            seeds.len(),
+            (seeds.len() as f64 * (error / t).powi(2)).ceil()
+        );
+    }
     Ok(())
 }
 
-/// Per pixel and channel, in seed order: the mean, and the sample variance (n - 1), in f64.
-fn mean_and_variance(renders: &[Vec<[f32; 3]>]) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
-    let n = renders.len() as f64;
-    let pixels = renders.first().map_or(0, |r| r.len());
-    let mut mean = Vec::with_capacity(pixels);
-    let mut var = Vec::with_capacity(pixels);
-    for i in 0..pixels {
-        let m: [f64; 3] = std::array::from_fn(|c| renders.iter().map(|r| r[i][c] as f64).sum::<f64>() / n);
-        let v: [f64; 3] = std::array::from_fn(|c| renders.iter().map(|r| (r[i][c] as f64 - m[c]).powi(2)).sum::<f64>() / (n - 1.0));
-        mean.push(m.map(|x| x as f32));
-        var.push(v.map(|x| x as f32));
+/// How reference.json's `error.relative_standard_error` is aggregated.
+const ERROR_AGGREGATE: &str = "sqrt of the mean over pixels and channels of (variance / seeds) / (mean^2 + 0.01): \
+     the square root of the relMSE (as vplgi compare defines it) that mean.exr is expected to have against the converged image";
+
+/// The aggregate relative standard error of a mean image of `n` seeds from its per-pixel sample
+/// variances: the square root of the relMSE expected against the converged image, with the
+/// relMSE of `vplgi compare` (per pixel and channel, the squared error over the squared reference
+/// plus [`REL_MSE_EPSILON`], averaged).
+fn relative_standard_error(mean: impl Iterator<Item = [f64; 3]>, variance: impl Iterator<Item = [f64; 3]>, n: f64) -> f64 {
+    let (mut sum, mut samples) = (0.0, 0.0);
+    for (m, v) in mean.zip(variance) {
+        for c in 0..3 {
+            sum += v[c] / n / (m[c] * m[c] + REL_MSE_EPSILON);
+            samples += 1.0;
+        }
     }
-    (mean, var)
+    (sum / samples).sqrt()
+}
+
+/// Per-pixel running statistics over seeds, in f64 (Welford's update, so the variance keeps its
+/// precision however many seeds), and each seed's mean over each third of the rows.
+struct Moments {
+    width: u32,
+    height: u32,
+    n: u32,
+    mean: Vec<[f64; 3]>,
+    m2: Vec<[f64; 3]>,
+    thirds: Vec<[[f64; 3]; 3]>,
+}
+
+impl Moments {
+    fn new(width: u32, height: u32) -> Self {
+        let pixels = (width * height) as usize;
+        Moments { width, height, n: 0, mean: vec![[0.0; 3]; pixels], m2: vec![[0.0; 3]; pixels], thirds: Vec::new() }
+    }
+
+    fn add(&mut self, render: &[[f32; 3]]) {
+        self.n += 1;
+        let n = self.n as f64;
+        for ((x, m), m2) in render.iter().zip(&mut self.mean).zip(&mut self.m2) {
+            for c in 0..3 {
+                let x = x[c] as f64;
+                let d = x - m[c];
+                m[c] += d / n;
+                m2[c] += d * (x - m[c]);
+            }
+        }
+        let mut thirds = [[0.0; 3]; 3];
+        for (t, third) in thirds.iter_mut().enumerate() {
+            let (r0, r1) = (t as u32 * self.height / 3, (t as u32 + 1) * self.height / 3);
+            let px = &render[(r0 * self.width) as usize..(r1 * self.width) as usize];
+            for c in 0..3 {
+                third[c] = px.iter().map(|p| p[c] as f64).sum::<f64>() / px.len().max(1) as f64;
+            }
+        }
+        self.thirds.push(thirds);
+    }
+
+    fn mean(&self) -> Vec<[f32; 3]> {
+        self.mean.iter().map(|m| m.map(|x| x as f32)).collect()
+    }
+
+    /// Sample variance (divided by n - 1); zero for a single seed.
+    fn variance(&self) -> Vec<[f32; 3]> {
+        let d = (self.n.max(2) - 1) as f64;
+        self.m2.iter().map(|m| m.map(|x| (x / d) as f32)).collect()
+    }
+
+    fn relative_standard_error(&self) -> f64 {
+        let d = (self.n.max(2) - 1) as f64;
+        relative_standard_error(self.mean.iter().copied(), self.m2.iter().map(|m| m.map(|x| x / d)), self.n as f64)
+    }
+
+    /// Per third and channel: the standard error of the third's mean over the seeds, relative to
+    /// that mean (infinite below 2 seeds or for a black third).
+    fn thirds_relative_standard_error(&self) -> [[f64; 3]; 3] {
+        let n = self.thirds.len() as f64;
+        std::array::from_fn(|t| {
+            std::array::from_fn(|c| {
+                let xs = self.thirds.iter().map(|s| s[t][c]);
+                let m = xs.clone().sum::<f64>() / n;
+                let v = xs.map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+                if n >= 2.0 && m > 0.0 {
+                    (v / n).sqrt() / m
+                } else {
+                    f64::INFINITY
+                }
+            })
+        })
+    }
 }
 
 fn read_sidecar(dir: &Path) -> Result<Value> {
@@ -214,9 +373,13 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let mean = Image { width, height, pixels: mean };
     vplgi_image::write_exr(&args.out.join("mean.exr"), &mean)?;
-    vplgi_image::write_exr(&args.out.join("variance.exr"), &Image { width, height, pixels: variance })?;
+    vplgi_image::write_exr(&args.out.join("variance.exr"), &Image { width, height, pixels: variance.clone() })?;
     vplgi_image::write_png(&args.out.join("mean.png"), &mean, 1.0)?;
     let mut sidecar = first.clone();
+    let n = first["seeds"].as_array().map_or(0, Vec::len) as f64;
+    let widen = |p: &[f32; 3]| p.map(f64::from);
+    sidecar["error"]["relative_standard_error"] = json!(relative_standard_error(mean.pixels.iter().map(widen), variance.iter().map(widen), n));
+    sidecar["error"]["thirds"] = Value::Null;
     sidecar["tile"] = Value::Null;
     sidecar["wall_time_s"] = json!(tiles.iter().map(|t| t.5["wall_time_s"].as_f64().unwrap_or(0.0)).sum::<f64>());
     sidecar["merged_from"] = json!(tiles.iter().map(|t| t.4.display().to_string()).collect::<Vec<_>>());

@@ -438,6 +438,61 @@ fn reference_tiles_merge_into_the_single_run() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("at least 2 seeds"));
 }
 
+/// `vplgi reference --target-error`: the error it records predicts the relMSE of its mean against
+/// a far more converged reference (independent seeds), and it stops at the target; a target it
+/// cannot reach within --max-seeds still writes the reference and exits non-zero; bad values and
+/// --seeds together with a target are refused.
+#[test]
+fn reference_target_error_predicts_the_error_against_a_converged_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |x: &str| dir.path().join(x).to_str().unwrap().to_string();
+    let common = ["--width", "24", "--height", "16", "--vpls", "300"];
+    let run = |extra: &[&str]| {
+        let mut a = vec!["reference"];
+        a.extend_from_slice(&common);
+        a.extend_from_slice(extra);
+        vplgi(&a)
+    };
+    let o = run(&["--target-error", "4%", "--out", &p("target")]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["--seeds", "400", "--first-seed", "100000", "--out", &p("converged")]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sidecar = |d: &str| -> serde_json::Value { serde_json::from_slice(&std::fs::read(dir.path().join(d).join("reference.json")).unwrap()).unwrap() };
+    let (t, c) = (sidecar("target"), sidecar("converged"));
+    let (err, err_c) = (t["error"]["relative_standard_error"].as_f64().unwrap(), c["error"]["relative_standard_error"].as_f64().unwrap());
+    let seeds = t["seeds"].as_array().unwrap().len();
+    assert!(err <= 0.04 && t["error"]["reached"] == true, "stopped at {err} after {seeds} seeds");
+    assert!(seeds >= 4);
+    let read = |d: &str| vplgi_image::read_exr(&dir.path().join(d).join("mean.exr")).unwrap();
+    let measured = vplgi_image::compare(&read("converged"), &read("target")).unwrap().metrics.rel_mse;
+    // Both means are noisy: the expected relMSE between them is the sum of their squared errors
+    // (the converged one's is 1/16 or less of the other's). Errors of neighbouring pixels are
+    // correlated (a seed's VPLs light them all), so one measurement scatters: a factor 2 either
+    // way. Forgetting to divide the variance by the seed count would be off by 4 or more.
+    let ratio = measured / (err * err + err_c * err_c);
+    println!("target error: {seeds} seeds, predicted relMSE {:.3e}, measured {measured:.3e}, ratio {ratio:.2}", err * err + err_c * err_c);
+    assert!((0.5..2.0).contains(&ratio), "measured relMSE {measured:.3e} against predicted {:.3e} (ratio {ratio:.2})", err * err + err_c * err_c);
+
+    let o = run(&["--target-error", "0.01%", "--max-seeds", "5", "--out", &p("short")]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("not reached") && e.contains("5 seeds"), "{e}");
+    assert!(dir.path().join("short/mean.exr").exists() && sidecar("short")["error"]["reached"] == false);
+    let bad = p("bad");
+    for (args, says) in [
+        (&["--target-error", "abc"][..], "--target-error \"abc\""),
+        (&["--target-error", "150%"][..], "--target-error \"150%\""),
+        (&["--target-error", "1%", "--seeds", "3"][..], "cannot be used with"),
+        (&["--target-error", "1%", "--tile", "1/2"][..], "cannot be used with"),
+    ] {
+        let mut a = args.to_vec();
+        a.extend(["--out", bad.as_str()]);
+        let o = run(&a);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(says), "{args:?}: {e}");
+        assert!(!dir.path().join("bad").exists(), "{args:?} created its folder");
+    }
+}
+
 /// `vplgi reference --cluster both` is the mean of a clustered configuration (a regression
 /// baseline); it cannot be cut into tiles, and says so before any work.
 #[test]
