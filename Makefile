@@ -10,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench perf-report references results validate clean
+.PHONY: all setup build demo test verify-long fuzz mutants bench perf-report references results validate test-slurm clean
 
 all: build
 
@@ -184,6 +184,15 @@ MITSUBA_PY := target/mitsuba-python
 validate: build
 	@test -d $(MITSUBA_PY)/mitsuba || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(MITSUBA_PY) "mitsuba==3.9.1" "numpy<3"
 	PYTHONPATH=$(MITSUBA_PY) $(CARGO) run --release -p vplgi-benches --bin validate -- --out docs/VALIDATION.md $(VALIDATE_ARGS)
+
+# References past one machine (opt-in, not in make test; needs root or sudo): starts a single-node
+# Slurm cluster (Debian's slurm-wlm and munge, installed if missing) in target/slurm-test, submits
+# ci/slurm/submit-reference.sh's tile array and dependent merge, and checks the merged reference is
+# bit-identical to one run; then checks the Kubernetes manifests in ci/kubernetes and runs their
+# pods' commands locally (no cluster is reachable here, so Kubernetes itself is not exercised).
+test-slurm: build
+	bash ci/slurm/test.sh $(VPLGI)
+	/usr/bin/python3 ci/kubernetes/test-commands.py $(VPLGI) target/k8s-test
 
 clean:
 	$(CARGO) clean
