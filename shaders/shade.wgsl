@@ -56,11 +56,18 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     let p = sp.position;
     let n = sp.normal;
     var rng = rng_new(params.seed, STREAM_DIRECT, index);
+    // One draw per statement: the CPU draws them in this order.
+    let r0 = rng_next_u32(&rng);
+    let r1 = rng_next_u32(&rng);
+    let r2 = rng_next_u32(&rng);
+    let scramble = vec3<u32>(r0, r1, r2);
     var area = vec3<f32>(0.0);
     for (var s = 0u; s < params.direct_samples; s = s + 1u) {
-        let u0 = rng_next_f32(&rng);
-        let u1 = rng_next_f32(&rng);
-        let u2 = rng_next_f32(&rng);
+        // Stratified: sample s of a Sobol' set scrambled per shading point (shade::direct).
+        let u = scrambled_sobol3(s, scramble);
+        let u0 = u.x;
+        let u1 = u.y;
+        let u2 = u.z;
         if (light_counts.x == 0u) {
             break;
         }

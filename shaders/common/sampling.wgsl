@@ -38,3 +38,36 @@ fn uniform_cone(axis: vec3<f32>, cos_max: f32, u1: f32, u2: f32) -> vec3<f32> {
     let tb = orthonormal_basis(axis);
     return normalize(tb[0] * (sin_t * cos(phi)) + tb[1] * (sin_t * sin(phi)) + axis * cos_t);
 }
+
+// sampling::sobol3: point j of the first three dimensions of Sobol's sequence as 32-bit binary
+// fractions (direction numbers from x, x + 1 and x^2 + x + 1; integer operations only, so the
+// bits equal the CPU's).
+fn sobol3(j: u32) -> vec3<u32> {
+    var x = vec3<u32>(0u);
+    var m2 = 1u;
+    var m3 = 1u;
+    var m3_prev = 0u;
+    var k = 1u;
+    while (k <= 32u && (j >> (k - 1u)) != 0u) {
+        if (k >= 2u) {
+            m2 = m2 ^ (m2 << 1u);
+            var next = 3u;
+            if (k != 2u) {
+                next = (m3 << 1u) ^ (m3_prev << 2u) ^ m3_prev;
+            }
+            m3_prev = m3;
+            m3 = next;
+        }
+        if (((j >> (k - 1u)) & 1u) == 1u) {
+            let shift = 32u - k;
+            x = x ^ vec3<u32>(1u << shift, m2 << shift, m3 << shift);
+        }
+        k = k + 1u;
+    }
+    return x;
+}
+
+// sampling::scrambled_sobol3: sample j of a Sobol' set digitally shifted by `scramble`.
+fn scrambled_sobol3(j: u32, scramble: vec3<u32>) -> vec3<f32> {
+    return vec3<f32>((sobol3(j) ^ scramble) >> vec3<u32>(8u)) * (1.0 / 16777216.0);
+}

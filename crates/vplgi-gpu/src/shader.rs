@@ -61,7 +61,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     (
         "shade.wgsl",
         include_str!("../../../shaders/shade.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
     (
         "bias_points.wgsl",
