@@ -61,21 +61,49 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     let r1 = rng_next_u32(&rng);
     let r2 = rng_next_u32(&rng);
     let scramble = vec3<u32>(r0, r1, r2);
+    // LightSampler::group_choice: every group's importance at p, summed here and recomputed
+    // (bit-identically) while walking, instead of kept in a per-lane array.
+    let groups = light_counts.z;
+    var total = 0.0;
+    for (var g = 0u; g < groups; g = g + 1u) {
+        total = total + group_importance(light_groups[g], p, n);
+    }
     var area = vec3<f32>(0.0);
     for (var s = 0u; s < params.direct_samples; s = s + 1u) {
-        // Stratified: sample s of a Sobol' set scrambled per shading point (shade::direct).
-        let u = scrambled_sobol3(s, scramble);
-        let u0 = u.x;
-        let u1 = u.y;
-        let u2 = u.z;
-        if (light_counts.x == 0u) {
+        if (!(total > 0.0)) {
             break;
         }
-        let i = sample_table_area(u0);
+        // Stratified: sample s of a Sobol' set scrambled per shading point (shade::direct).
+        let u = scrambled_sobol3(s, scramble);
+        // LightSampler::sample_area_at: a group by importance, then an emitter of it by power.
+        let goal = u.x * total;
+        var acc = 0.0;
+        var chosen = groups;
+        var before = 0.0;
+        var w = 0.0;
+        for (var g = 0u; g < groups; g = g + 1u) {
+            let wg = group_importance(light_groups[g], p, n);
+            if (wg > 0.0) {
+                chosen = g;
+                before = acc;
+                w = wg;
+                if (goal < acc + wg) {
+                    break;
+                }
+            }
+            acc = acc + wg;
+        }
+        if (chosen == groups) {
+            break;
+        }
+        let group = light_groups[chosen];
+        let v = clamp((goal - before) / w, 0.0, 1.0 - 1.0 / 16777216.0);
+        let first = group.range.x;
+        let i = clamp(sample_table_area(group.power.z + v * group.power.y), first, first + group.range.y - 1u);
         let e = emitters[i];
-        let b = uniform_triangle(u1, u2);
+        let b = uniform_triangle(u.y, u.z);
         let pos = e.v0.xyz + e.e1.xyz * b.x + e.e2.xyz * b.y;
-        let pdf_area = area_table[i].y / e.v0.w;
+        let pdf_area = (w / total) * (area_table[i].y / group.power.y) / e.v0.w;
         let d = pos - p;
         let d2 = dot(d, d);
         let cos_p = dot(n, d);

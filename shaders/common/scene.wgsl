@@ -18,8 +18,9 @@
 @group(0) @binding(43) var<storage, read> texels_1: array<u32>;
 @group(0) @binding(44) var<storage, read> texels_2: array<u32>;
 @group(0) @binding(45) var<storage, read> texels_3: array<u32>;
-@group(0) @binding(46) var<storage, read> light_counts: vec4<u32>;          // emitters, punctual lights
+@group(0) @binding(46) var<storage, read> light_counts: vec4<u32>;          // emitters, punctual lights, light groups
 @group(0) @binding(47) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(48) var<storage, read> area_table: array<vec2<f32>>;  // emitters by power
 @group(0) @binding(49) var<storage, read> all_table: array<vec2<f32>>;   // emitters, then punctual lights
 @group(0) @binding(50) var<storage, read> punctual: array<Punctual>;
+@group(0) @binding(51) var<storage, read> light_groups: array<LightGroup>;  // light_counts.z of them

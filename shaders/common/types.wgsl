@@ -66,6 +66,14 @@ struct Emitter {
     radiance: vec4<f32>,
 }
 
+// vplgi_types::device::LightGroup
+struct LightGroup {
+    sphere: vec4<f32>,    // centre, radius
+    cone: vec4<f32>,      // axis, cos of the half-angle (ANY_ORIENTATION: none)
+    power: vec4<f32>,     // power, realised probability in area_table, area_table's CDF before it
+    range: vec4<u32>,     // first emitter, count
+}
+
 struct Punctual {
     position: vec4<f32>,  // w = 0 point, 1 spot
     direction: vec4<f32>, // w = cos_inner

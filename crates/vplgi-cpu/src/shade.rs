@@ -187,12 +187,13 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
     sum
 }
 
-/// Direct light at shading point `index`: `samples` shadow rays to points on area lights chosen
-/// by power, plus one shadow ray per punctual light. The area samples are stratified: sample j
-/// takes point j of a Sobol' set (light choice, then the point on the triangle) scrambled once
-/// per shading point from stream (seed, `Stream::Direct`, index). Stratifying 4 samples halves
-/// the variance of the default Cornell box render against independent samples (measured), for
-/// the same shadow rays.
+/// Direct light at shading point `index`: `samples` shadow rays to points on area lights, plus one
+/// shadow ray per punctual light. Area lights are chosen by what they can contribute at the point
+/// (a group by the bounds of `vplgi_types::light_groups`, then an emitter of it by power), not by
+/// power alone. The samples are stratified: sample j takes point j of a Sobol' set (light choice,
+/// then the point on the triangle) scrambled once per shading point from stream
+/// (seed, `Stream::Direct`, index). Stratifying 4 samples divides the seed-to-seed relMSE of the
+/// default Cornell box render by about three against independent samples, for the same rays.
 pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: u32) -> Vec3 {
     let p = Vec3::from(sp.position);
     let n = Vec3::from(sp.normal);
@@ -200,10 +201,11 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
     let mut sum = Vec3::ZERO;
     let mut rng = Rng::new(seed, Stream::Direct, index);
     let scramble = [rng.next_u32(), rng.next_u32(), rng.next_u32()];
+    let choice = cs.lights.group_choice(p, n);
     let mut area = Vec3::ZERO;
     for j in 0..samples {
         let u = sampling::scrambled_sobol3(j, scramble);
-        let Some(s) = cs.lights.sample_area(cs.scene, u) else {
+        let Some(s) = cs.lights.sample_area_at(cs.scene, &choice, u) else {
             break;
         };
         let d = s.position - p;

@@ -4,7 +4,7 @@
 use crate::buffers::{kernel_params, storage};
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::{PunctualLight, Scene};
-pub use vplgi_types::device::{Emitter, Punctual};
+pub use vplgi_types::device::{Emitter, LightGroup, Punctual};
 
 pub struct GpuLights {
     pub counts: wgpu::Buffer,
@@ -12,6 +12,7 @@ pub struct GpuLights {
     pub area_table: wgpu::Buffer,
     pub all_table: wgpu::Buffer,
     pub punctual: wgpu::Buffer,
+    pub groups: wgpu::Buffer,
     pub emitter_count: u32,
     pub punctual_count: u32,
 }
@@ -52,13 +53,14 @@ impl GpuLights {
                 }
             })
             .collect();
-        let counts = [emitters.len() as u32, punctual.len() as u32, 0, 0];
+        let counts = [emitters.len() as u32, punctual.len() as u32, sampler.groups().len() as u32, 0];
         GpuLights {
             counts: kernel_params(device, "light counts", &counts),
             emitters: storage(device, "emitters", &emitters),
             area_table: storage(device, "area table", &table(sampler.area_distribution())),
             all_table: storage(device, "all-light table", &table(sampler.all_distribution())),
             punctual: storage(device, "punctual lights", &punctual),
+            groups: storage(device, "light groups", sampler.groups()),
             emitter_count: counts[0],
             punctual_count: counts[1],
         }

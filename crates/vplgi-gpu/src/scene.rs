@@ -72,7 +72,7 @@ pub type SceneBuffer = fn(&GpuScene) -> &wgpu::Buffer;
 
 /// The scene's arrays in the binding order of `scene.wgsl`, by their WGSL names (a test checks
 /// the two against each other).
-pub const SCENE_BINDINGS: [(&str, SceneBuffer); 19] = [
+pub const SCENE_BINDINGS: [(&str, SceneBuffer); 20] = [
     ("bvh_nodes", |s| &s.bvh_nodes),
     ("bvh_nodes_hi", |s| &s.bvh_nodes_hi),
     ("bvh_tris", |s| &s.bvh_tris),
@@ -92,6 +92,7 @@ pub const SCENE_BINDINGS: [(&str, SceneBuffer); 19] = [
     ("area_table", |s| &s.lights.area_table),
     ("all_table", |s| &s.lights.all_table),
     ("punctual", |s| &s.lights.punctual),
+    ("light_groups", |s| &s.lights.groups),
 ];
 
 impl GpuScene {

@@ -438,7 +438,7 @@ mod tests {
     #[test]
     fn shared_structs_match_their_wgsl_layout() {
         use crate::bvh::{BvhNode, BvhTri};
-        use crate::lights::{Emitter, Punctual};
+        use crate::lights::{Emitter, LightGroup, Punctual};
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
         let table = rows! {
@@ -452,6 +452,7 @@ mod tests {
             [BvhNode] "visibility.wgsl" "BvhNode" { min, skip, max, leaf }
             [BvhTri] "visibility.wgsl" "BvhTri" { v0, v1, v2 }
             [Emitter] "shade.wgsl" "Emitter" { v0, e1, e2, normal, radiance }
+            [LightGroup] "shade.wgsl" "LightGroup" { sphere, cone, power, range }
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
             [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }

@@ -2,13 +2,16 @@
 //! distributions used to pick one. The tables are built once on the host and read by every
 //! backend (the GPU uploads them), so all backends choose lights with the same probabilities.
 //!
-//! Light particles choose among *all* lights in proportion to their power. Direct lighting samples
-//! area lights in proportion to their power and evaluates every punctual light with one shadow
-//! ray each (a punctual light cannot be hit by chance).
+//! Light particles choose among *all* lights in proportion to their power. Direct lighting chooses
+//! a group of area lights by what it can contribute at the shading point
+//! (`vplgi_types::light_groups`), then an emitter of the group by power, and evaluates every
+//! punctual light with one shadow ray each (a punctual light cannot be hit by chance).
 
 use crate::{PunctualLight, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
+use vplgi_types::device::LightGroup;
+use vplgi_types::light_groups::{group_importance, ANY_ORIENTATION, MAX_GROUPS};
 use vplgi_types::sampling;
 
 /// A discrete distribution over `n` items, sampled by inverting its CDF.
@@ -108,8 +111,52 @@ pub struct LightSampler {
     /// Over emitters only, by power.
     area: Distribution,
     punctual: Vec<PunctualLight>,
+    /// Runs of consecutive emitters that direct light chooses among (`vplgi_types::light_groups`).
+    groups: Vec<LightGroup>,
     /// Total emitted power of every light, RGB (W).
     pub total_power: Vec3,
+}
+
+/// The importances of every light group at one shading point, and their sum: computed once per
+/// point, then shared by its direct-light samples.
+pub struct GroupChoice {
+    weights: [f32; MAX_GROUPS],
+    total: f32,
+}
+
+/// Cuts emitters (in triangle order) into at most [`MAX_GROUPS`] runs of nearly equal length and
+/// bounds each: the sphere around its vertices' box, the cone around its area-weighted normal.
+/// Both are widened by 1e-4 so that rounding never excludes a point that can contribute.
+fn light_groups(scene: &Scene, emitters: &[u32], areas: &[f32], powers: &[f32], area: &Distribution) -> Vec<LightGroup> {
+    let n = emitters.len();
+    let count = n.min(MAX_GROUPS);
+    (0..count)
+        .map(|g| {
+            let range = g * n / count..(g + 1) * n / count;
+            let tris = || range.clone().map(|e| emitters[e] as usize);
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for t in tris() {
+                for v in scene.triangle(t) {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            let centre = (lo + hi) * 0.5;
+            let r = tris().flat_map(|t| scene.triangle(t)).map(|v| (v - centre).length()).fold(0.0f32, f32::max);
+            let sum_n = range.clone().fold(Vec3::ZERO, |a, e| a + scene.geometric_normal(emitters[e] as usize) * areas[e]);
+            let axis = sum_n.normalize_or_zero();
+            let cos_n = tris().map(|t| axis.dot(scene.geometric_normal(t))).fold(1.0f32, f32::min) - 1e-4;
+            let cone = if axis == Vec3::ZERO || cos_n <= 0.0 { [0.0, 0.0, 0.0, ANY_ORIENTATION] } else { [axis.x, axis.y, axis.z, cos_n] };
+            let pmf: f32 = range.clone().map(|e| area.pmf(e)).sum();
+            let before = if range.start == 0 { 0.0 } else { area.cdf()[range.start - 1] };
+            LightGroup {
+                sphere: [centre.x, centre.y, centre.z, r * (1.0 + 1e-4) + 1e-6],
+                cone,
+                power: [range.clone().map(|e| powers[e]).sum(), pmf, before, 0.0],
+                range: [range.start as u32, range.len() as u32, 0, 0],
+            }
+        })
+        .collect()
 }
 
 /// Power of a punctual light: 4 pi I for a point light; for a spot, I times the solid-angle
@@ -140,11 +187,13 @@ impl LightSampler {
                 }
             }
         }
-        let area = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
+        let area_powers: Vec<f32> = powers.iter().map(|&p| scalar(p)).collect();
+        let area = Distribution::new(&area_powers);
+        let groups = light_groups(scene, &emitters, &areas, &area_powers, &area);
         powers.extend(scene.lights.iter().map(punctual_power));
         let all = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
         let total_power = powers.iter().fold(Vec3::ZERO, |a, &p| a + p);
-        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), total_power }
+        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power }
     }
 
     pub fn has_lights(&self) -> bool {
@@ -208,12 +257,52 @@ impl LightSampler {
         }
     }
 
-    /// A point on an area light chosen by power, or `None` when there is no area light.
-    pub fn sample_area(&self, scene: &Scene, u: [f32; 3]) -> Option<AreaSample> {
-        if self.area.is_empty() {
+    /// The light groups direct light chooses among.
+    pub fn groups(&self) -> &[LightGroup] {
+        &self.groups
+    }
+
+    /// Every group's importance at point `p` with unit normal `n`.
+    pub fn group_choice(&self, p: Vec3, n: Vec3) -> GroupChoice {
+        let mut weights = [0.0f32; MAX_GROUPS];
+        let mut total = 0.0f32;
+        for (w, g) in weights.iter_mut().zip(&self.groups) {
+            *w = group_importance(g, p, n);
+            total += *w;
+        }
+        GroupChoice { weights, total }
+    }
+
+    /// A point on an area light for direct light at the point `choice` was made for: a group with
+    /// probability importance / total (from `u[0]`, walked in group order), then an emitter of
+    /// that group by power (from where `u[0]` fell inside the group's share, so one stratified
+    /// number serves both choices), then a uniform point on it. `None` when no group can light
+    /// the point.
+    pub fn sample_area_at(&self, scene: &Scene, choice: &GroupChoice, u: [f32; 3]) -> Option<AreaSample> {
+        // Also false for a NaN total.
+        if choice.total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
-        let (i, pmf) = self.area.sample(u[0]);
+        let target = u[0] * choice.total;
+        let mut acc = 0.0f32;
+        let mut chosen = None;
+        for (g, &w) in choice.weights[..self.groups.len()].iter().enumerate() {
+            if w > 0.0 {
+                chosen = Some((g, acc, w));
+                if target < acc + w {
+                    break;
+                }
+            }
+            acc += w;
+        }
+        // The last group with weight takes what rounding leaves past the end.
+        let (g, before, w) = chosen?;
+        let group = &self.groups[g];
+        let v = ((target - before) / w).clamp(0.0, 1.0 - 1.0 / 16_777_216.0);
+        let first = group.range[0] as usize;
+        let last = first + group.range[1] as usize - 1;
+        let (i, _) = self.area.sample(group.power[2] + v * group.power[1]);
+        let i = i.clamp(first, last);
         let t = self.emitters[i] as usize;
         let [a, b, c] = scene.triangle(t);
         let (b1, b2) = sampling::uniform_triangle(u[1], u[2]);
@@ -221,7 +310,7 @@ impl LightSampler {
             position: a + (b - a) * b1 + (c - a) * b2,
             normal: scene.geometric_normal(t),
             radiance: scene.emission(t),
-            pdf_area: pmf / self.areas[i],
+            pdf_area: (w / choice.total) * (self.area.pmf(i) / group.power[1]) / self.areas[i],
         })
     }
 }
@@ -262,9 +351,52 @@ mod tests {
         assert!((numeric - analytic).abs() < 1e-3 * analytic, "{numeric} vs {analytic}");
     }
 
-    /// χ² goodness of fit of area-light sampling: two emitters of different area and radiance,
-    /// each split into its four midpoint sub-triangles (a quarter of its area each). The expected
-    /// share of an emitter is its power share; inside it, positions must be uniform.
+    /// More emitters than groups: 70 strips of rising radiance in a row make 32 groups of 2 or 3.
+    /// Each emitter must be drawn as often as the probability the estimator divides by, which
+    /// exercises the choice inside a group (by power, from the rest of the stratified number).
+    #[test]
+    fn emitters_inside_groups_are_drawn_as_often_as_their_probability() {
+        use crate::{Material, Scene};
+        use vplgi_types::{Rng, Stream};
+        let mut scene = Scene::default();
+        let n = 70;
+        for t in 0..n {
+            let x = t as f32 * 0.1;
+            scene.positions.extend_from_slice(&[Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.1, 0.0, 0.0), Vec3::new(x, 0.0, 1.0)]);
+            scene.normals.extend_from_slice(&[Vec3::Y; 3]);
+            scene.uvs.extend_from_slice(&[glam::Vec2::ZERO; 3]);
+            let base = 3 * t as u32;
+            scene.indices.push([base, base + 2, base + 1]);
+            scene.material_ids.push(t as u32);
+            scene.materials.push(Material { emission: Vec3::splat(1.0 + (t % 7) as f32), ..Material::default() });
+        }
+        let sampler = LightSampler::new(&scene);
+        assert_eq!(sampler.groups().len(), MAX_GROUPS);
+        assert!(sampler.groups().iter().all(|g| (2..=3).contains(&g.range[1])));
+        let choice = sampler.group_choice(Vec3::new(2.0, 1.0, 0.5), Vec3::NEG_Y);
+        let samples = 200_000;
+        let mut counts = vec![0u32; n];
+        let mut prob = vec![0.0f64; n];
+        let mut rng = Rng::new(6, Stream::Oracle, 0);
+        for _ in 0..samples {
+            let s = sampler.sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
+            let t = ((s.position.x / 0.1).floor() as usize).min(n - 1);
+            counts[t] += 1;
+            prob[t] = s.pdf_area as f64 * 0.05;
+        }
+        let total: f64 = prob.iter().sum();
+        assert!((total - 1.0).abs() < 1e-4, "probabilities sum to {total}");
+        let chi2: f64 = (0..n).map(|t| (counts[t] as f64 - samples as f64 * prob[t]).powi(2) / (samples as f64 * prob[t])).sum();
+        // 69 degrees of freedom: the 0.999 quantile is 111.
+        println!("emitters in groups: chi2 = {chi2:.1} (69 dof, reject above 111)");
+        assert!(chi2 < 111.0, "chi2 = {chi2}, counts {counts:?}");
+    }
+
+    /// χ² goodness of fit of direct light's area-light sampling at a receiver above two emitters
+    /// of different area and radiance, each split into its four midpoint sub-triangles (a quarter
+    /// of its area each). An emitter must be drawn as often as the probability the estimator
+    /// divides by (pdf × area, the same for all its samples, summing to 1 over emitters), and
+    /// positions inside it uniformly.
     #[test]
     fn area_light_sampling_chi2() {
         use crate::{Material, Scene};
@@ -284,18 +416,14 @@ mod tests {
             scene.materials.push(Material { emission: Vec3::splat(1.0 + 3.0 * t as f32), ..Material::default() });
         }
         let sampler = LightSampler::new(&scene);
-        let powers: Vec<f32> = (0..2)
-            .map(|t| {
-                let [a, b, c] = scene.triangle(t);
-                0.5 * (b - a).cross(c - a).length() * scene.emission(t).x
-            })
-            .collect();
-        let total: f32 = powers.iter().sum();
+        assert_eq!(sampler.groups().len(), 2, "two emitters, two groups");
+        let choice = sampler.group_choice(Vec3::new(0.5, 1.5, 0.5), Vec3::NEG_Y);
         let mut counts = [0u32; 8];
+        let mut share = [f32::NAN; 2];
         let samples = 100_000;
         let mut rng = Rng::new(5, Stream::Oracle, 0);
         for _ in 0..samples {
-            let s = sampler.sample_area(&scene, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
+            let s = sampler.sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
             let t = if s.position.x < 1.5 { 0 } else { 1 };
             // Barycentric coordinates on the triangle as indexed: (a, c, b) for the winding above.
             let [a, b, c] = scene.triangle(t);
@@ -314,11 +442,16 @@ mod tests {
                 3
             };
             counts[t * 4 + sub] += 1;
-            assert!((s.pdf_area - powers[t] / total / (powers[t] / scene.emission(t).x)).abs() < 1e-4);
+            let p = s.pdf_area * 0.5 * d.length();
+            assert!(share[t].is_nan() || (share[t] - p).abs() < 1e-6, "emitter {t}: probability {p}, before {}", share[t]);
+            share[t] = p;
         }
+        assert!((share[0] + share[1] - 1.0).abs() < 1e-5, "probabilities {share:?}");
+        let powers = [0.5 * 1.0, 3.0 * 4.0]; // area x radiance
+        assert!(share[0] > powers[0] / (powers[0] + powers[1]), "the nearer emitter gains over its power share: {share:?}");
         let mut chi2 = 0.0f64;
         for t in 0..2 {
-            let expected = samples as f64 * (powers[t] / total) as f64 / 4.0;
+            let expected = samples as f64 * share[t] as f64 / 4.0;
             for sub in 0..4 {
                 chi2 += (counts[t * 4 + sub] as f64 - expected).powi(2) / expected;
             }

@@ -82,6 +82,23 @@ pub struct Emitter {
     pub radiance: [f32; 4],
 }
 
+/// `LightGroup` in `lights.wgsl`: a run of consecutive emitters with the bounds direct light uses
+/// to choose among groups at a shading point (`vplgi_types::light_groups`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct LightGroup {
+    /// Bounding sphere of the group's triangles: centre, radius.
+    pub sphere: [f32; 4],
+    /// Normal cone: unit axis and the cosine of its half-angle, or axis zero and
+    /// [`crate::light_groups::ANY_ORIENTATION`] when the normals spread over more than a hemisphere.
+    pub cone: [f32; 4],
+    /// x: emitted power (mean of RGB, W); y: the sum of its emitters' realised probabilities in the
+    /// power table; z: that table's CDF before its first emitter; w unused.
+    pub power: [f32; 4],
+    /// First emitter, emitter count, unused, unused.
+    pub range: [u32; 4],
+}
+
 /// `Punctual` in `lights.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]

@@ -9,10 +9,12 @@
 //! * [`clustering`]: the host-side choices of Alg. 1 and 2 every backend shares.
 //! * [`device`]: the records the GPU reads, built on the host (BVH, shading data, lights).
 //! * [`params`]: the parameters of each stage, as every backend takes them.
+//! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
 
 pub mod clustering;
 pub mod config;
 pub mod device;
+pub mod light_groups;
 pub mod params;
 pub mod pod;
 pub mod rng;
