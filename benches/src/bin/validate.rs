@@ -129,16 +129,31 @@ fn average(images: &[Image]) -> Image {
     out
 }
 
-/// The relMSE the two sides' noise alone would give (Mitsuba's mean as the reference).
-fn noise_rel_mse(v: &Side, m: &Side) -> f64 {
+/// The relMSE one side's noise alone gives its mean against the converged image (its per-pixel
+/// variance of the mean over `reference`'s squared values plus epsilon, averaged): the quantity
+/// `vplgi reference --target-error` aggregates.
+fn expected_rel_mse(s: &Side, reference: &Image) -> f64 {
     let mut total = 0.0;
-    for i in 0..m.mean.pixels.len() {
+    for (var, r) in s.variance.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {
-            let r = m.mean.pixels[i][c] as f64;
-            total += (v.variance.pixels[i][c] as f64 / v.n + m.variance.pixels[i][c] as f64 / m.n) / (r * r + REL_MSE_EPSILON);
+            total += var[c] as f64 / s.n / (r[c] as f64 * r[c] as f64 + REL_MSE_EPSILON);
         }
     }
-    total / (m.mean.pixels.len() * 3) as f64
+    total / (reference.pixels.len() * 3) as f64
+}
+
+/// The relMSE the two sides' noise alone would give (Mitsuba's mean as the reference).
+fn noise_rel_mse(v: &Side, m: &Side) -> f64 {
+    expected_rel_mse(v, &m.mean) + expected_rel_mse(m, &m.mean)
+}
+
+/// The relative error both sides' times are compared at (relMSE = its square).
+const EQUAL_ERROR: f64 = 0.01;
+
+/// Seconds a renderer that took `seconds` to reach `rel_mse` (from noise alone) needs to reach
+/// [`EQUAL_ERROR`]: both are unbiased Monte Carlo estimates, so relMSE falls as 1 / time.
+fn seconds_to_equal_error(seconds: f64, rel_mse: f64) -> f64 {
+    seconds * rel_mse / (EQUAL_ERROR * EQUAL_ERROR)
 }
 
 /// A picture of where vplgi is darker (blue) or brighter (red) than Mitsuba: the luminance ratio
@@ -295,11 +310,18 @@ fn main() -> Result<()> {
                 "bands": bands,
                 "rel_mse": cmp.metrics.rel_mse,
                 "noise_rel_mse": noise_rel_mse(&v, &m),
+                "seconds_to_equal_error": seconds_to_equal_error(vplgi_seconds, expected_rel_mse(&v, &m.mean)),
                 "flip": cmp.metrics.flip,
                 "vplgi_seconds": vplgi_seconds,
             }));
         }
-        rows.push(json!({"scene": name, "mitsuba_seconds": mitsuba_run["seconds"], "variants": variants}));
+        let mitsuba_seconds = mitsuba_run["seconds"].as_f64().unwrap_or(f64::NAN);
+        rows.push(json!({
+            "scene": name,
+            "mitsuba_seconds": mitsuba_seconds,
+            "mitsuba_seconds_to_equal_error": seconds_to_equal_error(mitsuba_seconds, expected_rel_mse(&m, &m.mean)),
+            "variants": variants,
+        }));
     }
     let report = json!({
         "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
@@ -382,6 +404,22 @@ fn markdown(r: &Value) -> Result<String> {
                 f(&sc["mitsuba_seconds"])
             )?;
         }
+    }
+    writeln!(
+        s,
+        "\n## Time to equal error\n\nSeconds each renderer needs on these 2 cores to bring its image to a relative error of {:.0} % \
+         against the converged image (relMSE {:.0e}), from its own run: the relMSE its noise alone gives (per-pixel variances \
+         of the mean, over Mitsuba's image squared plus epsilon, as `vplgi reference --target-error` aggregates it), scaled \
+         as 1 / time. Both renders ran in this run, one after the other on the same machine.\n\n\
+         | scene | Mitsuba (s) | vplgi compensated (s) | vplgi clamped (s) | vplgi compensated / Mitsuba |\n|---|---:|---:|---:|---:|",
+        100.0 * EQUAL_ERROR,
+        EQUAL_ERROR * EQUAL_ERROR
+    )?;
+    for sc in &scenes {
+        let vs = sc["variants"].as_array().cloned().unwrap_or_default();
+        let t = |variant: &str| vs.iter().find(|v| v["variant"] == variant).map_or(f64::NAN, |v| f(&v["seconds_to_equal_error"]));
+        let m = f(&sc["mitsuba_seconds_to_equal_error"]);
+        writeln!(s, "| {} | {:.0} | {:.0} | {:.0} | {:.2} |", sc["scene"].as_str().unwrap_or("?"), m, t("compensated"), t("clamped"), t("compensated") / m)?;
     }
     for sc in &scenes {
         let n = sc["scene"].as_str().unwrap_or("?");
