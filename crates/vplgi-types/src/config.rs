@@ -135,7 +135,9 @@ impl FrameConfig {
             iterations: 10,
             normal_threshold: 0.866_025_4, // cos 30 degrees = sqrt(3)/2
             g_clamp_rel: 0.05,
-            direct_samples: 4,
+            // Stratified (shade::direct): 8 samples cost the default Cornell box render about 4 %
+            // more time than 4 and leave 0.73x the relMSE against a converged image.
+            direct_samples: 8,
             bias_compensation: true,
         }
     }
