@@ -63,6 +63,13 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so printing into a closed pipe (`vplgi compare A B | head -1`) would
+    // panic; the default action ends the process quietly, as for other command-line tools.
+    // Outputs are written atomically, so an interrupted run leaves no partial file.
+    // SAFETY: setting a signal's disposition to its default before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // The frame options' help shows each subcommand's defaults, read from FrameConfig.
     let matches = frame_args::document(Cli::command()).get_matches();
     let cli = match Cli::from_arg_matches(&matches) {

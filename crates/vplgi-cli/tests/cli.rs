@@ -77,6 +77,19 @@ fn compare_reports_metrics_and_writes_an_error_map() {
     assert!(mse > 0.0 && rel > 0.0 && flip > 0.0, "clustered differs from the reference: {j}");
     assert!(flip < 0.5, "but not wildly: {j}");
     assert!(out.path().join("error_map.png").is_file());
+
+    // Printing into a pipe its reader has closed (`vplgi compare A B | head -c 0`) ends quietly,
+    // as other command-line tools do, instead of panicking.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vplgi"))
+        .args(["compare", a.path().join("image.exr").to_str().unwrap(), b.path().join("image.exr").to_str().unwrap(), "--out", out.path().to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{err}");
 }
 
 #[test]
