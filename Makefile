@@ -85,7 +85,10 @@ verify-long: setup
 # the recorded survivors again (after adding tests). Commit the ledger and docs/MUTANTS.md after.
 # The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
 # target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
-# every mutant's incremental rebuild, and the working tree is never touched. Its own baseline
+# every mutant's incremental rebuild, and the working tree is never touched. Tests run under
+# nextest: every test in its own process, both cores busy, and the run stops at the first failure
+# (a mutant most tests catch costs a second instead of the whole suite's ~27 s); the test targets
+# are cargo arguments, so a mutant's build links only them. Its own baseline
 # would run only the mutated packages' tests, so the unmutated tests run first here, with exactly
 # the arguments each mutant's run gets (--workspace comes from --test-workspace); and the ledger
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
@@ -103,15 +106,16 @@ MUTANTS_RETEST ?=
 MUTANTS_TOOL = $(CARGO) run -q --profile mutants -p vplgi-benches --bin mutants_report --
 mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
-	@git worktree prune; if [ -d $(MUTANTS_TREE) ]; then git -C $(MUTANTS_TREE) checkout -q -f --detach $$(git rev-parse HEAD); \
-	  else git worktree add -q --detach $(MUTANTS_TREE) HEAD; fi; mkdir -p target/mutants-report
+	@command -v cargo-nextest >/dev/null 2>&1 || cargo install --locked --quiet cargo-nextest
+	@git worktree prune; if [ -d $(MUTANTS_TREE) ]; then git -C $(MUTANTS_TREE) checkout -q -f --detach $$(git rev-parse HEAD) \
+	  && git -C $(MUTANTS_TREE) clean -q -f -d; else git worktree add -q --detach $(MUTANTS_TREE) HEAD; fi; mkdir -p target/mutants-report
 	@echo "make mutants: testing HEAD ($$(git rev-parse --short HEAD)) in $(MUTANTS_TREE)"
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors)
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) $(CARGO) test -q --profile mutants --workspace $(MUTANTS_TARGETS)
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail
 	@cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) timeout -s INT $(MUTANTS_MINUTES)m cargo mutants $(MUTANTS_SELECT) \
-	  --in-place --iterate --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true \
-	  $(addprefix --cargo-test-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
+	  --in-place --iterate --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true --test-tool nextest \
+	  $(addprefix --cargo-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; case $$rc in 0|2|3) ;; 124) echo "make mutants: stopped after $(MUTANTS_MINUTES) minutes; recording what it tested";; *) exit $$rc;; esac
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) record $(MUTANTS_LEDGER) $(MUTANTS_OUT)
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT) ../../ci/mutants-harmless.tsv ../../docs/MUTANTS.md

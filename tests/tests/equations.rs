@@ -15,21 +15,22 @@ use vplgi_gpu::visibility::words_per_row;
 use vplgi_types::clustering::GridGeometry;
 use vplgi_types::{Endpoint, FuzzyMode, ShadeParams, ShadingPoint, VplLight};
 
+/// n_t = cos 30°, the paper's threshold.
+const N_T: f32 = 0.866_025_4;
+
 /// A point at the origin facing up, and five centroids on the +x axis: at distances 1, 2 and 4
-/// facing up, one at 0.5 whose normal is 60° from the point's (cos 0.5, below n_t = cos 30°),
-/// and one at 8 facing up.
-fn hand_checked_assignment() -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
-    let tilted = Vec3::new(60f32.to_radians().sin(), 60f32.to_radians().cos(), 0.0);
+/// facing up, one at 0.5 with normal `tilted`, and one at 8 facing up.
+fn hand_checked_assignment(tilted: Vec3) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
     let centroids = vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0), Vec3::new(8.0, 0.0, 0.0)];
     let normals = vec![Vec3::Y, Vec3::Y, Vec3::Y, tilted, Vec3::Y];
     (vec![Vec3::ZERO], vec![Vec3::Y], centroids, normals)
 }
 
 /// Both backends' labels and weights for the point of [`hand_checked_assignment`] with F = 3.
-fn assign_both(fuzzy: FuzzyMode) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
+fn assign_both(fuzzy: FuzzyMode, tilted: Vec3, threshold: f32) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
     let gpu = vplgi_tests::shared_gpu("equations: assignment")?;
-    let (ps, ns, cs, cn) = hand_checked_assignment();
-    let rule = AssignRule { threshold: 0.866_025_4, f: 3, fuzzy };
+    let (ps, ns, cs, cn) = hand_checked_assignment(tilted);
+    let rule = AssignRule { threshold, f: 3, fuzzy };
     // The grid is laid over the points and the centroids, so every centroid has a cell.
     let all: Vec<Vec3> = ps.iter().chain(&cs).copied().collect();
     let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
@@ -43,13 +44,19 @@ fn assign_both(fuzzy: FuzzyMode) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
     Some([cpu, gpu_result])
 }
 
+/// The centroid at 0.5 of [`hand_checked_assignment`] tilted 60° from the point's normal (cos 0.5,
+/// below n_t).
+fn tilted_60() -> Vec3 {
+    Vec3::new(60f32.to_radians().sin(), 60f32.to_radians().cos(), 0.0)
+}
+
 /// Eq. 7 and Eq. 10: the F = 3 nearest compatible centroids are those at 1, 2 and 4 (the one at
 /// 0.5 is nearer but its normal is beyond n_t), and their weights are the normalised inverse
 /// distances (1, 1/2, 1/4) / (7/4) = (4/7, 2/7, 1/7). An inverse squared distance would give
 /// (16/21, 4/21, 1/21).
 #[test]
 fn eq_7_and_eq_10_on_a_hand_checked_point() {
-    let Some(both) = assign_both(FuzzyMode::Weighted) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted_60(), N_T) else { return };
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
         assert_eq!(labels, [0, 1, 2], "{name}: Eq. 7 picks the three compatible centroids, nearest first");
@@ -59,10 +66,27 @@ fn eq_7_and_eq_10_on_a_hand_checked_point() {
     }
 }
 
+/// Eq. 7's inequality is strict: a normal whose dot product with the point's is exactly n_t is
+/// "otherwise", infinitely far. The centroid at 0.5 faces (0.6, 0.8, 0) and n_t is that 0.8
+/// (both dot products are exact: 0 · 0.6 + 1 · 0.8 + 0 · 0), so it must not be chosen; one
+/// float step lower and it is the nearest.
+#[test]
+fn eq_7_is_strict_at_the_threshold() {
+    let tilted = Vec3::new(0.6, 0.8, 0.0);
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, 0.8) else { return };
+    for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
+        assert_eq!(labels, [0, 1, 2], "{name}: n · m = n_t is not compatible");
+    }
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, 0.8f32.next_down()) else { return };
+    for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
+        assert_eq!(labels, [3, 0, 1], "{name}: n · m just above n_t is compatible, and nearest");
+    }
+}
+
 /// Eq. 8: the plain mean, 1/F for each of the F clusters.
 #[test]
 fn eq_8_on_a_hand_checked_point() {
-    let Some(both) = assign_both(FuzzyMode::Average) else { return };
+    let Some(both) = assign_both(FuzzyMode::Average, tilted_60(), N_T) else { return };
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
         assert_eq!(labels, [0, 1, 2], "{name}");
