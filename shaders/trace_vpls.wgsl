@@ -3,7 +3,8 @@
 //   (scan.wgsl turns the counts into exclusive offsets and the batch total);
 //   compact: copies the VPLs of the batch behind those already kept, up to the requested
 //            count, and records how many particles were used when the count is reached.
-// Particle i uses only the stream (seed, STREAM_LIGHT_PATH, i), so batching does not matter.
+// Particle i uses only point i of the frame's scrambled Sobol' set (its emission) and the stream
+// (seed, STREAM_LIGHT_PATH, i) (its bounces), so batching does not matter.
 // Fluxes are divided by the particle count by `normalize` once it is known.
 
 struct Params {
@@ -50,11 +51,19 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let index = params.first + local;
     var n = 0u;
     var rng = rng_new(params.seed, STREAM_LIGHT_PATH, index);
-    let u0 = rng_next_f32(&rng);
-    let u1 = rng_next_f32(&rng);
-    let u2 = rng_next_f32(&rng);
-    let u3 = rng_next_f32(&rng);
-    let u4 = rng_next_f32(&rng);
+    // trace_vpls::emission_scramble, then point `index` of the frame's shifted Sobol' set:
+    // direction in dimensions 1-2, light choice and point in 3-5 (trace_vpls::trace_particle).
+    var shift_rng = rng_new(params.seed, STREAM_SCRAMBLE, 0u);
+    var scramble = array<u32, 5>(0u, 0u, 0u, 0u, 0u);
+    for (var d = 0u; d < 5u; d = d + 1u) {
+        scramble[d] = rng_next_u32(&shift_rng);
+    }
+    let s = scrambled_sobol5(index, scramble);
+    let u0 = s[2];
+    let u1 = s[3];
+    let u2 = s[4];
+    let u3 = s[0];
+    let u4 = s[1];
     if (light_counts.x + light_counts.y > 0u) {
         // LightSampler::emit
         let i = sample_table_all(u0);

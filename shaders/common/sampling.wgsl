@@ -39,32 +39,66 @@ fn uniform_cone(axis: vec3<f32>, cos_max: f32, u1: f32, u2: f32) -> vec3<f32> {
     return normalize(tb[0] * (sin_t * cos(phi)) + tb[1] * (sin_t * sin(phi)) + axis * cos_t);
 }
 
-// sampling::sobol3: point j of the first three dimensions of Sobol's sequence as 32-bit binary
-// fractions (direction numbers from x, x + 1 and x^2 + x + 1; integer operations only, so the
-// bits equal the CPU's).
-fn sobol3(j: u32) -> vec3<u32> {
-    var x = vec3<u32>(0u);
+// sampling::sobol5: point j of the first five dimensions of Sobol's sequence as 32-bit binary
+// fractions (direction numbers from x, x + 1, x^2 + x + 1, x^3 + x + 1 and x^3 + x^2 + 1;
+// integer operations only, so the bits equal the CPU's).
+fn sobol5(j: u32) -> array<u32, 5> {
+    var x = array<u32, 5>(0u, 0u, 0u, 0u, 0u);
     var m2 = 1u;
-    var m3 = 1u;
-    var m3_prev = 0u;
+    // m_{k-1}, m_{k-2}, m_{k-3} of dimensions 3, 4 and 5.
+    var h3 = vec3<u32>(0u);
+    var h4 = vec3<u32>(0u);
+    var h5 = vec3<u32>(0u);
     var k = 1u;
     while (k <= 32u && (j >> (k - 1u)) != 0u) {
         if (k >= 2u) {
             m2 = m2 ^ (m2 << 1u);
-            var next = 3u;
-            if (k != 2u) {
-                next = (m3 << 1u) ^ (m3_prev << 2u) ^ m3_prev;
-            }
-            m3_prev = m3;
-            m3 = next;
         }
+        var m3 = (h3.x << 1u) ^ (h3.y << 2u) ^ h3.y;
+        var m4 = (h4.y << 2u) ^ (h4.z << 3u) ^ h4.z;
+        var m5 = (h5.x << 1u) ^ (h5.z << 3u) ^ h5.z;
+        if (k == 1u) {
+            m3 = 1u;
+            m4 = 1u;
+            m5 = 1u;
+        } else if (k == 2u) {
+            m3 = 3u;
+            m4 = 3u;
+            m5 = 1u;
+        } else if (k == 3u) {
+            m4 = 1u;
+            m5 = 1u;
+        }
+        h3 = vec3<u32>(m3, h3.x, h3.y);
+        h4 = vec3<u32>(m4, h4.x, h4.y);
+        h5 = vec3<u32>(m5, h5.x, h5.y);
         if (((j >> (k - 1u)) & 1u) == 1u) {
             let shift = 32u - k;
-            x = x ^ vec3<u32>(1u << shift, m2 << shift, m3 << shift);
+            x[0] = x[0] ^ (1u << shift);
+            x[1] = x[1] ^ (m2 << shift);
+            x[2] = x[2] ^ (m3 << shift);
+            x[3] = x[3] ^ (m4 << shift);
+            x[4] = x[4] ^ (m5 << shift);
         }
         k = k + 1u;
     }
     return x;
+}
+
+// sampling::sobol3: the first three dimensions of sobol5.
+fn sobol3(j: u32) -> vec3<u32> {
+    let s = sobol5(j);
+    return vec3<u32>(s[0], s[1], s[2]);
+}
+
+// sampling::scrambled_sobol5: sample j of a Sobol' set digitally shifted by `scramble`.
+fn scrambled_sobol5(j: u32, scramble: array<u32, 5>) -> array<f32, 5> {
+    let s = sobol5(j);
+    var u = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    for (var d = 0u; d < 5u; d = d + 1u) {
+        u[d] = f32((s[d] ^ scramble[d]) >> 8u) * (1.0 / 16777216.0);
+    }
+    return u;
 }
 
 // sampling::scrambled_sobol3: sample j of a Sobol' set digitally shifted by `scramble`.

@@ -1,8 +1,9 @@
 //! Stage 1, `trace_vpls`: light particles leave the lights and leave a VPL at every diffuse
 //! surface they hit, up to `bounces` surfaces (SPEC, "VPL tracing").
 //!
-//! Particle `i` uses the random stream (seed, `Stream::LightPath`, i) and nothing else, so its
-//! path does not depend on which thread traces it. Particles are traced in index order in
+//! Particle `i` emits from point i of the frame's scrambled Sobol' set and bounces with the
+//! random stream (seed, `Stream::LightPath`, i), and uses nothing else, so its path does not
+//! depend on which thread traces it. Particles are traced in index order in
 //! parallel batches; the first particles whose VPLs reach the requested count are kept (the last
 //! one's path cut short), so the VPL set is deterministic and exactly `count` long. Each VPL's
 //! flux is divided by the number of particles used, which makes the VPL set an unbiased estimate
@@ -24,11 +25,23 @@ pub struct VplSet {
     pub particles: u32,
 }
 
+/// The digital shift of a frame's emission set: five draws of stream (seed, `Scramble`, 0).
+pub fn emission_scramble(seed: u32) -> [u32; 5] {
+    let mut rng = Rng::new(seed, Stream::Scramble, 0);
+    std::array::from_fn(|_| rng.next_u32())
+}
+
 /// Traces light particle `index`, returning its VPLs with flux not yet divided by the particle
-/// count.
-pub fn trace_particle(cs: &CpuScene, seed: u32, index: u32, bounces: u32) -> Vec<Vpl> {
+/// count. Its emission (light choice, point, direction) is point `index` of a Sobol' set shared
+/// by the frame's particles and shifted by `scramble` ([`emission_scramble`]): the particles
+/// cover the lights' emission evenly instead of at random, so the VPLs, and the light they
+/// stand for, vary less from seed to seed. Each particle's emission is still uniformly
+/// distributed (the shift is random), so the estimate stays unbiased.
+pub fn trace_particle(cs: &CpuScene, seed: u32, scramble: [u32; 5], index: u32, bounces: u32) -> Vec<Vpl> {
     let mut rng = Rng::new(seed, Stream::LightPath, index);
-    let u = [rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32(), rng.next_f32()];
+    // Direction in dimensions 1-2 (the best stratified pair), then light choice and point.
+    let s = sampling::scrambled_sobol5(index, scramble);
+    let u = [s[2], s[3], s[4], s[0], s[1]];
     let Some(emission) = cs.lights.emit(cs.scene, u) else {
         return Vec::new();
     };
@@ -68,12 +81,13 @@ pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: 
         return set;
     }
     let budget = (count as u64 * 64 + 65_536).min(u32::MAX as u64) as u32;
+    let scramble = emission_scramble(seed);
     progress.start("trace_vpls", count as u64);
     let mut next = 0u32;
     let mut batch = count.clamp(1024, 1 << 16);
     'outer: while next < budget {
         let end = next.saturating_add(batch).min(budget);
-        let paths: Vec<Vec<Vpl>> = (next..end).into_par_iter().map(|i| trace_particle(cs, seed, i, bounces)).collect();
+        let paths: Vec<Vec<Vpl>> = (next..end).into_par_iter().map(|i| trace_particle(cs, seed, scramble, i, bounces)).collect();
         for (offset, path) in paths.into_iter().enumerate() {
             set.particles = next + offset as u32 + 1;
             for v in path {

@@ -161,6 +161,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_CAMERA", Stream::Camera as u32),
         ("STREAM_CLUSTER", Stream::Cluster as u32),
         ("STREAM_BIAS", Stream::Bias as u32),
+        ("STREAM_SCRAMBLE", Stream::Scramble as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("TEXELS_SRGB8", crate::scene::TEXELS_SRGB8),

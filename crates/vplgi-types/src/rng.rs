@@ -27,6 +27,9 @@ pub enum Stream {
     Oracle = 5,
     /// The direction of a bias-compensation segment (`bias_points`).
     Bias = 6,
+    /// Per-frame digital shifts of low-discrepancy sets shared by many items (index 0: the light
+    /// particles' emission, `trace_vpls`).
+    Scramble = 7,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.

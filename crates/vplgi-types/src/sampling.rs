@@ -62,38 +62,73 @@ pub fn uniform_triangle(u1: f32, u2: f32) -> (f32, f32) {
     (s * (1.0 - u2), s * u2)
 }
 
-/// Point `j` of the first three dimensions of Sobol's sequence, as 32-bit binary fractions.
+/// Point `j` of the first five dimensions of Sobol's sequence, as 32-bit binary fractions.
 ///
 /// Each dimension XORs one direction number per set bit of `j` (the digits of `j` directly, not
 /// its Gray code: the first 2^m points are the same set, in another order). Direction numbers are
-/// v_k = m_k 2^(32-k) for bit k-1, with m_k from the primitive polynomials of Sobol' (the first
-/// entries of Joe and Kuo's table): dimension 1 is van der Corput's (m_k = 1); dimension 2 uses
-/// x + 1 (m_k = 2 m_{k-1} xor m_{k-1}, m_1 = 1); dimension 3 uses x^2 + x + 1
-/// (m_k = 2 m_{k-1} xor 4 m_{k-2} xor m_{k-2}, m_1 = 1, m_2 = 3). Any 2^m consecutive-from-zero
-/// points put exactly one point in each interval of length 2^-m of every dimension, and dimensions
-/// 1 and 2 form a (0, 2)-sequence: one point in each elementary rectangle of area 2^-m.
-/// Integer operations only, so the WGSL twin gives the same bits.
+/// v_k = m_k 2^(32-k) for bit k-1, with m_k from the primitive polynomials and initial numbers of
+/// the first entries of Joe and Kuo's table: dimension 1 is van der Corput's (m_k = 1);
+/// dimension 2 uses x + 1 (m_k = 2 m_{k-1} xor m_{k-1}, m_1 = 1); dimension 3 uses x^2 + x + 1
+/// (m_k = 2 m_{k-1} xor 4 m_{k-2} xor m_{k-2}; 1, 3); dimension 4 uses x^3 + x + 1
+/// (m_k = 4 m_{k-2} xor 8 m_{k-3} xor m_{k-3}; 1, 3, 1); dimension 5 uses x^3 + x^2 + 1
+/// (m_k = 2 m_{k-1} xor 8 m_{k-3} xor m_{k-3}; 1, 1, 1). Any 2^m consecutive-from-zero points put
+/// exactly one point in each interval of length 2^-m of every dimension, and dimensions 1 and 2
+/// form a (0, 2)-sequence: one point in each elementary rectangle of area 2^-m. Integer
+/// operations only, so the WGSL twin gives the same bits.
 #[inline]
-pub fn sobol3(j: u32) -> [u32; 3] {
-    let mut x = [0u32; 3];
-    let (mut m2, mut m3, mut m3_prev) = (1u32, 1u32, 0u32);
+pub fn sobol5(j: u32) -> [u32; 5] {
+    let mut x = [0u32; 5];
+    // m_k of dimensions 2 and 3, and m_{k-1}, m_{k-2}, m_{k-3} of dimensions 3 to 5.
+    let mut m2 = 1u32;
+    let (mut h3, mut h4, mut h5) = ([0u32; 3], [0u32; 3], [0u32; 3]);
     let mut k = 1u32;
     while k <= 32 && (j >> (k - 1)) != 0 {
         if k >= 2 {
             m2 ^= m2 << 1;
-            let next = if k == 2 { 3 } else { (m3 << 1) ^ (m3_prev << 2) ^ m3_prev };
-            m3_prev = m3;
-            m3 = next;
         }
+        let m3 = match k {
+            1 => 1,
+            2 => 3,
+            _ => (h3[0] << 1) ^ (h3[1] << 2) ^ h3[1],
+        };
+        let m4 = match k {
+            1 | 3 => 1,
+            2 => 3,
+            _ => (h4[1] << 2) ^ (h4[2] << 3) ^ h4[2],
+        };
+        let m5 = match k {
+            1..=3 => 1,
+            _ => (h5[0] << 1) ^ (h5[2] << 3) ^ h5[2],
+        };
+        h3 = [m3, h3[0], h3[1]];
+        h4 = [m4, h4[0], h4[1]];
+        h5 = [m5, h5[0], h5[1]];
         if (j >> (k - 1)) & 1 == 1 {
             let shift = 32 - k;
             x[0] ^= 1 << shift;
             x[1] ^= m2 << shift;
             x[2] ^= m3 << shift;
+            x[3] ^= m4 << shift;
+            x[4] ^= m5 << shift;
         }
         k += 1;
     }
     x
+}
+
+/// The first three dimensions of [`sobol5`].
+#[inline]
+pub fn sobol3(j: u32) -> [u32; 3] {
+    let s = sobol5(j);
+    [s[0], s[1], s[2]]
+}
+
+/// Sample `j` of a Sobol' set in [0, 1)^5 digitally shifted by `scramble`, as floats from the top
+/// 24 bits (see [`scrambled_sobol3`]).
+#[inline]
+pub fn scrambled_sobol5(j: u32, scramble: [u32; 5]) -> [f32; 5] {
+    let s = sobol5(j);
+    std::array::from_fn(|d| ((s[d] ^ scramble[d]) >> 8) as f32 * (1.0 / 16_777_216.0))
 }
 
 /// Sample `j` of a randomly scrambled Sobol' set in [0, 1)^3: `sobol3(j)` XOR `scramble` (a random
@@ -121,17 +156,27 @@ mod tests {
         assert_eq!(f(3), [0.75, 0.25, 0.25]);
         assert_eq!(f(4), [0.125, 0.625, 0.375]);
         assert_eq!(f(7), [0.875, 0.875, 0.125]);
+        // Dimensions 4 and 5: v = (1/2, 3/4, 1/8) and (1/2, 1/4, 1/8).
+        let g = |j: u32| sobol5(j).map(|x| x as f64 / 4_294_967_296.0);
+        assert_eq!(g(1)[3..], [0.5, 0.5]);
+        assert_eq!(g(2)[3..], [0.75, 0.25]);
+        assert_eq!(g(3)[3..], [0.25, 0.75]);
+        assert_eq!(g(4)[3..], [0.125, 0.125]);
+        assert_eq!(g(7)[3..], [0.375, 0.875]);
+        // k = 4 uses the recurrences: dimension 4: m_4 = 4 m_2 ^ 8 m_1 ^ m_1 = 12 ^ 8 ^ 1 = 5;
+        // dimension 5: m_4 = 2 m_3 ^ 8 m_1 ^ m_1 = 2 ^ 8 ^ 1 = 11.
+        assert_eq!(g(8)[3..], [5.0 / 16.0, 11.0 / 16.0]);
     }
 
-    /// The stratification the direct-light estimator relies on, for every power of two up to 2^10:
-    /// each dimension has one point per interval of 2^-m, and dimensions 1-2 one point per
+    /// The stratification direct light and light particles rely on, for every power of two up to
+    /// 2^10: each dimension has one point per interval of 2^-m, and dimensions 1-2 one point per
     /// elementary rectangle (a (0, m, 2)-net).
     #[test]
-    fn sobol3_prefixes_are_stratified() {
+    fn sobol_prefixes_are_stratified() {
         for m in 0..=10u32 {
             let n = 1u32 << m;
-            let pts: Vec<[u32; 3]> = (0..n).map(sobol3).collect();
-            for d in 0..3 {
+            let pts: Vec<[u32; 5]> = (0..n).map(sobol5).collect();
+            for d in 0..5 {
                 let mut seen = vec![false; n as usize];
                 for p in &pts {
                     let cell = if m == 0 { 0 } else { (p[d] >> (32 - m)) as usize };
