@@ -103,3 +103,27 @@ fn row_tiles_of_a_reference_equal_the_whole_frame() {
     let clustered = vplgi_types::FrameConfig { width: 24, height: 18, vpls: 300, ..Default::default() };
     assert!(vplgi_cpu::render_rows(&cs, &clustered, 0..9, &vplgi_cpu::NoProgress).is_err());
 }
+
+/// The clustering grid's cell of a point is floor((p - origin) / cell), clamped into the grid: a
+/// point exactly on a cell's lower face belongs to that cell, and a point on or past the grid's
+/// upper face (rounding can put the data's maximum there) to the last cell, never to a cell of
+/// the next row.
+#[test]
+fn grid_cells_are_floors_clamped_into_the_grid() {
+    use glam::Vec3;
+    use vplgi_cpu::cluster::{bounds, Grid};
+    let data = [Vec3::ZERO, Vec3::new(4.0, 3.0, 2.0), Vec3::new(1.0, 2.5, 0.5)];
+    let grid = Grid::for_data(bounds(&data), &data, 8);
+    let [nx, ny, nz] = grid.dims;
+    let at = |c: [f32; 3]| grid.origin + Vec3::from(c) * grid.cell;
+    // On the lower face of cell (1, 1, 1): that cell, not the one below. (The origin is the data's
+    // minimum, 0, so the face is exactly one cell size out and its quotient exactly 1.)
+    assert!(nx > 1 && ny > 1 && nz > 1 && grid.origin == Vec3::ZERO, "grid {grid:?}");
+    assert_eq!(grid.coords(at([1.0, 1.0, 1.0])), [1, 1, 1], "grid {grid:?}");
+    // On the upper face of the grid and beyond it: the last cell.
+    let last = [nx - 1, ny - 1, nz - 1];
+    assert_eq!(grid.coords(at([nx as f32, ny as f32, nz as f32])), last);
+    assert_eq!(grid.coords(at([nx as f32 + 5.0, ny as f32 + 5.0, nz as f32 + 5.0])), last);
+    // Below the origin: the first cell.
+    assert_eq!(grid.coords(at([-0.5, -3.0, -0.25])), [0, 0, 0]);
+}
