@@ -103,21 +103,40 @@ fn side(dir: &Path, mean: &str, n: u32) -> Result<Side> {
 }
 
 /// Ratio vplgi / Mitsuba of the mean of channel `c` over rows `rows`, and the 2-sigma noise of
-/// that ratio (first-order). vplgi's noise is the spread of its runs' means over the band (its
-/// pixels' errors are correlated through the VPLs they share); Mitsuba's, the sum of its
+/// that ratio (first-order). vplgi's noise is the spread of its seeds' means over the band
+/// (`per_seed`: every seed of every run, independent; its pixels' errors are correlated through
+/// the VPLs they share, so per-pixel variances would understate it); Mitsuba's, the sum of its
 /// per-pixel variances (its paths are independent from pixel to pixel).
-fn band_ratio(runs: &[Image], v: &Side, m: &Side, rows: std::ops::Range<u32>, c: usize) -> (f64, f64) {
-    let w = v.mean.width as usize;
+fn band_ratio(per_seed: &[f64], m: &Side, rows: std::ops::Range<u32>, c: usize) -> (f64, f64) {
+    let w = m.mean.width as usize;
     let px = (rows.start as usize * w)..(rows.end as usize * w);
+    let count = px.len() as f64;
     let sum = |img: &Image| img.pixels[px.clone()].iter().map(|p| p[c] as f64).sum::<f64>();
-    let (sv, sm) = (sum(&v.mean), sum(&m.mean));
-    let k = runs.len() as f64;
-    let per_run: Vec<f64> = runs.iter().map(sum).collect();
-    let vv = per_run.iter().map(|s| (s - sv).powi(2)).sum::<f64>() / (k - 1.0) / k;
-    let vm = sum(&m.variance) / m.n;
-    let r = sv / sm;
-    let sigma = r * (vv / (sv * sv) + vm / (sm * sm)).sqrt();
+    let k = per_seed.len() as f64;
+    let mv = per_seed.iter().sum::<f64>() / k;
+    let vv = per_seed.iter().map(|s| (s - mv).powi(2)).sum::<f64>() / (k - 1.0) / k;
+    let mm = sum(&m.mean) / count;
+    let vm = sum(&m.variance) / m.n / (count * count);
+    let r = mv / mm;
+    let sigma = r * (vv / (mv * mv) + vm / (mm * mm)).sqrt();
     (r, 2.0 * sigma)
+}
+
+/// Per seed of a run's reference.json, the mean of channel `c` over rows `rows` of an image `h`
+/// rows high: a third's mean as recorded, or the image's from its thirds weighted by their rows.
+fn seed_band_means(sidecar: &Value, rows: &std::ops::Range<u32>, h: u32, c: usize) -> Result<Vec<f64>> {
+    let seeds = sidecar["error"]["thirds_per_seed"].as_array().context("reference.json has no error.thirds_per_seed")?;
+    let third_rows = |t: u32| (t * h / 3)..((t + 1) * h / 3);
+    seeds
+        .iter()
+        .map(|s| {
+            let third = |t: u32| s[t as usize][c].as_f64().context("malformed thirds_per_seed");
+            match (0..3).find(|&t| third_rows(t) == *rows) {
+                Some(t) => third(t),
+                None => Ok((0..3).map(|t| Ok(third(t)? * third_rows(t).len() as f64)).sum::<Result<f64>>()? / h as f64),
+            }
+        })
+        .collect()
 }
 
 /// The mean of `images` (same size), in f64.
@@ -261,7 +280,7 @@ fn main() -> Result<()> {
             eprintln!("{name}: vplgi reference ({variant}), {} runs of {} seeds x {} spp, {} VPLs", o.runs, o.seeds, o.spp, o.vpls);
             let start = Instant::now();
             let (seeds, spp, vpls, bounces) = (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
-            let (mut means, mut variances) = (Vec::new(), Vec::new());
+            let (mut means, mut variances, mut sidecars) = (Vec::new(), Vec::new(), Vec::new());
             for run in 0..o.runs {
                 let run_dir = dir.join(format!("vplgi-{variant}")).join(format!("run-{run}"));
                 let first_seed = (1 + run * o.seeds).to_string();
@@ -288,6 +307,9 @@ fn main() -> Result<()> {
                     &run_dir.to_string_lossy(),
                 ])?;
                 means.push(vplgi_image::read_exr(&run_dir.join("mean.exr"))?);
+                let sidecar = run_dir.join("reference.json");
+                sidecars
+                    .push(serde_json::from_str::<Value>(&std::fs::read_to_string(&sidecar).with_context(|| format!("{}: cannot read", sidecar.display()))?)?);
                 variances.push(vplgi_image::read_exr(&run_dir.join("variance.exr"))?);
             }
             let vplgi_seconds = start.elapsed().as_secs_f64();
@@ -296,10 +318,15 @@ fn main() -> Result<()> {
             let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
                 .into_iter()
                 .map(|(band, rows)| {
-                    let ratios: Vec<(f64, f64)> = (0..3).map(|c| band_ratio(&means, &v, &m, rows.clone(), c)).collect();
-                    json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()})
+                    let ratios = (0..3)
+                        .map(|c| {
+                            let per_seed = sidecars.iter().map(|s| seed_band_means(s, &rows, h, c)).collect::<Result<Vec<_>>>()?.concat();
+                            Ok(band_ratio(&per_seed, &m, rows.clone(), c))
+                        })
+                        .collect::<Result<Vec<(f64, f64)>>>()?;
+                    Ok(json!({"band": band, "ratio": ratios.iter().map(|r| r.0).collect::<Vec<_>>(), "two_sigma": ratios.iter().map(|r| r.1).collect::<Vec<_>>()}))
                 })
-                .collect();
+                .collect::<Result<Vec<Value>>>()?;
             if compensated {
                 vplgi_image::write_png(&docs.join(format!("{name}-vplgi.png")), &v.mean, 1.0)?;
                 vplgi_image::write_error_map(&docs.join(format!("{name}-flip.png")), &cmp)?;
@@ -374,9 +401,9 @@ fn markdown(r: &Value) -> Result<String> {
         s,
         "How to read it. **Ratio** is vplgi's mean over Mitsuba's, per channel, over the image and over each third of its \
          rows, with the 2-sigma noise of that ratio: Mitsuba's from its per-pixel variances (its paths are independent \
-         from pixel to pixel), vplgi's from the spread of its runs' means over the band (all pixels of a seed share its \
-         VPLs, so their errors are correlated and the per-pixel variances alone understate the noise of a mean over many \
-         pixels). A ratio further from 1 than its noise is a bias. The target is agreement within +-0.3 %. **relMSE** is vplgi's (Mitsuba as the reference; \
+         from pixel to pixel), vplgi's from the spread of its seeds' means over the band (every seed of every run; all \
+         pixels of a seed share its VPLs, so their errors are correlated and the per-pixel variances alone understate the \
+         noise of a mean over many pixels). A ratio further from 1 than its noise is a bias. The target is agreement within +-0.3 %. **relMSE** is vplgi's (Mitsuba as the reference; \
          epsilon 0.01), beside the relMSE the two images' noise alone would give: their quotient is at most 2 when the \
          images differ only by noise. The ratio map shows where vplgi is darker (blue) or brighter (red), over 8x8-pixel \
          blocks, saturating at 5 %.\n"

@@ -188,7 +188,9 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
             "target": target,
             "reached": target.map(|t| error <= t),
             "thirds": if count > 1 { Value::Null } else { json!(stats.thirds_relative_standard_error()) },
+            "thirds_per_seed": if count > 1 { Value::Null } else { json!(stats.thirds) },
             "thirds_aggregate": "per third of the image's rows (top, middle, bottom) and channel: the standard error of the third's mean over the seeds, from the spread of the per-seed means (all pixels of a seed share its VPLs, so per-pixel variances cannot give it), relative to the mean",
+            "thirds_per_seed_layout": "per seed, in seed order: the mean of each third (rows t*H/3 .. (t+1)*H/3) per channel",
         },
     });
     write_json(&args.out.join("reference.json"), &sidecar)?;
@@ -380,6 +382,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     let widen = |p: &[f32; 3]| p.map(f64::from);
     sidecar["error"]["relative_standard_error"] = json!(relative_standard_error(mean.pixels.iter().map(widen), variance.iter().map(widen), n));
     sidecar["error"]["thirds"] = Value::Null;
+    sidecar["error"]["thirds_per_seed"] = Value::Null;
     sidecar["tile"] = Value::Null;
     sidecar["wall_time_s"] = json!(tiles.iter().map(|t| t.5["wall_time_s"].as_f64().unwrap_or(0.0)).sum::<f64>());
     sidecar["merged_from"] = json!(tiles.iter().map(|t| t.4.display().to_string()).collect::<Vec<_>>());

@@ -477,6 +477,19 @@ fn reference_target_error_predicts_the_error_against_a_converged_image() {
     assert!(err <= 0.04 && t["error"]["reached"] == true, "stopped at {err} after {seeds} seeds");
     assert!(seeds >= 4);
     let read = |d: &str| vplgi_image::read_exr(&dir.path().join(d).join("mean.exr")).unwrap();
+    // Each seed's mean of each third, which `make validate` takes its band noise from: their
+    // average is the mean image's third.
+    let per_seed = t["error"]["thirds_per_seed"].as_array().unwrap();
+    assert_eq!(per_seed.len(), seeds);
+    let mean = read("target");
+    for third in 0..3usize {
+        let rows = (third as u32 * 16 / 3) as usize..((third as u32 + 1) * 16 / 3) as usize;
+        for c in 0..3 {
+            let image = mean.pixels[rows.start * 24..rows.end * 24].iter().map(|p| p[c] as f64).sum::<f64>() / (rows.len() * 24) as f64;
+            let seeds_avg = per_seed.iter().map(|s| s[third][c].as_f64().unwrap()).sum::<f64>() / seeds as f64;
+            assert!((image - seeds_avg).abs() <= 1e-5 * image.abs().max(1e-3), "third {third}, channel {c}: {image} vs {seeds_avg}");
+        }
+    }
     let measured = vplgi_image::compare(&read("converged"), &read("target")).unwrap().metrics.rel_mse;
     // Both means are noisy: the expected relMSE between them is the sum of their squared errors
     // (the converged one's is 1/16 or less of the other's). Errors of neighbouring pixels are
