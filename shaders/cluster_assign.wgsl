@@ -85,7 +85,8 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
             break;
         }
         visit_ring(c, r, p, n);
-        if (found > 0u && sqrt(best_d[0]) <= f32(r) * params.origin.w) {
+        // Exact F nearest once the F-th best is nearer than anything in the unvisited rings.
+        if (found == params.f && sqrt(best_d[params.f - 1u]) <= f32(r) * params.origin.w) {
             return 1u;
         }
     }

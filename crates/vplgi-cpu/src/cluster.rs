@@ -11,10 +11,10 @@
 //!   ([`Grid::for_data`]). A point looks at the 27 cells around its own (the paper's
 //!   approximation).
 //! * **No compatible centroid in the 27 cells**: the search widens ring by ring (Chebyshev
-//!   distance 2, 3, ...) and, once something is found, continues until no unvisited ring can hold
-//!   a closer centroid, so the widened nearest centroid is exact (further F entries are the best
-//!   among the cells visited). Once the rings would hold more cells than 8x the centroids, all
-//!   centroids are scanned instead. If no centroid anywhere has a compatible normal, the point
+//!   distance 2, 3, ...) until no unvisited ring can hold a centroid nearer than the F-th found,
+//!   so a widened search returns the exact F nearest compatible centroids, whichever way it ends:
+//!   once the rings would hold more cells than 8x the centroids, all centroids are scanned
+//!   instead. If no centroid anywhere has a compatible normal, the point
 //!   takes the nearest centroid by position alone. Both cases are counted.
 //! * **Weights** (Eq. 10) use the distances to the centroids, as Alg. 2 computes them; Eq. 10's
 //!   text names the representatives, which lie within a fraction of a cell of their centroids.
@@ -296,8 +296,9 @@ impl Grid {
             }
             self.visit_ring(c, r, |items| consider(items, best, &mut count));
             // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
-            // so it is at least r cells away: nothing unvisited can beat this answer.
-            if count > 0 && best[0].0.sqrt() <= r as f32 * self.cell {
+            // so it is at least r cells away: once the F-th best is that near, nothing unvisited
+            // can enter the list, and the widened answer is the exact F nearest.
+            if count == f && best[f - 1].0.sqrt() <= r as f32 * self.cell {
                 return (count, SearchOutcome::Widened);
             }
         }

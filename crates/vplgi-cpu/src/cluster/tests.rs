@@ -297,3 +297,96 @@ fn hinted_search_equals_the_plain_search() {
         assert_eq!(grid.search_near(p, Vec3::Z, 0.5, hint).0, 0, "hint {hint}: the tie goes to the lowest index");
     }
 }
+
+/// The F nearest compatible centroids by brute force, nearest first, ties to the lower index.
+fn brute_f_nearest(p: Vec3, n: Vec3, cs: &[Vec3], cn: &[Vec3], nt: f32, f: usize) -> Vec<(f32, u32)> {
+    let mut all: Vec<(f32, u32)> = (0..cs.len()).filter(|&k| compatible(n, cn[k], nt)).map(|k| (dist2(p, cs[k]), k as u32)).collect();
+    all.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    all.truncate(f);
+    all
+}
+
+/// Points whose 27 cells hold no centroid: the widened search returns the exact F nearest, both
+/// when the rings find them and when it switches to scanning every centroid (few centroids).
+#[test]
+fn widened_search_returns_the_exact_f_nearest() {
+    let mut widened = 0;
+    for (seed, k) in [(0u32, 6usize), (1, 40), (2, 300), (3, 2000)] {
+        let mut rng = Rng::new(seed, Stream::Oracle, 2);
+        let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        // Centroids in two small clumps of a 10-unit box; points anywhere, normals in two
+        // directions so that some centroids are incompatible.
+        let cs: Vec<Vec3> = (0..k).map(|i| if i % 2 == 0 { v() } else { Vec3::splat(9.0) + v() }).collect();
+        let cn: Vec<Vec3> = (0..k).map(|i| if i % 3 == 0 { -Vec3::Z } else { Vec3::Z }).collect();
+        let ps: Vec<Vec3> = (0..400).map(|_| v() * 10.0).collect();
+        let grid = Grid::for_data(bounds(&ps), &cs, cs.len()).fill(&cs, &cn);
+        for (i, &p) in ps.iter().enumerate() {
+            let n = if i % 4 == 0 { -Vec3::Z } else { Vec3::Z };
+            for f in 1..=8usize {
+                let mut best = [(f32::INFINITY, MISS); 8];
+                let (count, outcome) = grid.search(p, n, 0.5, &mut best[..f]);
+                if outcome != SearchOutcome::Widened {
+                    continue;
+                }
+                widened += 1;
+                assert_eq!(&best[..count], &brute_f_nearest(p, n, &cs, &cn, 0.5, f)[..], "point {p}, F {f}, K {k}");
+            }
+        }
+    }
+    println!("{widened} widened searches equal to the brute-force F nearest");
+    assert!(widened > 1000, "too few searches widened ({widened}) to test the rule");
+}
+
+/// The neighbour-cell bounds are lowered by 1e-4 cell, so a centroid just across a face is never
+/// skipped: a point 5e-5 cell inside its cell, a hint 1e-4 cell away in the same cell and the
+/// true nearest 8e-5 cell away across the face, on both faces of each axis.
+#[test]
+fn centroid_just_across_a_face_beats_the_hint() {
+    let data: Vec<Vec3> = (0..512).map(|i| Vec3::new((i % 8) as f32, ((i / 8) % 8) as f32, (i / 64) as f32)).collect();
+    let geometry = Grid::for_data(bounds(&data), &data, 64);
+    let at = |q: Vec3| geometry.origin + q * geometry.cell;
+    let mid = Vec3::splat(geometry.dims[0].min(geometry.dims[1]).min(geometry.dims[2]) as f32 / 2.0).floor() + 0.5;
+    for axis in 0..3 {
+        for side in [0.0f32, 1.0] {
+            let s = if side == 0.0 { 1.0 } else { -1.0 };
+            let mut e = Vec3::ZERO;
+            e[axis] = 1.0;
+            let face = mid - 0.5 * e + side * e;
+            let p = at(face + s * 5e-5 * e);
+            let across = at(face - s * 3e-5 * e);
+            let mut other = Vec3::ZERO;
+            other[(axis + 1) % 3] = 1e-4;
+            let hint = at(face + s * 5e-5 * e + other);
+            let cs = vec![hint, across];
+            let cn = vec![Vec3::Z; 2];
+            let grid = geometry.fill(&cs, &cn);
+            assert_ne!(grid.coords(p), grid.coords(across), "axis {axis}, side {side}: the test needs the face between them");
+            assert_eq!(grid.coords(p), grid.coords(hint));
+            assert!(dist2(p, across) < dist2(p, hint));
+            assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 0).0, 1, "axis {axis}, side {side}");
+        }
+    }
+}
+
+/// Exact ties at distance 0: two centroids on the point, the hint the higher index. The own
+/// row's bound (0) equals the limit (0) and must not be skipped, or the tie goes to the hint.
+#[test]
+fn tie_at_zero_distance_goes_to_the_lower_index_with_a_hint() {
+    let data: Vec<Vec3> = (0..64).map(|i| Vec3::new((i % 4) as f32, ((i / 4) % 4) as f32, (i / 16) as f32)).collect();
+    let p = Vec3::new(1.3, 1.6, 1.2);
+    let grid = Grid::for_data(bounds(&data), &data, 8).fill(&[p, p], &[Vec3::Z, Vec3::Z]);
+    assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 1).0, 0);
+    assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 0).0, 0);
+}
+
+/// With no compatible centroid anywhere, the nearest by position is taken, ties to the lower
+/// index.
+#[test]
+fn incompatible_tie_goes_to_the_lower_index() {
+    let cs = vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(-1.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
+    let cn = vec![Vec3::Z; 3];
+    let grid = Grid::for_data(bounds(&cs), &cs, cs.len()).fill(&cs, &cn);
+    let mut best = [(f32::INFINITY, MISS)];
+    assert_eq!(grid.search(Vec3::ZERO, -Vec3::Z, 0.5, &mut best), (1, SearchOutcome::Incompatible));
+    assert_eq!(best[0], (1.0, 0));
+}
