@@ -8,7 +8,7 @@ struct Params {
     first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
     hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
     hit_count: u32,  // hits in that window
-    pad0: u32,
+    disk: u32,       // cluster_lights: 1 for disk lights
     pad1: u32,
     pad2: u32,
 }
@@ -81,6 +81,9 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 
 // One light per VPL cluster: its representative, carrying the members' flux summed in VPL
 // order (the CPU's order, so the sums agree bit for bit). O(K N), simple and deterministic.
+// Disk lights (vplgi_types::disk::radius2) also sum, in the same order, the members' flux
+// weights and weighted positions, then their weighted squared distances in the plane of the
+// representative's normal from the weighted centre: R² is twice their mean.
 @compute @workgroup_size(64)
 fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups);
@@ -88,13 +91,41 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         return;
     }
     var flux = vec3<f32>(0.0);
+    var weight = 0.0;
+    var moment = vec3<f32>(0.0);
     for (var i = 0u; i < params.n; i = i + 1u) {
         if (labels[i] == k) {
-            flux = flux + vpls[i].flux;
+            let v = vpls[i];
+            flux = flux + v.flux;
+            let w = member_weight(v.flux);
+            weight = weight + w;
+            moment = moment + v.position * w;
         }
     }
     let r = vpls[reps[k]];
-    lights[k] = VplLight(vec4<f32>(r.position, 0.0), vec4<f32>(r.normal, 0.0), vec4<f32>(flux, 0.0));
+    var radius2 = 0.0;
+    if (params.disk == 1u && weight > 0.0) {
+        let centre = moment / weight;
+        var spread = 0.0;
+        for (var i = 0u; i < params.n; i = i + 1u) {
+            if (labels[i] == k) {
+                spread = spread + member_weight(vpls[i].flux) * in_plane2(vpls[i].position - centre, r.normal);
+            }
+        }
+        radius2 = 2.0 * spread / weight;
+    }
+    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, 0.0), vec4<f32>(flux, 0.0));
+}
+
+// disk::member_weight
+fn member_weight(flux: vec3<f32>) -> f32 {
+    return flux.x + flux.y + flux.z;
+}
+
+// disk::in_plane2
+fn in_plane2(d: vec3<f32>, n: vec3<f32>) -> f32 {
+    let along = dot(n, d);
+    return max(dot(d, d) - along * along, 0.0);
 }
 
 // Visibility columns: the lights' positions and normals.

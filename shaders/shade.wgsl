@@ -46,9 +46,27 @@ fn sample_table_area(u: f32) -> u32 {
 }
 
 
-// shade::geometry_term
-fn geometry_term(p: vec3<f32>, np: vec3<f32>, x: vec3<f32>, nx: vec3<f32>) -> f32 {
-    return min(unclamped_geometry_term(p, np, x, nx), params.g_max);
+
+// shade::sum_lights: Eq. 2 of Prutkin et al. for a disk (R² in position.w > 0, no clamp), the
+// clamped point geometry term otherwise (d2 + 0 = d2 exactly).
+fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight) -> f32 {
+    let d = l.position.xyz - p;
+    let d2 = dot(d, d);
+    if (d2 <= 0.0) {
+        return 0.0;
+    }
+    let inv_d = 1.0 / sqrt(d2);
+    let cos_p = dot(np, d) * inv_d;
+    let cos_x = -dot(l.normal.xyz, d) * inv_d;
+    if (cos_p <= 0.0 || cos_x <= 0.0) {
+        return 0.0;
+    }
+    let r2 = l.position.w;
+    let g = cos_p * cos_x / (d2 + r2);
+    if (r2 > 0.0) {
+        return g;
+    }
+    return min(g, params.g_max);
 }
 
 // shade::direct
@@ -162,7 +180,7 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var c = 0u; c < params.light_count; c = c + 1u) {
         let l = vpl_lights[c];
-        let g = geometry_term(p, n, l.position.xyz, l.normal.xyz);
+        let g = light_geometry_term(p, n, l);
         if (g == 0.0) {
             continue;
         }

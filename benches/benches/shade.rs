@@ -7,6 +7,7 @@ use vplgi_cpu::shade::VisibilitySource;
 use vplgi_gpu::buffers::{storage, Window};
 use vplgi_gpu::shade::{ShadeInputs, ShadeKernel, Visibility};
 use vplgi_gpu::visibility::words_per_row;
+use vplgi_types::LightShape;
 
 fn shade(c: &mut Criterion) {
     let mut group = c.benchmark_group("shade");
@@ -18,31 +19,35 @@ fn shade(c: &mut Criterion) {
         let cfg = &i.cfg;
         let sc = &i.sp_clusters;
         let src = VisibilitySource::Fuzzy { matrix: &i.matrix, row_of: &i.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
-            b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, 0, 0..i.pixels(), &i.lights, &src, &cfg.shade_params(i.cs.extent)))
-        });
-        if let (Some(g), Some(k)) = (&gpu, &kernel) {
-            let d = &g.ctx.device;
-            let (sps, row_of) = (storage(d, "sps", &i.sps), storage(d, "row of", &i.row_of));
-            let words = storage(d, "words", bytemuck::cast_slice::<u64, u32>(i.matrix.words()));
-            let (labels, weights) = (storage(d, "labels", &sc.labels), storage(d, "weights", &sc.weights));
-            let lights = g.lights(&i.lights);
-            let window = Window { first: 0, count: i.sp_points.0.len() as u64 };
-            let inputs = ShadeInputs {
-                sps: &sps,
-                sp_first: 0,
-                row_of: &row_of,
-                words: &words,
-                words_per_row: words_per_row(i.cols.len()) as u32,
-                vpl_lights: &lights,
-                light_count: i.lights.len() as u32,
-                visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
-            };
-            let run = || {
-                k.run(d, &g.ctx.queue, &g.scene, &inputs, 0..i.pixels() as u32, &cfg.shade_params(i.cs.extent)).expect("shade");
-            };
-            run();
-            group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+        // The same clusters as disk lights (--light-shape disk): "cpu-disk" and "gpu-disk".
+        let disks = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::Disk);
+        for (suffix, lights) in [("", &i.lights), ("-disk", &disks)] {
+            group.bench_function(BenchmarkId::new(format!("cpu{suffix}"), size.name), |b| {
+                b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, 0, 0..i.pixels(), lights, &src, &cfg.shade_params(i.cs.extent)))
+            });
+            if let (Some(g), Some(k)) = (&gpu, &kernel) {
+                let d = &g.ctx.device;
+                let (sps, row_of) = (storage(d, "sps", &i.sps), storage(d, "row of", &i.row_of));
+                let words = storage(d, "words", bytemuck::cast_slice::<u64, u32>(i.matrix.words()));
+                let (labels, weights) = (storage(d, "labels", &sc.labels), storage(d, "weights", &sc.weights));
+                let light_buf = g.lights(lights);
+                let window = Window { first: 0, count: i.sp_points.0.len() as u64 };
+                let inputs = ShadeInputs {
+                    sps: &sps,
+                    sp_first: 0,
+                    row_of: &row_of,
+                    words: &words,
+                    words_per_row: words_per_row(i.cols.len()) as u32,
+                    vpl_lights: &light_buf,
+                    light_count: lights.len() as u32,
+                    visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
+                };
+                let run = || {
+                    k.run(d, &g.ctx.queue, &g.scene, &inputs, 0..i.pixels() as u32, &cfg.shade_params(i.cs.extent)).expect("shade");
+                };
+                run();
+                group.bench_function(BenchmarkId::new(format!("gpu{suffix}"), size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+            }
         }
     }
     group.finish();

@@ -121,7 +121,7 @@ impl Inputs {
         let vpl_points: (Vec<Vec3>, Vec<Vec3>) = vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip();
         let sp_clusters = cluster(&sp_points.0, &sp_points.1, &cfg.sp_cluster_params());
         let vpl_clusters = cluster(&vpl_points.0, &vpl_points.1, &cfg.vpl_cluster_params());
-        let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters));
+        let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters), cfg.light_shape);
         let rows: Vec<Endpoint> = sp_clusters.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize]])).collect();
         let cols: Vec<Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
         let (matrix, _) = visibility(&cs, &rows, &cols, &NoProgress);

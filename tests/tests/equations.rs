@@ -99,12 +99,17 @@ fn eq_8_on_a_hand_checked_point() {
 /// = h² / d⁴, clamped at g_max (the geometry-term clamp), and reflects Φ/π · ρ/π · G · Ṽ, where
 /// Ṽ = Σ w_f V(p_f, p_c) over the point's three shading-point clusters (Eq. 9): with weights
 /// (0.5, 0.3, 0.2) and only the second cluster blocked, Ṽ = 0.7.
+///
+/// The same light as a disk of radius R (Prutkin et al. 2012): its flux leaves the area A = π R²
+/// with radiance Φ / (π A), so the irradiance is Φ / A times the form factor, which on the
+/// disk's axis is exactly R² / (R² + h²), and off the axis Eq. 2's A cos θ_p cos θ_c / (A +
+/// π d²); no clamp applies.
 #[test]
 fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points") else { return };
     let (h, rho) = (0.8f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
-    let light = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
+    let point = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
     let rs = [0.0f32, 0.3, 1.0, 2.5];
     let sps: Vec<ShadingPoint> = rs
         .iter()
@@ -121,12 +126,19 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     // No light in the scene: the pixels hold indirect light only.
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, rho, 1.0);
     scene.lights.clear();
-    for g_max in [f32::INFINITY, 1.0 / (4.0 * h * h)] {
+    let radius = 0.6f32;
+    let disk = VplLight { radius2: radius * radius, ..point };
+    for (light, g_max) in [(point, f32::INFINITY), (point, 1.0 / (4.0 * h * h)), (disk, 1.0 / (4.0 * h * h))] {
         let expected: Vec<Vec3> = rs
             .iter()
-            .map(|r| {
+            .map(|&r| {
                 let d2 = h * h + r * r;
-                flux * (rho / PI) * ((h * h / d2) / d2).min(g_max) * 0.7 / PI
+                if light.radius2 == 0.0 {
+                    return flux * (rho / PI) * ((h * h / d2) / d2).min(g_max) * 0.7 / PI;
+                }
+                let area = PI * radius * radius;
+                let form_factor = if r == 0.0 { radius * radius / (radius * radius + h * h) } else { area * (h * h / d2) / (area + PI * d2) };
+                (rho / PI) * flux / area * form_factor * 0.7
             })
             .collect();
         let lights = LightArrays::new(&[light]);
@@ -153,7 +165,7 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
         });
         for (i, e) in expected.iter().enumerate() {
             let g = Vec3::new(gpu_pixels[i][0], gpu_pixels[i][1], gpu_pixels[i][2]);
-            println!("g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", rs[i], cpu[i]);
+            println!("R² {}, g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", light.radius2, rs[i], cpu[i]);
             assert!((cpu[i] - *e).abs().max_element() <= 1e-6 * e.max_element(), "CPU: r = {}: {} vs {e}", rs[i], cpu[i]);
             assert!((g - *e).abs().max_element() <= 1e-6 * e.max_element(), "GPU: r = {}: {g} vs {e}", rs[i]);
         }

@@ -7,7 +7,7 @@ use vplgi_gpu::scene::GpuScene;
 use vplgi_gpu::visibility::words_per_row;
 use vplgi_scene::cornell::cornell_box;
 use vplgi_tests::tolerance::{Disagreement, SHADE_REL_MSE};
-use vplgi_types::ShadeParams;
+use vplgi_types::{LightShape, ShadeParams};
 
 /// Shading given identical inputs — the CPU's shading points, VPL lights, visibility matrix and
 /// fuzzy clusters — in both visibility modes: relMSE(GPU, CPU) ≤ 1e-4 (SPEC).
@@ -43,7 +43,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let row_buf = storage(&ctx.device, "row_of", &row_of);
 
     // (a) Unclustered shading points: each hit has its own row; VPLs unclustered.
-    let lights = vplgi_cpu::shade::vpl_lights(&vpls, None);
+    let lights = vplgi_cpu::shade::vpl_lights(&vpls, None, LightShape::Point);
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
     let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
@@ -68,7 +68,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let pos: Vec<Vec3> = vpls.iter().map(|v| v.position.into()).collect();
     let nor: Vec<Vec3> = vpls.iter().map(|v| v.normal.into()).collect();
     let vc = cluster(&pos, &nor, &ClusterParams { k: 60, gamma: 2, iterations: 5, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed });
-    let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc));
+    let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc), LightShape::Point);
     let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.iter().map(|l| l.endpoint()).collect();
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
@@ -133,10 +133,11 @@ proptest::proptest! {
         (width, height, spp) in (4u32..32, 4u32..32, 1u32..=2),
         (vpls, k_vpl, k_sp, f) in (1u32..600, 1u32..120, 1u32..300, 1u32..=8),
         (g_clamp_rel, direct_samples, seed) in (0f32..0.2, 1u32..4, proptest::prelude::any::<u32>()),
+        light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk]),
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_on_random_scenes") else { return Ok(()) };
-        let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, ..vplgi_types::FrameConfig::verify() });
-        println!("{}: {} {width}x{height}x{spp}, {vpls} VPLs, K {k_vpl}/{k_sp}, F {f}", scene.name, mode.name());
+        let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, light_shape, ..vplgi_types::FrameConfig::verify() });
+        println!("{}: {} {width}x{height}x{spp}, {vpls} VPLs, K {k_vpl}/{k_sp}, F {f}, {light_shape:?} lights", scene.name, mode.name());
         let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
         vplgi_tests::hold(&checks)?;
     }

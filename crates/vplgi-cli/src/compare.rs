@@ -33,6 +33,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
         "mse": m.mse,
         "rel_mse": m.rel_mse,
         "flip": m.flip,
+        "mean_ratio": m.mean_ratio,
         "flip_kind": "LDR-FLIP of both images tonemapped with exposure 1 (clamp, sRGB)",
         "rel_mse_epsilon": vplgi_image::REL_MSE_EPSILON,
     });
@@ -41,6 +42,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let map_path = out.join("error_map.png");
     vplgi_image::write_error_map(&map_path, &cmp)?;
     println!("mse      {:.6e}\nrel_mse  {:.6e}\nflip     {:.6}", m.mse, m.rel_mse, m.flip);
+    println!("mean ratio (test / reference): R {:.5}, G {:.5}, B {:.5}", m.mean_ratio[0], m.mean_ratio[1], m.mean_ratio[2]);
     println!("wrote {} and {}", json_path.display(), map_path.display());
     Ok(())
 }

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, Preset};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -91,6 +91,12 @@ pub struct FrameArgs {
     #[arg(long, value_name = "true|false", action = clap::ArgAction::Set)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_compensation: Option<bool>,
+    /// What a VPL cluster's light is: a point with the clamp (the core paper), or a disk sized by
+    /// the members' spread and lit through the point-to-disk form factor with no clamp (Prutkin
+    /// et al. 2012, Eq. 2). Applies where VPLs are clustered (--cluster vpl or both).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_shape: Option<LightShape>,
 }
 
 /// How a subcommand uses the frame options.

@@ -12,7 +12,7 @@ use glam::Vec3;
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{BiasParams, CameraParams, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
+use vplgi_types::{BiasParams, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
 /// surface points.
@@ -88,9 +88,9 @@ impl Backend for CpuScene<'_> {
     fn vpl_lights(&self, vpls: &Vec<Vpl>, n: u32, set: LightSet<'_, Clustering>) -> Result<Vec<VplLight>, FrameError> {
         let vpls = &vpls[..n as usize];
         Ok(match set {
-            LightSet::Clusters(c, _) => vpl_lights(vpls, Some(c)),
+            LightSet::Clusters { clusters, shape, .. } => vpl_lights(vpls, Some(clusters), shape),
             LightSet::EachVpl { max_bounce } => {
-                let mut lights = vpl_lights(vpls, None);
+                let mut lights = vpl_lights(vpls, None, LightShape::Point);
                 for (l, v) in lights.iter_mut().zip(vpls) {
                     if v.bounce > max_bounce {
                         l.flux = [0.0; 3];

@@ -12,7 +12,9 @@
 //! BRDF (Eq. 6's I_c ρ G). Ṽ is the shading point's own visibility bit when shading points are
 //! not clustered, else the weighted (Eq. 9, 10) or plain (Eq. 8) mean of its F clusters' bits.
 //! Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
-//! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp").
+//! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp"). A cluster lit as a
+//! disk of radius R (`--light-shape disk`) has G = cos θ_p cos θ_c / (d² + R²) instead, Eq. 2 of
+//! Prutkin et al. 2012 (`vplgi_types::disk`), and no clamp.
 
 use crate::cluster::Clustering;
 use crate::visibility::BitMatrix;
@@ -21,7 +23,7 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{sampling, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
+use vplgi_types::{disk, sampling, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 pub use vplgi_types::VplLight;
 
@@ -33,13 +35,19 @@ pub struct LightArrays {
     position: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
     flux: [Vec<f32>; 3],
+    radius2: Vec<f32>,
 }
 
 impl LightArrays {
     pub fn new(lights: &[VplLight]) -> LightArrays {
         let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
         let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
-        LightArrays { position: three(|l| l.position.into()), normal: three(|l| l.normal.into()), flux: three(|l| l.flux.into()) }
+        LightArrays {
+            position: three(|l| l.position.into()),
+            normal: three(|l| l.normal.into()),
+            flux: three(|l| l.flux.into()),
+            radius2: lights.iter().map(|l| l.radius2).collect(),
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -155,6 +163,7 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
     let [px, py, pz] = &l.position;
     let [nx, ny, nz] = &l.normal;
     let [fx, fy, fz] = &l.flux;
+    let r2 = &l.radius2;
     let mut sum = Vec3::ZERO;
     let mut g = [0.0f32; 64];
     let mut v = [0.0f32; 64];
@@ -167,10 +176,13 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
             let inv_d = 1.0 / d2.sqrt();
             let cos_p = ((n.x * dx) + (n.y * dy) + (n.z * dz)) * inv_d;
             let cos_x = -((nx[c] * dx) + (ny[c] * dy) + (nz[c] * dz)) * inv_d;
-            // `f32::min` without its NaN handling (g_max is never NaN, and a NaN G is
-            // discarded below), so it compiles to one minps: the same value in every case.
-            let g = cos_p * cos_x / d2;
-            let g = if g < g_max { g } else { g_max };
+            // A disk (R² > 0) takes Eq. 2 of Prutkin et al. (vplgi_types::disk) and no clamp; a
+            // point (R² = 0, and d2 + 0 = d2 exactly) the clamped G. `f32::min` without its NaN
+            // handling (the cap is never NaN, and a NaN G is discarded below), so it compiles to
+            // one minps: the same value in every case.
+            let g = disk::geometry_term(cos_p, cos_x, d2, r2[c]);
+            let cap = if r2[c] > 0.0 { f32::INFINITY } else { g_max };
+            let g = if g < cap { g } else { cap };
             *gk = if d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0 { g } else { 0.0 };
         }
         vis(word, &mut v);
@@ -275,22 +287,34 @@ pub fn shade(
 }
 
 /// Lights for indirect shading: one per VPL cluster (at its representative, with the summed
-/// flux of its members), or one per VPL.
-pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>) -> Vec<VplLight> {
+/// flux of its members; with `LightShape::Disk`, a disk of the members' spread around the
+/// representative's normal, `vplgi_types::disk::radius2`), or one point per VPL.
+pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> Vec<VplLight> {
     match clusters {
         None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect(),
         Some(c) => {
-            // Sequential sum in VPL order: deterministic.
+            // Sequential sums in VPL order: deterministic, and the GPU's order.
             let mut flux = vec![Vec3::ZERO; c.k()];
+            let mut members = vec![Vec::new(); c.k()];
             for (i, v) in vpls.iter().enumerate() {
-                flux[c.hard_label(i) as usize] += Vec3::from(v.flux);
+                let k = c.hard_label(i) as usize;
+                flux[k] += Vec3::from(v.flux);
+                if shape == LightShape::Disk {
+                    members[k].push(i);
+                }
             }
             c.representatives
                 .iter()
                 .zip(flux)
-                .map(|(&r, flux)| {
+                .zip(&members)
+                .map(|((&r, flux), members)| {
                     let v = &vpls[r as usize];
-                    VplLight::new(v.position.into(), v.normal.into(), flux)
+                    let mut light = VplLight::new(v.position.into(), v.normal.into(), flux);
+                    if shape == LightShape::Disk {
+                        let of = |&i: &usize| (Vec3::from(vpls[i].position), Vec3::from(vpls[i].flux));
+                        light.radius2 = disk::radius2(members.iter().map(of), v.normal.into());
+                    }
+                    light
                 })
                 .collect()
         }

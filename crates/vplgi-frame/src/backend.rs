@@ -5,7 +5,7 @@
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{BiasParams, CameraParams, FrameConfig, ShadeParams, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -46,9 +46,9 @@ pub enum LightSet<'a, C> {
     /// One light per VPL. VPLs deposited at more than `max_bounce` surfaces carry no flux: the
     /// lights of a bias-compensation level, whose paths already have surfaces of their own.
     EachVpl { max_bounce: u32 },
-    /// One light per VPL cluster (at its representative, with its members' summed flux), of a
-    /// clustering into this many clusters.
-    Clusters(&'a C, u32),
+    /// One light per VPL cluster of a clustering into `k` clusters: at its representative, with
+    /// its members' summed flux, a point or a disk of the members' spread (`vplgi_types::disk`).
+    Clusters { clusters: &'a C, k: u32, shape: LightShape },
 }
 
 /// Everything `shade` reads for a range of pixels whose samples lie in `chunk`.

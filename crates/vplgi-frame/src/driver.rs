@@ -76,7 +76,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
             let points = b.vpl_points(&vpls, n_vpls)?;
             let (c, k) = b.cluster(&points, n_vpls, &cfg.vpl_cluster_params())?;
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
-            (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters(&c, k.k))?, k.k)
+            (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters { clusters: &c, k: k.k, shape: cfg.light_shape })?, k.k)
         } else {
             (b.vpl_lights(&vpls, n_vpls, LightSet::EachVpl { max_bounce: cfg.bounces })?, n_vpls)
         };

@@ -20,7 +20,7 @@ use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::{BiasParams, CameraParams, FrameConfig, ShadeParams, ShadingPoint, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
 struct GlueKernels {
@@ -54,7 +54,9 @@ pub(crate) struct GlueParams {
     pub(crate) first: u32,
     pub(crate) hit_first: u32,
     pub(crate) hit_count: u32,
-    pub(crate) pad: [u32; 3],
+    /// cluster_lights: 1 for disk lights (`LightShape::Disk`).
+    pub(crate) disk: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 impl GpuKernels {
@@ -268,7 +270,7 @@ impl Backend for GpuBackend<'_> {
         let g = &self.kernels.glue;
         let vb = vpls.buffer.as_entire_buffer_binding();
         Ok(match set {
-            LightSet::Clusters(c, k) => {
+            LightSet::Clusters { clusters: c, k, shape } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
                 let b = [
                     (6, vb),
@@ -276,7 +278,8 @@ impl Backend for GpuBackend<'_> {
                     (8, c.representatives.as_entire_buffer_binding()),
                     (9, lights.as_entire_buffer_binding()),
                 ];
-                self.glue(&g.cluster_lights, GlueParams { n, k, ..Default::default() }, &b, k)?;
+                let disk = (shape == LightShape::Disk) as u32;
+                self.glue(&g.cluster_lights, GlueParams { n, k, disk, ..Default::default() }, &b, k)?;
                 lights
             }
             LightSet::EachVpl { max_bounce } => {

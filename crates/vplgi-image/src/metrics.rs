@@ -23,6 +23,9 @@ pub struct Metrics {
     /// FLIP, default 67 pixels per degree) on both images tonemapped with
     /// [`tonemap_srgb8`]`(.., 1.0)`.
     pub flip: f64,
+    /// Per channel, the test's sum over all pixels divided by the reference's: the energy the
+    /// test keeps (1: none lost or added; NaN where the reference's channel sums to 0).
+    pub mean_ratio: [f64; 3],
 }
 
 /// The result of [`compare`]: the scalar metrics plus the per-pixel FLIP error map.
@@ -52,14 +55,18 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
     // Accumulate in f64: a 4K image has ~25M terms, too many for an f32 sum.
     let mut squared = 0.0f64;
     let mut relative = 0.0f64;
+    let (mut sum_ref, mut sum_test) = ([0.0f64; 3], [0.0f64; 3]);
     for (r, t) in reference.pixels.iter().zip(&test.pixels) {
         for c in 0..3 {
-            let r = f64::from(r[c]);
-            let d = f64::from(t[c]) - r;
+            let (r, t) = (f64::from(r[c]), f64::from(t[c]));
+            let d = t - r;
             squared += d * d;
             relative += d * d / (r * r + REL_MSE_EPSILON);
+            sum_ref[c] += r;
+            sum_test[c] += t;
         }
     }
+    let mean_ratio = [0, 1, 2].map(|c| if sum_ref[c] == 0.0 { f64::NAN } else { sum_test[c] / sum_ref[c] });
     let samples = (reference.pixels.len() * 3) as f64;
 
     let flip_error = ldr_flip(reference, test);
@@ -67,7 +74,7 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
     let flip = flip_error.iter().map(|&e| f64::from(e)).sum::<f64>() / flip_error.len() as f64;
 
     Ok(Comparison {
-        metrics: Metrics { mse: squared / samples, rel_mse: relative / samples, flip },
+        metrics: Metrics { mse: squared / samples, rel_mse: relative / samples, flip, mean_ratio },
         width: reference.width,
         height: reference.height,
         flip_error,
@@ -113,6 +120,7 @@ mod tests {
         assert_eq!(cmp.metrics.mse, 0.0);
         assert_eq!(cmp.metrics.rel_mse, 0.0);
         assert_eq!(cmp.metrics.flip, 0.0);
+        assert_eq!(cmp.metrics.mean_ratio, [1.0; 3]);
         assert_eq!((cmp.width, cmp.height), (32, 24));
         assert_eq!(cmp.flip_error.len(), 32 * 24);
         assert!(cmp.flip_error.iter().all(|&e| e == 0.0));
@@ -137,6 +145,10 @@ mod tests {
         let rel_mse = (1.0 / 0.01 + 0.25 / 4.01) / 6.0;
         assert!((cmp.metrics.mse - mse).abs() < 1e-12, "{:?}", cmp.metrics);
         assert!((cmp.metrics.rel_mse - rel_mse).abs() < 1e-12, "{:?}", cmp.metrics);
+        // Sums per channel: R 4 / 3, G 1 / 1, B 2.5 / 2.
+        assert_eq!(cmp.metrics.mean_ratio, [4.0 / 3.0, 1.0, 1.25]);
+        let black = compare(&filled(2, 2, [0.0; 3]), &filled(2, 2, [0.5; 3])).expect("compare");
+        assert!(black.metrics.mean_ratio.iter().all(|r| r.is_nan()));
     }
 
     #[test]
@@ -182,8 +194,8 @@ mod tests {
 
     #[test]
     fn metrics_serialize_with_field_names() {
-        let m = Metrics { mse: 0.5, rel_mse: 0.25, flip: 0.125 };
+        let m = Metrics { mse: 0.5, rel_mse: 0.25, flip: 0.125, mean_ratio: [1.0, 0.5, 2.0] };
         let json = serde_json::to_value(m).expect("serialize");
-        assert_eq!(json, serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125}));
+        assert_eq!(json, serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125, "mean_ratio": [1.0, 0.5, 2.0]}));
     }
 }

@@ -40,6 +40,20 @@ pub enum FuzzyMode {
     Weighted,
 }
 
+/// What a VPL cluster's light is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum LightShape {
+    /// A point at the representative, its geometry term clamped (the core paper).
+    #[default]
+    Point,
+    /// A disk at the representative whose radius comes from the members' spread, lit through the
+    /// point-to-disk form factor (Eq. 2 of Prutkin et al. 2012) with no clamp; a cluster of one
+    /// VPL has no extent and stays a clamped point (`vplgi_types::disk`).
+    Disk,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -114,6 +128,10 @@ pub struct FrameConfig {
     /// option existed read as off.
     #[serde(default)]
     pub bias_compensation: bool,
+    /// Point or disk lights for VPL clusters (single VPLs are always points). Files written
+    /// before the option existed read as points.
+    #[serde(default)]
+    pub light_shape: LightShape,
 }
 
 impl FrameConfig {
@@ -139,6 +157,7 @@ impl FrameConfig {
             // more time than 4 and leave 0.73x the relMSE against a converged image.
             direct_samples: 8,
             bias_compensation: true,
+            light_shape: LightShape::Point,
         }
     }
 
@@ -261,6 +280,9 @@ impl FrameConfig {
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
             return Err("g-clamp must be a finite number >= 0".into());
         }
+        if self.light_shape == LightShape::Disk && self.cluster.clusters_vpls() && self.bias_compensation {
+            return Err("bias compensation puts back what the clamp takes from point lights, and disk lights have no clamp: use one or the other".into());
+        }
         Ok(())
     }
 }
@@ -297,6 +319,11 @@ mod tests {
             c.validate().unwrap_err()
         };
         assert!(bad(|c| c.spp = 0).contains("spp"));
+        assert!(bad(|c| {
+            c.light_shape = LightShape::Disk;
+            c.bias_compensation = true;
+        })
+        .contains("bias compensation"));
         assert!(bad(|c| c.f = 17).contains('F'));
         assert!(bad(|c| c.normal_threshold = 1.0).contains("normal threshold"));
         assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));

@@ -10,17 +10,19 @@
 //! * [`device`]: the records the GPU reads, built on the host (BVH, shading data, lights).
 //! * [`params`]: the parameters of each stage, as every backend takes them.
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
+//! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
 
 pub mod clustering;
 pub mod config;
 pub mod device;
+pub mod disk;
 pub mod light_groups;
 pub mod params;
 pub mod pod;
 pub mod rng;
 pub mod sampling;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, Preset};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -95,12 +95,14 @@ impl Endpoint {
 }
 
 /// A light for indirect shading: one VPL, or one VPL cluster at its representative with its
-/// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (three `vec4<f32>`, w = 0).
+/// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (three `vec4<f32>`; the
+/// position's w is `radius2`, the others 0).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VplLight {
     pub position: [f32; 3],
-    pub _pad0: f32,
+    /// R² of the disk the light stands for (`crate::disk`); 0 for a point light.
+    pub radius2: f32,
     pub normal: [f32; 3],
     pub _pad1: f32,
     pub flux: [f32; 3],

@@ -52,6 +52,8 @@ impl CpuFrame {
 /// the shading-point clustering if there is one.
 pub struct CpuClusters {
     pub lights: Vec<VplLight>,
+    /// The VPL clustering the lights come from, if VPLs are clustered.
+    pub vpl_clusters: Option<Clustering>,
     pub cols: Vec<Endpoint>,
     /// One per hit, or one per shading-point cluster (its representative).
     pub rows: Vec<Endpoint>,
@@ -64,7 +66,7 @@ impl CpuClusters {
             let (p, n) = frame.vpl_points();
             cluster(&p, &n, &cfg.vpl_cluster_params())
         });
-        let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref());
+        let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
         let cols = lights.iter().map(VplLight::endpoint).collect();
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
@@ -74,6 +76,6 @@ impl CpuClusters {
             Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),
             None => frame.hit_endpoints(),
         };
-        CpuClusters { lights, cols, rows, sp_clusters }
+        CpuClusters { lights, vpl_clusters, cols, rows, sp_clusters }
     }
 }

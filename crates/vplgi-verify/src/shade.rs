@@ -3,13 +3,16 @@
 //! CPU) <= 1e-4).
 
 use crate::inputs::{CpuClusters, CpuFrame};
-use crate::tolerance::{Disagreement, SHADE_REL_MSE};
+use crate::tolerance::{Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
 use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_cpu::shade::VisibilitySource;
+use vplgi_frame::{Backend, LightSet};
 use vplgi_gpu::buffers::{read_back, storage, Window};
+use vplgi_gpu::cluster::GpuClustering;
 use vplgi_gpu::shade::{ShadeInputs, Visibility};
+use vplgi_gpu::trace_vpls::GpuVpls;
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::FrameConfig;
+use vplgi_types::{Endpoint, FrameConfig, VplLight};
 
 /// An image's pixels, row-major.
 pub type Pixels = Vec<[f32; 3]>;
@@ -95,6 +98,42 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     Ok((cpu, gpu.into_iter().map(|p| [p[0], p[1], p[2]]).collect()))
 }
 
+/// The GPU's lights of the CPU's VPL clustering (the frame's `cluster_lights` kernel: flux sums
+/// and, for disks, R²) against the CPU's: the largest relative difference of any component.
+pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: &CpuClusters) -> Result<Option<Disagreement>, VerifyError> {
+    let Some(vc) = &clusters.vpl_clusters else { return Ok(None) };
+    let (device, queue) = (twins.device(), twins.queue());
+    let n = frame.vpls.len() as u32;
+    let k = vc.k() as u32;
+    let hard: Vec<u32> = (0..frame.vpls.len()).map(|i| vc.hard_label(i)).collect();
+    let gc = GpuClustering {
+        centroids: storage::<Endpoint>(device, "centroids", &[]),
+        k,
+        f: 1,
+        labels: storage(device, "labels", &hard),
+        weights: storage::<f32>(device, "weights", &[]),
+        representatives: storage(device, "representatives", &vc.representatives),
+        outcome: storage::<u32>(device, "outcome", &[]),
+    };
+    let vpls = GpuVpls { buffer: storage(device, "vpls", &frame.vpls), count: n, particles: 0 };
+    let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
+    let gpu: Vec<VplLight> = read_back(device, queue, &buffer, k as usize)?;
+    let mut worst = (0.0f64, None);
+    for (c, (a, b)) in clusters.lights.iter().zip(&gpu).enumerate() {
+        let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 12]>(*a), bytemuck::cast::<VplLight, [f32; 12]>(*b));
+        let d = fa.iter().zip(&fb).map(|(x, y)| ((x - y).abs() / x.abs().max(1e-20)) as f64).fold(0.0, f64::max);
+        if d > worst.0 || d.is_nan() {
+            worst = (d, Some(format!("cluster {c}: CPU flux {} R² {}, GPU flux {} R² {}", crate::v3(a.flux), a.radius2, crate::v3(b.flux), b.radius2)));
+        }
+    }
+    let shape = serde_json::to_value(cfg.light_shape).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+    Ok(Some(
+        Disagreement::at_most("shade / cluster lights", "largest relative difference of a light's flux or R²", worst.0, CLUSTER_LIGHTS_REL)
+            .with_case(format!("{} {shape}", Mode::of(cfg).name()))
+            .with_worst(worst.1),
+    ))
+}
+
 /// Compares the two images of one mode.
 pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
     compare_on(twins, cfg, &CpuFrame::new(twins.cpu, cfg))
@@ -106,12 +145,13 @@ fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec
     let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, |_| true);
     let case = Mode::of(cfg).name();
-    let checks = vec![
+    let mut checks = vec![
         Disagreement::at_most("shade / final image", "relMSE(GPU, CPU) on the same inputs", rel_mse(&cpu, &gpu), SHADE_REL_MSE)
             .with_case(&case)
             .with_worst(worst),
         Disagreement::info("shade / final image", "largest relative pixel difference", max_rel as f64).with_case(&case),
     ];
+    checks.extend(compare_lights(twins, cfg, frame, &clusters)?);
     let pair = ImagePair { case: format!("shade-{}", case.replace('/', "-")), width: cfg.width, height: cfg.height, cpu, gpu };
     Ok((checks, pair))
 }

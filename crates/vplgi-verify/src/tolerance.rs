@@ -35,6 +35,10 @@ pub const FUZZY_WEIGHTS_ABS: f64 = 1e-5;
 pub const VISIBILITY_SAME_BITS: f64 = 0.999;
 /// Shading and the final image on the same inputs: relMSE(GPU, CPU) at most this.
 pub const SHADE_REL_MSE: f64 = 1e-4;
+/// The lights of VPL clusters made from the same clustering (flux summed in VPL order; a disk's
+/// R² from the members' moments, `vplgi_types::disk`): within this, relative. Sums in the same
+/// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice.
+pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
 
 /// The side of its bound a measurement must be on.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
