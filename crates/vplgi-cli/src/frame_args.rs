@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplSource};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -97,6 +97,17 @@ pub struct FrameArgs {
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_shape: Option<LightShape>,
+    /// Where the VPLs come from: light paths through --bounces surfaces, or a reflective shadow
+    /// map per light (Prutkin et al. 2012), one VPL per texel that hits a surface; rsm is
+    /// single-bounce (--bounces 1).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vpl_source: Option<VplSource>,
+    /// With --vpl-source rsm: the maps' texel budget, about N x N texels over all lights, each
+    /// light's map sized by its share of the power.
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rsm_size: Option<u32>,
 }
 
 /// How a subcommand uses the frame options.

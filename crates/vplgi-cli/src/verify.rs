@@ -17,7 +17,8 @@ pub struct VerifyArgs {
     scene: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameArgs,
-    /// Stages to verify, comma-separated [default: all]: rng, trace_vpls, shading_points,
+    /// Stages to verify, comma-separated [default: all]: rng, trace_vpls, rsm_vpls (the
+    /// reflective shadow maps of --rsm-size, whatever --vpl-source is), shading_points,
     /// cluster, visibility, shade, bias_points (the clamp's bias compensation), frame. The shade
     /// and frame stages run in every mode (--cluster x --fuzzy) unless --cluster or --fuzzy picks
     /// one.

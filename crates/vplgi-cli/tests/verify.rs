@@ -55,7 +55,7 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("verify.json")).expect("verify.json")).expect("JSON");
     assert_eq!(report["passed"], true);
     let stages: Vec<&str> = report["stages"].as_array().expect("stages").iter().filter_map(|s| s["stage"].as_str()).collect();
-    assert_eq!(stages, ["rng", "trace_vpls", "shading_points", "cluster", "visibility", "shade", "bias_points", "frame"]);
+    assert_eq!(stages, ["rng", "trace_vpls", "rsm_vpls", "shading_points", "cluster", "visibility", "shade", "bias_points", "frame"]);
     assert_eq!(report["modes"].as_array().map(Vec::len), Some(8), "every mode by default");
     // 8 modes x (shade, frame), three pictures each.
     assert_eq!(report["images"].as_array().map(Vec::len), Some(16));
@@ -68,7 +68,7 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     }
     let errors: Vec<&String> = console.iter().filter(|l| !l.contains("probe: ")).collect();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
-    assert!(console.iter().any(|l| l.contains("probe: 8 sections, 48 images")), "the probe did not run: {console:#?}");
+    assert!(console.iter().any(|l| l.contains("probe: 9 sections, 48 images")), "the probe did not run: {console:#?}");
 }
 
 /// The probe itself sees a missing image: the browser check can fail.

@@ -3,6 +3,7 @@
 
 use crate::bias_points::bias_points;
 use crate::cluster::{cluster, Clustering};
+use crate::rsm_vpls::rsm_vpls;
 use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
 use crate::shading_points::shading_points_of;
 use crate::trace_vpls::trace_vpls;
@@ -38,6 +39,12 @@ impl Backend for CpuScene<'_> {
 
     fn trace_vpls(&self, p: &TraceParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, VplCounts), FrameError> {
         let set = trace_vpls(self, p.seed, p.count, p.bounces, progress);
+        let counts = VplCounts { vpls: set.vpls.len() as u32, particles: set.particles };
+        Ok((set.vpls, counts))
+    }
+
+    fn rsm_vpls(&self, size: u32, progress: &dyn Progress) -> Result<(Vec<Vpl>, VplCounts), FrameError> {
+        let set = rsm_vpls(self, size, progress);
         let counts = VplCounts { vpls: set.vpls.len() as u32, particles: set.particles };
         Ok((set.vpls, counts))
     }

@@ -1,7 +1,7 @@
 //! The CPU reference of the clustered-VPL pipeline (`../shared/SPEC.md`).
 //!
 //! One module per stage, each exposing a function named after the stage:
-//! [`trace_vpls::trace_vpls`], [`shading_points::shading_points`], [`cluster::cluster`],
+//! [`trace_vpls::trace_vpls`] (or [`rsm_vpls::rsm_vpls`]), [`shading_points::shading_points`], [`cluster::cluster`],
 //! [`visibility::visibility`], [`shade::shade`] and [`bias_points::bias_points`] (the clamp's
 //! bias compensation). [`CpuScene`] implements
 //! [`vplgi_frame::Backend`] with them, so [`render`] (the one frame driver) chains them for one
@@ -13,6 +13,7 @@
 mod backend;
 pub mod bias_points;
 pub mod cluster;
+pub mod rsm_vpls;
 pub mod shade;
 pub mod shading_points;
 pub mod trace_vpls;

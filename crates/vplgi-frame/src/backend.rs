@@ -107,6 +107,10 @@ pub trait Backend {
     /// Stage 1: VPLs from light particles.
     fn trace_vpls(&self, params: &TraceParams, progress: &dyn Progress) -> Result<(Self::Vpls, VplCounts), Self::Error>;
 
+    /// Stage 1 with `--vpl-source rsm`: VPLs from the reflective shadow maps of every light for a
+    /// budget of about `size²` texels (`particles` counts the texels).
+    fn rsm_vpls(&self, size: u32, progress: &dyn Progress) -> Result<(Self::Vpls, VplCounts), Self::Error>;
+
     /// Stage 2: the shading points of camera samples `samples`.
     fn shading_points(&self, params: &CameraParams, samples: Range<u32>) -> Result<Self::Samples, Self::Error>;
 

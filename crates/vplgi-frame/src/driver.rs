@@ -5,7 +5,7 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig, ShadeParams};
+use vplgi_types::{ClusterMode, FrameConfig, ShadeParams, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -44,7 +44,10 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     let n_samples = cfg.width * cfg.height * spp;
     let mut stats = FrameStats { scene_extent: extent, shading_points: n_samples, g_clamp_d_min: cfg.g_clamp_rel * extent, ..Default::default() };
 
-    let (vpls, counts) = timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?;
+    let (vpls, counts) = match cfg.vpl_source {
+        VplSource::Paths => timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?,
+        VplSource::Rsm => timed(b, &mut t, Stage::RsmVpls, || b.rsm_vpls(cfg.rsm_size, progress))?,
+    };
     (stats.vpls, stats.light_particles) = (counts.vpls, counts.particles);
 
     // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay

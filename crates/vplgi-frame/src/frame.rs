@@ -9,6 +9,8 @@ use std::collections::BTreeMap;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stage {
     TraceVpls,
+    /// Stage 1 with `--vpl-source rsm`: VPLs from reflective shadow maps.
+    RsmVpls,
     ShadingPoints,
     Cluster,
     Visibility,
@@ -20,13 +22,14 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 6] = [Stage::TraceVpls, Stage::ShadingPoints, Stage::Cluster, Stage::Visibility, Stage::Shade, Stage::BiasPoints];
+    pub const ALL: [Stage; 7] = [Stage::TraceVpls, Stage::RsmVpls, Stage::ShadingPoints, Stage::Cluster, Stage::Visibility, Stage::Shade, Stage::BiasPoints];
 
     /// The stage's name: the same for the CPU function, the GPU kernel, the shader, the test and
     /// the bench.
     pub fn name(self) -> &'static str {
         match self {
             Stage::TraceVpls => "trace_vpls",
+            Stage::RsmVpls => "rsm_vpls",
             Stage::ShadingPoints => "shading_points",
             Stage::Cluster => "cluster",
             Stage::Visibility => "visibility",
@@ -198,7 +201,7 @@ mod tests {
         assert_eq!((m.get(Stage::TraceVpls), m.get(Stage::Shade), m.total()), (1.0, 10.0, 20.0));
         assert_eq!(StageTimings::median(&[]).total(), 0.0);
         assert_eq!(t(1.0, 2.0).iter().last(), Some((Stage::BiasPoints, 0.0)));
-        assert_eq!(t(1.0, 2.0).iter().nth(4), Some((Stage::Shade, 2.0)));
+        assert_eq!(t(1.0, 2.0).iter().nth(5), Some((Stage::Shade, 2.0)));
     }
 
     #[test]

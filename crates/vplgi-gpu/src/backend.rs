@@ -7,6 +7,7 @@ use crate::bias_points::BiasPointsKernel;
 use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
+use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
@@ -36,6 +37,7 @@ struct GlueKernels {
 /// stage can be run alone on inputs from elsewhere (`vplgi verify` feeds them the CPU's).
 pub struct GpuKernels {
     pub trace: TraceVplsKernel,
+    pub rsm: RsmVplsKernel,
     pub shading_points: ShadingPointsKernel,
     pub cluster: ClusterKernel,
     pub visibility: VisibilityKernel,
@@ -70,6 +72,7 @@ impl GpuKernels {
         })?;
         Ok(GpuKernels {
             trace: TraceVplsKernel::new(device)?,
+            rsm: RsmVplsKernel::new(device)?,
             shading_points: ShadingPointsKernel::new(device)?,
             cluster: ClusterKernel::new(device)?,
             visibility: VisibilityKernel::new(device)?,
@@ -198,6 +201,12 @@ impl Backend for GpuBackend<'_> {
 
     fn trace_vpls(&self, p: &TraceParams, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
         let v = self.kernels.trace.run(self.device, self.queue, &self.scene, p)?;
+        let counts = VplCounts { vpls: v.count, particles: v.particles };
+        Ok((v, counts))
+    }
+
+    fn rsm_vpls(&self, size: u32, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
+        let v = self.kernels.rsm.run(self.device, self.queue, &self.scene, &self.scene.sampler.rsm_maps(size))?;
         let counts = VplCounts { vpls: v.count, particles: v.particles };
         Ok((v, counts))
     }

@@ -59,6 +59,8 @@ pub struct GpuScene {
     /// Ray offset, identical to the CPU's ([`Scene::ray_epsilon`]).
     pub eps: f32,
     pub camera: vplgi_scene::Camera,
+    /// The host's light tables, whose reflective shadow maps are sized per frame (`--rsm-size`).
+    pub sampler: vplgi_scene::lights::LightSampler,
     /// The light tables (light particles and direct light).
     pub lights: GpuLights,
 }
@@ -135,6 +137,7 @@ impl GpuScene {
                 emission: [m.emission.x, m.emission.y, m.emission.z, 0.0],
             })
             .collect();
+        let sampler = vplgi_scene::lights::LightSampler::new(scene);
         let (words, infos) = texel_words(scene);
         let texels = pages::<u32, TEXEL_PAGES>(device, "texel words", &words)?;
         let bvh_paged = arrays.nodes.len() as u64 > page_len::<bvh::BvhNode>(device) || arrays.tris.len() as u64 > page_len::<bvh::BvhTri>(device);
@@ -153,7 +156,8 @@ impl GpuScene {
             texels,
             eps: scene.ray_epsilon(),
             camera: scene.camera,
-            lights: GpuLights::new(device, scene, &vplgi_scene::lights::LightSampler::new(scene)),
+            lights: GpuLights::new(device, scene, &sampler),
+            sampler,
         })
     }
 }

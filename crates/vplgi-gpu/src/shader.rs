@@ -48,6 +48,11 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         include_str!("../../../shaders/trace_vpls.wgsl"),
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
+    (
+        "rsm_vpls.wgsl",
+        include_str!("../../../shaders/rsm_vpls.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
+    ),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl", "common/scene.wgsl"]),
     ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
     ("cluster_occupancy.wgsl", include_str!("../../../shaders/cluster_occupancy.wgsl"), CLUSTER),
@@ -373,7 +378,7 @@ mod tests {
     fn scene_declarations_match_the_binding_table() {
         use crate::scene::{FIRST_SCENE_BINDING, SCENE_BINDINGS};
         let with_scene: Vec<&str> = STAGES.iter().filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl")).map(|(n, _, _)| *n).collect();
-        assert_eq!(with_scene.len(), 5, "the ray-tracing stages: {with_scene:?}");
+        assert_eq!(with_scene.len(), 6, "the ray-tracing stages: {with_scene:?}");
         for stage in with_scene {
             let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
             let mut seen: Vec<(u32, String)> = module
@@ -463,6 +468,8 @@ mod tests {
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
+            [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
+            [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
         };
         for row in table {
             let (size, members) = wgsl_layout(row.stage, row.wgsl);

@@ -12,6 +12,7 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_types::device::LightGroup;
 use vplgi_types::light_groups::{group_importance, ANY_ORIENTATION, MAX_GROUPS};
+use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::sampling;
 
 /// A discrete distribution over `n` items, sampled by inverting its CDF.
@@ -115,6 +116,10 @@ pub struct LightSampler {
     groups: Vec<LightGroup>,
     /// Total emitted power of every light, RGB (W).
     pub total_power: Vec3,
+    /// Each light's reflective shadow map, unsized (emitters then punctual lights), and its
+    /// share of the total power (`vplgi_types::rsm`).
+    rsm: Vec<RsmLight>,
+    rsm_shares: Vec<f32>,
 }
 
 /// The importances of every light group at one shading point, and their sum: computed once per
@@ -193,7 +198,26 @@ impl LightSampler {
         powers.extend(scene.lights.iter().map(punctual_power));
         let all = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
         let total_power = powers.iter().fold(Vec3::ZERO, |a, &p| a + p);
-        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power }
+        let mut rsm: Vec<RsmLight> = emitters
+            .iter()
+            .map(|&t| {
+                let [a, b, c] = scene.triangle(t as usize);
+                rsm::area(a, b, c, scene.geometric_normal(t as usize), scene.emission(t as usize))
+            })
+            .collect();
+        rsm.extend(scene.lights.iter().map(|l| match *l {
+            PunctualLight::Point { position, intensity } => rsm::point(position, intensity),
+            PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => rsm::spot(position, direction, intensity, cos_inner, cos_outer),
+        }));
+        let total = scalar(total_power);
+        let rsm_shares = powers.iter().map(|&p| if total > 0.0 { scalar(p) / total } else { 0.0 }).collect();
+        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power, rsm, rsm_shares }
+    }
+
+    /// The reflective shadow maps of every light for a budget of about `size²` texels, sized by
+    /// power (`vplgi_types::rsm::sized`).
+    pub fn rsm_maps(&self, size: u32) -> Vec<RsmLight> {
+        rsm::sized(&self.rsm, &self.rsm_shares, size)
     }
 
     pub fn has_lights(&self) -> bool {

@@ -54,6 +54,19 @@ pub enum LightShape {
     Disk,
 }
 
+/// Where the VPLs come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum VplSource {
+    /// Light particles traced through `bounces` surfaces (`trace_vpls`, the core paper).
+    #[default]
+    Paths,
+    /// A reflective shadow map per light, one VPL per texel that hits a surface (`rsm_vpls`,
+    /// Prutkin et al. 2012): single-bounce indirect light.
+    Rsm,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -132,7 +145,22 @@ pub struct FrameConfig {
     /// before the option existed read as points.
     #[serde(default)]
     pub light_shape: LightShape,
+    /// Where the VPLs come from. Files written before the option existed read as paths.
+    #[serde(default)]
+    pub vpl_source: VplSource,
+    /// With `VplSource::Rsm`: texels per side of the maps' budget, about `rsm_size²` texels over
+    /// all lights, each light's map sized by its power.
+    #[serde(default = "default_rsm_size")]
+    pub rsm_size: u32,
 }
+
+/// The paper's Cornell-box RSM (Table 1): 128².
+fn default_rsm_size() -> u32 {
+    128
+}
+
+/// Largest `rsm_size`: 4096² texels hold 16 M VPL slots (768 MiB).
+pub const MAX_RSM_SIZE: u32 = 4096;
 
 impl FrameConfig {
     /// The unclustered reference.
@@ -158,6 +186,8 @@ impl FrameConfig {
             direct_samples: 8,
             bias_compensation: true,
             light_shape: LightShape::Point,
+            vpl_source: VplSource::Paths,
+            rsm_size: default_rsm_size(),
         }
     }
 
@@ -280,6 +310,17 @@ impl FrameConfig {
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
             return Err("g-clamp must be a finite number >= 0".into());
         }
+        if self.vpl_source == VplSource::Rsm {
+            if self.bounces != 1 {
+                return Err(format!(
+                    "vpl-source rsm makes single-bounce VPLs (one per shadow-map texel): use --bounces 1 (got {}), or --vpl-source paths for more bounces",
+                    self.bounces
+                ));
+            }
+            if !(1..=MAX_RSM_SIZE).contains(&self.rsm_size) {
+                return Err(format!("rsm-size must be between 1 and {MAX_RSM_SIZE} texels per side (got {})", self.rsm_size));
+            }
+        }
         if self.light_shape == LightShape::Disk && self.cluster.clusters_vpls() && self.bias_compensation {
             return Err("bias compensation puts back what the clamp takes from point lights, and disk lights have no clamp: use one or the other".into());
         }
@@ -324,6 +365,13 @@ mod tests {
             c.bias_compensation = true;
         })
         .contains("bias compensation"));
+        assert!(bad(|c| c.vpl_source = VplSource::Rsm).contains("--bounces 1"));
+        assert!(bad(|c| {
+            c.vpl_source = VplSource::Rsm;
+            c.bounces = 1;
+            c.rsm_size = 0;
+        })
+        .contains("rsm-size"));
         assert!(bad(|c| c.f = 17).contains('F'));
         assert!(bad(|c| c.normal_threshold = 1.0).contains("normal threshold"));
         assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));

@@ -11,6 +11,7 @@
 //! * [`params`]: the parameters of each stage, as every backend takes them.
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
+//! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
 
 pub mod clustering;
 pub mod config;
@@ -20,9 +21,10 @@ pub mod light_groups;
 pub mod params;
 pub mod pod;
 pub mod rng;
+pub mod rsm;
 pub mod sampling;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplSource};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

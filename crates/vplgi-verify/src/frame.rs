@@ -7,7 +7,7 @@ use crate::shade::{rel_mse, worst_pixel};
 use crate::shading_points::{hit_differences, HitDifferences};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE, SHADING_POINTS_SAME_SURFACE};
 use crate::{count, result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint};
+use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint, VplSource};
 
 /// What the modes of one frame share: both backends' primary hits, and how far the VPLs differ
 /// by rounding (measured only if some mode clusters them).
@@ -23,7 +23,10 @@ impl Shared {
         let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params())?;
         let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, twins.scene.camera.position, (cfg.width, cfg.spp));
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
-            let checks = crate::trace_vpls::compare(twins, &cfg.trace_params())?;
+            let checks = match cfg.vpl_source {
+                VplSource::Paths => crate::trace_vpls::compare(twins, &cfg.trace_params())?,
+                VplSource::Rsm => crate::rsm_vpls::compare(twins, cfg.rsm_size)?,
+            };
             Some(checks.into_iter().find(|c| c.what.starts_with("largest relative difference")).map_or(f64::NAN, |c| c.measured))
         } else {
             None

@@ -4,7 +4,7 @@ use glam::Vec3;
 use vplgi_cpu::cluster::{cluster, Clustering};
 use vplgi_cpu::shade::VplLight;
 use vplgi_cpu::CpuScene;
-use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, MISS};
+use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, VplSource, MISS};
 
 /// Points as clustering takes them: positions and normals.
 pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
@@ -28,7 +28,10 @@ impl CpuFrame {
             row_of[i as usize] = r as u32;
         }
         let p = cfg.trace_params();
-        let vpls = vplgi_cpu::trace_vpls::trace_vpls(cs, p.seed, p.count, p.bounces, &vplgi_cpu::NoProgress).vpls;
+        let vpls = match cfg.vpl_source {
+            VplSource::Paths => vplgi_cpu::trace_vpls::trace_vpls(cs, p.seed, p.count, p.bounces, &vplgi_cpu::NoProgress).vpls,
+            VplSource::Rsm => vplgi_cpu::rsm_vpls::rsm_vpls(cs, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls,
+        };
         CpuFrame { sps, row_of, hits, vpls }
     }
 

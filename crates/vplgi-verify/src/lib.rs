@@ -16,6 +16,7 @@ pub mod frame;
 pub mod inputs;
 pub mod report;
 pub mod rng;
+pub mod rsm_vpls;
 pub mod shade;
 pub mod shading_points;
 pub mod tolerance;
@@ -65,6 +66,8 @@ pub enum VerifyStage {
     Rng,
     /// Stage 1: VPLs from light particles.
     TraceVpls,
+    /// Stage 1 with `--vpl-source rsm`: VPLs from reflective shadow maps.
+    RsmVpls,
     /// Stage 2: camera rays' first hits.
     ShadingPoints,
     /// Stage 3: assignment, update, fuzzy assignment and the whole clustering, on the CPU's points.
@@ -81,9 +84,10 @@ pub enum VerifyStage {
 }
 
 impl VerifyStage {
-    pub const ALL: [VerifyStage; 8] = [
+    pub const ALL: [VerifyStage; 9] = [
         VerifyStage::Rng,
         VerifyStage::TraceVpls,
+        VerifyStage::RsmVpls,
         VerifyStage::ShadingPoints,
         VerifyStage::Cluster,
         VerifyStage::Visibility,
@@ -97,6 +101,7 @@ impl VerifyStage {
         match self {
             VerifyStage::Rng => "rng",
             VerifyStage::TraceVpls => "trace_vpls",
+            VerifyStage::RsmVpls => "rsm_vpls",
             VerifyStage::ShadingPoints => "shading_points",
             VerifyStage::Cluster => "cluster",
             VerifyStage::Visibility => "visibility",
@@ -217,6 +222,7 @@ pub fn run(twins: &Twins, plan: &Plan, listener: &dyn Listener) -> Result<Vec<St
         let mut r = match stage {
             VerifyStage::Rng => rng::verify(twins, &plan.config)?,
             VerifyStage::TraceVpls => trace_vpls::verify(twins, &plan.config)?,
+            VerifyStage::RsmVpls => rsm_vpls::verify(twins, &plan.config)?,
             VerifyStage::ShadingPoints => shading_points::verify(twins, &plan.config)?,
             VerifyStage::Cluster => cluster::verify(twins, &plan.config)?,
             VerifyStage::Visibility => visibility::verify(twins, &plan.config)?,

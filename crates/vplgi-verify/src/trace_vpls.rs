@@ -20,7 +20,7 @@ fn by_path(v: &[Vpl]) -> BTreeMap<u32, Vec<Vpl>> {
 /// The largest relative difference between two VPLs: position over the scene extent, normal,
 /// flux per particle (each side's flux times its own particle count) over its largest channel;
 /// infinite if they are at different bounces.
-fn difference(a: &Vpl, b: &Vpl, extent: f32, (pa, pb): (f32, f32)) -> f32 {
+pub(crate) fn difference(a: &Vpl, b: &Vpl, extent: f32, (pa, pb): (f32, f32)) -> f32 {
     if a.bounce != b.bounce {
         return f32::INFINITY;
     }
@@ -33,7 +33,7 @@ fn difference(a: &Vpl, b: &Vpl, extent: f32, (pa, pb): (f32, f32)) -> f32 {
 
 /// Whether `p` lies within `eps` of an edge of one of `scene`'s triangles: where a ray through a
 /// shared edge may go to either triangle.
-fn on_an_edge(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) -> bool {
+pub(crate) fn on_an_edge(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) -> bool {
     let near_segment = |a: Vec3, b: Vec3| {
         let ab = b - a;
         let t = ((p - a).dot(ab) / ab.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
@@ -87,8 +87,13 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
         // a VPL on one side only that lies on an edge: the other backend gave the hit to a
         // triangle the particle meets from behind or edge-on, which keeps no VPL there.
         let eps = TRACE_VPLS_REL as f32 * cs.extent;
+        // Both on an edge: the same point away from edges with another flux is a difference.
         let tie = first_off.is_some_and(|i| match (a.get(i), b.get(i)) {
-            (Some(x), Some(y)) => x.bounce == y.bounce && (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps,
+            (Some(x), Some(y)) => {
+                x.bounce == y.bounce
+                    && (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps
+                    && on_an_edge(twins.scene, Vec3::from(x.position), eps)
+            }
             (Some(x), None) | (None, Some(x)) => on_an_edge(twins.scene, Vec3::from(x.position), eps),
             (None, None) => false,
         });
@@ -139,7 +144,7 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
     r.checks = compare(twins, &cfg.trace_params())?;
     r.notes.push(
         "VPLs are matched by light path; a path agrees when every VPL is within 1e-4 (position relative to the scene extent, normal, flux per particle relative \
-         to its largest channel) at the same bounce. A path whose first differing VPL is at the same point (an edge tie: another triangle, so another albedo) \
+         to its largest channel) at the same bounce. A path whose first differing VPL is at the same point on a triangle's edge (an edge tie: another triangle, so another albedo) \
          is counted apart, as the shading-points row counts edge ties, and so is one whose first differing VPL lies on a triangle's edge and exists on one side only \
          (the other backend gave the hit to a triangle that keeps no VPL there)"
             .into(),

@@ -1,0 +1,287 @@
+//! Reflective shadow maps (Dachsbacher and Stamminger 2005, as Prutkin et al. 2012 use them): the
+//! first surfaces seen by rays on a regular grid over each light's emission, each texel a VPL
+//! whose flux is the texel's power times the albedo where it lands.
+//!
+//! Every light has one square map of `size × size` texels, numbered after the previous maps'
+//! (`first`), so a texel has one global index (a VPL's `path`). Its ray:
+//!
+//! * **area light** (one emissive triangle): direction by the cosine-weighted hemisphere map of
+//!   the texel's centre, so every texel carries the same power π A L_e / size²; origin on the
+//!   triangle at point k of the R2 low-discrepancy sequence (k = the texel's index in its map),
+//!   so the map covers the whole emitter;
+//! * **point light**: direction by the equal-area sphere map, power 4π I / size²;
+//! * **spot light**: a perspective map over the square that holds the outer cone
+//!   (tan θ_outer on each side), power I · falloff · (2 tan θ_outer / size)² cos³ θ, the
+//!   intensity times the texel's solid angle; texels outside the outer cone send nothing.
+//!
+//! Maps are sized by power ([`sized`]): a light with share s of the total gets about
+//! `size · √s` texels per side, at least one.
+
+use crate::sampling;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// [`RsmLight::kind`]: one emissive triangle.
+pub const RSM_AREA: u32 = 0;
+/// [`RsmLight::kind`]: a point light.
+pub const RSM_POINT: u32 = 1;
+/// [`RsmLight::kind`]: a spot light.
+pub const RSM_SPOT: u32 = 2;
+
+/// One light's map. The same bytes as `RsmLight` in `rsm_vpls.wgsl` (five `vec4`s).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RsmLight {
+    /// Area: the triangle's first vertex; point and spot: the light's position.
+    pub origin: [f32; 3],
+    pub kind: u32,
+    /// Area: the edge to the second vertex; spot: the map's right axis times tan θ_outer.
+    pub e1: [f32; 3],
+    /// Texels per side (0 until [`sized`]).
+    pub size: u32,
+    /// Area: the edge to the third vertex; spot: the map's up axis times tan θ_outer.
+    pub e2: [f32; 3],
+    /// Global index of the map's first texel.
+    pub first: u32,
+    /// Area: the unit geometric normal; spot: the unit direction it points to.
+    pub axis: [f32; 3],
+    /// Spot: cosine of the inner cone angle.
+    pub cos_inner: f32,
+    /// Area: emitted power π A L_e; point: 4π I; spot: the intensity I. Per texel: see
+    /// [`texel_ray`].
+    pub power: [f32; 3],
+    /// Spot: cosine of the outer cone angle.
+    pub cos_outer: f32,
+}
+
+/// The ray of one texel: where it starts, where it goes and the power it carries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexelRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub power: Vec3,
+    /// The emitting surface's normal (area lights; zero otherwise): the origin is pushed off it.
+    pub surface_normal: Vec3,
+}
+
+/// The maps of `lights` sized for a budget of about `size²` texels: light i gets
+/// `max(1, round(size √share_i))` texels per side, `shares` being each light's share of the
+/// total power; maps are numbered in light order. Lights with no share keep no texel.
+pub fn sized(lights: &[RsmLight], shares: &[f32], size: u32) -> Vec<RsmLight> {
+    let mut first = 0u32;
+    let mut out = Vec::with_capacity(lights.len());
+    for (l, &share) in lights.iter().zip(shares) {
+        if share.is_nan() || share <= 0.0 {
+            continue;
+        }
+        let n = ((size as f32 * share.sqrt()).round() as u32).max(1);
+        out.push(RsmLight { size: n, first, ..*l });
+        first = first.saturating_add(n.saturating_mul(n));
+    }
+    out
+}
+
+/// Texels of all maps.
+pub fn texel_count(maps: &[RsmLight]) -> u32 {
+    maps.last().map_or(0, |m| m.first + m.size * m.size)
+}
+
+/// The map holding global texel `t` (maps in `first` order).
+pub fn map_of(maps: &[RsmLight], t: u32) -> usize {
+    maps.partition_point(|m| m.first <= t).saturating_sub(1)
+}
+
+/// Point `k` of the R2 sequence (Roberts' additive recurrence with the plastic constant), in
+/// 32-bit fixed point so that every backend computes the same bits: two numbers in [0, 1).
+pub fn r2_point(k: u32) -> (f32, f32) {
+    // round(2^32 / g) and round(2^32 / g²), g the plastic number 1.3247...
+    const A1: u32 = 3_242_174_889;
+    const A2: u32 = 2_447_445_414;
+    let x = k.wrapping_mul(A1).wrapping_add(1 << 31);
+    let y = k.wrapping_mul(A2).wrapping_add(1 << 31);
+    ((x >> 8) as f32 * (1.0 / 16_777_216.0), (y >> 8) as f32 * (1.0 / 16_777_216.0))
+}
+
+/// The spot falloff of glTF (`vplgi_scene::PunctualLight::falloff_cos`): 1 inside the inner
+/// cone, 0 outside the outer one, a quadratic ramp between.
+pub fn spot_falloff(cos_axis: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let t = ((cos_axis - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// The ray of texel `t` of `map` (`map.first <= t < map.first + size²`), or `None` for a spot
+/// texel outside the outer cone.
+pub fn texel_ray(map: &RsmLight, t: u32) -> Option<TexelRay> {
+    let n = map.size;
+    let k = t - map.first;
+    let (i, j) = (k % n, k / n);
+    let inv = 1.0 / n as f32;
+    let (u, v) = ((i as f32 + 0.5) * inv, (j as f32 + 0.5) * inv);
+    let texels = (n * n) as f32;
+    let origin = Vec3::from(map.origin);
+    let axis = Vec3::from(map.axis);
+    let power = Vec3::from(map.power);
+    match map.kind {
+        RSM_AREA => {
+            let (r1, r2) = r2_point(k);
+            let (b1, b2) = sampling::uniform_triangle(r1, r2);
+            let p = origin + Vec3::from(map.e1) * b1 + Vec3::from(map.e2) * b2;
+            Some(TexelRay { origin: p, dir: sampling::cosine_hemisphere(axis, u, v), power: power / texels, surface_normal: axis })
+        }
+        RSM_POINT => Some(TexelRay { origin, dir: sampling::uniform_sphere(u, v), power: power / texels, surface_normal: Vec3::ZERO }),
+        _ => {
+            let (x, y) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+            let (e1, e2) = (Vec3::from(map.e1), Vec3::from(map.e2));
+            let d = axis + e1 * x + e2 * y;
+            let len2 = 1.0 + (x * x) * e1.length_squared() + (y * y) * e2.length_squared();
+            let cos = 1.0 / len2.sqrt();
+            let falloff = spot_falloff(cos, map.cos_inner, map.cos_outer);
+            if falloff <= 0.0 {
+                return None;
+            }
+            // The texel's solid angle: its area on the plane at distance 1, (2 tan / n)², times
+            // cos³ θ (cos θ for the tilt, 1 / r² = cos² θ for the distance).
+            let side = 2.0 * inv;
+            let omega = side * side * e1.length_squared() * cos * cos * cos;
+            Some(TexelRay { origin, dir: d * cos, power: power * (falloff * omega), surface_normal: Vec3::ZERO })
+        }
+    }
+}
+
+/// The map of a spot light at `position` pointing along unit `direction`.
+pub fn spot(position: Vec3, direction: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32) -> RsmLight {
+    let (right, up) = sampling::orthonormal_basis(direction);
+    let cos_outer = cos_outer.clamp(-1.0, 1.0);
+    // A perspective map cannot hold a cone of 90 degrees or more: it is cut at 89.
+    let tan = (1.0 - cos_outer * cos_outer).max(0.0).sqrt() / cos_outer.max(0.017_452_4);
+    RsmLight {
+        origin: position.to_array(),
+        kind: RSM_SPOT,
+        e1: (right * tan).to_array(),
+        e2: (up * tan).to_array(),
+        axis: direction.to_array(),
+        cos_inner,
+        cos_outer,
+        power: intensity.to_array(),
+        ..Default::default()
+    }
+}
+
+/// The map of a point light.
+pub fn point(position: Vec3, intensity: Vec3) -> RsmLight {
+    RsmLight { origin: position.to_array(), kind: RSM_POINT, power: (intensity * (4.0 * PI)).to_array(), ..Default::default() }
+}
+
+/// The map of an emissive triangle (vertices `a`, `b`, `c`, unit normal `normal`, emitted
+/// radiance `radiance`).
+pub fn area(a: Vec3, b: Vec3, c: Vec3, normal: Vec3, radiance: Vec3) -> RsmLight {
+    let area = 0.5 * (b - a).cross(c - a).length();
+    RsmLight {
+        origin: a.to_array(),
+        kind: RSM_AREA,
+        e1: (b - a).to_array(),
+        e2: (c - a).to_array(),
+        axis: normal.to_array(),
+        power: (radiance * (PI * area)).to_array(),
+        ..Default::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sized_one(l: RsmLight, n: u32) -> RsmLight {
+        sized(&[l], &[1.0], n)[0]
+    }
+
+    #[test]
+    fn maps_are_sized_by_power_and_numbered_in_order() {
+        let l = point(Vec3::ZERO, Vec3::ONE);
+        let maps = sized(&[l, l, l, l], &[0.64, 0.0, 0.36, 1e-9], 100);
+        let sizes: Vec<(u32, u32)> = maps.iter().map(|m| (m.size, m.first)).collect();
+        assert_eq!(sizes, vec![(80, 0), (60, 6400), (1, 10_000)]);
+        assert_eq!(texel_count(&maps), 10_001);
+        assert_eq!([map_of(&maps, 0), map_of(&maps, 6399), map_of(&maps, 6400), map_of(&maps, 10_000)], [0, 0, 1, 2]);
+        assert_eq!(texel_count(&[]), 0);
+    }
+
+    #[test]
+    fn area_and_point_maps_carry_exactly_the_lights_power() {
+        let a = area(Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 3.0, Vec3::Y, Vec3::new(1.0, 2.0, 3.0));
+        // π A L_e with A = 3.
+        assert!((Vec3::from(a.power) - Vec3::new(1.0, 2.0, 3.0) * 3.0 * PI).abs().max_element() < 1e-5);
+        for l in [a, point(Vec3::ONE, Vec3::splat(0.5))] {
+            let m = sized_one(l, 37);
+            let total: Vec3 = (0..37 * 37).map(|t| texel_ray(&m, t).expect("every texel emits").power).sum();
+            assert!((total - Vec3::from(l.power)).abs().max_element() <= 1e-4 * Vec3::from(l.power).max_element(), "{total}");
+        }
+    }
+
+    /// An area map's rays start on the triangle and leave its front side with the cosine
+    /// distribution: the mean cosine of a cosine-weighted hemisphere is 2/3, the mean of the
+    /// origins' barycentrics 1/3 each (the R2 points are uniform on the triangle).
+    #[test]
+    fn area_rays_start_on_the_emitter_and_leave_its_front() {
+        let (a, b, c) = (Vec3::new(1.0, 2.0, 0.0), Vec3::new(3.0, 2.0, 0.0), Vec3::new(1.0, 2.0, -2.0));
+        let m = sized_one(area(a, b, c, Vec3::Y, Vec3::ONE), 64);
+        let (mut cos, mut centre) = (0.0f64, Vec3::ZERO);
+        for t in 0..64 * 64 {
+            let r = texel_ray(&m, t).expect("emits");
+            assert!(r.dir.dot(Vec3::Y) > 0.0 && (r.dir.length() - 1.0).abs() < 1e-5);
+            assert!((r.origin.y - 2.0).abs() < 1e-6 && r.origin.x >= 1.0 - 1e-6 && r.origin.z <= 1e-6 && (r.origin.x - 1.0) - r.origin.z <= 2.0 + 1e-5);
+            cos += r.dir.y as f64;
+            centre += r.origin;
+        }
+        let n = (64 * 64) as f64;
+        assert!((cos / n - 2.0 / 3.0).abs() < 1e-3, "{}", cos / n);
+        let centre = centre / n as f32;
+        assert!((centre - (a + b + c) / 3.0).length() < 2e-3, "{centre}");
+    }
+
+    /// A spot map's power is the spot's emitted power ∫ I falloff dΩ, computed here by
+    /// integrating the falloff over the cone angle in double precision (2π ∫ falloff(cos θ)
+    /// sin θ dθ): a midpoint rule on the map converges to it.
+    #[test]
+    fn spot_maps_carry_the_spots_power() {
+        for (inner_deg, outer_deg) in [(10.0f64, 30.0f64), (0.0, 45.0), (40.0, 41.0), (60.0, 80.0)] {
+            let (ci, co) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
+            let steps = 200_000;
+            let mut exact = 0.0f64;
+            for s in 0..steps {
+                let theta = (s as f64 + 0.5) / steps as f64 * outer_deg.to_radians();
+                let t = ((theta.cos() - co) / (ci - co).max(1e-3)).clamp(0.0, 1.0);
+                exact += t * t * theta.sin();
+            }
+            exact *= 2.0 * std::f64::consts::PI * outer_deg.to_radians() / steps as f64;
+            let m = sized_one(spot(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), Vec3::ONE, ci as f32, co as f32), 512);
+            let mut total = 0.0f64;
+            for t in 0..512 * 512 {
+                if let Some(r) = texel_ray(&m, t) {
+                    assert!((r.dir.length() - 1.0).abs() < 1e-5);
+                    assert!(r.dir.dot(Vec3::NEG_Y) >= co as f32 - 1e-6, "a ray outside the outer cone");
+                    total += r.power.x as f64;
+                }
+            }
+            println!("spot {inner_deg}-{outer_deg} deg: map power {total:.6}, ∫ I falloff dΩ {exact:.6}");
+            assert!((total / exact - 1.0).abs() < 2e-3, "{total} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn r2_points_are_uniform_and_the_same_bits_as_their_definition() {
+        assert_eq!(r2_point(0), (0.5, 0.5));
+        let g = 1.324_717_957_244_746f64;
+        let mut mean = (0.0f64, 0.0f64);
+        for k in 0..4096u32 {
+            let (x, y) = r2_point(k);
+            let fx = (0.5 + k as f64 / g).fract();
+            let fy = (0.5 + k as f64 / (g * g)).fract();
+            assert!((x as f64 - fx).abs() < 1e-6 && (y as f64 - fy).abs() < 1e-6, "k {k}: {x} {y} vs {fx} {fy}");
+            mean = (mean.0 + x as f64, mean.1 + y as f64);
+        }
+        assert!((mean.0 / 4096.0 - 0.5).abs() < 1e-3 && (mean.1 / 4096.0 - 0.5).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,83 @@
+//! `rsm_vpls`: the GPU's reflective-shadow-map VPLs against the CPU's, texel by texel (the
+//! trace_vpls row of the SPEC: positions, normals and fluxes within 1e-4 relative; at most 0.1 %
+//! of texels may differ at grazing hits, counted; a texel whose ray meets a shared edge may land
+//! on either triangle, counted apart as an edge tie).
+
+use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use crate::trace_vpls::{difference, on_an_edge};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use glam::Vec3;
+use std::collections::BTreeMap;
+use vplgi_gpu::buffers::read_back;
+use vplgi_types::{FrameConfig, Vpl};
+
+/// Both backends' VPLs of the maps of budget `size` (texel order).
+pub fn both(twins: &Twins, size: u32) -> Result<(Vec<Vpl>, Vec<Vpl>, u32), VerifyError> {
+    let cpu = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, size, &vplgi_cpu::NoProgress);
+    let maps = twins.gpu.scene().sampler.rsm_maps(size);
+    let g = twins.gpu.kernels().rsm.run(twins.device(), twins.queue(), twins.gpu.scene(), &maps)?;
+    let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
+    Ok((cpu.vpls, gpu, cpu.particles))
+}
+
+/// Compares the texels of the maps of budget `size`.
+pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyError> {
+    let (cpu, gpu, texels) = both(twins, size)?;
+    let extent = twins.cpu.extent;
+    let (c, g): (BTreeMap<u32, Vpl>, BTreeMap<u32, Vpl>) = (cpu.iter().map(|v| (v.path, *v)).collect(), gpu.iter().map(|v| (v.path, *v)).collect());
+    let (mut differ, mut ties, mut max_agreeing, mut worst_diff, mut worst) = (0usize, 0usize, 0.0f32, 0.0f32, None);
+    let eps = TRACE_VPLS_REL as f32 * extent;
+    for t in c.keys().chain(g.keys().filter(|t| !c.contains_key(t))) {
+        let (a, b) = (c.get(t), g.get(t));
+        let d = match (a, b) {
+            (Some(x), Some(y)) => difference(x, y, extent, (1.0, 1.0)),
+            _ => f32::INFINITY,
+        };
+        if d <= TRACE_VPLS_REL as f32 {
+            max_agreeing = max_agreeing.max(d);
+            continue;
+        }
+        // The same point on a triangle's edge (the other triangle there gave another normal or
+        // albedo), or a VPL on an edge on one side only: a ray through a shared edge (the
+        // shading-points row's tie). Away from edges the same point with another flux is a
+        // difference, not a tie.
+        let tie = match (a, b) {
+            (Some(x), Some(y)) => (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps && on_an_edge(twins.scene, Vec3::from(x.position), eps),
+            (Some(x), None) | (None, Some(x)) => on_an_edge(twins.scene, Vec3::from(x.position), eps),
+            (None, None) => false,
+        };
+        if tie {
+            ties += 1;
+            continue;
+        }
+        differ += 1;
+        if d > worst_diff || worst.is_none() {
+            worst_diff = d;
+            let show = |v: Option<&Vpl>| v.map_or("none".to_string(), |v| format!("at {} flux {}", v3(v.position), v3(v.flux)));
+            worst = Some(format!("texel {t}: CPU {}, GPU {}", show(a), show(b)));
+        }
+    }
+    let case = format!("--rsm-size {size}: {} texels, {} VPLs on the CPU", count(texels as usize), count(cpu.len()));
+    Ok(vec![
+        Disagreement::at_most("rsm_vpls", "share of texels whose VPLs differ", differ as f64 / texels.max(1) as f64, TRACE_VPLS_DIVERGED_PATHS)
+            .with_case(&case)
+            .with_worst(worst),
+        Disagreement::info("rsm_vpls", "texels that part at an edge tie (same point, another triangle; or a VPL on an edge on one side only)", ties as f64)
+            .with_case(&case),
+        Disagreement::info("rsm_vpls", "largest relative difference on agreeing texels", max_agreeing as f64).with_case(&case),
+        Disagreement::info("rsm_vpls", "VPL count, |CPU - GPU|", cpu.len().abs_diff(gpu.len()) as f64).with_case(&case),
+    ])
+}
+
+/// The reflective shadow maps of the frame's `--rsm-size` (whatever its VPL source).
+pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+    let mut r = result(VerifyStage::RsmVpls);
+    r.checks = compare(twins, cfg.rsm_size)?;
+    r.notes.push(
+        "VPLs are matched by texel; a texel agrees when both backends have a VPL within 1e-4 (position relative to the scene extent, normal, flux relative \
+         to its largest channel) or neither has one. A texel whose VPLs lie at the same point on a triangle's edge (another triangle there), or that has a VPL on an edge \
+         on one side only, is an edge tie, counted apart"
+            .into(),
+    );
+    Ok(r)
+}
