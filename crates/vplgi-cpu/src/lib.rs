@@ -13,6 +13,7 @@
 mod backend;
 pub mod bias_points;
 pub mod cluster;
+pub mod rsm_cluster;
 pub mod rsm_vpls;
 pub mod shade;
 pub mod shading_points;

@@ -20,6 +20,7 @@
 use crate::sampling;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 
 /// [`RsmLight::kind`]: one emissive triangle.
@@ -189,9 +190,116 @@ pub fn area(a: Vec3, b: Vec3, c: Vec3, normal: Vec3, radiance: Vec3) -> RsmLight
     }
 }
 
+/// The weights of Eq. 1 of Prutkin et al.: position, normal and flux colour.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RsmWeights {
+    /// w_d, on squared distances in units of the scene's bounding-box diagonal.
+    pub position: f32,
+    /// w_n, on 1 - n_p · n_c.
+    pub normal: f32,
+    /// w_Φ, on the squared distance between the normalised RGB fluxes.
+    pub flux: f32,
+}
+
+impl Default for RsmWeights {
+    /// The paper's Cornell-box choice (section 6): w_d = 1, w_n = 10, w_Φ = 0.
+    fn default() -> Self {
+        RsmWeights { position: 1.0, normal: 10.0, flux: 0.0 }
+    }
+}
+
+impl RsmWeights {
+    /// The paper's choice for scenes with fine colour detail (POWER PLANT, SPONZA): 1, 1, 10.
+    pub const COLOUR: RsmWeights = RsmWeights { position: 1.0, normal: 1.0, flux: 10.0 };
+
+    /// Finite, non-negative and not all zero; the message names the problem.
+    pub fn validate(&self) -> Result<(), String> {
+        let w = [self.position, self.normal, self.flux];
+        if w.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(format!("rsm-weights must be finite and >= 0 (got {},{},{})", self.position, self.normal, self.flux));
+        }
+        if w.iter().all(|&x| x == 0.0) {
+            return Err("rsm-weights cannot all be 0: every texel would tie with every cluster".into());
+        }
+        Ok(())
+    }
+}
+
+/// Φ / |Φ| (the RGB vector's Euclidean norm): hue and saturation without brightness; 0 for black.
+pub fn chroma(flux: Vec3) -> Vec3 {
+    let len = flux.length();
+    if len > 0.0 {
+        flux / len
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Eq. 1: μ(p, c) = w_d |x_p − x_c|² + w_n (1 − n_p · n_c) + w_Φ |Φ_p/|Φ_p| − Φ_c/|Φ_c||², with
+/// `dx` = (x_p − x_c) / the scene's diagonal and the colours already [`chroma`].
+pub fn mu(w: &RsmWeights, dx: Vec3, np: Vec3, nc: Vec3, chroma_p: Vec3, chroma_c: Vec3) -> f32 {
+    let dc = chroma_p - chroma_c;
+    w.position * dx.dot(dx) + w.normal * (1.0 - np.dot(nc)) + w.flux * dc.dot(dc)
+}
+
+/// Element `i` (from 1) of the van der Corput sequence in `base` (the Halton sequence's axis).
+pub fn halton(mut i: u32, base: u32) -> f32 {
+    let (mut f, mut r) = (1.0f64, 0.0f64);
+    while i > 0 {
+        f /= base as f64;
+        r += f * (i % base) as f64;
+        i /= base;
+    }
+    r as f32
+}
+
+/// K clusters shared among maps in proportion to their VPLs: map m gets round(K v_m / V),
+/// at least 1 if it has a VPL and at most its VPL count.
+pub fn clusters_per_map(vpls_per_map: &[u32], k: u32) -> Vec<u32> {
+    let total: u64 = vpls_per_map.iter().map(|&v| v as u64).sum();
+    vpls_per_map.iter().map(|&v| if v == 0 || total == 0 { 0 } else { ((k as f64 * v as f64 / total as f64).round() as u32).clamp(1, v) }).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Eq. 1 on hand-checked values: unit weights, positions 0.3 apart along x, normals 60
+    /// degrees apart (1 - cos = 0.5), pure red against pure green (|(1,0,0) - (0,1,0)|² = 2).
+    #[test]
+    fn eq_1_on_a_hand_checked_pair() {
+        let n60 = Vec3::new(0.0, 0.75f32.sqrt(), 0.5);
+        let (red, green) = (chroma(Vec3::new(4.0, 0.0, 0.0)), chroma(Vec3::new(0.0, 0.2, 0.0)));
+        assert_eq!((red, green), (Vec3::X, Vec3::Y));
+        let w = RsmWeights { position: 1.0, normal: 1.0, flux: 1.0 };
+        let m = mu(&w, Vec3::new(0.3, 0.0, 0.0), Vec3::Z, n60, red, green);
+        assert!((m - (0.09 + 0.5 + 2.0)).abs() < 1e-6, "{m}");
+        // Each weight scales its own term only.
+        let w = RsmWeights { position: 10.0, normal: 0.0, flux: 0.5 };
+        assert!((mu(&w, Vec3::new(0.3, 0.0, 0.0), Vec3::Z, n60, red, green) - (0.9 + 1.0)).abs() < 1e-6);
+        // Brightness does not count, colour does.
+        assert_eq!(chroma(Vec3::new(1.0, 2.0, 2.0)), chroma(Vec3::new(3.0, 6.0, 6.0)));
+        assert_eq!(chroma(Vec3::ZERO), Vec3::ZERO);
+    }
+
+    #[test]
+    fn weights_are_checked() {
+        assert_eq!(RsmWeights::default().validate(), Ok(()));
+        assert!(RsmWeights { position: -1.0, ..Default::default() }.validate().unwrap_err().contains(">= 0"));
+        assert!(RsmWeights { flux: f32::NAN, ..Default::default() }.validate().unwrap_err().contains("finite"));
+        assert!(RsmWeights { position: 0.0, normal: 0.0, flux: 0.0 }.validate().unwrap_err().contains("all be 0"));
+    }
+
+    #[test]
+    fn halton_and_the_cluster_shares() {
+        let h2: Vec<f32> = (1..=4).map(|i| halton(i, 2)).collect();
+        let h3: Vec<f32> = (1..=4).map(|i| halton(i, 3)).collect();
+        assert_eq!(h2, [0.5, 0.25, 0.75, 0.125]);
+        assert_eq!(h3, [1.0 / 3.0, 2.0 / 3.0, 1.0 / 9.0, 4.0 / 9.0]);
+        assert_eq!(clusters_per_map(&[300, 100, 0, 1], 8), vec![6, 2, 0, 1]);
+        assert_eq!(clusters_per_map(&[5], 100), vec![5], "never more clusters than VPLs");
+        assert_eq!(clusters_per_map(&[0, 0], 10), vec![0, 0]);
+    }
 
     fn sized_one(l: RsmLight, n: u32) -> RsmLight {
         sized(&[l], &[1.0], n)[0]
