@@ -11,19 +11,6 @@ struct Params {
     pad: u32,
 }
 
-struct RsmLight {
-    origin: vec3<f32>,
-    kind: u32,
-    e1: vec3<f32>,
-    size: u32,
-    e2: vec3<f32>,
-    first: u32,
-    axis: vec3<f32>,
-    cos_inner: f32,
-    power: vec3<f32>,
-    cos_outer: f32,
-}
-
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> maps: array<RsmLight>;
 @group(0) @binding(11) var<storage, read_write> slots: array<Vpl>;

@@ -33,6 +33,30 @@ fn cluster_stage(c: &mut Criterion) {
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
         }
     }
+    // --vpl-cluster rsm at the paper's Table 1 sizes (RSM 128² with 256 and 1,024 clusters, 256²
+    // with 1,024), the Cornell box's shadow-map VPLs, 10 iterations, the paper's Cornell weights.
+    let cs = vplgi_benches::cpu_scene();
+    let table1: [(&str, u32, u32); 3] = if vplgi_benches::smoke() {
+        [("16-16", 16, 16), ("16-64", 16, 64), ("32-64", 32, 64)]
+    } else {
+        [("128-256", 128, 256), ("128-1024", 128, 1024), ("256-1024", 256, 1024)]
+    };
+    for (name, size, k) in table1 {
+        let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, size, &vplgi_cpu::NoProgress).vpls;
+        let maps = cs.lights.rsm_maps(size);
+        let params = vplgi_types::rsm::RsmClusterParams { k, iterations: 10, weights: Default::default(), extent: cs.extent };
+        group.bench_function(BenchmarkId::new("cpu-rsm", name), |b| b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params).k()));
+        if let Some(g) = &gpu {
+            let kernel = vplgi_gpu::rsm_cluster::RsmClusterKernel::new(&g.ctx.device).expect("rsm_cluster pipelines");
+            let buf =
+                vplgi_gpu::trace_vpls::GpuVpls { buffer: vplgi_gpu::buffers::storage(&g.ctx.device, "vpls", &vpls), count: vpls.len() as u32, particles: 0 };
+            let run = || {
+                kernel.run(&g.ctx.device, &g.ctx.queue, &buf, vpls.len() as u32, &maps, &params).expect("rsm_cluster");
+            };
+            run();
+            group.bench_function(BenchmarkId::new("gpu-rsm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
+        }
+    }
     let (n, k, iterations) = kmeans_size();
     let (ps, ns, params) = kmeans_problem(n, k, iterations);
     group.bench_function(BenchmarkId::new("cpu", "kmeans"), |b| b.iter(|| cluster(&ps, &ns, &params).k()));

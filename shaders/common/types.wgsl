@@ -28,6 +28,20 @@ struct VplLight {
     flux: vec4<f32>,
 }
 
+// One light's reflective shadow map (vplgi_types::rsm::RsmLight).
+struct RsmLight {
+    origin: vec3<f32>,
+    kind: u32,
+    e1: vec3<f32>,
+    size: u32,
+    e2: vec3<f32>,
+    first: u32,
+    axis: vec3<f32>,
+    cos_inner: f32,
+    power: vec3<f32>,
+    cos_outer: f32,
+}
+
 // A surface point at one end of a shadow ray.
 struct Endpoint {
     position: vec4<f32>,

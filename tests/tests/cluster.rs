@@ -124,3 +124,25 @@ fn cluster_end_to_end_matches_the_cpu() {
         assert_eq!(gr, cpu.representatives);
     }
 }
+
+proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// The RSM-space clustering (`--vpl-cluster rsm`) of random scenes' shadow-map VPLs, any map
+    /// size, K, iteration count and Eq. 1 weights, whole on both backends: the SPEC's assignment
+    /// row (same clusters) and update row (centres within 1e-6 of the scene's diagonal), measured
+    /// by `vplgi verify`'s comparison.
+    #[test]
+    fn rsm_cluster_matches_the_cpu_on_random_scenes(
+        scene in vplgi_tests::inputs::random_scene(),
+        (rsm_size, k_vpl, iterations) in (8u32..64, 1u32..300, 0u32..8),
+        (wd, wn, wphi) in (0f32..4.0, 0f32..20.0, 0f32..20.0),
+    ) {
+        let Some(gpu) = vplgi_tests::shared_gpu("rsm_cluster_matches_the_cpu_on_random_scenes") else { return Ok(()) };
+        let weights = vplgi_types::rsm::RsmWeights { position: wd, normal: wn, flux: wphi + 0.01 };
+        let cfg = vplgi_types::FrameConfig { rsm_size, k_vpl, iterations, rsm_weights: weights, ..vplgi_types::FrameConfig::verify() };
+        println!("{}: --rsm-size {rsm_size}, K {k_vpl}, {iterations} iterations, weights {wd},{wn},{}", scene.name, wphi + 0.01);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::cluster::compare_rsm(t, &cfg)).expect("GPU");
+        vplgi_tests::hold(&checks)?;
+    }
+}

@@ -8,7 +8,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplSource};
+use vplgi_types::rsm::RsmWeights;
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplClustering, VplSource};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -108,6 +109,29 @@ pub struct FrameArgs {
     #[arg(long, value_name = "N")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rsm_size: Option<u32>,
+    /// How VPLs are clustered: the core paper's k-means with Eq. 7, or Prutkin et al.'s
+    /// k-means in shadow-map space with their Eq. 1 (each light's map on its own; needs
+    /// --vpl-source rsm).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vpl_cluster: Option<VplClustering>,
+    /// With --vpl-cluster rsm: Eq. 1's weights of position (squared distance in scene
+    /// diagonals), normal (1 - cos) and flux colour. The paper uses 1,10,0 for the Cornell box
+    /// (the default) and 1,1,10 for scenes with fine colour detail.
+    #[arg(long, value_name = "WD,WN,WPHI", value_parser = parse_weights)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rsm_weights: Option<RsmWeights>,
+}
+
+/// `--rsm-weights 1,10,0`.
+fn parse_weights(s: &str) -> Result<RsmWeights, String> {
+    let w: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    let [position, normal, flux] = w[..] else {
+        return Err(format!("three comma-separated weights WD,WN,WPHI, got {}", w.len()));
+    };
+    let weights = RsmWeights { position, normal, flux };
+    weights.validate()?;
+    Ok(weights)
 }
 
 /// How a subcommand uses the frame options.

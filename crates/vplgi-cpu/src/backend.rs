@@ -3,6 +3,7 @@
 
 use crate::bias_points::bias_points;
 use crate::cluster::{cluster, Clustering};
+use crate::rsm_cluster::rsm_cluster;
 use crate::rsm_vpls::rsm_vpls;
 use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
 use crate::shading_points::shading_points_of;
@@ -13,6 +14,7 @@ use glam::Vec3;
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::{BiasParams, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
@@ -86,6 +88,12 @@ impl Backend for CpuScene<'_> {
         let c = cluster(&pos, &nor, params);
         let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32 };
         Ok((c, counts))
+    }
+
+    fn rsm_cluster(&self, vpls: &Vec<Vpl>, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {
+        let c = rsm_cluster(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), params);
+        let k = c.k() as u32;
+        Ok((c, ClusterCounts { k, ..Default::default() }))
     }
 
     fn representatives(&self, c: &Clustering, _k: u32, points: &Vec<Endpoint>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {

@@ -26,22 +26,9 @@
 use crate::cluster::Clustering;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use vplgi_types::rsm::{self, RsmLight, RsmWeights};
+pub use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::rsm::{self, RsmLight, RsmWeights, NEIGHBOURHOOD};
 use vplgi_types::{Vpl, MISS};
-
-/// Parameters of the RSM-space clustering.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RsmClusterParams {
-    /// About this many clusters over all maps.
-    pub k: u32,
-    pub iterations: u32,
-    pub weights: RsmWeights,
-    /// The scene's bounding-box diagonal: positions enter Eq. 1 in its units.
-    pub extent: f32,
-}
-
-/// How far (in grid cells, Chebyshev) a VPL looks for clusters: the paper's r = 2.
-pub const NEIGHBOURHOOD: i32 = 2;
 
 /// One cluster's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -190,9 +177,8 @@ pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams) -
             let grid = ((k as f64).sqrt().ceil() as i32).max(1);
             let mut mc = MapClusters { vpls, map, grid, states: Vec::with_capacity(k as usize) };
             for s in 1..=k {
-                let (hx, hy) = (rsm::halton(s, 2), rsm::halton(s, 3));
-                let n = map.size;
-                let t = ((hy * n as f32) as u32).min(n - 1) * n + ((hx * n as f32) as u32).min(n - 1);
+                let (x, y) = rsm::halton_texel(s, map.size);
+                let t = y * map.size + x;
                 let v = &vpls[vpl_at_or_after(vpls, map, t)];
                 mc.states.push(State { centre: v.position.into(), normal: v.normal.into(), chroma: rsm::chroma(v.flux.into()), texel: mc.texel(v) });
             }

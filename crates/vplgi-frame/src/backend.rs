@@ -5,6 +5,7 @@
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
@@ -129,6 +130,10 @@ pub trait Backend {
 
     /// Stage 3: Alg. 1 and 2 over `n` points.
     fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+
+    /// Stage 3 with `--vpl-cluster rsm`: the `n` VPLs of `rsm_vpls` (maps of budget `rsm_size`)
+    /// clustered in reflective-shadow-map space.
+    fn rsm_cluster(&self, vpls: &Self::Vpls, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
 
     /// Each cluster's representative member, as surface points.
     fn representatives(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32) -> Result<Self::Points, Self::Error>;

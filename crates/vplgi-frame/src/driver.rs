@@ -5,7 +5,7 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig, ShadeParams, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, ShadeParams, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -76,8 +76,10 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         stats.shading_point_hits = n_hits;
         let n_vpls = counts.vpls;
         let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
-            let points = b.vpl_points(&vpls, n_vpls)?;
-            let (c, k) = b.cluster(&points, n_vpls, &cfg.vpl_cluster_params())?;
+            let (c, k) = match cfg.vpl_cluster {
+                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params())?,
+                VplClustering::Rsm => b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent))?,
+            };
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
             (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters { clusters: &c, k: k.k, shape: cfg.light_shape })?, k.k)
         } else {

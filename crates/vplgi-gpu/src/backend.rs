@@ -7,6 +7,7 @@ use crate::bias_points::BiasPointsKernel;
 use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
+use crate::rsm_cluster::RsmClusterKernel;
 use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
@@ -21,6 +22,7 @@ use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
@@ -38,6 +40,7 @@ struct GlueKernels {
 pub struct GpuKernels {
     pub trace: TraceVplsKernel,
     pub rsm: RsmVplsKernel,
+    pub rsm_cluster: RsmClusterKernel,
     pub shading_points: ShadingPointsKernel,
     pub cluster: ClusterKernel,
     pub visibility: VisibilityKernel,
@@ -73,6 +76,7 @@ impl GpuKernels {
         Ok(GpuKernels {
             trace: TraceVplsKernel::new(device)?,
             rsm: RsmVplsKernel::new(device)?,
+            rsm_cluster: RsmClusterKernel::new(device)?,
             shading_points: ShadingPointsKernel::new(device)?,
             cluster: ClusterKernel::new(device)?,
             visibility: VisibilityKernel::new(device)?,
@@ -267,6 +271,11 @@ impl Backend for GpuBackend<'_> {
         let [_, widened, incompatible] = self.kernels.cluster.outcome_counts(self.device, self.queue, &c.outcome, n)?;
         let counts = ClusterCounts { k: c.k, widened: widened + incompatible };
         Ok((c, counts))
+    }
+
+    fn rsm_cluster(&self, vpls: &GpuVpls, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let (c, k) = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params)?;
+        Ok((c, ClusterCounts { k, ..Default::default() }))
     }
 
     fn representatives(&self, c: &GpuClustering, k: u32, points: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {

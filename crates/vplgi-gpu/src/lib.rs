@@ -18,6 +18,7 @@ pub mod cluster;
 pub mod context;
 pub mod lights;
 pub mod rng;
+pub mod rsm_cluster;
 pub mod rsm_vpls;
 pub mod scan;
 pub mod scene;

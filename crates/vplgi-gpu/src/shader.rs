@@ -53,6 +53,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         include_str!("../../../shaders/rsm_vpls.wgsl"),
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
+    ("rsm_cluster.wgsl", include_str!("../../../shaders/rsm_cluster.wgsl"), &["common/types.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl", "common/scene.wgsl"]),
     ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
     ("cluster_occupancy.wgsl", include_str!("../../../shaders/cluster_occupancy.wgsl"), CLUSTER),
@@ -470,6 +471,9 @@ mod tests {
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
             [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
             [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
+            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent }
+            [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first }
+            [crate::rsm_cluster::ClusterState] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
         };
         for row in table {
             let (size, members) = wgsl_layout(row.stage, row.wgsl);

@@ -67,6 +67,19 @@ pub enum VplSource {
     Rsm,
 }
 
+/// How VPLs are clustered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum VplClustering {
+    /// The core paper's k-means with Eq. 7 over positions and normals (`cluster`).
+    #[default]
+    Eq7,
+    /// Prutkin et al.'s k-means in reflective-shadow-map space with the metric μ of their Eq. 1
+    /// (`rsm_cluster`); needs `--vpl-source rsm`.
+    Rsm,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -152,6 +165,12 @@ pub struct FrameConfig {
     /// all lights, each light's map sized by its power.
     #[serde(default = "default_rsm_size")]
     pub rsm_size: u32,
+    /// How VPLs are clustered (where they are: `cluster` vpl or both).
+    #[serde(default)]
+    pub vpl_cluster: VplClustering,
+    /// With `VplClustering::Rsm`: the weights of Eq. 1 (position, normal, flux colour).
+    #[serde(default)]
+    pub rsm_weights: crate::rsm::RsmWeights,
 }
 
 /// The paper's Cornell-box RSM (Table 1): 128².
@@ -188,6 +207,8 @@ impl FrameConfig {
             light_shape: LightShape::Point,
             vpl_source: VplSource::Paths,
             rsm_size: default_rsm_size(),
+            vpl_cluster: VplClustering::Eq7,
+            rsm_weights: crate::rsm::RsmWeights::default(),
         }
     }
 
@@ -251,6 +272,12 @@ impl FrameConfig {
     /// The parameters of `trace_vpls`.
     pub fn trace_params(&self) -> crate::TraceParams {
         crate::TraceParams { seed: self.seed, count: self.vpls, bounces: self.bounces }
+    }
+
+    /// The RSM-space clustering of the VPLs (`VplClustering::Rsm`) in a scene of diagonal
+    /// `extent`: K_VPL clusters, the frame's iterations and Eq. 1's weights.
+    pub fn rsm_cluster_params(&self, extent: f32) -> crate::rsm::RsmClusterParams {
+        crate::rsm::RsmClusterParams { k: self.k_vpl, iterations: self.iterations, weights: self.rsm_weights, extent }
     }
 
     /// The parameters of `shading_points`.
@@ -321,6 +348,12 @@ impl FrameConfig {
                 return Err(format!("rsm-size must be between 1 and {MAX_RSM_SIZE} texels per side (got {})", self.rsm_size));
             }
         }
+        if self.vpl_cluster == VplClustering::Rsm {
+            if self.vpl_source != VplSource::Rsm {
+                return Err("vpl-cluster rsm clusters VPLs by their shadow-map texels: it needs --vpl-source rsm".into());
+            }
+            self.rsm_weights.validate()?;
+        }
         if self.light_shape == LightShape::Disk && self.cluster.clusters_vpls() && self.bias_compensation {
             return Err("bias compensation puts back what the clamp takes from point lights, and disk lights have no clamp: use one or the other".into());
         }
@@ -366,6 +399,12 @@ mod tests {
         })
         .contains("bias compensation"));
         assert!(bad(|c| c.vpl_source = VplSource::Rsm).contains("--bounces 1"));
+        assert!(bad(|c| c.vpl_cluster = VplClustering::Rsm).contains("--vpl-source rsm"));
+        assert!(bad(|c| {
+            (c.vpl_cluster, c.vpl_source, c.bounces) = (VplClustering::Rsm, VplSource::Rsm, 1);
+            c.rsm_weights.normal = -1.0;
+        })
+        .contains("rsm-weights"));
         assert!(bad(|c| {
             c.vpl_source = VplSource::Rsm;
             c.bounces = 1;

@@ -225,6 +225,20 @@ impl RsmWeights {
     }
 }
 
+/// Parameters of the RSM-space clustering (`--vpl-cluster rsm`), the same for every backend.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RsmClusterParams {
+    /// About this many clusters over all maps.
+    pub k: u32,
+    pub iterations: u32,
+    pub weights: RsmWeights,
+    /// The scene's bounding-box diagonal: positions enter Eq. 1 in its units.
+    pub extent: f32,
+}
+
+/// How far (in grid cells, Chebyshev) a VPL looks for clusters: the paper's r = 2.
+pub const NEIGHBOURHOOD: i32 = 2;
+
 /// Φ / |Φ| (the RGB vector's Euclidean norm): hue and saturation without brightness; 0 for black.
 pub fn chroma(flux: Vec3) -> Vec3 {
     let len = flux.length();
@@ -251,6 +265,25 @@ pub fn halton(mut i: u32, base: u32) -> f32 {
         i /= base;
     }
     r as f32
+}
+
+/// Digits of the Halton points behind [`halton_texel`]: 20 in base 2, 12 in base 3 (3^12 <
+/// 2^20), so that a coordinate times a map side of at most 4096 fits 32 bits.
+const HALTON_BITS: u32 = 20;
+const HALTON_3_DIGITS: u32 = 12;
+const THREE_TO_THE_DIGITS: u32 = 531_441;
+
+/// The texel (x, y) of an `n` × `n` map under point `i` of the 2-D Halton sequence (bases 2 and
+/// 3), floor(n · h): integer arithmetic only, so every backend picks the same texel. The points
+/// keep their first 20 binary and 12 ternary digits (distinct for i < 531,441).
+pub fn halton_texel(i: u32, n: u32) -> (u32, u32) {
+    let x2 = i.reverse_bits() >> (32 - HALTON_BITS);
+    let (mut x3, mut j) = (0u32, i);
+    for _ in 0..HALTON_3_DIGITS {
+        x3 = x3 * 3 + j % 3;
+        j /= 3;
+    }
+    (((x2 as u64 * n as u64) >> HALTON_BITS) as u32, (x3 as u64 * n as u64 / THREE_TO_THE_DIGITS as u64) as u32)
 }
 
 /// K clusters shared among maps in proportion to their VPLs: map m gets round(K v_m / V),
@@ -296,6 +329,15 @@ mod tests {
         let h3: Vec<f32> = (1..=4).map(|i| halton(i, 3)).collect();
         assert_eq!(h2, [0.5, 0.25, 0.75, 0.125]);
         assert_eq!(h3, [1.0 / 3.0, 2.0 / 3.0, 1.0 / 9.0, 4.0 / 9.0]);
+        for n in [1u32, 7, 128, 4096] {
+            for i in 1..2000u32 {
+                let (x, y) = halton_texel(i, n);
+                let (fx, fy) = ((halton(i, 2) as f64 * n as f64).floor() as u32, (halton(i, 3) as f64 * n as f64).floor() as u32);
+                // The truncated digits can only move a point down across a texel edge.
+                assert!(x == fx && (y == fy || y + 1 == fy), "i {i}, n {n}: ({x}, {y}) vs ({fx}, {fy})");
+                assert!(x < n && y < n);
+            }
+        }
         assert_eq!(clusters_per_map(&[300, 100, 0, 1], 8), vec![6, 2, 0, 1]);
         assert_eq!(clusters_per_map(&[5], 100), vec![5], "never more clusters than VPLs");
         assert_eq!(clusters_per_map(&[0, 0], 10), vec![0, 0]);

@@ -3,7 +3,7 @@
 //! update bit-identical; >= 99.9 % identical F-index sets, weights within 1e-5 summing to 1).
 
 use crate::inputs::CpuFrame;
-use crate::tolerance::{Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, UPDATE_DIFFERING_CENTROIDS};
+use crate::tolerance::{Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, UPDATE_DIFFERING_CENTROIDS};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
@@ -200,6 +200,59 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
             r.checks.push(d.with_case(&whole));
         }
     }
+    r.checks.extend(compare_rsm(twins, cfg)?);
     r.notes.push("centroids come from a CPU clustering of the same points; assignment is compared on the CPU's grid, the update on the CPU's labels".into());
+    r.notes.push(
+        "the RSM-space clustering (--vpl-cluster rsm) runs whole on both backends from the CPU's shadow-map VPLs of --rsm-size: labels judged by the \
+         assignment row, centres by the update row relative to the scene's diagonal (float sums in the same order on both)"
+            .into(),
+    );
     Ok(r)
+}
+
+/// The RSM-space clustering of the CPU's shadow-map VPLs (`--rsm-size`) on both backends, whole:
+/// the share of VPLs with the same cluster (the assignment row) and the largest distance between
+/// the two backends' centres over the scene's diagonal (the update row, 1e-6 relative).
+pub fn compare_rsm(twins: &Twins, cfg: &FrameConfig) -> Result<Vec<Disagreement>, VerifyError> {
+    let (device, queue) = (twins.device(), twins.queue());
+    let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls;
+    if vpls.is_empty() {
+        return Ok(Vec::new());
+    }
+    let maps = twins.cpu.lights.rsm_maps(cfg.rsm_size);
+    let params = cfg.rsm_cluster_params(twins.cpu.extent);
+    let cpu = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params);
+    let n = vpls.len() as u32;
+    let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
+    let (g, kept) = twins.gpu.kernels().rsm_cluster.run(device, queue, &gv, n, &maps, &params)?;
+    let labels: Vec<u32> = read_back(device, queue, &g.labels, vpls.len())?;
+    let centres: Vec<Endpoint> = read_back(device, queue, &g.centroids, kept as usize)?;
+    let same = (0..vpls.len()).filter(|&i| labels[i] == cpu.hard_label(i)).count();
+    let first_other =
+        (0..vpls.len()).find(|&i| labels[i] != cpu.hard_label(i)).map(|i| format!("VPL {i}: CPU cluster {}, GPU cluster {}", cpu.hard_label(i), labels[i]));
+    let mut worst = (0.0f64, None);
+    for (j, (a, b)) in cpu.positions.iter().zip(&centres).enumerate() {
+        let d = (a.distance(Vec3::from(b.position)) / twins.cpu.extent) as f64;
+        if d > worst.0 || d.is_nan() {
+            worst = (d, Some(format!("cluster {j}: CPU {}, GPU {}", v3(a.to_array()), v3(b.position))));
+        }
+    }
+    let w = cfg.rsm_weights;
+    let case = format!(
+        "--rsm-size {}: {} VPLs, K = {} ({} kept on the CPU, {kept} on the GPU), weights {},{},{}",
+        cfg.rsm_size,
+        count(vpls.len()),
+        cfg.k_vpl,
+        cpu.k(),
+        w.position,
+        w.normal,
+        w.flux
+    );
+    Ok(vec![
+        Disagreement::at_least("cluster (rsm)", "share of VPLs in the same cluster", same as f64 / vpls.len() as f64, ASSIGN_SAME_LABELS)
+            .with_case(&case)
+            .with_worst(first_other),
+        Disagreement::at_most("cluster (rsm)", "clusters kept, |CPU - GPU|", cpu.k().abs_diff(kept as usize) as f64, 0.0).with_case(&case),
+        Disagreement::at_most("cluster (rsm)", "largest centre distance over the scene diagonal", worst.0, RSM_UPDATE_REL).with_case(&case).with_worst(worst.1),
+    ])
 }

@@ -4,7 +4,7 @@ use glam::Vec3;
 use vplgi_cpu::cluster::{cluster, Clustering};
 use vplgi_cpu::shade::VplLight;
 use vplgi_cpu::CpuScene;
-use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, VplSource, MISS};
+use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
 
 /// Points as clustering takes them: positions and normals.
 pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
@@ -64,10 +64,13 @@ pub struct CpuClusters {
 }
 
 impl CpuClusters {
-    pub fn new(frame: &CpuFrame, cfg: &FrameConfig) -> CpuClusters {
-        let vpl_clusters = (cfg.cluster.clusters_vpls() && !frame.vpls.is_empty()).then(|| {
-            let (p, n) = frame.vpl_points();
-            cluster(&p, &n, &cfg.vpl_cluster_params())
+    pub fn new(cs: &CpuScene, frame: &CpuFrame, cfg: &FrameConfig) -> CpuClusters {
+        let vpl_clusters = (cfg.cluster.clusters_vpls() && !frame.vpls.is_empty()).then(|| match cfg.vpl_cluster {
+            VplClustering::Eq7 => {
+                let (p, n) = frame.vpl_points();
+                cluster(&p, &n, &cfg.vpl_cluster_params())
+            }
+            VplClustering::Rsm => vplgi_cpu::rsm_cluster::rsm_cluster(&frame.vpls, &cs.lights.rsm_maps(cfg.rsm_size), &cfg.rsm_cluster_params(cs.extent)),
         });
         let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
         let cols = lights.iter().map(VplLight::endpoint).collect();

@@ -141,7 +141,7 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, I
 
 /// [`compare`] on the CPU's stages 1 and 2 already made (they do not depend on the mode).
 fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
-    let clusters = CpuClusters::new(frame, cfg);
+    let clusters = CpuClusters::new(twins.cpu, frame, cfg);
     let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, |_| true);
     let case = Mode::of(cfg).name();

@@ -27,6 +27,9 @@ pub const BIAS_POINTS_WEIGHT_ABS: f64 = 1e-5;
 pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
 /// Centroid update given the same labels: bit-identical (integer sums): no differing centroid.
 pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
+/// The RSM-space centroid update (`--vpl-cluster rsm`): float sums in the same order on both
+/// backends, so the SPEC's "else 1e-6 relative", relative to the scene's diagonal.
+pub const RSM_UPDATE_REL: f64 = 1e-6;
 /// Fuzzy assignment: at least this share of points with identical F-index sets.
 pub const FUZZY_SAME_SETS: f64 = 0.999;
 /// Fuzzy assignment: weights within this, absolute, and summing to 1 within this.

@@ -87,7 +87,7 @@ pub fn compare(twins: &Twins, obvhs: &ObvhsScene, rows: &[Endpoint], cols: &[End
 pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Visibility);
     let frame = CpuFrame::new(twins.cpu, cfg);
-    let clusters = CpuClusters::new(&frame, cfg);
+    let clusters = CpuClusters::new(twins.cpu, &frame, cfg);
     let max_rows = (MAX_PAIRS / clusters.cols.len().max(1)).max(1);
     let rows = sample_rows(&clusters.rows, max_rows);
     let case = format!("{} rows x {} columns", count(rows.len()), count(clusters.cols.len()));

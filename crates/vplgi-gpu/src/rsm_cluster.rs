@@ -1,0 +1,272 @@
+//! VPL clustering in reflective-shadow-map space on the GPU (`shaders/rsm_cluster.wgsl`), the
+//! twin of `vplgi_cpu::rsm_cluster::rsm_cluster`: the same seeds, the same Eq. 1 search over the
+//! 5 × 5 cells around each VPL, a stable radix sort of the VPLs by cluster (one bit per pass,
+//! each a scan), and each cluster's update summed over its contiguous members in the CPU's
+//! order. Two read-backs: each map's first VPL (to share K among the maps on the host) and the
+//! number of clusters kept.
+
+use crate::buffers::{dispatch_bound, kernel_params, read_back, read_word, storage, storage_zeroed};
+use crate::cluster::GpuClustering;
+use crate::context::validated;
+use crate::scan::ScanKernel;
+use crate::shader::pipelines;
+use crate::trace_vpls::GpuVpls;
+use crate::GpuError;
+use bytemuck::{Pod, Zeroable};
+use vplgi_types::rsm::{self, RsmClusterParams, RsmLight};
+use vplgi_types::Endpoint;
+
+#[repr(C)]
+#[derive(Clone, Copy, Default, Pod, Zeroable)]
+pub(crate) struct Params {
+    pub(crate) n: u32,
+    pub(crate) maps: u32,
+    pub(crate) k: u32,
+    pub(crate) bit: u32,
+    pub(crate) w_position: f32,
+    pub(crate) w_normal: f32,
+    pub(crate) w_flux: f32,
+    pub(crate) inv_extent: f32,
+}
+
+/// `MapInfo` of `rsm_cluster.wgsl`: one map's VPLs, clusters and grid cells.
+#[repr(C)]
+#[derive(Clone, Copy, Default, Pod, Zeroable)]
+pub(crate) struct MapInfo {
+    pub(crate) vpl_start: u32,
+    pub(crate) vpl_end: u32,
+    pub(crate) cluster_first: u32,
+    pub(crate) k: u32,
+    pub(crate) grid: u32,
+    pub(crate) cell_first: u32,
+    pub(crate) pad: [u32; 2],
+}
+
+/// `ClusterState` of `rsm_cluster.wgsl` (centre, texel x, normal, texel y, chroma, map).
+#[repr(C)]
+#[derive(Clone, Copy, Default, Pod, Zeroable)]
+pub(crate) struct ClusterState {
+    pub(crate) centre: [f32; 3],
+    pub(crate) texel_x: f32,
+    pub(crate) normal: [f32; 3],
+    pub(crate) texel_y: f32,
+    pub(crate) chroma: [f32; 3],
+    pub(crate) map: u32,
+}
+
+pub struct RsmClusterKernel {
+    map_starts: wgpu::ComputePipeline,
+    seed: wgpu::ComputePipeline,
+    grid_count: wgpu::ComputePipeline,
+    grid_fill: wgpu::ComputePipeline,
+    assign: wgpu::ComputePipeline,
+    radix_flags: wgpu::ComputePipeline,
+    radix_scatter: wgpu::ComputePipeline,
+    ranges: wgpu::ComputePipeline,
+    update: wgpu::ComputePipeline,
+    representatives: wgpu::ComputePipeline,
+    compact_clusters: wgpu::ComputePipeline,
+    compact_labels: wgpu::ComputePipeline,
+    scan: ScanKernel,
+}
+
+impl RsmClusterKernel {
+    pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
+        let scan = ScanKernel::new(device)?;
+        validated(device, "rsm_cluster pipelines", || {
+            let names = [
+                "map_starts",
+                "seed",
+                "grid_count",
+                "grid_fill",
+                "assign",
+                "radix_flags",
+                "radix_scatter",
+                "cluster_ranges",
+                "update",
+                "representatives",
+                "compact_clusters",
+                "compact_labels",
+            ];
+            let mut p = pipelines(device, "rsm_cluster.wgsl", &names).into_iter();
+            let mut next = || p.next().expect("one pipeline per entry point");
+            RsmClusterKernel {
+                map_starts: next(),
+                seed: next(),
+                grid_count: next(),
+                grid_fill: next(),
+                assign: next(),
+                radix_flags: next(),
+                radix_scatter: next(),
+                ranges: next(),
+                update: next(),
+                representatives: next(),
+                compact_clusters: next(),
+                compact_labels: next(),
+                scan,
+            }
+        })
+    }
+
+    /// Clusters the `n` VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order).
+    pub fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        vpls: &GpuVpls,
+        n: u32,
+        maps: &[RsmLight],
+        p: &RsmClusterParams,
+    ) -> Result<(GpuClustering, u32), GpuError> {
+        let empty = || GpuClustering {
+            centroids: storage_zeroed::<Endpoint>(device, "rsm centroids", 1),
+            k: 0,
+            f: 1,
+            labels: storage_zeroed::<u32>(device, "rsm labels", n.max(1) as usize),
+            weights: storage(device, "rsm weights", &vec![1.0f32; n.max(1) as usize]),
+            representatives: storage_zeroed::<u32>(device, "rsm representatives", 1),
+            outcome: storage_zeroed::<u32>(device, "rsm outcome", n.max(1) as usize),
+        };
+        if n == 0 || p.k == 0 || maps.is_empty() {
+            return Ok((empty(), 0));
+        }
+        let m = maps.len() as u32;
+        let groups = |count: u32| count.div_ceil(64);
+        let mut params = Params {
+            n,
+            maps: m,
+            k: 0,
+            bit: 0,
+            w_position: p.weights.position,
+            w_normal: p.weights.normal,
+            w_flux: p.weights.flux,
+            inv_extent: 1.0 / p.extent.max(f32::MIN_POSITIVE),
+        };
+        let map_buf = storage(device, "rsm maps", maps);
+        let vb = &vpls.buffer;
+
+        // Each map's VPLs, then K shared among the maps and their grids, on the host.
+        let starts = storage_zeroed::<u32>(device, "rsm map starts", m as usize + 1);
+        validated(device, "rsm_cluster map_starts", || {
+            let pb = kernel_params(device, "rsm params", &params);
+            dispatch_bound(device, queue, &self.map_starts, &[(0, &pb), (1, &map_buf), (3, vb), (13, &starts)], groups(m + 1));
+        })?;
+        let starts: Vec<u32> = read_back(device, queue, &starts, m as usize + 1)?;
+        let per_map = rsm::clusters_per_map(&starts.windows(2).map(|w| w[1] - w[0]).collect::<Vec<u32>>(), p.k);
+        let (mut info, mut k, mut cells) = (Vec::with_capacity(m as usize), 0u32, 0u32);
+        for (i, &km) in per_map.iter().enumerate() {
+            let grid = ((km as f64).sqrt().ceil() as u32).max(1);
+            info.push(MapInfo { vpl_start: starts[i], vpl_end: starts[i + 1], cluster_first: k, k: km, grid, cell_first: cells, pad: [0; 2] });
+            k += km;
+            cells += grid * grid;
+        }
+        if k == 0 {
+            return Ok((empty(), 0));
+        }
+        params.k = k;
+        let info = storage(device, "rsm map info", &info);
+        let states = storage_zeroed::<ClusterState>(device, "rsm cluster states", k as usize);
+        let counts = storage_zeroed::<u32>(device, "rsm counts", cells.max(k) as usize + 1);
+        let offsets = storage_zeroed::<u32>(device, "rsm offsets", n.max(cells).max(k) as usize + 1);
+        let labels = storage_zeroed::<u32>(device, "rsm labels", n as usize);
+        let identity: Vec<u32> = (0..n).collect();
+        let identity = storage(device, "rsm identity", &identity);
+        let sorted = [storage_zeroed::<u32>(device, "rsm order a", n.max(k) as usize), storage_zeroed::<u32>(device, "rsm order b", n.max(k) as usize)];
+        let flags = storage_zeroed::<u32>(device, "rsm flags", n.max(k) as usize);
+        let ranges = storage_zeroed::<[u32; 2]>(device, "rsm ranges", k as usize);
+        let reps = storage_zeroed::<u32>(device, "rsm representatives", k as usize);
+        let pb = kernel_params(device, "rsm params", &params);
+        let zero = |b: &wgpu::Buffer| queue.write_buffer(b, 0, &vec![0u8; b.size() as usize]);
+
+        validated(device, "rsm_cluster seed", || {
+            dispatch_bound(device, queue, &self.seed, &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states)], groups(k));
+        })?;
+        let bits = 32 - (k - 1).leading_zeros();
+        let mut sorted_at = 0usize;
+        for _ in 0..=p.iterations {
+            // The grid: clusters per cell, their offsets, then the cells' items.
+            zero(&counts);
+            validated(device, "rsm_cluster grid_count", || {
+                dispatch_bound(device, queue, &self.grid_count, &[(0, &pb), (1, &map_buf), (2, &info), (4, &states), (5, &counts)], groups(k));
+            })?;
+            self.scan.run(device, queue, &counts, cells, &offsets)?;
+            zero(&counts);
+            validated(device, "rsm_cluster grid_fill + assign", || {
+                let cell_items = &sorted[1];
+                dispatch_bound(
+                    device,
+                    queue,
+                    &self.grid_fill,
+                    &[(0, &pb), (1, &map_buf), (2, &info), (4, &states), (5, &counts), (6, &offsets), (7, cell_items)],
+                    groups(k),
+                );
+                dispatch_bound(
+                    device,
+                    queue,
+                    &self.assign,
+                    &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states), (6, &offsets), (7, cell_items), (8, &labels)],
+                    groups(n),
+                );
+            })?;
+            // Stable radix sort of the VPL indices by label, from the identity.
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("rsm order") });
+            encoder.copy_buffer_to_buffer(&identity, 0, &sorted[0], 0, n as u64 * 4);
+            queue.submit([encoder.finish()]);
+            sorted_at = 0;
+            for bit in 0..bits {
+                let pass = kernel_params(device, "rsm radix params", &Params { bit, ..params });
+                let (from, to) = (&sorted[sorted_at], &sorted[1 - sorted_at]);
+                validated(device, "rsm_cluster radix flags", || {
+                    dispatch_bound(device, queue, &self.radix_flags, &[(0, &pass), (8, &labels), (9, from), (10, &flags)], groups(n));
+                })?;
+                self.scan.run(device, queue, &flags, n, &offsets)?;
+                validated(device, "rsm_cluster radix scatter", || {
+                    dispatch_bound(device, queue, &self.radix_scatter, &[(0, &pass), (6, &offsets), (7, to), (9, from), (10, &flags)], groups(n));
+                })?;
+                sorted_at = 1 - sorted_at;
+            }
+            let order = &sorted[sorted_at];
+            zero(&ranges);
+            validated(device, "rsm_cluster ranges + update", || {
+                dispatch_bound(device, queue, &self.ranges, &[(0, &pb), (8, &labels), (9, order), (11, &ranges)], groups(n));
+                dispatch_bound(device, queue, &self.update, &[(0, &pb), (1, &map_buf), (3, vb), (4, &states), (9, order), (11, &ranges)], groups(k));
+            })?;
+        }
+
+        // Representatives, then the kept clusters renumbered.
+        let order = &sorted[sorted_at];
+        validated(device, "rsm_cluster representatives", || {
+            dispatch_bound(
+                device,
+                queue,
+                &self.representatives,
+                &[(0, &pb), (3, vb), (4, &states), (9, order), (10, &flags), (11, &ranges), (12, &reps)],
+                groups(k),
+            );
+        })?;
+        self.scan.run(device, queue, &flags, k, &offsets)?;
+        let kept = read_word(device, queue, &offsets, k as u64)?;
+        let centroids = storage_zeroed::<Endpoint>(device, "rsm centroids", kept.max(1) as usize);
+        let kept_reps = storage_zeroed::<u32>(device, "rsm kept representatives", kept.max(1) as usize);
+        validated(device, "rsm_cluster compact", || {
+            dispatch_bound(
+                device,
+                queue,
+                &self.compact_clusters,
+                &[(0, &pb), (4, &states), (6, &offsets), (10, &flags), (12, &reps), (14, &centroids), (15, &kept_reps)],
+                groups(k),
+            );
+            dispatch_bound(device, queue, &self.compact_labels, &[(0, &pb), (6, &offsets), (8, &labels)], groups(n));
+        })?;
+        let clustering = GpuClustering {
+            centroids,
+            k: kept,
+            f: 1,
+            labels,
+            weights: storage(device, "rsm weights", &vec![1.0f32; n as usize]),
+            representatives: kept_reps,
+            outcome: storage_zeroed::<u32>(device, "rsm outcome", n as usize),
+        };
+        Ok((clustering, kept))
+    }
+}

@@ -1,0 +1,382 @@
+// VPL clustering in reflective-shadow-map space (vplgi-cpu/src/rsm_cluster.rs; Prutkin et al.
+// 2012, Alg. 1), one kernel per step:
+//   map_starts:  the first VPL of each map (VPLs are in texel order);
+//   seed:        cluster j of map m starts at the VPL at or after Halton texel j - first + 1;
+//   grid_count, grid_fill (around scan.wgsl): the clusters of each cell of each map's grid;
+//   assign:      each VPL's cluster of smallest Eq. 1 within r = 2 cells (ties: lower index);
+//   radix_flags, radix_scatter (around scan.wgsl), one bit per pass: a stable sort of the VPL
+//                indices by cluster, so each cluster's members are contiguous, in texel order;
+//   ranges:      each cluster's run in the sorted order;
+//   update:      each cluster's flux-weighted centre and normal, chroma and map position, summed
+//                over its run in order (the CPU's order: the same float sums);
+//   representatives: each cluster's member nearest its centre (ties: lower index);
+//   kept_flags, compact (around scan.wgsl): empty clusters dropped, labels renumbered.
+
+struct Params {
+    n: u32,           // VPLs
+    maps: u32,
+    k: u32,           // clusters over all maps
+    bit: u32,         // radix pass
+    w_position: f32,
+    w_normal: f32,
+    w_flux: f32,
+    inv_extent: f32,
+}
+
+// One map's share of the VPLs, clusters and grid cells.
+struct MapInfo {
+    vpl_start: u32,
+    vpl_end: u32,
+    cluster_first: u32,
+    k: u32,
+    grid: u32,
+    cell_first: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+struct ClusterState {
+    centre: vec3<f32>,
+    texel_x: f32,
+    normal: vec3<f32>,
+    texel_y: f32,
+    chroma: vec3<f32>,
+    map: u32,
+}
+
+@group(0) @binding(0) var<storage, read> params: Params;
+@group(0) @binding(1) var<storage, read> maps: array<RsmLight>;
+@group(0) @binding(2) var<storage, read> info: array<MapInfo>;
+@group(0) @binding(3) var<storage, read> vpls: array<Vpl>;
+@group(0) @binding(4) var<storage, read_write> states: array<ClusterState>;
+@group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>>;   // per cell; per cursor
+@group(0) @binding(6) var<storage, read> offsets: array<u32>;                // exclusive scans
+@group(0) @binding(7) var<storage, read_write> items: array<u32>;            // cell items; sorted order
+@group(0) @binding(8) var<storage, read_write> labels: array<u32>;
+@group(0) @binding(9) var<storage, read_write> order: array<u32>;            // radix input
+@group(0) @binding(10) var<storage, read_write> flags: array<u32>;
+@group(0) @binding(11) var<storage, read_write> ranges: array<vec2<u32>>;
+@group(0) @binding(12) var<storage, read_write> reps: array<u32>;
+@group(0) @binding(13) var<storage, read_write> starts: array<u32>;
+@group(0) @binding(14) var<storage, read_write> centroids: array<Endpoint>;
+@group(0) @binding(15) var<storage, read_write> kept_reps: array<u32>;
+
+const NEIGHBOURHOOD: i32 = 2;
+
+// rsm::chroma
+fn chroma(flux: vec3<f32>) -> vec3<f32> {
+    let len = length(flux);
+    if (len > 0.0) {
+        return flux / len;
+    }
+    return vec3<f32>(0.0);
+}
+
+// rsm::mu (Eq. 1)
+fn mu(dx: vec3<f32>, np: vec3<f32>, nc: vec3<f32>, cp: vec3<f32>, cc: vec3<f32>) -> f32 {
+    let dc = cp - cc;
+    return params.w_position * dot(dx, dx) + params.w_normal * (1.0 - dot(np, nc)) + params.w_flux * dot(dc, dc);
+}
+
+// The first index in [lo, hi) whose VPL's texel is at or after `t` (VPLs in texel order).
+fn vpl_at_or_after(lo_in: u32, hi_in: u32, t: u32) -> u32 {
+    var lo = lo_in;
+    var hi = hi_in;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (vpls[mid].path < t) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
+// The map of VPL i: the last map whose VPLs start at or before i.
+fn map_of_vpl(i: u32) -> u32 {
+    var lo = 0u;
+    var hi = params.maps;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (info[mid].vpl_start <= i) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return max(lo, 1u) - 1u;
+}
+
+// MapClusters::texel
+fn texel_of(v: Vpl, m: RsmLight) -> vec2<f32> {
+    let k = v.path - m.first;
+    return vec2<f32>(f32(k % m.size) + 0.5, f32(k / m.size) + 0.5);
+}
+
+// MapClusters::cell
+fn cell_of(texel: vec2<f32>, m: RsmLight, grid: u32) -> vec2<i32> {
+    let f = f32(grid) / f32(m.size);
+    let g = i32(grid) - 1;
+    return vec2<i32>(clamp(i32(texel.x * f), 0, g), clamp(i32(texel.y * f), 0, g));
+}
+
+@compute @workgroup_size(64)
+fn map_starts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let m = thread_index(gid, groups);
+    if (m > params.maps) {
+        return;
+    }
+    if (m == params.maps) {
+        starts[m] = params.n;
+        return;
+    }
+    starts[m] = vpl_at_or_after(0u, params.n, maps[m].first);
+}
+
+// rsm::halton_texel
+fn halton_texel(i: u32, n: u32) -> vec2<u32> {
+    let x2 = reverseBits(i) >> 12u;
+    var x3 = 0u;
+    var j = i;
+    for (var d = 0u; d < 12u; d = d + 1u) {
+        x3 = x3 * 3u + j % 3u;
+        j = j / 3u;
+    }
+    // x2 < 2^20 and x3 < 3^12 < 2^20, n <= 4096 = 2^12: the products fit 32 bits.
+    return vec2<u32>((x2 * n) >> 20u, (x3 * n) / 531441u);
+}
+
+@compute @workgroup_size(64)
+fn seed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    // The map of cluster j: the last whose clusters start at or before j (maps without
+    // clusters share the next one's start and come before it).
+    var lo = 0u;
+    var hi = params.maps;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (info[mid].cluster_first <= j) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let mi = max(lo, 1u) - 1u;
+    let mp = info[mi];
+    let m = maps[mi];
+    let h = halton_texel(j - mp.cluster_first + 1u, m.size);
+    var i = vpl_at_or_after(mp.vpl_start, mp.vpl_end, m.first + h.y * m.size + h.x);
+    if (i >= mp.vpl_end) {
+        i = mp.vpl_start;
+    }
+    let v = vpls[i];
+    let t = texel_of(v, m);
+    states[j] = ClusterState(v.position, t.x, v.normal, t.y, chroma(v.flux), mi);
+}
+
+fn cell_index(j: u32) -> u32 {
+    let s = states[j];
+    let mp = info[s.map];
+    let c = cell_of(vec2<f32>(s.texel_x, s.texel_y), maps[s.map], mp.grid);
+    return mp.cell_first + u32(c.y) * mp.grid + u32(c.x);
+}
+
+@compute @workgroup_size(64)
+fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    atomicAdd(&counts[cell_index(j)], 1u);
+}
+
+// `counts` holds zeroed cursors here; the order inside a cell does not matter (assign takes the
+// smallest (μ, index)).
+@compute @workgroup_size(64)
+fn grid_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    let c = cell_index(j);
+    items[offsets[c] + atomicAdd(&counts[c], 1u)] = j;
+}
+
+@compute @workgroup_size(64)
+fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let mi = map_of_vpl(i);
+    let mp = info[mi];
+    let m = maps[mi];
+    let v = vpls[i];
+    let cp = chroma(v.flux);
+    let c = cell_of(texel_of(v, m), m, mp.grid);
+    let g = i32(mp.grid) - 1;
+    let inf = bitcast<f32>(0x7f800000u);
+    var best_mu = inf;
+    var best = MISS;
+    for (var y = max(c.y - NEIGHBOURHOOD, 0); y <= min(c.y + NEIGHBOURHOOD, g); y = y + 1) {
+        for (var x = max(c.x - NEIGHBOURHOOD, 0); x <= min(c.x + NEIGHBOURHOOD, g); x = x + 1) {
+            let cell = mp.cell_first + u32(y) * mp.grid + u32(x);
+            for (var t = offsets[cell]; t < offsets[cell + 1u]; t = t + 1u) {
+                let j = items[t];
+                let s = states[j];
+                let d = mu((v.position - s.centre) * params.inv_extent, v.normal, s.normal, cp, s.chroma);
+                if (d < best_mu || (d == best_mu && j < best)) {
+                    best_mu = d;
+                    best = j;
+                }
+            }
+        }
+    }
+    if (best == MISS) {
+        for (var j = mp.cluster_first; j < mp.cluster_first + mp.k; j = j + 1u) {
+            let s = states[j];
+            let d = mu((v.position - s.centre) * params.inv_extent, v.normal, s.normal, cp, s.chroma);
+            if (d < best_mu || best == MISS) {
+                best_mu = d;
+                best = j;
+            }
+        }
+    }
+    labels[i] = best;
+}
+
+// Radix pass over bit `params.bit`: 1 where the label of the VPL at sorted position i has it
+// clear (those go first, in order).
+@compute @workgroup_size(64)
+fn radix_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    flags[i] = select(0u, 1u, ((labels[order[i]] >> params.bit) & 1u) == 0u);
+}
+
+@compute @workgroup_size(64)
+fn radix_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let zeros = offsets[i];
+    var dst = zeros;
+    if (flags[i] == 0u) {
+        dst = offsets[params.n] + (i - zeros);
+    }
+    items[dst] = order[i];
+}
+
+// `ranges` zeroed before: empty clusters keep (0, 0).
+@compute @workgroup_size(64)
+fn cluster_ranges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let l = labels[order[i]];
+    if (i == 0u || labels[order[i - 1u]] != l) {
+        ranges[l].x = i;
+    }
+    if (i + 1u == params.n || labels[order[i + 1u]] != l) {
+        ranges[l].y = i + 1u;
+    }
+}
+
+// MapClusters::update for one cluster, over its members in sorted order.
+@compute @workgroup_size(64)
+fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    let r = ranges[j];
+    if (r.y <= r.x) {
+        return;
+    }
+    var s = states[j];
+    let m = maps[s.map];
+    var weight = 0.0;
+    var centre = vec3<f32>(0.0);
+    var normal = vec3<f32>(0.0);
+    var flux = vec3<f32>(0.0);
+    var texel = vec2<f32>(0.0);
+    for (var t = r.x; t < r.y; t = t + 1u) {
+        let v = vpls[order[t]];
+        let w = v.flux.x + v.flux.y + v.flux.z;
+        weight = weight + w;
+        centre = centre + v.position * w;
+        normal = normal + v.normal * w;
+        flux = flux + v.flux;
+        texel = texel + texel_of(v, m);
+    }
+    if (weight > 0.0) {
+        s.centre = centre / weight;
+    }
+    // glam's try_normalize: times the reciprocal length, if that is finite and positive.
+    let rcp = 1.0 / length(normal);
+    let inf = bitcast<f32>(0x7f800000u);
+    if (rcp > 0.0 && rcp < inf) {
+        s.normal = normal * rcp;
+    }
+    s.chroma = chroma(flux);
+    let members = f32(r.y - r.x);
+    s.texel_x = texel.x / members;
+    s.texel_y = texel.y / members;
+    states[j] = s;
+}
+
+@compute @workgroup_size(64)
+fn representatives(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    let r = ranges[j];
+    let c = states[j].centre;
+    let inf = bitcast<f32>(0x7f800000u);
+    var best_d = inf;
+    var best = MISS;
+    // Members in ascending VPL order: the first of equal distances is the lowest index.
+    for (var t = r.x; t < r.y; t = t + 1u) {
+        let i = order[t];
+        let d = dot(vpls[i].position - c, vpls[i].position - c);
+        if (d < best_d) {
+            best_d = d;
+            best = i;
+        }
+    }
+    reps[j] = best;
+    flags[j] = select(0u, 1u, r.y > r.x);
+}
+
+// The kept clusters renumbered by the scan of `flags`: their centroids and representatives in
+// order, and every VPL's label.
+@compute @workgroup_size(64)
+fn compact_clusters(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let j = thread_index(gid, groups);
+    if (j >= params.k) {
+        return;
+    }
+    if (flags[j] == 1u) {
+        let s = states[j];
+        centroids[offsets[j]] = Endpoint(vec4<f32>(s.centre, 0.0), vec4<f32>(s.normal, 0.0));
+        kept_reps[offsets[j]] = reps[j];
+    }
+}
+
+@compute @workgroup_size(64)
+fn compact_labels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    labels[i] = offsets[labels[i]];
+}
