@@ -12,6 +12,8 @@ struct Params {
     pad1: u32,
     pad2: u32,
 }
+// cluster_lights reads VPLs first .. hit_first of a pass (a range: see GpuBackend::vpl_lights),
+// pass hit_count: 0 the sums, 1 the disk's spread.
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> sps: array<ShadingPoint>;
@@ -23,6 +25,8 @@ struct Params {
 @group(0) @binding(7) var<storage, read> labels: array<u32>;
 @group(0) @binding(8) var<storage, read> reps: array<u32>;
 @group(0) @binding(9) var<storage, read_write> lights: array<VplLight>;
+// cluster_lights' running sums per cluster: (flux, weight), (weighted position, spread).
+@group(0) @binding(10) var<storage, read_write> light_sums: array<vec4<f32>>;
 
 // 1 for a shading point that hit a surface (sps holds a chunk of samples from params.first).
 @compute @workgroup_size(64)
@@ -80,41 +84,80 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 }
 
 // One light per VPL cluster: its representative, carrying the members' flux summed in VPL
-// order (the CPU's order, so the sums agree bit for bit). O(K N), simple and deterministic.
+// order (the CPU's order, so the sums agree bit for bit). O(K N), simple and deterministic; the
+// VPLs are read in ranges, each dispatch continuing the running sums of the one before (the
+// same sequential sums, cut: lavapipe stops an invocation's loops after 65,535 iterations).
 // Disk lights (vplgi_types::disk::radius2) also sum, in the same order, the members' flux
-// weights and weighted positions, then their weighted squared distances in the plane of the
-// representative's normal from the weighted centre: R² is twice their mean.
+// weights and weighted positions, then (pass 1) their weighted squared distances in the plane of
+// the representative's normal from the weighted centre: R² is twice their mean.
 @compute @workgroup_size(64)
 fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups);
     if (k >= params.k) {
         return;
     }
-    var flux = vec3<f32>(0.0);
-    var weight = 0.0;
-    var moment = vec3<f32>(0.0);
-    for (var i = 0u; i < params.n; i = i + 1u) {
-        if (labels[i] == k) {
-            let v = vpls[i];
-            flux = flux + v.flux;
-            let w = member_weight(v.flux);
-            weight = weight + w;
-            moment = moment + v.position * w;
-        }
+    var a = vec4<f32>(0.0);
+    var b = vec4<f32>(0.0);
+    if (params.first > 0u) {
+        a = light_sums[2u * k];
+        b = light_sums[2u * k + 1u];
     }
-    let r = vpls[reps[k]];
-    var radius2 = 0.0;
-    if (params.disk == 1u && weight > 0.0) {
-        let centre = moment / weight;
-        var spread = 0.0;
-        for (var i = 0u; i < params.n; i = i + 1u) {
+    if (params.hit_count == 0u) {
+        var flux = a.xyz;
+        var weight = a.w;
+        var moment = b.xyz;
+        for (var i = params.first; i < params.hit_first; i = i + 1u) {
             if (labels[i] == k) {
-                spread = spread + member_weight(vpls[i].flux) * in_plane2(vpls[i].position - centre, r.normal);
+                let v = vpls[i];
+                flux = flux + v.flux;
+                let w = member_weight(v.flux);
+                weight = weight + w;
+                moment = moment + v.position * w;
             }
         }
-        radius2 = 2.0 * spread / weight;
+        a = vec4<f32>(flux, weight);
+        b = vec4<f32>(moment, 0.0);
+    } else {
+        // The sums are complete: pass 0 has read every VPL.
+        let all = light_sums[2u * k];
+        let sums = light_sums[2u * k + 1u];
+        a = all;
+        if (all.w > 0.0) {
+            let centre = sums.xyz / all.w;
+            let n = vpls[reps[k]].normal;
+            var spread = 0.0;
+            if (params.first > 0u) {
+                spread = sums.w;
+            }
+            for (var i = params.first; i < params.hit_first; i = i + 1u) {
+                if (labels[i] == k) {
+                    spread = spread + member_weight(vpls[i].flux) * in_plane2(vpls[i].position - centre, n);
+                }
+            }
+            b = vec4<f32>(sums.xyz, spread);
+        } else {
+            b = sums;
+        }
     }
-    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, 0.0), vec4<f32>(flux, 0.0));
+    light_sums[2u * k] = a;
+    light_sums[2u * k + 1u] = b;
+}
+
+// The lights from the complete sums.
+@compute @workgroup_size(64)
+fn cluster_lights_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = thread_index(gid, groups);
+    if (k >= params.k) {
+        return;
+    }
+    let a = light_sums[2u * k];
+    let b = light_sums[2u * k + 1u];
+    let r = vpls[reps[k]];
+    var radius2 = 0.0;
+    if (params.disk == 1u && a.w > 0.0) {
+        radius2 = 2.0 * b.w / a.w;
+    }
+    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, 0.0), vec4<f32>(a.xyz, 0.0));
 }
 
 // disk::member_weight

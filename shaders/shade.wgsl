@@ -16,9 +16,9 @@ struct Params {
     g_max: f32,
     eps: f32,
     sp_first: u32,        // first sample held by the bound `sps` chunk
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    light_first: u32,     // this dispatch's VPL lights: light_first .. light_end
+    light_end: u32,
+    last: u32,            // 1: the last range (finish the pixels), 0: keep the running sums
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -29,6 +29,8 @@ struct Params {
 @group(0) @binding(11) var<storage, read> weights: array<f32>;
 @group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
 @group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
+// Each shading point's running sum over the lights of the ranges done so far (sample order).
+@group(0) @binding(14) var<storage, read_write> running: array<vec4<f32>>;
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
 fn sample_table_area(u: f32) -> u32 {
@@ -150,10 +152,12 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     return sum * (sp.albedo / PI);
 }
 
-// shade::indirect. The point's visibility rows (its own, or its F clusters' with weights) are
-// resolved once, and each row's 32-bit word is loaded once per block of 32 lights, instead of
-// F label, weight and word loads per light. Weights are summed in label order, as on the CPU.
-fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
+// shade::indirect over lights light_first .. light_end, continuing the running sum `start` (the
+// CPU's one sequential sum, cut into ranges: see ShadeKernel::run). The point's visibility rows
+// (its own, or its F clusters' with weights) are resolved once, and each row's 32-bit word is
+// loaded once per block of 32 lights, instead of F label, weight and word loads per light.
+// Weights are summed in label order, as on the CPU.
+fn light_sum(sp: ShadingPoint, i: u32, start: vec3<f32>) -> vec3<f32> {
     let p = sp.position;
     let n = sp.normal;
     var row_base: array<u32, 16>;
@@ -177,8 +181,8 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
     }
     var words: array<u32, 16>;
     var block = 0xffffffffu;
-    var sum = vec3<f32>(0.0);
-    for (var c = 0u; c < params.light_count; c = c + 1u) {
+    var sum = start;
+    for (var c = params.light_first; c < params.light_end; c = c + 1u) {
         let l = vpl_lights[c];
         let g = light_geometry_term(p, n, l);
         if (g == 0.0) {
@@ -201,7 +205,7 @@ fn indirect(sp: ShadingPoint, i: u32) -> vec3<f32> {
             sum = sum + l.flux.xyz * (g / PI * v);
         }
     }
-    return sum * (sp.albedo / PI);
+    return sum;
 }
 
 @compute @workgroup_size(64)
@@ -216,8 +220,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let i = px * params.spp + s;
         let sp = sps[i - params.sp_first];
         if (sp.triangle != MISS) {
-            sum = sum + (sp.emitted + direct(sp, i) + indirect(sp, i));
+            let slot = local * params.spp + s;
+            var start = vec3<f32>(0.0);
+            if (params.light_first > 0u) {
+                start = running[slot].xyz;
+            }
+            let lights = light_sum(sp, i, start);
+            if (params.last == 1u) {
+                sum = sum + (sp.emitted + direct(sp, i) + lights * (sp.albedo / PI));
+            } else {
+                running[slot] = vec4<f32>(lights, 0.0);
+            }
         }
     }
-    out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
+    if (params.last == 1u) {
+        out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
+    }
 }

@@ -115,6 +115,117 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     }
 }
 
+/// lavapipe ends an invocation's loops after 65,535 iterations in all (gallivm's loop limiter),
+/// without an error: before shade split its light loop into ranges, a point with F = 6 rows and
+/// 12,000 lights summed only its first 7,131. One point, every light visible from all six rows:
+/// the GPU's sum equals the CPU's bit for bit.
+#[test]
+fn shade_sums_every_light_past_lavapipes_loop_limit() {
+    use vplgi_cpu::shade::{indirect, LightArrays, VisibilitySource};
+    use vplgi_cpu::visibility::BitMatrix;
+    use vplgi_gpu::buffers::{read_back, storage};
+    use vplgi_gpu::shade::{ShadeInputs, Visibility, VplLight};
+    use vplgi_types::ShadingPoint;
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_light_past_lavapipes_loop_limit") else { return };
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
+    scene.lights.clear();
+    let (n, f) = (12_000u32, 6u32);
+    let lights: Vec<VplLight> =
+        (0..n).map(|i| VplLight::new(Vec3::new((i % 100) as f32 * 0.01, 1.0, (i / 100) as f32 * 0.01), -Vec3::Y, Vec3::splat(1e-3))).collect();
+    let sps = vec![ShadingPoint { position: [0.3, 0.0, 0.3], normal: [0.0, 1.0, 0.0], albedo: [0.5; 3], pixel: 0, ..Default::default() }];
+    let mut matrix = BitMatrix::new(f as usize, n as usize);
+    for r in 0..f as usize {
+        for c in 0..n as usize {
+            matrix.set(r, c, true);
+        }
+    }
+    let (labels, weights, row_of): (Vec<u32>, Vec<f32>, Vec<u32>) = ((0..f).collect(), vec![1.0 / f as f32; f as usize], vec![0]);
+    let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: f as usize };
+    let cpu = indirect(&sps[0], 0, &LightArrays::new(&lights), &vis, f32::INFINITY);
+    let gpu_pixel = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let (device, queue) = (t.device(), t.queue());
+        let (sb, rb, lb, wb, lg) = (
+            storage(device, "sps", &sps),
+            storage(device, "row_of", &row_of),
+            storage(device, "labels", &labels),
+            storage(device, "weights", &weights),
+            storage(device, "lights", &lights),
+        );
+        let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+        let window = vplgi_gpu::buffers::Window { first: 0, count: 1 };
+        let inputs = ShadeInputs {
+            sps: &sb,
+            sp_first: 0,
+            row_of: &rb,
+            words: &words,
+            words_per_row: words_per_row(n as usize) as u32,
+            vpl_lights: &lg,
+            light_count: n,
+            visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
+        };
+        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY };
+        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..1, &params).expect("shade");
+        read_back::<[f32; 4]>(device, queue, &out, 1).expect("read back")[0]
+    });
+    println!("{n} lights, F = {f}: CPU {cpu}, GPU {gpu_pixel:?}");
+    assert_eq!([gpu_pixel[0], gpu_pixel[1], gpu_pixel[2]], cpu.to_array());
+}
+
+/// The lights of VPL clusters read every VPL past lavapipe's loop limit too: 70,000 VPLs in three
+/// clusters, as disks, on both backends from the same clustering: the same flux and R², bit for
+/// bit (each GPU thread summed only the first 65,535 VPLs, or half of them for a disk's two
+/// passes, before cluster_lights read them in ranges).
+#[test]
+fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
+    use vplgi_frame::{Backend, LightSet};
+    use vplgi_gpu::buffers::{read_back, storage};
+    use vplgi_gpu::shade::VplLight;
+    use vplgi_types::Vpl;
+    let Some(gpu) = vplgi_tests::shared_gpu("cluster_lights_sum_every_vpl_past_lavapipes_loop_limit") else { return };
+    let n = 70_000u32;
+    let vpls: Vec<Vpl> = (0..n)
+        .map(|i| {
+            let x = (i % 250) as f32 * 0.004;
+            Vpl { position: [x, 0.0, (i / 250) as f32 * 0.004], path: i, normal: [0.0, 1.0, 0.0], bounce: 1, flux: [1e-4, 2e-4 * x, 3e-5], _pad: 0 }
+        })
+        .collect();
+    let labels: Vec<u32> = (0..n).map(|i| (i % 250) / 84).collect();
+    let representatives = vec![0u32, 84, 168];
+    let clustering = vplgi_cpu::cluster::Clustering {
+        positions: vec![Vec3::ZERO; 3],
+        normals: vec![Vec3::Y; 3],
+        representatives: representatives.clone(),
+        members: vec![0; 3],
+        f: 1,
+        labels: labels.clone(),
+        weights: vec![1.0; n as usize],
+        widened: 0,
+        incompatible: 0,
+    };
+    let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), LightShape::Disk);
+    let scene = cornell_box();
+    let got = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let device = t.device();
+        let gc = vplgi_gpu::cluster::GpuClustering {
+            centroids: storage::<vplgi_types::Endpoint>(device, "centroids", &[]),
+            k: 3,
+            f: 1,
+            labels: storage(device, "labels", &labels),
+            weights: storage::<f32>(device, "weights", &[]),
+            representatives: storage(device, "representatives", &representatives),
+            outcome: storage::<u32>(device, "outcome", &[]),
+        };
+        let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
+        let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape: LightShape::Disk }).expect("lights");
+        read_back::<VplLight>(device, t.queue(), &b, 3).expect("read back")
+    });
+    for (c, g) in cpu.iter().zip(&got) {
+        println!("CPU flux {:?} R² {}, GPU flux {:?} R² {}", c.flux, c.radius2, g.flux, g.radius2);
+    }
+    assert!(cpu[0].radius2 > 0.0);
+    assert_eq!(cpu, got);
+}
+
 fn mode() -> impl proptest::strategy::Strategy<Value = vplgi_verify::Mode> {
     proptest::sample::select(vplgi_verify::Mode::ALL.to_vec())
 }

@@ -32,6 +32,7 @@ struct GlueKernels {
     vpl_endpoints: wgpu::ComputePipeline,
     vpl_lights: wgpu::ComputePipeline,
     cluster_lights: wgpu::ComputePipeline,
+    cluster_lights_finish: wgpu::ComputePipeline,
     light_endpoints: wgpu::ComputePipeline,
 }
 
@@ -50,6 +51,10 @@ pub struct GpuKernels {
     glue: GlueKernels,
 }
 
+/// VPLs one `cluster_lights` dispatch reads per cluster: lavapipe ends an invocation's loops
+/// after 65,535 iterations (see `shade::LOOP_BUDGET`).
+const VPLS_PER_DISPATCH: u32 = 32_768;
+
 /// `Params` of `frame.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
@@ -67,11 +72,15 @@ pub(crate) struct GlueParams {
 impl GpuKernels {
     pub fn new(device: &wgpu::Device) -> Result<GpuKernels, GpuError> {
         let glue = validated(device, "frame pipelines", || {
-            let [sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, light_endpoints]: [wgpu::ComputePipeline; 6] =
-                pipelines(device, "frame.wgsl", &["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "light_endpoints"])
-                    .try_into()
-                    .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
-            GlueKernels { sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, light_endpoints }
+            let [sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, cluster_lights_finish, light_endpoints]: [wgpu::ComputePipeline; 7] =
+                pipelines(
+                    device,
+                    "frame.wgsl",
+                    &["sp_flags", "sp_compact", "vpl_endpoints", "vpl_lights", "cluster_lights", "cluster_lights_finish", "light_endpoints"],
+                )
+                .try_into()
+                .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
+            GlueKernels { sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, cluster_lights_finish, light_endpoints }
         })?;
         Ok(GpuKernels {
             trace: TraceVplsKernel::new(device)?,
@@ -290,14 +299,28 @@ impl Backend for GpuBackend<'_> {
         Ok(match set {
             LightSet::Clusters { clusters: c, k, shape } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
+                let sums = storage_zeroed::<[f32; 4]>(self.device, "cluster light sums", 2 * k.max(1) as usize);
                 let b = [
                     (6, vb),
                     (7, c.labels.as_entire_buffer_binding()),
                     (8, c.representatives.as_entire_buffer_binding()),
                     (9, lights.as_entire_buffer_binding()),
+                    (10, sums.as_entire_buffer_binding()),
                 ];
                 let disk = (shape == LightShape::Disk) as u32;
-                self.glue(&g.cluster_lights, GlueParams { n, k, disk, ..Default::default() }, &b, k)?;
+                // Each thread reads the VPLs in ranges of VPLS_PER_DISPATCH, continuing its sums
+                // (lavapipe's loop limiter, see shade::LOOP_BUDGET); a disk needs a second pass.
+                for pass in 0..=disk {
+                    let mut first = 0;
+                    while first < n {
+                        let end = n.min(first + VPLS_PER_DISPATCH);
+                        let sum = [b[0].clone(), b[1].clone(), b[2].clone(), b[4].clone()];
+                        self.glue(&g.cluster_lights, GlueParams { n, k, first, hit_first: end, hit_count: pass, disk, ..Default::default() }, &sum, k)?;
+                        first = end;
+                    }
+                }
+                let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone()];
+                self.glue(&g.cluster_lights_finish, GlueParams { n, k, disk, ..Default::default() }, &finish, k)?;
                 lights
             }
             LightSet::EachVpl { max_bounce } => {

@@ -26,7 +26,29 @@ pub(crate) struct Params {
     pub(crate) g_max: f32,
     pub(crate) eps: f32,
     pub(crate) sp_first: u32,
-    pub(crate) pad: [u32; 3],
+    pub(crate) light_first: u32,
+    pub(crate) light_end: u32,
+    pub(crate) last: u32,
+}
+
+/// Loop iterations one invocation may run. lavapipe (llvmpipe) ends every loop of an invocation
+/// once all its loops together have run 65,535 iterations (gallivm's loop limiter, against
+/// hangs), silently: a pixel of a fuzzy frame with 10,000 VPL lights and F = 6 summed only its
+/// first 7,131 lights. So one dispatch shades a range of lights small enough for the limiter,
+/// with room left for direct light. Each shading point's running sum is kept between the
+/// dispatches and continued, so the sum is the CPU's one sequential sum, cut, not re-associated.
+pub const LOOP_BUDGET: u32 = 48_000;
+
+/// Lights one dispatch of [`ShadeKernel::run`] sums per shading point: whole blocks of 64, at
+/// least one, with `spp` shading points per pixel, `rows` visibility rows per point and
+/// `direct_samples` area-light samples.
+pub fn lights_per_dispatch(spp: u32, rows: u32, direct_samples: u32) -> u32 {
+    // Per light: the light loop and the loop over the rows (and a visibility word load per
+    // block); measured, the limiter counts about rows + 2.9 iterations per light, so rows + 4.
+    // Direct light: per sample, a pass over at most 32 light groups and a binary search.
+    let per_pixel = LOOP_BUDGET / spp.max(1);
+    let direct = direct_samples.saturating_mul(64) + 64;
+    (per_pixel.saturating_sub(direct) / (rows + 4) / 64 * 64).max(64)
 }
 
 /// Where each shading point's visibility comes from (the twin of
@@ -80,6 +102,11 @@ impl ShadeKernel {
                 (SHADE_FUZZY, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64))
             }
         };
+        let rows = match inputs.visibility {
+            Visibility::Own { .. } => 1,
+            Visibility::Fuzzy { f, .. } => f,
+        };
+        let chunk = lights_per_dispatch(spp, rows, direct_samples);
         let params = Params {
             spp,
             seed,
@@ -94,17 +121,30 @@ impl ShadeKernel {
             g_max,
             eps: scene.eps,
             sp_first: inputs.sp_first,
-            pad: [0; 3],
+            light_first: 0,
+            light_end: 0,
+            last: 0,
         };
         validated(device, "shade", || {
-            let p = kernel_params(device, "shade params", &params);
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
-            let own = [(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (13, &out)];
-            let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
-            bindings.push((10, labels));
-            bindings.push((11, weights));
-            bindings.extend(self.pipeline.scene_bindings(scene));
-            dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
+            let ranges = inputs.light_count.div_ceil(chunk).max(1);
+            let running = storage_zeroed::<[f32; 4]>(device, "running light sums", if ranges > 1 { (count * spp) as usize } else { 1 });
+            let mut first = 0;
+            loop {
+                let end = inputs.light_count.min(first + chunk);
+                let last = (end >= inputs.light_count) as u32;
+                let p = kernel_params(device, "shade params", &Params { light_first: first, light_end: end, last, ..params });
+                let own = [(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (13, &out), (14, &running)];
+                let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+                bindings.push((10, labels.clone()));
+                bindings.push((11, weights.clone()));
+                bindings.extend(self.pipeline.scene_bindings(scene));
+                dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
+                first = end;
+                if first >= inputs.light_count {
+                    break;
+                }
+            }
             out
         })
     }
