@@ -120,6 +120,61 @@ fn bad_input_fails_cleanly_naming_the_file() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("garbage.glb"));
 }
 
+/// The options of Prutkin et al.'s stages refuse bad values with a message naming the option
+/// and write nothing; a good RSM frame with disk lights renders and reports its stage.
+#[test]
+fn rsm_options_refuse_bad_values_and_render_good_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let rsm = ["--vpl-source", "rsm", "--bounces", "1", "--width", "16", "--height", "16"];
+    let cases: [(&[&str], &str); 7] = [
+        (&["--vpl-source", "rsm"], "--bounces 1"),
+        (&["--rsm-size", "0"], "rsm-size"),
+        (&["--rsm-size", "5000"], "rsm-size"),
+        (&["--vpl-cluster", "rsm", "--rsm-weights", "1,-2,0"], ">= 0"),
+        (&["--vpl-cluster", "rsm", "--rsm-weights", "1,2"], "three comma-separated"),
+        (&["--vpl-cluster", "rsm", "--rsm-weights", "0,0,0"], "cannot all be 0"),
+        (&["--light-shape", "disk", "--bias-compensation", "true"], "bias compensation"),
+    ];
+    for (i, (extra, expected)) in cases.iter().enumerate() {
+        let out = dir.path().join(format!("bad{i}"));
+        let mut args = vec!["render", "--out", out.to_str().unwrap()];
+        if extra[0] != "--vpl-source" {
+            args.extend(rsm);
+        } else {
+            args.extend(["--width", "16", "--height", "16"]);
+        }
+        args.extend(*extra);
+        let o = vplgi(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(expected) && !err.contains("panicked"), "{extra:?}: {err}");
+        assert!(!out.join("image.exr").exists(), "{extra:?}: no output after an error");
+    }
+    let out = dir.path().join("good");
+    let mut args = vec![
+        "render",
+        "--backend",
+        "cpu",
+        "--cluster",
+        "vpl",
+        "--k-vpl",
+        "20",
+        "--vpl-cluster",
+        "rsm",
+        "--light-shape",
+        "disk",
+        "--rsm-size",
+        "24",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(rsm);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert!(report["timings_ms"]["rsm_vpls"].as_f64().unwrap() > 0.0 && report["timings_ms"]["trace_vpls"].as_f64() == Some(0.0), "{report}");
+    assert_eq!(report["params"]["light_shape"], "disk");
+}
+
 #[test]
 fn help_explains_every_option_with_defaults() {
     let o = vplgi(&["render", "--help"]);
