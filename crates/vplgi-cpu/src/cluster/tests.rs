@@ -140,6 +140,11 @@ fn check_invariants(c: &Clustering, ps: &[Vec3], k_requested: u32) {
     assert!(c.k() <= (k_requested as usize).min(m));
     assert_eq!(c.labels.len(), m * c.f);
     assert_eq!(c.members.iter().map(|&x| x as usize).sum::<usize>(), m);
+    // One count per kept cluster: the points whose nearest cluster it is.
+    assert_eq!(c.members.len(), c.k());
+    for (j, &n) in c.members.iter().enumerate() {
+        assert_eq!(n as usize, (0..m).filter(|&i| c.hard_label(i) == j as u32).count(), "members of cluster {j}");
+    }
     for (i, &p) in ps.iter().enumerate() {
         let row = &c.labels[i * c.f..(i + 1) * c.f];
         let w = &c.weights[i * c.f..(i + 1) * c.f];
@@ -389,4 +394,41 @@ fn incompatible_tie_goes_to_the_lower_index() {
     let mut best = [(f32::INFINITY, MISS)];
     assert_eq!(grid.search(Vec3::ZERO, -Vec3::Z, 0.5, &mut best), (1, SearchOutcome::Incompatible));
     assert_eq!(best[0], (1.0, 0));
+}
+
+/// The counts the frame reports: points whose 27 cells held no compatible centroid (widened) and,
+/// of those, points with no compatible centroid anywhere (incompatible), recounted by searching
+/// the final centroids on a grid of the clustering's geometry. 200 points facing up and 3 facing
+/// down: with K = 1 the centroid faces up, so exactly those 3 are incompatible.
+#[test]
+fn widened_and_incompatible_points_are_counted() {
+    let mut rng = Rng::new(9, Stream::Oracle, 3);
+    let mut ps: Vec<Vec3> = (0..200).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), 0.0)).collect();
+    let mut ns = vec![Vec3::Z; 200];
+    for p in [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.5, 0.0, 0.0)] {
+        ps.push(p);
+        ns.push(-Vec3::Z);
+    }
+    for k in [1u32, 7, 40] {
+        let p = params(k, 3, FuzzyMode::Weighted);
+        let c = cluster(&ps, &ns, &p);
+        // The geometry `cluster` uses: the downsampled points (gamma, never below K points).
+        let gamma = (p.gamma as usize).clamp(1, (ps.len() / k as usize).max(1));
+        let sample: Vec<Vec3> = vplgi_types::clustering::downsample(ps.len(), gamma, p.seed).iter().map(|&i| ps[i as usize]).collect();
+        let grid = Grid::for_data(bounds(&ps), &sample, k as usize).fill(&c.positions, &c.normals);
+        let (mut widened, mut incompatible) = (0, 0);
+        for (&q, &n) in ps.iter().zip(&ns) {
+            let mut best = [(f32::INFINITY, MISS); 3];
+            match grid.search(q, n, p.normal_threshold, &mut best).1 {
+                SearchOutcome::Neighbourhood => {}
+                SearchOutcome::Widened => widened += 1,
+                SearchOutcome::Incompatible => (widened, incompatible) = (widened + 1, incompatible + 1),
+            }
+        }
+        println!("K = {k}: {} clusters, {widened} widened, {incompatible} incompatible", c.k());
+        assert_eq!((c.widened, c.incompatible), (widened, incompatible), "K = {k}");
+        if k == 1 {
+            assert_eq!(incompatible, 3);
+        }
+    }
 }
