@@ -214,6 +214,10 @@ fn empty_input_and_zero_k() {
     let c = cluster(&[], &[], &params(10, 6, FuzzyMode::Weighted));
     assert_eq!(c.k(), 0);
     assert!(c.labels.is_empty());
+    // The row stride is the fuzziness asked for, even with nothing to cluster (and 1 when hard).
+    assert_eq!(c.f, 6);
+    assert_eq!(cluster(&[], &[], &params(10, 6, FuzzyMode::Hard)).f, 1);
+    assert_eq!(cluster(&[Vec3::ZERO], &[Vec3::Z], &params(0, 4, FuzzyMode::Average)).f, 4);
 }
 
 #[test]
