@@ -256,26 +256,16 @@ pub fn mu(w: &RsmWeights, dx: Vec3, np: Vec3, nc: Vec3, chroma_p: Vec3, chroma_c
     w.position * dx.dot(dx) + w.normal * (1.0 - np.dot(nc)) + w.flux * dc.dot(dc)
 }
 
-/// Element `i` (from 1) of the van der Corput sequence in `base` (the Halton sequence's axis).
-pub fn halton(mut i: u32, base: u32) -> f32 {
-    let (mut f, mut r) = (1.0f64, 0.0f64);
-    while i > 0 {
-        f /= base as f64;
-        r += f * (i % base) as f64;
-        i /= base;
-    }
-    r as f32
-}
-
 /// Digits of the Halton points behind [`halton_texel`]: 20 in base 2, 12 in base 3 (3^12 <
 /// 2^20), so that a coordinate times a map side of at most 4096 fits 32 bits.
 const HALTON_BITS: u32 = 20;
 const HALTON_3_DIGITS: u32 = 12;
 const THREE_TO_THE_DIGITS: u32 = 531_441;
 
-/// The texel (x, y) of an `n` × `n` map under point `i` of the 2-D Halton sequence (bases 2 and
-/// 3), floor(n · h): integer arithmetic only, so every backend picks the same texel. The points
-/// keep their first 20 binary and 12 ternary digits (distinct for i < 531,441).
+/// The texel (x, y) of an `n` × `n` map under point `i` of the 2-D Halton sequence (the van der
+/// Corput sequences in bases 2 and 3), floor(n · h), in integer arithmetic only, so that every
+/// backend picks the same texel. The points keep their first 20 binary and 12 ternary digits
+/// (distinct for i < 531,441).
 pub fn halton_texel(i: u32, n: u32) -> (u32, u32) {
     let x2 = i.reverse_bits() >> (32 - HALTON_BITS);
     let (mut x3, mut j) = (0u32, i);
@@ -296,6 +286,18 @@ pub fn clusters_per_map(vpls_per_map: &[u32], k: u32) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Element `i` (from 1) of the van der Corput sequence in `base`, in double precision: the
+    /// oracle of [`halton_texel`].
+    fn halton(mut i: u32, base: u32) -> f32 {
+        let (mut f, mut r) = (1.0f64, 0.0f64);
+        while i > 0 {
+            f /= base as f64;
+            r += f * (i % base) as f64;
+            i /= base;
+        }
+        r as f32
+    }
 
     /// Eq. 1 on hand-checked values: unit weights, positions 0.3 apart along x, normals 60
     /// degrees apart (1 - cos = 0.5), pure red against pure green (|(1,0,0) - (0,1,0)|² = 2).
