@@ -6,7 +6,6 @@ struct Params {
     spp: u32,
     seed: u32,
     direct_samples: u32,
-    light_count: u32,     // VPL lights (VPLs or VPL clusters)
     f: u32,               // fuzzy row stride (mode 1)
     mode: u32,            // 0: own row (row_of[i] - first_row), 1: fuzzy clusters
     first_row: u32,

@@ -8,6 +8,20 @@ use vplgi_scene::cornell::cornell_box;
 use vplgi_scene::{Camera, Material, PunctualLight, Scene};
 use vplgi_types::{Rng, Stream};
 
+/// The Cornell box with a coloured spot light added (cones of 25.8 and 45.6 degrees, aimed
+/// off the vertical): a scene with every light kind but the point light.
+pub fn cornell_box_with_spot() -> Scene {
+    let mut scene = cornell_box();
+    scene.lights.push(PunctualLight::Spot {
+        position: Vec3::new(0.5, 1.5, 0.5),
+        direction: Vec3::new(-0.3, -1.0, -0.4).normalize(),
+        intensity: Vec3::new(3.0, 2.0, 1.0),
+        cos_inner: 0.9,
+        cos_outer: 0.7,
+    });
+    scene
+}
+
 /// The Cornell box's shading points (surfaces meeting at edges, both orientations of thin walls)
 /// at `width` x `height`, one per pixel: positions and normals of the hits.
 pub fn cornell_points(width: u32, height: u32, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {

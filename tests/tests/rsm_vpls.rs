@@ -2,24 +2,14 @@
 //! trace_vpls row: 1e-4 relative, at most 0.1 % of texels differ; edge ties counted apart).
 //! Each test prints the adapter it ran on and the measured disagreement.
 
-use glam::Vec3;
 use vplgi_scene::cornell::cornell_box;
-use vplgi_scene::PunctualLight;
 
 /// The Cornell box's area light, the box with a spot added, and a plane under a point light: one
 /// map per light kind, at the paper's Cornell-box size (128²).
 #[test]
 fn rsm_vpls_matches_the_cpu() {
     let Some(gpu) = vplgi_tests::shared_gpu("rsm_vpls_matches_the_cpu") else { return };
-    let mut spot_box = cornell_box();
-    spot_box.lights.push(PunctualLight::Spot {
-        position: Vec3::new(0.5, 1.5, 0.5),
-        direction: Vec3::new(-0.3, -1.0, -0.4).normalize(),
-        intensity: Vec3::new(3.0, 2.0, 1.0),
-        cos_inner: 0.9,
-        cos_outer: 0.7,
-    });
-    for scene in [cornell_box(), spot_box, vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0)] {
+    for scene in [cornell_box(), vplgi_tests::inputs::cornell_box_with_spot(), vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0)] {
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128)).expect("GPU");
         for c in &checks {

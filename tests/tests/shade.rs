@@ -206,15 +206,7 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
     let scene = cornell_box();
     let got = vplgi_tests::with_twins(gpu, &scene, |t| {
         let device = t.device();
-        let gc = vplgi_gpu::cluster::GpuClustering {
-            centroids: storage::<vplgi_types::Endpoint>(device, "centroids", &[]),
-            k: 3,
-            f: 1,
-            labels: storage(device, "labels", &labels),
-            weights: storage::<f32>(device, "weights", &[]),
-            representatives: storage(device, "representatives", &representatives),
-            outcome: storage::<u32>(device, "outcome", &[]),
-        };
+        let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
         let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
         let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape: LightShape::Disk }).expect("lights");
         read_back::<VplLight>(device, t.queue(), &b, 3).expect("read back")

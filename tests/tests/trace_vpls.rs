@@ -17,21 +17,13 @@ fn trace_vpls_matches_the_cpu() {
     use std::collections::BTreeMap;
     use vplgi_gpu::buffers::read_back;
     use vplgi_gpu::trace_vpls::TraceVplsKernel;
-    use vplgi_scene::PunctualLight;
     use vplgi_types::Vpl;
 
     let Some(ctx) = vplgi_tests::gpu("trace_vpls_matches_the_cpu") else {
         return;
     };
     let kernel = TraceVplsKernel::new(&ctx.device).unwrap();
-    let mut spot_box = cornell_box();
-    spot_box.lights.push(PunctualLight::Spot {
-        position: Vec3::new(0.5, 1.5, 0.5),
-        direction: Vec3::new(-0.3, -1.0, -0.4).normalize(),
-        intensity: Vec3::new(3.0, 2.0, 1.0),
-        cos_inner: 0.9,
-        cos_outer: 0.7,
-    });
+    let spot_box = vplgi_tests::inputs::cornell_box_with_spot();
     let cases = [
         ("cornell box, area light", cornell_box(), 3000u32, 3u32),
         ("plane, point light", vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0), 2000, 1),

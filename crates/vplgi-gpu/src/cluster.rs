@@ -70,6 +70,23 @@ pub struct GpuClustering {
     pub outcome: wgpu::Buffer,
 }
 
+impl GpuClustering {
+    /// A hard clustering (F = 1) given by its labels and `representatives` (point indices), for
+    /// the stages after clustering (`vpl_lights`) to run on another backend's clustering: no
+    /// centroids, weights or search outcomes, which those stages do not read.
+    pub fn of_labels(device: &wgpu::Device, labels: &[u32], representatives: &[u32]) -> GpuClustering {
+        GpuClustering {
+            centroids: storage::<Endpoint>(device, "centroids", &[]),
+            k: representatives.len() as u32,
+            f: 1,
+            labels: storage(device, "labels", labels),
+            weights: storage::<f32>(device, "weights", &[]),
+            representatives: storage(device, "representatives", representatives),
+            outcome: storage::<u32>(device, "outcome", &[]),
+        }
+    }
+}
+
 /// How [`ClusterKernel::assign`] assigns: n_t of Eq. 7, clusters per point, their weights.
 #[derive(Clone, Copy, Debug)]
 pub struct AssignRule {

@@ -12,7 +12,7 @@ use vplgi_gpu::cluster::GpuClustering;
 use vplgi_gpu::shade::{ShadeInputs, Visibility};
 use vplgi_gpu::trace_vpls::GpuVpls;
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::{Endpoint, FrameConfig, VplLight};
+use vplgi_types::{FrameConfig, VplLight};
 
 /// An image's pixels, row-major.
 pub type Pixels = Vec<[f32; 3]>;
@@ -106,15 +106,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let n = frame.vpls.len() as u32;
     let k = vc.k() as u32;
     let hard: Vec<u32> = (0..frame.vpls.len()).map(|i| vc.hard_label(i)).collect();
-    let gc = GpuClustering {
-        centroids: storage::<Endpoint>(device, "centroids", &[]),
-        k,
-        f: 1,
-        labels: storage(device, "labels", &hard),
-        weights: storage::<f32>(device, "weights", &[]),
-        representatives: storage(device, "representatives", &vc.representatives),
-        outcome: storage::<u32>(device, "outcome", &[]),
-    };
+    let gc = GpuClustering::of_labels(device, &hard, &vc.representatives);
     let vpls = GpuVpls { buffer: storage(device, "vpls", &frame.vpls), count: n, particles: 0 };
     let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
     let gpu: Vec<VplLight> = read_back(device, queue, &buffer, k as usize)?;
