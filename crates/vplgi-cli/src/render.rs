@@ -3,7 +3,7 @@
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, RENDER};
 use crate::progress::Bars;
-use crate::shared::{install_interrupt_cleanup, load_scene, peak_rss_mib, write_json};
+use crate::shared::{install_interrupt_cleanup, load_scene, peak_rss_mib, use_shaders_from, write_json};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -26,6 +26,11 @@ pub struct RenderArgs {
     /// add them to report.json as `gpu_profile`.
     #[arg(long)]
     profile: bool,
+    /// With `--backend gpu`: WGSL read from DIR, laid out like `shaders/` (a file present there
+    /// replaces the built-in copy), so an edited kernel is rendered and timed (with --profile)
+    /// without rebuilding vplgi. `--shaders shaders` in a checkout.
+    #[arg(long, value_name = "DIR")]
+    shaders: Option<PathBuf>,
     /// Exposure applied before tonemapping the PNG.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -40,6 +45,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.profile && args.backend == BackendArg::Cpu {
         bail!("--profile times GPU kernels: use it with --backend gpu (CPU stage times are in every report.json)");
     }
+    if args.shaders.is_some() && args.backend == BackendArg::Cpu {
+        bail!("--shaders replaces GPU kernels: use it with --backend gpu");
+    }
+    use_shaders_from(args.shaders.as_deref())?;
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("configuring the thread pool")?;
     }

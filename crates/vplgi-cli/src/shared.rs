@@ -47,3 +47,17 @@ pub fn install_interrupt_cleanup(dir: PathBuf) {
         std::process::exit(130);
     });
 }
+
+/// `--shaders DIR` of `render` and `verify`: the WGSL files found in `dir` replace the
+/// compiled-in copies for every kernel built afterwards (validated first), each one named on
+/// stderr, so a kernel author times or verifies an edited shader without rebuilding vplgi.
+pub fn use_shaders_from(dir: Option<&Path>) -> Result<Vec<vplgi_gpu::shader::ReplacedSource>> {
+    let Some(dir) = dir else {
+        return Ok(Vec::new());
+    };
+    let replaced = vplgi_gpu::shader::use_sources_from(dir).with_context(|| format!("--shaders {}", dir.display()))?;
+    for r in &replaced {
+        eprintln!("shader {} from {}{}", r.name, r.path.display(), if r.differs { " (differs from the built-in copy)" } else { "" });
+    }
+    Ok(replaced)
+}

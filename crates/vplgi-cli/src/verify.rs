@@ -3,7 +3,7 @@
 //! verify.html.
 
 use crate::frame_args::{FrameArgs, VERIFY};
-use crate::shared::load_scene;
+use crate::shared::{load_scene, use_shaders_from};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -60,16 +60,7 @@ pub fn run(args: VerifyArgs) -> Result<()> {
     let config = args.frame.config(&VERIFY)?;
     let modes = if args.frame.cluster.is_some() || args.frame.fuzzy.is_some() { vec![Mode::of(&config)] } else { Mode::ALL.to_vec() };
     let stages = if args.stages.is_empty() { VerifyStage::ALL.to_vec() } else { args.stages.clone() };
-    let shaders = match &args.shaders {
-        Some(dir) => {
-            let replaced = vplgi_gpu::shader::use_sources_from(dir).with_context(|| format!("--shaders {}", dir.display()))?;
-            for r in &replaced {
-                eprintln!("shader {} from {}{}", r.name, r.path.display(), if r.differs { " (differs from the built-in copy)" } else { "" });
-            }
-            replaced
-        }
-        None => Vec::new(),
-    };
+    let shaders = use_shaders_from(args.shaders.as_deref())?;
     let (scene, source) = load_scene(args.scene.as_deref())?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
 
