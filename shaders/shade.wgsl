@@ -1,6 +1,17 @@
 // Stage 5, shade (vplgi-cpu/src/shade.rs): per pixel, the mean over its spp shading points of
 // emitted + direct + indirect radiance, indirect by Eq. 6 with the clamped geometry term and
 // the visibility of Eq. 8 / 9-10 (mode 1) or the point's own row (mode 0).
+//
+// Two entry points. `shade_lights` sums the VPL lights of every shading point, SHADE_POINTS points per
+// invocation, over a range of lights per dispatch (running sums carried between dispatches);
+// `shade_finish` adds emission and direct light per pixel. Splitting them is for lavapipe, which
+// is where this kernel is measured: its storage-buffer loads are a loop over the 8 lanes with a
+// bounds check per lane and component (about 75 instructions per vec4 per lane, where the light's
+// arithmetic is about 6), even when every lane reads the same light. So a light is loaded once
+// for SHADE_POINTS shading points, and the per-point state lives in arrays indexed only by loops of
+// constant trip count (SHADE_POINTS, and ROWS fixed per pipeline), which are unrolled into registers;
+// a dynamically indexed private array would stay in memory, read lane by lane. On a GPU the same
+// shape amortises the light's loads over four points and keeps the state in registers.
 
 struct Params {
     spp: u32,
@@ -17,8 +28,11 @@ struct Params {
     sp_first: u32,        // first sample held by the bound `sps` chunk
     light_first: u32,     // this dispatch's VPL lights: light_first .. light_end
     light_end: u32,
-    last: u32,            // 1: the last range (finish the pixels), 0: keep the running sums
 }
+
+// Visibility rows per shading point: F in mode 1, 1 in mode 0; a pipeline per value, so that the
+// loops over rows have a constant trip count.
+override ROWS: u32 = 1u;
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
@@ -28,7 +42,8 @@ struct Params {
 @group(0) @binding(11) var<storage, read> weights: array<f32>;
 @group(0) @binding(12) var<storage, read> vpl_lights: array<VplLight>;
 @group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
-// Each shading point's running sum over the lights of the ranges done so far (sample order).
+// Each shading point's sum over the lights of the ranges done so far (light order), by sample
+// index from params.first_pixel * spp.
 @group(0) @binding(14) var<storage, read_write> running: array<vec4<f32>>;
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
@@ -49,25 +64,17 @@ fn sample_table_area(u: f32) -> u32 {
 
 
 // shade::sum_lights: Eq. 2 of Prutkin et al. for a disk (R² in position.w > 0, no clamp), the
-// clamped point geometry term otherwise (d2 + 0 = d2 exactly).
-fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight) -> f32 {
+// clamped point geometry term otherwise (d2 + 0 = d2 exactly); 0 where either side faces away.
+fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight, g_max: f32) -> f32 {
     let d = l.position.xyz - p;
     let d2 = dot(d, d);
-    if (d2 <= 0.0) {
-        return 0.0;
-    }
     let inv_d = 1.0 / sqrt(d2);
     let cos_p = dot(np, d) * inv_d;
     let cos_x = -dot(l.normal.xyz, d) * inv_d;
-    if (cos_p <= 0.0 || cos_x <= 0.0) {
-        return 0.0;
-    }
     let r2 = l.position.w;
     let g = cos_p * cos_x / (d2 + r2);
-    if (r2 > 0.0) {
-        return g;
-    }
-    return min(g, params.g_max);
+    let capped = select(min(g, g_max), g, r2 > 0.0);
+    return select(0.0, capped, d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0);
 }
 
 // shade::direct
@@ -151,64 +158,85 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     return sum * (sp.albedo / PI);
 }
 
-// shade::indirect over lights light_first .. light_end, continuing the running sum `start` (the
-// CPU's one sequential sum, cut into ranges: see ShadeKernel::run). The point's visibility rows
-// (its own, or its F clusters' with weights) are resolved once, and each row's 32-bit word is
-// loaded once per block of 32 lights, instead of F label, weight and word loads per light.
-// Weights are summed in label order, as on the CPU.
-fn light_sum(sp: ShadingPoint, i: u32, start: vec3<f32>) -> vec3<f32> {
-    let p = sp.position;
-    let n = sp.normal;
-    var row_base: array<u32, 16>;
-    var row_w: array<f32, 16>;
-    var rows = 0u;
-    if (params.mode == SHADE_OWN_ROW) {
-        row_base[0] = (row_of[i] - params.first_row) * params.words_per_row;
-        row_w[0] = 1.0;
-        rows = 1u;
-    } else {
-        // labels and weights are bound from hit params.first_row on (a window).
-        let r = (row_of[i] - params.first_row) * params.f;
-        for (var j = 0u; j < params.f; j = j + 1u) {
-            let k = labels[r + j];
-            if (k != MISS) {
-                row_base[rows] = k * params.words_per_row;
-                row_w[rows] = weights[r + j];
-                rows = rows + 1u;
+// shade::indirect over lights light_first .. light_end for SHADE_POINTS consecutive shading points,
+// continuing their running sums (the CPU's one sequential sum per point, cut into ranges: see
+// ShadeKernel::run). Each point's visibility rows (its own, or its F clusters' with weights; a
+// missing cluster is a row of weight 0) are resolved once, and each row's 32-bit word is loaded
+// once per block of 32 lights. A light that does not reach a point adds exactly +0 to its sum,
+// as on the CPU, instead of branching per point; weights are summed in label order.
+@compute @workgroup_size(64)
+fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let first = thread_index(gid, groups) * SHADE_POINTS;
+    let count = params.pixel_count * params.spp;
+    if (first >= count) {
+        return;
+    }
+    let first_sample = params.first_pixel * params.spp;
+    let wpr = params.words_per_row;
+    let g_max = params.g_max;
+    let resumed = params.light_first > 0u;
+    var pos: array<vec3<f32>, SHADE_POINTS>;
+    var nrm: array<vec3<f32>, SHADE_POINTS>;
+    var sum: array<vec3<f32>, SHADE_POINTS>;
+    var row_base: array<u32, SHADE_POINTS * MAX_F>;
+    var row_w: array<f32, SHADE_POINTS * MAX_F>;
+    var words: array<u32, SHADE_POINTS * MAX_F>;
+    for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
+        let local = min(first + q, count - 1u);
+        let i = first_sample + local;
+        let sp = sps[i - params.sp_first];
+        pos[q] = sp.position;
+        nrm[q] = sp.normal;
+        sum[q] = select(vec3<f32>(0.0), running[local].xyz, resumed);
+        // Points past the end or missing the scene are shaded like the last one and not stored.
+        let row = row_of[i] - params.first_row;
+        if (params.mode == SHADE_OWN_ROW) {
+            row_base[q * MAX_F] = row * wpr;
+            row_w[q * MAX_F] = 1.0;
+        } else {
+            // labels and weights are bound from hit params.first_row on (a window).
+            for (var j = 0u; j < ROWS; j = j + 1u) {
+                let k = labels[row * params.f + j];
+                let ok = k != MISS;
+                row_base[q * MAX_F + j] = select(0u, k * wpr, ok);
+                row_w[q * MAX_F + j] = select(0.0, weights[row * params.f + j], ok);
             }
         }
     }
-    var words: array<u32, 16>;
-    var block = 0xffffffffu;
-    var sum = start;
-    for (var c = params.light_first; c < params.light_end; c = c + 1u) {
-        let l = vpl_lights[c];
-        let g = light_geometry_term(p, n, l);
-        if (g == 0.0) {
-            continue;
-        }
-        if (c / 32u != block) {
-            block = c / 32u;
-            for (var j = 0u; j < rows; j = j + 1u) {
-                words[j] = vis_words[row_base[j] + block];
+    let end = params.light_end;
+    var c = params.light_first;
+    while (c < end) {
+        let block = c / 32u;
+        for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
+            for (var j = 0u; j < ROWS; j = j + 1u) {
+                words[q * MAX_F + j] = vis_words[row_base[q * MAX_F + j] + block];
             }
         }
-        let bit = c % 32u;
-        var v = 0.0;
-        for (var j = 0u; j < rows; j = j + 1u) {
-            if (((words[j] >> bit) & 1u) == 1u) {
-                v = v + row_w[j];
+        let block_end = min(end, block * 32u + 32u);
+        for (; c < block_end; c = c + 1u) {
+            let l = vpl_lights[c];
+            let bit = c % 32u;
+            for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
+                let g = light_geometry_term(pos[q], nrm[q], l, g_max);
+                var v = 0.0;
+                for (var j = 0u; j < ROWS; j = j + 1u) {
+                    v = v + select(0.0, row_w[q * MAX_F + j], ((words[q * MAX_F + j] >> bit) & 1u) == 1u);
+                }
+                sum[q] = sum[q] + l.flux.xyz * (g / PI * v);
             }
-        }
-        if (v > 0.0) {
-            sum = sum + l.flux.xyz * (g / PI * v);
         }
     }
-    return sum;
+    for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
+        if (first + q < count) {
+            running[first + q] = vec4<f32>(sum[q], 0.0);
+        }
+    }
 }
 
+// Per pixel: the mean over its samples of emitted + direct + the VPL lights' sum (in `running`,
+// complete after the last range of shade_lights) times albedo / pi.
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let local = thread_index(gid, groups);
     if (local >= params.pixel_count) {
         return;
@@ -219,20 +247,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let i = px * params.spp + s;
         let sp = sps[i - params.sp_first];
         if (sp.triangle != MISS) {
-            let slot = local * params.spp + s;
-            var start = vec3<f32>(0.0);
-            if (params.light_first > 0u) {
-                start = running[slot].xyz;
-            }
-            let lights = light_sum(sp, i, start);
-            if (params.last == 1u) {
-                sum = sum + (sp.emitted + direct(sp, i) + lights * (sp.albedo / PI));
-            } else {
-                running[slot] = vec4<f32>(lights, 0.0);
-            }
+            let lights = running[local * params.spp + s].xyz;
+            sum = sum + (sp.emitted + direct(sp, i) + lights * (sp.albedo / PI));
         }
     }
-    if (params.last == 1u) {
-        out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
-    }
+    out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
 }

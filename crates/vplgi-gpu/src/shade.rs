@@ -3,9 +3,11 @@
 use crate::buffers::{dispatch_windows, kernel_params, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
-use crate::shader::{RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
+use crate::shader::{pipeline_with, RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
+use std::sync::OnceLock;
+use vplgi_types::config::MAX_F;
 use vplgi_types::ShadeParams;
 
 pub use vplgi_types::VplLight;
@@ -27,27 +29,28 @@ pub(crate) struct Params {
     pub(crate) sp_first: u32,
     pub(crate) light_first: u32,
     pub(crate) light_end: u32,
-    pub(crate) last: u32,
 }
+
+/// Shading points one invocation of `shade_lights` sums the lights for: each light is loaded
+/// once for all of them (shade.wgsl says why that matters on lavapipe).
+pub const POINTS: u32 = 4;
 
 /// Loop iterations one invocation may run. lavapipe (llvmpipe) ends every loop of an invocation
 /// once all its loops together have run 65,535 iterations (gallivm's loop limiter, against
 /// hangs), silently: a pixel of a fuzzy frame with 10,000 VPL lights and F = 6 summed only its
-/// first 7,131 lights. So one dispatch shades a range of lights small enough for the limiter,
-/// with room left for direct light. Each shading point's running sum is kept between the
-/// dispatches and continued, so the sum is the CPU's one sequential sum, cut, not re-associated.
+/// first 7,131 lights. So one dispatch of `shade_lights` sums a range of lights small enough for
+/// the limiter. Each shading point's running sum is kept between the dispatches and continued, so
+/// the sum is the CPU's one sequential sum, cut, not re-associated.
 pub const LOOP_BUDGET: u32 = 48_000;
 
-/// Lights one dispatch of [`ShadeKernel::run`] sums per shading point: whole blocks of 64, at
-/// least one, with `spp` shading points per pixel, `rows` visibility rows per point and
-/// `direct_samples` area-light samples.
-pub fn lights_per_dispatch(spp: u32, rows: u32, direct_samples: u32) -> u32 {
-    // Per light: the light loop and the loop over the rows (and a visibility word load per
-    // block); measured, the limiter counts about rows + 2.9 iterations per light, so rows + 4.
-    // Direct light: per sample, a pass over at most 32 light groups and a binary search.
-    let per_pixel = LOOP_BUDGET / spp.max(1);
-    let direct = direct_samples.saturating_mul(64) + 64;
-    (per_pixel.saturating_sub(direct) / (rows + 4) / 64 * 64).max(64)
+/// Lights one dispatch of `shade_lights` sums: whole blocks of 64, at least one, with `rows`
+/// visibility rows per shading point. Counted as if the loops over points and rows, whose trip
+/// counts are constants, were not unrolled (llvmpipe's NIR unrolls them today, but the budget
+/// must not depend on an optimiser's choice): per light, the light loop and, per point, its rows
+/// and the geometry term.
+pub fn lights_per_dispatch(rows: u32) -> u32 {
+    let per_light = POINTS * (rows + 1) + 2;
+    (LOOP_BUDGET / per_light / 64 * 64).max(64)
 }
 
 /// Where each shading point's visibility comes from (the twin of
@@ -72,13 +75,28 @@ pub struct ShadeInputs<'a> {
     pub visibility: Visibility<'a>,
 }
 
+fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
+    own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect()
+}
+
 pub struct ShadeKernel {
-    pipeline: RayPipeline,
+    /// Emission, direct light and the per-point light sums, per pixel.
+    finish: RayPipeline,
+    /// The light sums, by the number of visibility rows per point (1 ..= MAX_F), compiled on
+    /// first use.
+    lights: Vec<OnceLock<wgpu::ComputePipeline>>,
 }
 
 impl ShadeKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "shade pipeline", || ShadeKernel { pipeline: RayPipeline::new(device, "shade.wgsl", "main") })
+        validated(device, "shade pipeline", || ShadeKernel {
+            finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"),
+            lights: (0..=MAX_F).map(|_| OnceLock::new()).collect(),
+        })
+    }
+
+    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32) -> &wgpu::ComputePipeline {
+        self.lights[rows as usize].get_or_init(|| pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64)]))
     }
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
@@ -105,7 +123,7 @@ impl ShadeKernel {
             Visibility::Own { .. } => 1,
             Visibility::Fuzzy { f, .. } => f,
         };
-        let chunk = lights_per_dispatch(spp, rows, direct_samples);
+        let chunk = lights_per_dispatch(rows);
         let params = Params {
             spp,
             seed,
@@ -121,28 +139,26 @@ impl ShadeKernel {
             sp_first: inputs.sp_first,
             light_first: 0,
             light_end: 0,
-            last: 0,
         };
         validated(device, "shade", || {
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
-            let ranges = inputs.light_count.div_ceil(chunk).max(1);
-            let running = storage_zeroed::<[f32; 4]>(device, "running light sums", if ranges > 1 { (count * spp) as usize } else { 1 });
+            let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
+            let lights_pipeline = self.lights_pipeline(device, rows);
+            let invocations = (count * spp).div_ceil(POINTS);
             let mut first = 0;
-            loop {
+            while first < inputs.light_count {
                 let end = inputs.light_count.min(first + chunk);
-                let last = (end >= inputs.light_count) as u32;
-                let p = kernel_params(device, "shade params", &Params { light_first: first, light_end: end, last, ..params });
-                let own = [(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (13, &out), (14, &running)];
-                let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+                let p = kernel_params(device, "shade params", &Params { light_first: first, light_end: end, ..params });
+                let mut bindings = bind(&[(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (14, &running)]);
                 bindings.push((10, labels.clone()));
                 bindings.push((11, weights.clone()));
-                bindings.extend(self.pipeline.scene_bindings(scene));
-                dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
+                dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64));
                 first = end;
-                if first >= inputs.light_count {
-                    break;
-                }
             }
+            let p = kernel_params(device, "shade params", &params);
+            let mut bindings = bind(&[(0, &p), (7, inputs.sps), (13, &out), (14, &running)]);
+            bindings.extend(self.finish.scene_bindings(scene));
+            dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64));
             out
         })
     }

@@ -174,6 +174,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("TEXELS_F32", crate::scene::TEXELS_F32),
         ("SHADE_OWN_ROW", SHADE_OWN_ROW),
         ("SHADE_FUZZY", SHADE_FUZZY),
+        ("SHADE_POINTS", crate::shade::POINTS),
         ("WEIGHTS_PLAIN_MEAN", WEIGHTS_PLAIN_MEAN),
         ("WEIGHTS_INVERSE_DISTANCE", WEIGHTS_INVERSE_DISTANCE),
     ];
@@ -259,7 +260,13 @@ pub struct RayPipeline {
 
 impl RayPipeline {
     pub fn new(device: &wgpu::Device, name: &'static str, entry: &'static str) -> RayPipeline {
-        RayPipeline { name, entry, flat: compile(device, name, &[entry], false).remove(0), paged: std::sync::OnceLock::new(), used: used_bindings(name, entry) }
+        RayPipeline {
+            name,
+            entry,
+            flat: compile(device, name, &[entry], false, &[]).remove(0),
+            paged: std::sync::OnceLock::new(),
+            used: used_bindings(name, entry),
+        }
     }
 
     /// The arrays of `scene.wgsl` this entry point reads, bound from `scene`: a stage binds its
@@ -271,7 +278,7 @@ impl RayPipeline {
     /// The variant for `scene`.
     pub fn get(&self, device: &wgpu::Device, scene: &crate::scene::GpuScene) -> &wgpu::ComputePipeline {
         if scene.bvh_paged {
-            self.paged.get_or_init(|| compile(device, self.name, &[self.entry], true).remove(0))
+            self.paged.get_or_init(|| compile(device, self.name, &[self.entry], true, &[]).remove(0))
         } else {
             &self.flat
         }
@@ -298,12 +305,20 @@ fn page_constants(device: &wgpu::Device, name: &str, bvh_paged: bool) -> Vec<(&'
 /// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
 /// derived from the bindings its entry point uses.
 pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
-    compile(device, name, entries, true)
+    compile(device, name, entries, true, &[])
 }
 
-fn compile(device: &wgpu::Device, name: &str, entries: &[&str], bvh_paged: bool) -> Vec<wgpu::ComputePipeline> {
+/// The pipeline of `entry` of stage `name` with its own values of some of the module's overrides
+/// (e.g. a loop's trip count, fixed so that the loop is unrolled), for an entry point that does
+/// not traverse the BVH.
+pub fn pipeline_with(device: &wgpu::Device, name: &str, entry: &str, overrides: &[(&'static str, f64)]) -> wgpu::ComputePipeline {
+    compile(device, name, &[entry], false, overrides).remove(0)
+}
+
+fn compile(device: &wgpu::Device, name: &str, entries: &[&str], bvh_paged: bool, overrides: &[(&'static str, f64)]) -> Vec<wgpu::ComputePipeline> {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) });
-    let constants = page_constants(device, name, bvh_paged);
+    let mut constants = page_constants(device, name, bvh_paged);
+    constants.extend_from_slice(overrides);
     entries
         .iter()
         .map(|entry| {
@@ -465,7 +480,7 @@ mod tests {
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
             [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
-            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, last }
+            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
