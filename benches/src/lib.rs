@@ -19,6 +19,15 @@ use vplgi_gpu::GpuContext;
 use vplgi_scene::Scene;
 use vplgi_types::{FrameConfig, ShadingPoint, Vpl, MISS};
 
+pub mod floor;
+pub mod history;
+
+/// The median of `v` (the upper one of an even count).
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 /// A named frame configuration (always `--cluster both`, the paper's method).
 pub struct Size {
     pub name: &'static str,

@@ -7,8 +7,12 @@
 //!    iterations; and our GPU clustering on the same data.
 //! 2. visibility: the stage's shadow-ray throughput against a bare `rtcOccluded1` loop over the
 //!    very same rays.
-//! 3. backends: GPU / CPU time per stage of the paper-size frame.
-//! 4. approximation: the clustered frame against the unclustered reference: time, MSE, FLIP.
+//! 3. floor: the GPU/CPU ratio of the simplest SIMT-friendly kernel (nearest of 64 centroids),
+//!    what the adapter costs by itself.
+//! 4. frames: GPU / CPU time and throughput per stage of the paper-size Cornell box and of the
+//!    generated conference room (300 k triangles) at 256x180.
+//! 5. approximation: the clustered frame against the unclustered reference: time, MSE, FLIP.
+//! 6. history: the tracked ratios appended to `perf/history.json`, charted in `perf/history.svg`.
 //!
 //! Every figure is a median of runs taken in this process, and ratios compare runs taken side by
 //! side. Without a GPU the adapter is Mesa lavapipe on the same CPU cores.
@@ -22,10 +26,13 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+use vplgi_benches::{history, median};
 use vplgi_cpu::cluster::cluster;
 use vplgi_cpu::visibility::{facing, visibility, Endpoint};
 use vplgi_cpu::{CpuScene, NoProgress};
+use vplgi_frame::{Frame, FrameStats};
 use vplgi_frame::{Stage, StageTimings};
+use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
 use vplgi_types::FrameConfig;
 
@@ -44,11 +51,6 @@ struct Opts {
     /// The faiss side of the k-means comparison.
     #[arg(long, default_value = "benches/faiss_kmeans.py")]
     faiss_script: PathBuf,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn secs(t: Instant) -> f64 {
@@ -194,6 +196,89 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
            "stage_mrays": rays.len() as f64 / s / 1e6, "raw_mrays": rays.len() as f64 / r / 1e6, "percent_of_raw": 100.0 * r / s})
 }
 
+/// Work per stage in the unit that matters for it, from a frame's counts: (unit, amount).
+fn work(stage: &str, s: &FrameStats) -> Option<(&'static str, f64)> {
+    match stage {
+        "trace_vpls" => Some(("M light particles/s", s.light_particles as f64)),
+        "shading_points" => Some(("M primary rays/s", s.shading_points as f64)),
+        // Points clustered (both clusterings), each through all its k-means iterations: the
+        // kernels do not count point-centroid tests (the CPU's search prunes most of them).
+        "cluster" => Some(("M points clustered/s", (s.shading_point_hits + s.vpls) as f64)),
+        "visibility" => s.visibility_rays.map(|r| ("M shadow rays/s", r as f64)),
+        // Every hit shading point against every light (VPL clusters, or VPLs unclustered).
+        "shade" => Some(("M light evaluations/s", s.shading_point_hits as f64 * s.vpl_clusters.max(1) as f64)),
+        _ => None,
+    }
+}
+
+/// One frame on both backends, alternating, `runs` times: median stage times, their ratio and
+/// each stage's throughput. Returns the JSON and the last CPU frame.
+fn frame_pair(
+    name: &str,
+    scene: &Scene,
+    cs: &CpuScene,
+    cfg: &FrameConfig,
+    runs: usize,
+    gpu: Option<(&vplgi_gpu::GpuContext, &vplgi_gpu::GpuKernels)>,
+) -> Result<(Value, Frame)> {
+    let (mut cpu_runs, mut gpu_runs) = (Vec::new(), Vec::new());
+    let mut last = None;
+    let mut gpu_stats = None;
+    for r in 0..runs {
+        eprintln!("frames: {name} {}x{}, CPU and GPU, run {} of {runs}", cfg.width, cfg.height, r + 1);
+        let f = vplgi_cpu::render(cs, cfg, &NoProgress)?;
+        cpu_runs.push(f.timings.clone());
+        last = Some(f);
+        if let Some((g, k)) = gpu {
+            let f = vplgi_gpu::render(&g.device, &g.queue, k, scene, cfg)?;
+            gpu_runs.push(f.timings);
+            gpu_stats = Some(f.stats);
+        }
+    }
+    let cpu_frame = last.context("no run")?;
+    let cpu_t = StageTimings::median(&cpu_runs);
+    let gpu_t = (!gpu_runs.is_empty()).then(|| StageTimings::median(&gpu_runs));
+    let stages: Vec<Value> = stage_list(&cpu_t)
+        .iter()
+        .filter(|(_, c)| *c > 0.0)
+        .map(|(stage, c)| {
+            let g = gpu_t.as_ref().and_then(|g| stage_list(g).into_iter().find(|(n, _)| n == stage).map(|x| x.1));
+            // The GPU frame does not count its shadow rays: those of the CPU frame, whose rows and
+            // columns it traces too (up to clustering ties), stand in.
+            let rate = |stats: &FrameStats, ms: f64| work(stage, stats).or_else(|| work(stage, &cpu_frame.stats)).map(|(_, n)| n / (ms / 1e3) / 1e6);
+            json!({
+                "stage": stage, "cpu_ms": c, "gpu_ms": g, "ratio": g.map(|g| g / c),
+                "unit": work(stage, &cpu_frame.stats).map(|(u, _)| u),
+                "cpu_rate": rate(&cpu_frame.stats, *c),
+                "gpu_rate": g.zip(gpu_stats.as_ref()).and_then(|(g, st)| rate(st, g)),
+            })
+        })
+        .collect();
+    let value = json!({
+        "name": format!("{name} {}x{}", cfg.width, cfg.height),
+        "config": {"scene": name, "triangles": scene.triangle_count(), "width": cfg.width, "height": cfg.height, "vpls": cfg.vpls, "k_vpl": cfg.k_vpl, "k_sp": cfg.k_sp, "f": cfg.f},
+        "runs": runs,
+        "stages": stages,
+    });
+    Ok((value, cpu_frame))
+}
+
+/// The floor: brute-force nearest of 64 centroids for `n` points, the GPU kernel against its
+/// rayon twin (vplgi_benches::floor).
+fn floor(ctx: &vplgi_gpu::GpuContext, n: usize, runs: usize) -> Result<Value> {
+    eprintln!("floor: nearest of {} centroids for {n} points, CPU and GPU", vplgi_benches::floor::CENTROIDS);
+    let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 1);
+    let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let points: Vec<Vec3> = (0..n).map(|_| v()).collect();
+    let centroids: Vec<Vec3> = (0..vplgi_benches::floor::CENTROIDS).map(|_| v()).collect();
+    let cpu = vplgi_benches::floor::cpu(&points, &centroids, runs);
+    let gpu = vplgi_benches::floor::gpu(ctx, &points, &centroids, runs)?;
+    let agree = cpu.labels.iter().zip(&gpu.labels).filter(|(a, b)| a == b).count();
+    Ok(
+        json!({"points": n, "centroids": centroids.len(), "cpu_s": cpu.seconds, "gpu_s": gpu.seconds, "ratio": gpu.seconds / cpu.seconds, "labels_agree": agree}),
+    )
+}
+
 /// The stages and the total, by name.
 fn stage_list(t: &StageTimings) -> Vec<(&'static str, f64)> {
     t.iter().map(|(s, ms)| (s.name(), ms)).chain([("total", t.total())]).collect()
@@ -230,36 +315,32 @@ fn main() -> Result<()> {
     eprintln!("visibility against raw Embree");
     report["visibility"] = if opts.quick { visibility_vs_embree(&cs, 64, 4, 200, 3) } else { visibility_vs_embree(&cs, 512, 32, 1000, 7) };
 
-    // 3 and 4. Paper-size frames: CPU and GPU alternating, then the unclustered reference.
+    // 3. The floor of the GPU/CPU ratio: a kernel that maps perfectly to SIMT hardware.
+    if let Some(g) = &gpu {
+        report["floor"] = floor(g, if opts.quick { 100_000 } else { 4_000_000 }, if opts.quick { 1 } else { 5 })?;
+    }
+
+    // 4 and 5. Frames, CPU and GPU alternating: the paper-size Cornell box and the generated
+    // conference room; then the Cornell box's unclustered reference.
     let clustered =
         if opts.quick { FrameConfig { width: 64, height: 64, vpls: 500, k_vpl: 50, k_sp: 200, ..FrameConfig::default() } } else { FrameConfig::default() };
     let reference = FrameConfig { cluster: vplgi_types::ClusterMode::None, ..clustered.clone() };
     let runs = if opts.quick { 1 } else { 3 };
     let kernels = gpu.as_ref().map(|g| vplgi_gpu::GpuKernels::new(&g.device)).transpose()?;
-    let (mut cpu_runs, mut gpu_runs) = (Vec::new(), Vec::new());
-    let mut cpu_pixels = Vec::new();
-    for r in 0..runs {
-        eprintln!("frames: CPU and GPU, run {} of {runs}", r + 1);
-        let f = vplgi_cpu::render(&cs, &clustered, &NoProgress)?;
-        cpu_runs.push(f.timings);
-        cpu_pixels = f.pixels;
-        if let (Some(g), Some(k)) = (&gpu, &kernels) {
-            gpu_runs.push(vplgi_gpu::render(&g.device, &g.queue, k, &scene, &clustered)?.timings);
-        }
-    }
-    let cpu_t = StageTimings::median(&cpu_runs);
-    let gpu_t = (!gpu_runs.is_empty()).then(|| StageTimings::median(&gpu_runs));
-    report["backends"] = json!({
-        "config": {"width": clustered.width, "height": clustered.height, "vpls": clustered.vpls, "k_vpl": clustered.k_vpl, "k_sp": clustered.k_sp},
-        "runs": runs,
-        "stages": stage_list(&cpu_t).iter().map(|(name, c)| {
-            let g = gpu_t.as_ref().and_then(|g| stage_list(g).into_iter().find(|(n, _)| n == name).map(|x| x.1));
-            json!({"stage": name, "cpu_ms": c, "gpu_ms": g, "ratio": g.map(|g| g / c)})
-        }).collect::<Vec<_>>(),
-    });
+    let gpu_pair = gpu.as_ref().zip(kernels.as_ref());
+    let (cornell, cpu_frame) = frame_pair("cornell-box", &scene, &cs, &clustered, runs, gpu_pair)?;
+    let conference_scene = vplgi_scene::generate::generate("conference", if opts.quick { 20_000 } else { 300_000 }).map_err(anyhow::Error::msg)?;
+    let conference_cs = CpuScene::new(&conference_scene, &device)?;
+    let (w, h) = if opts.quick { (64, 45) } else { (256, 180) };
+    let conference_cfg = FrameConfig { width: w, height: h, ..clustered.clone() };
+    let (conference, _) = frame_pair("conference", &conference_scene, &conference_cs, &conference_cfg, runs, gpu_pair)?;
+    report["frames"] = json!([cornell, conference]);
+    let cpu_pixels = cpu_frame.pixels;
     eprintln!("frames: the unclustered reference (CPU)");
     let t0 = Instant::now();
     let rf = vplgi_cpu::render(&cs, &reference, &NoProgress)?;
+    let cornell_cpu_ms =
+        report["frames"][0]["stages"].as_array().and_then(|ss| ss.iter().find(|s| s["stage"] == "total")).map_or(f64::NAN, |s| f(&s["cpu_ms"]));
     let ref_s = secs(t0);
     let (w, h) = (clustered.width, clustered.height);
     let (ref_img, test_img) = (image(w, h, rf.pixels), image(w, h, cpu_pixels));
@@ -268,13 +349,17 @@ fn main() -> Result<()> {
     vplgi_image::write_png(&dir.join("clustered.png"), &test_img, 1.0)?;
     vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
     report["approximation"] = json!({
-        "reference_s": ref_s, "reference_visibility_s": rf.timings.get(Stage::Visibility) / 1e3, "clustered_s": cpu_t.total() / 1e3,
-        "speedup": ref_s / (cpu_t.total() / 1e3), "mse": cmp.metrics.mse, "rel_mse": cmp.metrics.rel_mse, "flip": cmp.metrics.flip,
+        "reference_s": ref_s, "reference_visibility_s": rf.timings.get(Stage::Visibility) / 1e3, "clustered_s": cornell_cpu_ms / 1e3,
+        "speedup": ref_s / (cornell_cpu_ms / 1e3), "mse": cmp.metrics.mse, "rel_mse": cmp.metrics.rel_mse, "flip": cmp.metrics.flip,
     });
     report["wall_s"] = json!(secs(started));
 
     let json_path = dir.join("perf.json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&report)? + "\n").with_context(|| format!("cannot write {}", json_path.display()))?;
+    let history = vplgi_benches::history::append(&dir.join("history.json"), vplgi_benches::history::entry(&report))?;
+    let chart = dir.join("history.svg");
+    std::fs::write(&chart, vplgi_benches::history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
+    report["history"] = json!(history);
     let md = markdown(&report, lavapipe, &opts, &dir)?;
     std::fs::write(&opts.out, md).with_context(|| format!("cannot write {}", opts.out.display()))?;
     println!("wrote {} and {} in {:.0} s", opts.out.display(), json_path.display(), secs(started));
@@ -337,19 +422,46 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
     writeln!(s, "| raw `rtcOccluded1` loop | {:.1} | {:.2} |", f(&v["raw_s"]) * 1e3, f(&v["raw_mrays"]))?;
     writeln!(s, "\nThe stage runs at **{:.1} %** of raw Embree throughput (target: at least 90 %).", f(&v["percent_of_raw"]))?;
 
-    let b = &r["backends"];
-    let c = &b["config"];
     writeln!(s, "\n## GPU against CPU, per stage\n")?;
-    writeln!(
-        s,
-        "Cornell box, {}x{}, {} VPLs, {} / {} VPL / SP clusters (`--cluster both`), wall time of each stage inside a frame, median of {} runs alternating CPU and GPU.\n",
-        c["width"], c["height"], c["vpls"], c["k_vpl"], c["k_sp"], b["runs"]
-    )?;
-    writeln!(s, "| stage | CPU (ms) | GPU (ms) | GPU / CPU |\n|---|---:|---:|---:|")?;
-    for st in b["stages"].as_array().cloned().unwrap_or_default() {
-        let g = st["gpu_ms"].as_f64().map_or("–".into(), |g| format!("{g:.1}"));
-        let ratio = st["ratio"].as_f64().map_or("–".into(), |x| format!("{x:.1}×"));
-        writeln!(s, "| {} | {:.1} | {g} | {ratio} |", st["stage"].as_str().unwrap_or("?"), f(&st["cpu_ms"]))?;
+    writeln!(s, "Wall time of each stage inside a frame (`--cluster both`), median of runs alternating CPU and GPU, and each stage's throughput in its own unit (the counts of each backend's frame over its time; the GPU does not count shadow rays, so its rays/s use the CPU frame's count). Targets: every stage at most {}× the CPU's time, the whole frame at most {}×.", history::STAGE_RATIO_TARGET, history::FRAME_RATIO_TARGET)?;
+    let fl = &r["floor"];
+    if fl.is_object() {
+        writeln!(
+            s,
+            "\n**The floor.** The simplest kernel that maps perfectly to SIMT hardware (every point tests the same {} centroids in the same order: no divergence, no gathers, no private arrays; `benches/src/floor.rs`) takes **{:.2}×** its rayon twin's time for {} points ({:.1} ms against {:.1} ms; {} of {} labels agree). On lavapipe that ratio is what the adapter costs by itself; a stage's ratio above it is the kernel's.",
+            fl["centroids"], f(&fl["ratio"]), fl["points"], f(&fl["gpu_s"]) * 1e3, f(&fl["cpu_s"]) * 1e3, fl["labels_agree"], fl["points"]
+        )?;
+    }
+    for fr in r["frames"].as_array().cloned().unwrap_or_default() {
+        let c = &fr["config"];
+        writeln!(
+            s,
+            "\n### {} ({} triangles)\n\n{}x{}, {} VPLs, {} / {} VPL / SP clusters, F = {}, median of {} runs.\n",
+            c["scene"].as_str().unwrap_or("?"),
+            c["triangles"],
+            c["width"],
+            c["height"],
+            c["vpls"],
+            c["k_vpl"],
+            c["k_sp"],
+            c["f"],
+            fr["runs"]
+        )?;
+        writeln!(s, "| stage | CPU (ms) | GPU (ms) | GPU / CPU | CPU throughput | GPU throughput |\n|---|---:|---:|---:|---:|---:|")?;
+        for st in fr["stages"].as_array().cloned().unwrap_or_default() {
+            let g = st["gpu_ms"].as_f64().map_or("–".into(), |g| format!("{g:.1}"));
+            let ratio = st["ratio"].as_f64().map_or("–".into(), |x| format!("{x:.2}×"));
+            let unit = st["unit"].as_str().unwrap_or("");
+            let rate = |v: &Value| v.as_f64().map_or("–".into(), |x| format!("{x:.1} {unit}"));
+            writeln!(
+                s,
+                "| {} | {:.1} | {g} | {ratio} | {} | {} |",
+                st["stage"].as_str().unwrap_or("?"),
+                f(&st["cpu_ms"]),
+                rate(&st["cpu_rate"]),
+                rate(&st["gpu_rate"])
+            )?;
+        }
     }
 
     let a = &r["approximation"];
@@ -368,6 +480,30 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
     )?;
     writeln!(s, "\nThe paper reports 14.5× on its Cornell box and 16× at MSE 1.8e-3 on its conference room, measured with CUDA and OptiX on a GPU.\n")?;
     writeln!(s, "| reference | clustered | FLIP error map |\n|---|---|---|\n| ![reference](perf/reference.png) | ![clustered](perf/clustered.png) | ![error](perf/error_map.png) |")?;
+
+    writeln!(s, "\n## Over time\n")?;
+    writeln!(s, "Every `make perf-report` adds its ratios to [perf/history.json](perf/history.json) (with its commit), charted here; dashed lines are the targets.\n\n![ratios over time](perf/history.svg)\n")?;
+    writeln!(s, "| commit | date | frame GPU / CPU | k-means speed-up over faiss | visibility, % of Embree |\n|---|---|---|---:|---:|")?;
+    let hist = r["history"].as_array().cloned().unwrap_or_default();
+    for e in hist.iter().rev().take(10) {
+        let frames: Vec<String> = e["frames"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|fr| Some(format!("{}: {:.2}×", fr["name"].as_str()?, fr["ratios"]["total"].as_f64()?)))
+            .collect();
+        let quick = if e["quick"] == Value::Bool(true) { " (--quick)" } else { "" };
+        let num = |v: &Value, suffix: &str| v.as_f64().map_or("–".into(), |x| format!("{x:.2}{suffix}"));
+        writeln!(
+            s,
+            "| {}{quick} | {} | {} | {} | {} |",
+            e["commit"].as_str().unwrap_or("?"),
+            e["date"].as_str().unwrap_or("?"),
+            frames.join("; "),
+            num(&e["kmeans_speedup_over_faiss"], "×"),
+            num(&e["visibility_percent_of_embree"], " %")
+        )?;
+    }
 
     if let Ok(text) = std::fs::read_to_string(dir.join("optimisations.md")) {
         writeln!(s, "\n{}", text.trim_end())?;
