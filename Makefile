@@ -10,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench perf-report references results validate test-slurm clean
+.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results validate test-slurm clean
 
 all: build
 
@@ -138,9 +138,24 @@ fuzz: setup
 	done
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores
-# with lavapipe). One stage: make bench BENCH=visibility
+# with lavapipe). One stage: make bench BENCH=visibility. The first run saves its times as the
+# baseline BENCH_BASELINE (target/criterion/.../main); later runs are compared with it, and
+# bench_compare prints each benchmark as slower, faster or within the noise it measured (the two
+# medians' 95 % intervals). make bench-baseline saves the current code's times as the baseline.
+BENCH_BASELINE ?= main
+BENCH_ENV = XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 bench: setup
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH))
+	@start=$$(date +%s); \
+	if find target/criterion -type d -name $(BENCH_BASELINE) 2>/dev/null | grep -q .; then \
+	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --baseline-lenient $(BENCH_BASELINE) || exit 1; \
+	  $(CARGO) run -q --release -p vplgi-benches --bin bench_compare -- --baseline $(BENCH_BASELINE) --since $$start; \
+	else \
+	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --save-baseline $(BENCH_BASELINE) || exit 1; \
+	  echo "make bench: no baseline '$(BENCH_BASELINE)' yet: these times are saved as it; the next make bench compares with them"; \
+	fi
+
+bench-baseline: setup
+	$(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --save-baseline $(BENCH_BASELINE)
 
 # vplgi side by side with faiss-cpu (k-means), raw Embree (visibility), its GPU backend and its
 # unclustered reference, in one run: docs/PERFORMANCE.md. About 10 minutes. faiss-cpu is
