@@ -12,29 +12,55 @@
 
 // ---- the search (Grid::search)
 
-var<private> best_d: array<f32, 16>;
-var<private> best_k: array<u32, 16>;
-var<private> found: u32;
+// Clusters kept per point (params.f), fixed per pipeline (vplgi-gpu/src/cluster.rs compiles one
+// per F on first use) so that every loop over the list has a constant trip count and the list
+// lives in registers. On lavapipe a private array indexed by a variable stays in memory and is
+// read and written lane by lane; this list is touched for every centroid considered.
+override F: u32 = 1u;
 
+// The F best (distance, index) pairs so far, nearest first, ties by index; empty slots hold
+// (inf, MISS), which every centroid beats.
+var<private> best_d: array<f32, MAX_F>;
+var<private> best_k: array<u32, MAX_F>;
+// n_t of Eq. 7, read once per point instead of per centroid.
+var<private> threshold: f32;
+
+fn clear_best() {
+    for (var j = 0u; j < F; j = j + 1u) {
+        best_d[j] = bitcast<f32>(0x7f800000u);
+        best_k[j] = MISS;
+    }
+}
+
+fn count_found() -> u32 {
+    var n = 0u;
+    for (var j = 0u; j < F; j = j + 1u) {
+        n = n + select(0u, 1u, best_k[j] != MISS);
+    }
+    return n;
+}
+
+// Inserts (d, k) into the sorted list, dropping its last entry: one compare-and-swap per slot,
+// the same list as the CPU's sorted insertion (centroids are distinct, so no pair repeats).
 fn consider(k: u32, p: vec3<f32>, n: vec3<f32>) {
     let c = centroids[k];
-    if (!compatible(n, c.normal.xyz)) {
+    var d = dist2(p, c.position.xyz);
+    var kk = k;
+    // compatible() of cluster.wgsl, with n_t from the private copy.
+    var cos = n.x * c.normal.x;
+    cos = cos + n.y * c.normal.y;
+    cos = cos + n.z * c.normal.z;
+    if (!(cos > threshold)) {
         return;
     }
-    let d = dist2(p, c.position.xyz);
-    var pos = found;
-    while (pos > 0u && (d < best_d[pos - 1u] || (d == best_d[pos - 1u] && k < best_k[pos - 1u]))) {
-        pos = pos - 1u;
-    }
-    if (pos < params.f) {
-        let end = min(found, params.f - 1u);
-        for (var j = end; j > pos; j = j - 1u) {
-            best_d[j] = best_d[j - 1u];
-            best_k[j] = best_k[j - 1u];
-        }
-        best_d[pos] = d;
-        best_k[pos] = k;
-        found = min(found + 1u, params.f);
+    for (var j = 0u; j < F; j = j + 1u) {
+        let better = d < best_d[j] || (d == best_d[j] && kk < best_k[j]);
+        let od = best_d[j];
+        let ok = best_k[j];
+        best_d[j] = select(od, d, better);
+        best_k[j] = select(ok, kk, better);
+        d = select(d, od, better);
+        kk = select(kk, ok, better);
     }
 }
 
@@ -68,17 +94,17 @@ fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
 
 // Returns 0 (neighbourhood), 1 (widened) or 2 (no compatible centroid: nearest by position).
 fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
-    found = 0u;
+    clear_best();
     let c = cell_coords(p);
     visit_ring(c, 1, p, n);
-    if (found > 0u) {
+    if (best_k[0] != MISS) {
         return 0u;
     }
     let far = max(c, params.dims.xyz - vec3<i32>(1) - c);
     let last = max(max(max(far.x, far.y), far.z), 1);
     for (var r = 2; r <= last; r = r + 1) {
         if (r >= params.dims.w) {
-            found = 0u;
+            clear_best();
             for (var k = 0u; k < params.k; k = k + 1u) {
                 consider(k, p, n);
             }
@@ -86,11 +112,11 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
         }
         visit_ring(c, r, p, n);
         // Exact F nearest once the F-th best is nearer than anything in the unvisited rings.
-        if (found == params.f && sqrt(best_d[params.f - 1u]) <= f32(r) * params.origin.w) {
+        if (best_k[F - 1u] != MISS && sqrt(best_d[F - 1u]) <= f32(r) * params.origin.w) {
             return 1u;
         }
     }
-    if (found > 0u) {
+    if (best_k[0] != MISS) {
         return 1u;
     }
     var nd = bitcast<f32>(0x7f800000u);
@@ -102,11 +128,8 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
             nk = k;
         }
     }
-    if (nk != MISS) {
-        best_d[0] = nd;
-        best_k[0] = nk;
-        found = 1u;
-    }
+    best_d[0] = nd;
+    best_k[0] = nk;
     return 2u;
 }
 
@@ -116,35 +139,39 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     if (i >= params.n) {
         return;
     }
+    threshold = params.threshold;
     let pt = points[i];
     let how = search(pt.position.xyz, pt.normal.xyz);
     outcome[i] = how;
+    let found = count_found();
     // fuzzy_weights: inverse distance (floored at 1e-4 cell) or plain mean, normalised.
     let floor_d = 1e-4 * params.origin.w;
-    var w: array<f32, 16>;
+    var w: array<f32, MAX_F>;
     var total = 0.0;
-    for (var j = 0u; j < found; j = j + 1u) {
-        if (params.fuzzy == WEIGHTS_INVERSE_DISTANCE) {
-            w[j] = 1.0 / max(sqrt(best_d[j]), floor_d);
-        } else {
-            w[j] = 1.0;
+    for (var j = 0u; j < F; j = j + 1u) {
+        if (j < found) {
+            if (params.fuzzy == WEIGHTS_INVERSE_DISTANCE) {
+                w[j] = 1.0 / max(sqrt(best_d[j]), floor_d);
+            } else {
+                w[j] = 1.0;
+            }
+            total = total + w[j];
         }
-        total = total + w[j];
     }
     let inf = bitcast<f32>(0x7f800000u);
     if (!(total < inf && total > 0.0)) {
         total = f32(found);
-        for (var j = 0u; j < found; j = j + 1u) {
+        for (var j = 0u; j < F; j = j + 1u) {
             w[j] = 1.0;
         }
     }
-    for (var j = 0u; j < params.f; j = j + 1u) {
+    for (var j = 0u; j < F; j = j + 1u) {
         if (j < found) {
-            labels[i * params.f + j] = best_k[j];
-            weights[i * params.f + j] = w[j] / total;
+            labels[i * F + j] = best_k[j];
+            weights[i * F + j] = w[j] / total;
         } else {
-            labels[i * params.f + j] = MISS;
-            weights[i * params.f + j] = 0.0;
+            labels[i * F + j] = MISS;
+            weights[i * F + j] = 0.0;
         }
     }
 }

@@ -13,11 +13,12 @@
 use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
-use crate::shader::{pipelines, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN};
+use crate::shader::{pipeline_with, pipelines, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN};
 use crate::visibility::Endpoint;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use std::sync::OnceLock;
 use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, FixedPoint, GridGeometry};
 use vplgi_types::config::MAX_F;
 use vplgi_types::FuzzyMode;
@@ -97,21 +98,23 @@ pub struct AssignRule {
 
 /// The clustering passes, one shader file each (`shaders/cluster_*.wgsl`).
 pub struct ClusterKernel {
-    gather: wgpu::ComputePipeline,
-    bounds: wgpu::ComputePipeline,
-    outcome_counts: wgpu::ComputePipeline,
-    occupancy: wgpu::ComputePipeline,
-    count_bits: wgpu::ComputePipeline,
-    grid_count: wgpu::ComputePipeline,
-    grid_scatter: wgpu::ComputePipeline,
-    assign: wgpu::ComputePipeline,
-    accumulate: wgpu::ComputePipeline,
-    finalize: wgpu::ComputePipeline,
-    count_labels: wgpu::ComputePipeline,
-    flags: wgpu::ComputePipeline,
-    compact: wgpu::ComputePipeline,
-    rep_d2: wgpu::ComputePipeline,
-    rep_index: wgpu::ComputePipeline,
+    gather: Pass,
+    bounds: Pass,
+    outcome_counts: Pass,
+    occupancy: Pass,
+    count_bits: Pass,
+    grid_count: Pass,
+    grid_scatter: Pass,
+    /// The assignment, by F (1 ..= MAX_F), compiled on first use: F fixes the trip count of
+    /// every loop over a point's list of nearest clusters (cluster_assign.wgsl).
+    assign: Vec<OnceLock<Pass>>,
+    accumulate: Pass,
+    finalize: Pass,
+    count_labels: Pass,
+    flags: Pass,
+    compact: Pass,
+    rep_d2: Pass,
+    rep_index: Pass,
     scan: ScanKernel,
 }
 
@@ -125,9 +128,17 @@ pub fn brute_ring(k: usize) -> i32 {
     r
 }
 
-/// The pipelines of the `N` entry points of one pass file, in order.
-fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [wgpu::ComputePipeline; N] {
-    pipelines(device, file, &entries).try_into().unwrap_or_else(|_| unreachable!("one pipeline per entry point"))
+/// A clustering pass: its pipeline, and the name its device time is reported under
+/// (`vplgi render --profile`).
+struct Pass {
+    name: String,
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// The passes of the `N` entry points of one pass file, in order.
+fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [Pass; N] {
+    let mut pipelines = pipelines(device, file, &entries).into_iter();
+    entries.map(|e| Pass { name: format!("cluster {e}"), pipeline: pipelines.next().unwrap_or_else(|| unreachable!("one pipeline per entry point")) })
 }
 
 fn groups(n: u32) -> u32 {
@@ -141,7 +152,7 @@ impl ClusterKernel {
             let [gather, bounds, outcome_counts] = passes(device, "cluster_points.wgsl", ["gather", "bounds", "outcome_counts"]);
             let [occupancy, count_bits] = passes(device, "cluster_occupancy.wgsl", ["occupancy", "count_bits"]);
             let [grid_count, grid_scatter] = passes(device, "cluster_grid.wgsl", ["grid_count", "grid_scatter"]);
-            let [assign] = passes(device, "cluster_assign.wgsl", ["assign"]);
+            let assign = (0..=MAX_F).map(|_| OnceLock::new()).collect();
             let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
             let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
             let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
@@ -170,7 +181,7 @@ impl ClusterKernel {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        pass: &wgpu::ComputePipeline,
+        pass: &Pass,
         params: &Params,
         bound: &[(u32, &wgpu::Buffer)],
         threads: u32,
@@ -183,16 +194,16 @@ impl ClusterKernel {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        pass: &wgpu::ComputePipeline,
+        pass: &Pass,
         params: &Params,
         bound: &[(u32, wgpu::BufferBinding)],
         threads: u32,
     ) -> Result<(), GpuError> {
-        validated(device, "cluster pass", || {
+        validated(device, &pass.name, || {
             let p = kernel_params(device, "cluster params", params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
             all.extend_from_slice(bound);
-            dispatch_windows(device, queue, pass, &all, groups(threads));
+            dispatch_windows(device, queue, &pass.pipeline, &all, groups(threads));
         })
     }
 
@@ -319,7 +330,9 @@ impl ClusterKernel {
                 (8, w.of::<f32>(&a.weights, f64)),
                 (10, w.of::<u32>(&a.outcome, 1)),
             ];
-            self.run_windows(device, queue, &self.assign, &p, &b, w.count as u32)?;
+            let pass = self.assign[f as usize]
+                .get_or_init(|| Pass { name: "cluster assign".into(), pipeline: pipeline_with(device, "cluster_assign.wgsl", "assign", &[("F", f as f64)]) });
+            self.run_windows(device, queue, pass, &p, &b, w.count as u32)?;
         }
         Ok(a)
     }

@@ -4,6 +4,7 @@ use crate::buffers::{dispatch_windows, kernel_params, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
 use crate::shader::{pipeline_with, RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
+use crate::timing::in_kernel;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::sync::OnceLock;
@@ -152,13 +153,13 @@ impl ShadeKernel {
                 let mut bindings = bind(&[(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (14, &running)]);
                 bindings.push((10, labels.clone()));
                 bindings.push((11, weights.clone()));
-                dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64));
+                in_kernel("shade lights", || dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64)));
                 first = end;
             }
             let p = kernel_params(device, "shade params", &params);
             let mut bindings = bind(&[(0, &p), (7, inputs.sps), (13, &out), (14, &running)]);
             bindings.extend(self.finish.scene_bindings(scene));
-            dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64));
+            in_kernel("shade finish", || dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64)));
             out
         })
     }
