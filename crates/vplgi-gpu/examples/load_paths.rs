@@ -5,7 +5,9 @@
 //! Each of 65,536 invocations reads 256 `vec4<u32>` and folds them into one word, from a table of
 //! 64 KiB (64 x 64 texels, in cache) and of 16 MiB (1,024 x 1,024), in four ways: a storage buffer at an index that differs per lane
 //! (a BVH node during traversal), a storage buffer at the same index in every lane (a light in
-//! `shade`), and the same two reads from an `rgba32uint` texture with `textureLoad`. Every variant
+//! `shade`), per lane by half of the lanes at random (divergent code: traversal, where lanes
+//! finish at their own time), and the same three reads from an `rgba32uint` texture with
+//! `textureLoad`. Every variant
 //! must fold to the same words as its twin, or the run fails. Medians of 5 runs.
 //!
 //! Run: `cargo run --release -p vplgi-gpu --example load_paths`
@@ -37,31 +39,46 @@ fn fold(v: vec4<u32>) -> u32 {
     return v.x ^ (v.y * 3u) ^ (v.z * 5u) ^ (v.w * 7u);
 }
 
-fn buffer_reads(i: u32, per_lane: bool) -> u32 {
+// With `divergent`, a lane reads only where a hash of (lane, read) says so (about half the
+// time, at random): the active lanes of a SIMD group differ from read to read, as in BVH
+// traversal, where lanes visit nodes in their own order and finish at their own time.
+fn lane_reads(i: u32, r: u32, divergent: bool) -> bool {
+    return !divergent || (((i * 747796405u + r * 2891336453u) >> 13u) & 1u) == 1u;
+}
+
+fn buffer_reads(i: u32, per_lane: bool, divergent: bool) -> u32 {
     var acc = 0u;
     for (var r = 0u; r < READS; r = r + 1u) {
-        acc = acc + fold(table[index(i, r, per_lane)]);
+        if (lane_reads(i, r, divergent)) {
+            acc = acc + fold(table[index(i, r, per_lane)]);
+        }
     }
     return acc;
 }
 
-fn texel_reads(i: u32, per_lane: bool) -> u32 {
+fn texel_reads(i: u32, per_lane: bool, divergent: bool) -> u32 {
     var acc = 0u;
     for (var r = 0u; r < READS; r = r + 1u) {
-        let k = index(i, r, per_lane);
-        acc = acc + fold(textureLoad(texels, vec2<u32>(k % SIDE, k / SIDE), 0));
+        if (lane_reads(i, r, divergent)) {
+            let k = index(i, r, per_lane);
+            acc = acc + fold(textureLoad(texels, vec2<u32>(k % SIDE, k / SIDE), 0));
+        }
     }
     return acc;
 }
 
 @compute @workgroup_size(64)
-fn buffer_per_lane(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = buffer_reads(g.x, true); }
+fn buffer_per_lane(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = buffer_reads(g.x, true, false); }
 @compute @workgroup_size(64)
-fn buffer_uniform(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = buffer_reads(g.x, false); }
+fn buffer_uniform(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = buffer_reads(g.x, false, false); }
 @compute @workgroup_size(64)
-fn texture_per_lane(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = texel_reads(g.x, true); }
+fn buffer_divergent(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = buffer_reads(g.x, true, true); }
 @compute @workgroup_size(64)
-fn texture_uniform(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = texel_reads(g.x, false); }
+fn texture_per_lane(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = texel_reads(g.x, true, false); }
+@compute @workgroup_size(64)
+fn texture_uniform(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = texel_reads(g.x, false, false); }
+@compute @workgroup_size(64)
+fn texture_divergent(@builtin(global_invocation_id) g: vec3<u32>) { out[g.x] = texel_reads(g.x, true, true); }
 "#;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -105,7 +122,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mapped_at_creation: false,
         });
         let mut results = Vec::new();
-        for entry in ["buffer_per_lane", "texture_per_lane", "buffer_uniform", "texture_uniform"] {
+        for entry in ["buffer_per_lane", "texture_per_lane", "buffer_uniform", "texture_uniform", "buffer_divergent", "texture_divergent"] {
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: None,
@@ -139,12 +156,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             times.remove(0); // the first run compiles
             let folded: Vec<u32> = vplgi_gpu::buffers::read_back(device, queue, &out, INVOCATIONS as usize)?;
-            let reads = INVOCATIONS as f64 * READS as f64;
+            // The divergent variants read about half the time.
+            let reads = INVOCATIONS as f64 * READS as f64 * if entry.ends_with("divergent") { 0.5 } else { 1.0 };
             let s = median(times);
             println!("{side:>5}² {entry:>17}: {:8.1} ms, {:7.1} M vec4 reads/s", s * 1e3, reads / s / 1e6);
             results.push(folded);
         }
-        if results[0] != results[1] || results[2] != results[3] {
+        let errors = ctx.take_uncaptured_errors();
+        if !errors.is_empty() {
+            return Err(errors.join("; ").into());
+        }
+        if results[0] != results[1] || results[2] != results[3] || results[4] != results[5] {
             return Err("a texture variant read other values than its buffer twin".into());
         }
     }
