@@ -245,3 +245,50 @@ proptest::proptest! {
         vplgi_tests::hold(&checks)?;
     }
 }
+
+/// `shade::geometry_term`'s contract: cos cos / d², zero when either surface faces away (one
+/// facing away gives a negative product, which must not leak out as a negative G).
+#[test]
+fn geometry_term_is_zero_when_either_surface_faces_away() {
+    use vplgi_cpu::shade::geometry_term;
+    let (p, x) = (Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0));
+    assert_eq!(geometry_term(p, Vec3::Y, x, -Vec3::Y, f32::INFINITY), 0.25, "facing pair at distance 2");
+    assert_eq!(geometry_term(p, Vec3::Y, x, Vec3::Y, f32::INFINITY), 0.0, "the light faces away");
+    assert_eq!(geometry_term(p, -Vec3::Y, x, -Vec3::Y, f32::INFINITY), 0.0, "the receiver faces away");
+    assert_eq!(geometry_term(p, -Vec3::Y, x, Vec3::Y, f32::INFINITY), 0.0, "both face away");
+    assert_eq!(geometry_term(p, Vec3::Y, x, -Vec3::Y, 0.1), 0.1, "clamped");
+}
+
+/// Own-row visibility read from a window of rows (`first_row` > 0, as when the visibility matrix
+/// is computed in chunks): each shading point reads row `row_of[i] - first_row` of the window, so
+/// the pixels equal those from the whole matrix. Two shading points, one light each row sees
+/// differently: a wrong row shows.
+#[test]
+fn own_rows_are_read_relative_to_the_windows_first_row() {
+    use vplgi_cpu::shade::{indirect, LightArrays, VisibilitySource, VplLight};
+    use vplgi_cpu::visibility::BitMatrix;
+    use vplgi_types::ShadingPoint;
+    let lights = [VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, Vec3::ONE), VplLight::new(Vec3::new(0.5, 1.0, 0.0), -Vec3::Y, Vec3::splat(2.0))];
+    let sp = ShadingPoint { position: [0.0; 3], normal: [0.0, 1.0, 0.0], albedo: [0.5; 3], ..Default::default() };
+    // Whole matrix: rows 0..7; the two points use rows 5 and 6, which see light 0 and light 1.
+    let mut whole = BitMatrix::new(7, 2);
+    whole.set(5, 0, true);
+    whole.set(6, 1, true);
+    let row_of = [5u32, 6];
+    // The window holds rows 5 and 6 only.
+    let mut window = BitMatrix::new(2, 2);
+    window.set(0, 0, true);
+    window.set(1, 1, true);
+    let arrays = LightArrays::new(&lights);
+    for i in 0..2 {
+        let from_whole = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &whole, row_of: &row_of, first_row: 0 }, f32::INFINITY);
+        let from_window = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY);
+        assert!(from_whole.max_element() > 0.0, "point {i} sees a light");
+        assert_eq!(from_window, from_whole, "point {i}");
+    }
+    let (a, b) = (
+        indirect(&sp, 0, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY),
+        indirect(&sp, 1, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY),
+    );
+    assert_ne!(a, b, "the two rows see different lights");
+}
