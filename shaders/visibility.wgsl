@@ -41,6 +41,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var o = vec3<f32>(0.0);
     var inv_d = vec3<f32>(0.0);
     var shear = RayShear(vec3<u32>(0u), vec3<f32>(0.0));
+    let origin = bvh_frame[0].xyz;
+    let step = bvh_frame[1].xyz;
     loop {
         if (node == BVH_END) {
             // Start the next pair that faces (visibility::facing); the others get 0 without a ray.
@@ -65,11 +67,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 break;
             }
         }
-        let n = bvh_node(node);
+        let n = decode_node(bvh_node(node), node, origin, step);
         var next = n.skip;
         var blocked = false;
         if (hits_box(n, o, inv_d, SEGMENT_TNEAR, SEGMENT_TFAR)) {
-            if (n.leaf == 0u) {
+            if (!n.is_leaf) {
                 next = node + 1u;
             } else if (leaf_blocks(n.leaf, o, shear, SEGMENT_TNEAR, SEGMENT_TFAR)) {
                 blocked = true;

@@ -3,10 +3,12 @@
 // node's first child is the next node, and `skip` leads past the node's subtree, taken when the
 // ray misses the box or after a leaf. A ray's traversal state is one node index: no stack array
 // per invocation, and visibility.wgsl can chain its rays without waiting for other lanes.
-// A scene without triangles is uploaded as one leaf with an empty box. Reads the arrays of
+// A scene without triangles is uploaded as one leaf without triangles. Reads the arrays of
 // scene.wgsl:
-//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  vplgi_types::device::BvhNode, 32 bytes
+//   bvh_nodes, bvh_nodes_hi: array<BvhNode>  vplgi_gpu::bvh::BvhNode, 16 bytes: the box
+//                            quantized in bvh_frame (16 bits per corner coordinate), the link
 //   bvh_tris, bvh_tris_hi:   array<BvhTri>   triangles reordered by the BVH's primitive_indices
+//   bvh_frame                                corner = origin + q * step
 // Each array is paged over two bindings so it may exceed one storage binding: element i lives
 // in the first page if i < the page size (an override set from the device limit), else in `_hi`.
 
@@ -30,11 +32,31 @@ fn bvh_tri(i: u32) -> BvhTri {
     return bvh_tris_hi[i - BVH_TRI_PAGE];
 }
 
-struct BvhNode {
-    min: vec3<f32>,
-    skip: u32,           // the node after this subtree in preorder, or BVH_END
-    max: vec3<f32>,
-    leaf: u32,           // 0: inner node; else first triangle slot << LEAF_COUNT_BITS | count
+// Words 0-2: the box's corners quantized to 16 bits (min x, y, z, max x, y, z, low half first),
+// rounded outwards so the box holds the node's exact box; word 3: the link. A leaf's link has
+// BVH_LINK_LEAF set, BVH_LINK_LAST on the last node of the preorder, and its triangle slots
+// (leaf_slots); an inner node's link is its skip link, or BVH_LINK_END.
+alias BvhNode = vec4<u32>;
+
+// A node decoded: its box, whether it is a leaf, its triangle slots if so, and where the
+// traversal goes when the ray misses its box or has tested the leaf.
+struct Node {
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+    is_leaf: bool,
+    leaf: u32,
+    skip: u32,
+}
+
+// The frame of the quantized boxes, read once per traversal (lavapipe reloads storage inside a
+// loop on every iteration): origin in [0], step in [1].
+fn decode_node(n: BvhNode, i: u32, origin: vec3<f32>, step: vec3<f32>) -> Node {
+    let lo = origin + vec3<f32>(f32(n.x & 0xffffu), f32(n.x >> 16u), f32(n.y & 0xffffu)) * step;
+    let hi = origin + vec3<f32>(f32(n.y >> 16u), f32(n.z & 0xffffu), f32(n.z >> 16u)) * step;
+    let is_leaf = (n.w & BVH_LINK_LEAF) != 0u;
+    let leaf_skip = select(i + 1u, BVH_END, (n.w & BVH_LINK_LAST) != 0u);
+    let inner_skip = select(n.w, BVH_END, n.w == BVH_LINK_END);
+    return Node(lo, hi, is_leaf, n.w & (BVH_LINK_LAST - 1u), select(inner_skip, leaf_skip, is_leaf));
 }
 
 struct BvhTri {
@@ -131,9 +153,9 @@ fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32)
 const BOX_SLACK: f32 = 1.0000004;
 
 // Whether the ray segment (tmin, tmax) touches the node's box (conservatively).
-fn hits_box(node: BvhNode, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
-    let t0 = (node.min - o) * inv_d;
-    let t1 = (node.max - o) * inv_d;
+fn hits_box(node: Node, o: vec3<f32>, inv_d: vec3<f32>, tmin: f32, tmax: f32) -> bool {
+    let t0 = (node.lo - o) * inv_d;
+    let t1 = (node.hi - o) * inv_d;
     let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), tmin));
     let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), tmax));
     return near <= far * BOX_SLACK;
@@ -152,15 +174,17 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
     let inv_d = safe_inverse(d);
     let shear = ray_shear(d);
+    let origin = bvh_frame[0].xyz;
+    let step = bvh_frame[1].xyz;
     var i = 0u;
     loop {
         if (i == BVH_END) {
             break;
         }
-        let node = bvh_node(i);
+        let node = decode_node(bvh_node(i), i, origin, step);
         var next = node.skip;
         if (hits_box(node, o, inv_d, tmin, hit.t)) {
-            if (node.leaf == 0u) {
+            if (!node.is_leaf) {
                 next = i + 1u;
             } else {
                 let slots = leaf_slots(node.leaf);

@@ -24,3 +24,4 @@
 @group(0) @binding(49) var<storage, read> all_table: array<vec2<f32>>;   // emitters, then punctual lights
 @group(0) @binding(50) var<storage, read> punctual: array<Punctual>;
 @group(0) @binding(51) var<storage, read> light_groups: array<LightGroup>;  // light_counts.z of them
+@group(0) @binding(52) var<storage, read> bvh_frame: array<vec4<f32>, 2>;    // node corners: [0].xyz + q * [1].xyz

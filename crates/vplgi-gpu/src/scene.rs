@@ -51,6 +51,8 @@ pub struct GpuScene {
     pub bvh_nodes_hi: wgpu::Buffer,
     pub bvh_tris: wgpu::Buffer,
     pub bvh_tris_hi: wgpu::Buffer,
+    /// The dequantization of the nodes' boxes ([`bvh::BvhFrame`]).
+    pub bvh_frame: wgpu::Buffer,
     pub scene_tris: [wgpu::Buffer; SCENE_TRI_PAGES],
     pub materials: wgpu::Buffer,
     pub texture_infos: wgpu::Buffer,
@@ -74,7 +76,7 @@ pub type SceneBuffer = fn(&GpuScene) -> &wgpu::Buffer;
 
 /// The scene's arrays in the binding order of `scene.wgsl`, by their WGSL names (a test checks
 /// the two against each other).
-pub const SCENE_BINDINGS: [(&str, SceneBuffer); 20] = [
+pub const SCENE_BINDINGS: [(&str, SceneBuffer); 21] = [
     ("bvh_nodes", |s| &s.bvh_nodes),
     ("bvh_nodes_hi", |s| &s.bvh_nodes_hi),
     ("bvh_tris", |s| &s.bvh_tris),
@@ -95,6 +97,7 @@ pub const SCENE_BINDINGS: [(&str, SceneBuffer); 20] = [
     ("all_table", |s| &s.lights.all_table),
     ("punctual", |s| &s.lights.punctual),
     ("light_groups", |s| &s.lights.groups),
+    ("bvh_frame", |s| &s.bvh_frame),
 ];
 
 impl GpuScene {
@@ -150,6 +153,7 @@ impl GpuScene {
             bvh_nodes_hi,
             bvh_tris,
             bvh_tris_hi,
+            bvh_frame: storage(device, "bvh frame", &[arrays.frame]),
             scene_tris,
             materials: storage(device, "materials", &materials),
             texture_infos: storage(device, "texture infos", &infos),

@@ -170,6 +170,9 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_SCRAMBLE", Stream::Scramble as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
+        ("BVH_LINK_LEAF", crate::bvh::LINK_LEAF),
+        ("BVH_LINK_LAST", crate::bvh::LINK_LAST),
+        ("BVH_LINK_END", crate::bvh::LINK_END),
         ("TEXELS_SRGB8", crate::scene::TEXELS_SRGB8),
         ("TEXELS_F32", crate::scene::TEXELS_F32),
         ("SHADE_OWN_ROW", SHADE_OWN_ROW),
@@ -474,7 +477,7 @@ mod tests {
     /// record is one row.
     #[test]
     fn shared_structs_match_their_wgsl_layout() {
-        use crate::bvh::{BvhNode, BvhTri};
+        use crate::bvh::BvhTri;
         use crate::lights::{Emitter, LightGroup, Punctual};
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
@@ -486,7 +489,6 @@ mod tests {
             [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
             [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission }
             [TextureInfo] "shading_points.wgsl" "TextureInfo" { offset, width, height, format }
-            [BvhNode] "visibility.wgsl" "BvhNode" { min, skip, max, leaf }
             [BvhTri] "visibility.wgsl" "BvhTri" { v0, v1, v2 }
             [Emitter] "shade.wgsl" "Emitter" { v0, e1, e2, normal, radiance }
             [LightGroup] "shade.wgsl" "LightGroup" { sphere, cone, power, range }

@@ -5,23 +5,12 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// `skip` of the last node of the preorder: the traversal is over (`BVH_END` in bvh.wgsl).
+/// The node index after the last node of the preorder: the traversal is over (`BVH_END` in
+/// bvh.wgsl).
 pub const END: u32 = u32::MAX;
-/// Low bits of [`BvhNode::leaf`] that hold a leaf's triangle count (`LEAF_COUNT_BITS`).
+/// Low bits of a BVH leaf's link word that hold its triangle count (`LEAF_COUNT_BITS`;
+/// `vplgi_gpu::bvh::BvhNode`).
 pub const LEAF_COUNT_BITS: u32 = 4;
-
-/// A node of the threaded BVH as the WGSL traversal reads it (`BvhNode`, 32 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct BvhNode {
-    pub min: [f32; 3],
-    /// Index of the node after this node's subtree in preorder, or [`END`].
-    pub skip: u32,
-    pub max: [f32; 3],
-    /// 0 for an inner node (its first child is the next node); for a leaf, the first slot of its
-    /// triangles in the BVH triangle array shifted left by [`LEAF_COUNT_BITS`], or'ed with their count.
-    pub leaf: u32,
-}
 
 /// A triangle as the WGSL traversal reads it (`BvhTri`): its vertices, v0 with the scene
 /// triangle index in w. Vertices rather than edges: the watertight test in bvh.wgsl needs the
