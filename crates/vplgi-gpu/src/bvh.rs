@@ -70,8 +70,11 @@ impl BvhFrame {
 /// there): on scenes whose walls are fine grids (the generated ones) the preset builds trees
 /// whose shadow segments visit about a hundred times more nodes, for the same occluders and the
 /// same build time. `examples/bvh_visits.rs` measures both builds on a scene; the numbers are in
-/// commit b2f6076.
-pub const BUILD: obvhs::BvhBuildParams = obvhs::BvhBuildParams { search_depth_threshold: 0, ..obvhs::BvhBuildParams::medium_build() };
+/// commit b2f6076. And smaller leaves (a leaf collapses when a node costs as much as a triangle
+/// test, not three times as much): a 16-byte node is a third of a triangle's loads, and the
+/// triangle fetch became the hot spot of `visibility` once nodes were quantized.
+pub const BUILD: obvhs::BvhBuildParams =
+    obvhs::BvhBuildParams { search_depth_threshold: 0, collapse_traversal_cost: 1.0, ..obvhs::BvhBuildParams::medium_build() };
 
 /// The flat arrays uploaded to the device.
 pub struct BvhArrays {
