@@ -170,3 +170,18 @@ fn concurrent_queries_match_serial_ones() {
     assert_eq!(serial, parallel);
     assert!(serial.iter().any(|&b| b) && serial.iter().any(|&b| !b));
 }
+
+/// The packet query agrees with the one-ray query ray by ray, lanes past `count` are ignored.
+#[test]
+fn occluded8_agrees_with_occluded() {
+    let device = Device::new(None).unwrap();
+    // A unit quad in z = 0 blocks segments from z = 1 to z = -1 that cross it.
+    let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+    let scene = Scene::new(&device, &positions, &[[0, 1, 2], [0, 2, 3]]).unwrap();
+    let origins: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(-1.75 + 0.5 * k as f32, 0.3, 1.0));
+    let dirs = [Vec3::new(0.0, 0.0, -2.0); 8];
+    let one: u8 = (0..8).fold(0, |b, k| b | ((scene.occluded(origins[k], dirs[k], 0.0, 1.0) as u8) << k));
+    assert_eq!(one, 0b0011_1100, "segments over the quad are blocked, the others not");
+    assert_eq!(scene.occluded8(&origins, &dirs, 8, 0.0, 1.0), one);
+    assert_eq!(scene.occluded8(&origins, &dirs, 4, 0.0, 1.0), one & 0b1111);
+}
