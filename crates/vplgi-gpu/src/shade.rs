@@ -3,7 +3,7 @@
 use crate::buffers::{dispatch_windows, kernel_params, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
-use crate::shader::{pipeline_with, RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW};
+use crate::shader::{pipeline_with, RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW, SHADE_POINTS};
 use crate::timing::in_kernel;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
@@ -32,10 +32,6 @@ pub(crate) struct Params {
     pub(crate) light_end: u32,
 }
 
-/// Shading points one invocation of `shade_lights` sums the lights for: each light is loaded
-/// once for all of them (shade.wgsl says why that matters on lavapipe).
-pub const POINTS: u32 = 4;
-
 /// Loop iterations one invocation may run. lavapipe (llvmpipe) ends every loop of an invocation
 /// once all its loops together have run 65,535 iterations (gallivm's loop limiter, against
 /// hangs), silently: a pixel of a fuzzy frame with 10,000 VPL lights and F = 6 summed only its
@@ -50,7 +46,7 @@ pub const LOOP_BUDGET: u32 = 48_000;
 /// must not depend on an optimiser's choice): per light, the light loop and, per point, its rows
 /// and the geometry term.
 pub fn lights_per_dispatch(rows: u32) -> u32 {
-    let per_light = POINTS * (rows + 1) + 2;
+    let per_light = SHADE_POINTS * (rows + 1) + 2;
     (LOOP_BUDGET / per_light / 64 * 64).max(64)
 }
 
@@ -145,7 +141,7 @@ impl ShadeKernel {
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
             let lights_pipeline = self.lights_pipeline(device, rows);
-            let invocations = (count * spp).div_ceil(POINTS);
+            let invocations = (count * spp).div_ceil(SHADE_POINTS);
             let mut first = 0;
             while first < inputs.light_count {
                 let end = inputs.light_count.min(first + chunk);

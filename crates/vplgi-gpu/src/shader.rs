@@ -149,6 +149,9 @@ fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String
 /// Codes of `mode` in `shade.wgsl`'s parameters: where a shading point's visibility comes from.
 pub const SHADE_OWN_ROW: u32 = 0;
 pub const SHADE_FUZZY: u32 = 1;
+/// Shading points one invocation of `shade_lights` sums the lights for: each light is loaded
+/// once for all of them (`shade.wgsl` says why that matters on lavapipe).
+pub const SHADE_POINTS: u32 = 4;
 /// Codes of `fuzzy` in the clustering passes' parameters (`common/cluster.wgsl`): how a point's F clusters are weighted.
 pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
 pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
@@ -177,7 +180,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("TEXELS_F32", crate::scene::TEXELS_F32),
         ("SHADE_OWN_ROW", SHADE_OWN_ROW),
         ("SHADE_FUZZY", SHADE_FUZZY),
-        ("SHADE_POINTS", crate::shade::POINTS),
+        ("SHADE_POINTS", SHADE_POINTS),
         ("WEIGHTS_PLAIN_MEAN", WEIGHTS_PLAIN_MEAN),
         ("WEIGHTS_INVERSE_DISTANCE", WEIGHTS_INVERSE_DISTANCE),
     ];
