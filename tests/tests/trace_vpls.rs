@@ -98,3 +98,22 @@ proptest::proptest! {
         vplgi_tests::hold(&checks)?;
     }
 }
+
+/// Nothing to trace means no work: a scene without any light, and a frame with no bounce, give no
+/// VPL and spend no light particle (the estimator's count stays 0), however many VPLs are asked.
+#[test]
+fn no_light_or_no_bounce_traces_no_particle() {
+    let lit = cornell_box();
+    let mut dark = cornell_box();
+    dark.lights.clear();
+    for m in &mut dark.materials {
+        m.emission = Vec3::ZERO;
+    }
+    let device = vplgi_embree::Device::new(None).expect("embree");
+    for (scene, bounces, what) in [(&dark, 3, "a scene without light"), (&lit, 0, "no bounce")] {
+        let cs = CpuScene::new(scene, &device).expect("scene");
+        let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, 1, 100, bounces, &vplgi_cpu::NoProgress);
+        assert!(set.vpls.is_empty(), "{what}: {} VPLs", set.vpls.len());
+        assert_eq!(set.particles, 0, "{what}: particles were traced");
+    }
+}
