@@ -156,7 +156,7 @@ impl ClusterKernel {
             let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
             let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
             let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
-            ClusterKernel {
+            let kernel = ClusterKernel {
                 gather,
                 bounds,
                 outcome_counts,
@@ -173,8 +173,21 @@ impl ClusterKernel {
                 rep_d2,
                 rep_index,
                 scan,
+            };
+            // The variants every default frame uses are compiled now, with the other passes: a
+            // pipeline first created after the device is lost is only "invalid", and the frame's
+            // error would not say that the device was lost.
+            for f in [1, vplgi_types::FrameConfig::default().f] {
+                kernel.assign_pass(device, f);
             }
+            kernel
         })
+    }
+
+    /// The assignment pass for `f` clusters per point, compiled on first use.
+    fn assign_pass(&self, device: &wgpu::Device, f: u32) -> &Pass {
+        self.assign[f as usize]
+            .get_or_init(|| Pass { name: "cluster assign".into(), pipeline: pipeline_with(device, "cluster_assign.wgsl", "assign", &[("F", f as f64)]) })
     }
 
     fn run(
@@ -330,9 +343,7 @@ impl ClusterKernel {
                 (8, w.of::<f32>(&a.weights, f64)),
                 (10, w.of::<u32>(&a.outcome, 1)),
             ];
-            let pass = self.assign[f as usize]
-                .get_or_init(|| Pass { name: "cluster assign".into(), pipeline: pipeline_with(device, "cluster_assign.wgsl", "assign", &[("F", f as f64)]) });
-            self.run_windows(device, queue, pass, &p, &b, w.count as u32)?;
+            self.run_windows(device, queue, self.assign_pass(device, f), &p, &b, w.count as u32)?;
         }
         Ok(a)
     }

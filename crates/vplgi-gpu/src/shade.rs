@@ -86,9 +86,15 @@ pub struct ShadeKernel {
 
 impl ShadeKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "shade pipeline", || ShadeKernel {
-            finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"),
-            lights: (0..=MAX_F).map(|_| OnceLock::new()).collect(),
+        validated(device, "shade pipeline", || {
+            let kernel = ShadeKernel { finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"), lights: (0..=MAX_F).map(|_| OnceLock::new()).collect() };
+            // The variants every default frame uses are compiled now, with the other kernels:
+            // a pipeline first created after the device is lost is only "invalid", and the
+            // frame's error would not say that the device was lost.
+            for rows in [1, vplgi_types::FrameConfig::default().f] {
+                kernel.lights_pipeline(device, rows);
+            }
+            kernel
         })
     }
 
