@@ -49,6 +49,16 @@ pub fn entry(report: &Value) -> Value {
     })
 }
 
+/// Reads the history file at `path` (a JSON array of entries).
+pub fn read(path: &Path) -> Result<Vec<Value>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    match serde_json::from_str::<Value>(&text) {
+        Ok(Value::Array(a)) => Ok(a),
+        Ok(_) => bail!("{}: the perf history must be a JSON array of entries", path.display()),
+        Err(e) => bail!("{}: not valid JSON ({e})", path.display()),
+    }
+}
+
 /// Appends `entry` to the history file at `path` (a JSON array; created if missing) and returns
 /// every entry.
 pub fn append(path: &Path, entry: Value) -> Result<Vec<Value>> {
@@ -76,7 +86,7 @@ struct Series {
 }
 
 const COLOURS: [&str; 10] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
-const WIDTH: f64 = 760.0;
+const WIDTH: f64 = 820.0;
 const PANEL: f64 = 230.0;
 const LEFT: f64 = 60.0;
 const RIGHT: f64 = 200.0;
@@ -182,7 +192,8 @@ pub fn chart(entries: &[Value]) -> String {
                     e["frames"].as_array().into_iter().flatten().find(|f| f["name"].as_str() == Some(frame)).and_then(|f| f["ratios"][stage.as_str()].as_f64())
                 })
                 .collect();
-            let name = if fi == 0 { stage.clone() } else { format!("{frame}: {stage}") };
+            let scene = frame.split_whitespace().next().unwrap_or(frame);
+            let name = if fi == 0 { stage.clone() } else { format!("{scene}: {stage}") };
             ratios.push(Series { name, colour: colour.next().unwrap_or(&"#000"), values });
         }
     }

@@ -48,6 +48,9 @@ struct Opts {
     /// Python interpreter that can `import faiss` (make perf-report installs faiss-cpu for it).
     #[arg(long, default_value = "python3")]
     python: String,
+    /// Measure nothing: redraw perf/history.svg from perf/history.json (after editing it).
+    #[arg(long)]
+    chart_only: bool,
     /// The faiss side of the k-means comparison.
     #[arg(long, default_value = "benches/faiss_kmeans.py")]
     faiss_script: PathBuf,
@@ -307,6 +310,13 @@ fn main() -> Result<()> {
     let opts = Opts::parse();
     let dir = opts.out.parent().map_or_else(|| PathBuf::from("perf"), |p| p.join("perf"));
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    if opts.chart_only {
+        let history = history::read(&dir.join("history.json"))?;
+        let chart = dir.join("history.svg");
+        std::fs::write(&chart, history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
+        println!("wrote {} from {} runs", chart.display(), history.len());
+        return Ok(());
+    }
     let started = Instant::now();
     let gpu = match vplgi_gpu::GpuContext::new() {
         Ok(c) => Some(c),
