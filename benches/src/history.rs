@@ -55,22 +55,14 @@ pub fn read(path: &Path) -> Result<Vec<Value>> {
     match serde_json::from_str::<Value>(&text) {
         Ok(Value::Array(a)) => Ok(a),
         Ok(_) => bail!("{}: the perf history must be a JSON array of entries", path.display()),
-        Err(e) => bail!("{}: not valid JSON ({e})", path.display()),
+        Err(e) => bail!("{}: not valid JSON ({e}); fix or remove it to start a new history", path.display()),
     }
 }
 
 /// Appends `entry` to the history file at `path` (a JSON array; created if missing) and returns
 /// every entry.
 pub fn append(path: &Path, entry: Value) -> Result<Vec<Value>> {
-    let mut entries = match std::fs::read_to_string(path) {
-        Ok(text) => match serde_json::from_str::<Value>(&text) {
-            Ok(Value::Array(a)) => a,
-            Ok(_) => bail!("{}: the perf history must be a JSON array of entries", path.display()),
-            Err(e) => bail!("{}: not valid JSON ({e}); fix or remove it to start a new history", path.display()),
-        },
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
-        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
-    };
+    let mut entries = if path.exists() { read(path)? } else { Vec::new() };
     entries.push(entry);
     let tmp = path.with_extension("json.tmp");
     std::fs::write(&tmp, serde_json::to_string_pretty(&entries)? + "\n").with_context(|| format!("cannot write {}", tmp.display()))?;

@@ -175,11 +175,7 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
     let rays: Vec<(Vec3, Vec3)> = rows
         .iter()
         .flat_map(|a| cols.iter().filter(move |b| facing(a, b)).map(move |b| (*a, *b)))
-        .map(|(a, b)| {
-            let p = cs.offset_toward(a.p(), a.n(), b.p());
-            let q = cs.offset_toward(b.p(), b.n(), a.p());
-            (p, q - p)
-        })
+        .map(|(a, b)| cs.shadow_segment(a.p(), a.n(), b.p(), b.n()))
         .collect();
     let (mut stage, mut raw, mut packets) = (Vec::new(), Vec::new(), Vec::new());
     let (mut stage_visible, mut raw_visible, mut packet_visible, mut traced) = (0, 0, 0, 0);

@@ -66,14 +66,21 @@ impl<'a> CpuScene<'a> {
         p + n * (side * self.eps)
     }
 
-    /// Visibility between two surface points. Both ends are pushed off their surfaces and the
-    /// segment between the pushed points is tested, so neither end's own surface counts as a
-    /// blocker (SPEC, "shadow-ray endpoints").
+    /// The shadow segment between two surface points, as (origin, direction) for t in
+    /// (`SEGMENT_TNEAR`, `SEGMENT_TFAR`): both ends pushed off their surfaces, so neither end's
+    /// own surface counts as a blocker (SPEC, "shadow-ray endpoints").
     #[inline]
-    pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
+    pub fn shadow_segment(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> (Vec3, Vec3) {
         let a = self.offset_toward(p, np, q);
         let b = self.offset_toward(q, nq, p);
-        !self.rt.occluded(a, b - a, SEGMENT_TNEAR, SEGMENT_TFAR)
+        (a, b - a)
+    }
+
+    /// Visibility between two surface points: nothing blocks their [`Self::shadow_segment`].
+    #[inline]
+    pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
+        let (o, d) = self.shadow_segment(p, np, q, nq);
+        !self.rt.occluded(o, d, SEGMENT_TNEAR, SEGMENT_TFAR)
     }
 
     /// Visibility between a surface point and a point in free space (a punctual light). The

@@ -110,15 +110,14 @@ pub fn visibility(cs: &CpuScene, rows: &[Endpoint], cols: &[Endpoint], progress:
         .map(|(words, a)| {
             // A row's facing pairs go to Embree 8 at a time (rtcOccluded8): rays from one shading
             // point are coherent, and `make perf-report` measured packets at 0.85x the one-ray
-            // loop's time on the Cornell box's rays. Each segment is CpuScene::visible's.
+            // loop's time on the Cornell box's rays.
             let mut packet = Packet::default();
             let mut rays = 0u64;
             for (c, b) in cols.iter().enumerate() {
                 if facing(a, b) {
                     rays += 1;
-                    let o = cs.offset_toward(a.p(), a.n(), b.p());
-                    let e = cs.offset_toward(b.p(), b.n(), a.p());
-                    packet.push(c, o, e - o);
+                    let (o, d) = cs.shadow_segment(a.p(), a.n(), b.p(), b.n());
+                    packet.push(c, o, d);
                     if packet.len == 8 {
                         packet.trace(cs, words);
                     }

@@ -122,11 +122,8 @@ impl ShadeKernel {
                 (SHADE_FUZZY, window.first as u32, f, window.of::<u32>(labels, f as u64), window.of::<f32>(weights, f as u64))
             }
         };
-        let rows = match inputs.visibility {
-            Visibility::Own { .. } => 1,
-            Visibility::Fuzzy { f, .. } => f,
-        };
-        let chunk = lights_per_dispatch(rows);
+        // f is also the number of visibility rows per shading point (1 for a point's own row).
+        let chunk = lights_per_dispatch(f);
         let params = Params {
             spp,
             seed,
@@ -146,7 +143,7 @@ impl ShadeKernel {
         validated(device, "shade", || {
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
-            let lights_pipeline = self.lights_pipeline(device, rows);
+            let lights_pipeline = self.lights_pipeline(device, f);
             let invocations = (count * spp).div_ceil(SHADE_POINTS);
             let mut first = 0;
             while first < inputs.light_count {
