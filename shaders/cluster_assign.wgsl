@@ -1,6 +1,8 @@
 // Cluster pass: each point's F nearest compatible centroids (Grid::search of
 // vplgi-cpu/src/cluster.rs: the 27 cells, then widening rings, then the nearest by position),
-// with their weights (Eq. 10 or Eq. 8's plain mean) and how the search ended.
+// with their weights (Eq. 10 or Eq. 8's plain mean) and how the search ended. "Nearest" is by
+// Eq. 7 (squared distance, normals beyond n_t ruled out) or by Eq. 2 of Wang et al. (its error,
+// searched exactly).
 
 @group(0) @binding(1) var<storage, read> points: array<Endpoint>;
 @group(0) @binding(3) var<storage, read> centroids: array<Endpoint>;
@@ -17,13 +19,17 @@
 // lives in registers. On lavapipe a private array indexed by a variable stays in memory and is
 // read and written lane by lane; this list is touched for every centroid considered.
 override F: u32 = 1u;
+// The metric, fixed per pipeline too (METRIC_EQ7 or METRIC_WARD): Eq. 7's pipeline carries no
+// trace of Eq. 2.
+override METRIC: u32 = 0u;
 
 // The F best (distance, index) pairs so far, nearest first, ties by index; empty slots hold
 // (inf, MISS), which every centroid beats.
 var<private> best_d: array<f32, MAX_F>;
 var<private> best_k: array<u32, MAX_F>;
-// n_t of Eq. 7, read once per point instead of per centroid.
+// n_t of Eq. 7 and alpha of Eq. 2, read once per point instead of per centroid.
 var<private> threshold: f32;
+var<private> ward_alpha: f32;
 
 fn clear_best() {
     for (var j = 0u; j < F; j = j + 1u) {
@@ -46,11 +52,11 @@ fn consider(k: u32, p: vec3<f32>, n: vec3<f32>) {
     let c = centroids[k];
     var d = dist2(p, c.position.xyz);
     var kk = k;
-    // compatible() of cluster.wgsl, with n_t from the private copy.
-    var cos = n.x * c.normal.x;
-    cos = cos + n.y * c.normal.y;
-    cos = cos + n.z * c.normal.z;
-    if (!(cos > threshold)) {
+    // Metric::key: Eq. 2's error, or Eq. 7's squared distance if the normals are compatible.
+    let cos = cosine(n, c.normal.xyz);
+    if (METRIC == METRIC_WARD) {
+        d = ward_error(ward_alpha, d, cos);
+    } else if (!(cos > threshold)) {
         return;
     }
     for (var j = 0u; j < F; j = j + 1u) {
@@ -92,12 +98,30 @@ fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
     }
 }
 
+// Metric::settled: nothing at least `reach` away can beat a key of `key`.
+fn settled(key: f32, reach: f32) -> bool {
+    if (METRIC == METRIC_WARD) {
+        return key <= ward_alpha * reach;
+    }
+    return sqrt(key) <= reach;
+}
+
+// Whether the F-th best is settled against everything `reach` away or farther.
+fn list_settled(reach: f32) -> bool {
+    return best_k[F - 1u] != MISS && settled(best_d[F - 1u], reach);
+}
+
 // Returns 0 (neighbourhood), 1 (widened) or 2 (no compatible centroid: nearest by position).
 fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     clear_best();
     let c = cell_coords(p);
     visit_ring(c, 1, p, n);
-    if (best_k[0] != MISS) {
+    // Eq. 7 keeps the paper's approximation (whatever the 27 cells hold); Eq. 2 is exact.
+    if (METRIC == METRIC_WARD) {
+        if (list_settled(params.origin.w)) {
+            return 0u;
+        }
+    } else if (best_k[0] != MISS) {
         return 0u;
     }
     let far = max(c, params.dims.xyz - vec3<i32>(1) - c);
@@ -112,7 +136,7 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
         }
         visit_ring(c, r, p, n);
         // Exact F nearest once the F-th best is nearer than anything in the unvisited rings.
-        if (best_k[F - 1u] != MISS && sqrt(best_d[F - 1u]) <= f32(r) * params.origin.w) {
+        if (list_settled(f32(r) * params.origin.w)) {
             return 1u;
         }
     }
@@ -140,18 +164,27 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     threshold = params.threshold;
+    ward_alpha = params.alpha;
     let pt = points[i];
     let how = search(pt.position.xyz, pt.normal.xyz);
     outcome[i] = how;
     let found = count_found();
-    // fuzzy_weights: inverse distance (floored at 1e-4 cell) or plain mean, normalised.
-    let floor_d = 1e-4 * params.origin.w;
+    // fuzzy_weights: inverse distance or Eq. 2 error (Metric::weight_distance: floored at
+    // 1e-4 cell), or plain mean, normalised.
+    var floor_d = 1e-4 * params.origin.w;
+    if (METRIC == METRIC_WARD) {
+        floor_d = 1e-4 * (ward_alpha * params.origin.w);
+    }
     var w: array<f32, MAX_F>;
     var total = 0.0;
     for (var j = 0u; j < F; j = j + 1u) {
         if (j < found) {
             if (params.fuzzy == WEIGHTS_INVERSE_DISTANCE) {
-                w[j] = 1.0 / max(sqrt(best_d[j]), floor_d);
+                if (METRIC == METRIC_WARD) {
+                    w[j] = 1.0 / max(best_d[j], floor_d);
+                } else {
+                    w[j] = 1.0 / max(sqrt(best_d[j]), floor_d);
+                }
             } else {
                 w[j] = 1.0;
             }

@@ -1,11 +1,13 @@
 //! Stage 3, `cluster`: the frame's two clusterings (VPLs into K_VPL hard clusters, hit shading
-//! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points; and `kmeans`, the
+//! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points, with the shading points
+//! by Eq. 7 (`cpu`, `gpu`) and by Eq. 2 of Wang et al. (`cpu-ward`, `gpu-ward`); and `kmeans`, the
 //! k-means problem `make perf-report` compares with faiss (1M uniform points, K = 8,192).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
 use vplgi_cpu::cluster::cluster;
 use vplgi_gpu::cluster::ClusterKernel;
+use vplgi_types::{FrameConfig, SpMetric, SpRepresentative};
 
 fn cluster_stage(c: &mut Criterion) {
     let mut group = c.benchmark_group("cluster");
@@ -14,23 +16,28 @@ fn cluster_stage(c: &mut Criterion) {
     let kernel = gpu.as_ref().map(|g| ClusterKernel::new(&g.ctx.device).expect("cluster pipelines"));
     for size in sizes() {
         let inputs = Inputs::new(&size.cfg);
-        let (sp, vpl) = (inputs.cfg.sp_cluster_params(), inputs.cfg.vpl_cluster_params());
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
-            b.iter(|| {
-                let v = cluster(&inputs.vpl_points.0, &inputs.vpl_points.1, &vpl);
-                let s = cluster(&inputs.sp_points.0, &inputs.sp_points.1, &sp);
-                (v.k(), s.k())
-            })
-        });
-        if let (Some(g), Some(k)) = (&gpu, &kernel) {
-            let (vpl_buf, sp_buf) = (g.endpoints(&inputs.vpl_points), g.endpoints(&inputs.sp_points));
-            let (n_vpl, n_sp) = (inputs.vpl_points.0.len() as u32, inputs.sp_points.0.len() as u32);
-            let run = || {
-                k.cluster(&g.ctx.device, &g.ctx.queue, &vpl_buf, n_vpl, &vpl).expect("cluster VPLs");
-                k.cluster(&g.ctx.device, &g.ctx.queue, &sp_buf, n_sp, &sp).expect("cluster shading points");
-            };
-            run();
-            group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+        // `cpu`/`gpu`: the frame's two clusterings as configured (Eq. 7); `-ward`: the same with
+        // the shading points clustered after Wang et al. (Eq. 2, min-error representatives).
+        let wang = FrameConfig { metric: SpMetric::Ward, representative: SpRepresentative::MinError, ..inputs.cfg.clone() };
+        let vpl = inputs.cfg.vpl_cluster_params();
+        for (suffix, sp) in [("", inputs.cfg.sp_cluster_params(inputs.cs.extent)), ("-ward", wang.sp_cluster_params(inputs.cs.extent))] {
+            group.bench_function(BenchmarkId::new(format!("cpu{suffix}"), size.name), |b| {
+                b.iter(|| {
+                    let v = cluster(&inputs.vpl_points.0, &inputs.vpl_points.1, &vpl);
+                    let s = cluster(&inputs.sp_points.0, &inputs.sp_points.1, &sp);
+                    (v.k(), s.k())
+                })
+            });
+            if let (Some(g), Some(k)) = (&gpu, &kernel) {
+                let (vpl_buf, sp_buf) = (g.endpoints(&inputs.vpl_points), g.endpoints(&inputs.sp_points));
+                let (n_vpl, n_sp) = (inputs.vpl_points.0.len() as u32, inputs.sp_points.0.len() as u32);
+                let run = || {
+                    k.cluster(&g.ctx.device, &g.ctx.queue, &vpl_buf, n_vpl, &vpl).expect("cluster VPLs");
+                    k.cluster(&g.ctx.device, &g.ctx.queue, &sp_buf, n_sp, &sp).expect("cluster shading points");
+                };
+                run();
+                group.bench_function(BenchmarkId::new(format!("gpu{suffix}"), size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+            }
         }
     }
     // --vpl-cluster rsm at the paper's Table 1 sizes (RSM 128² with 256 and 1,024 clusters, 256²

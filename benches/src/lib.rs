@@ -64,7 +64,16 @@ pub fn kmeans_problem(n: usize, k: u32, iterations: u32) -> (Vec<Vec3>, Vec<Vec3
     let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 0);
     let ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
     let ns: Vec<Vec3> = (0..n).map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32())).collect();
-    let params = vplgi_types::clustering::ClusterParams { k, gamma: 1, iterations, f: 1, fuzzy: vplgi_types::FuzzyMode::Hard, normal_threshold: -2.0, seed: 7 };
+    let params = vplgi_types::clustering::ClusterParams {
+        k,
+        gamma: 1,
+        iterations,
+        f: 1,
+        fuzzy: vplgi_types::FuzzyMode::Hard,
+        metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: -2.0 },
+        representative: vplgi_types::clustering::Representative::Nearest,
+        seed: 7,
+    };
     (ps, ns, params)
 }
 
@@ -128,7 +137,7 @@ impl Inputs {
         }
         let sp_points: (Vec<Vec3>, Vec<Vec3>) = hits.iter().map(|&i| (Vec3::from(sps[i].position), Vec3::from(sps[i].normal))).unzip();
         let vpl_points: (Vec<Vec3>, Vec<Vec3>) = vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip();
-        let sp_clusters = cluster(&sp_points.0, &sp_points.1, &cfg.sp_cluster_params());
+        let sp_clusters = cluster(&sp_points.0, &sp_points.1, &cfg.sp_cluster_params(cs.extent));
         let vpl_clusters = cluster(&vpl_points.0, &vpl_points.1, &cfg.vpl_cluster_params());
         let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters), cfg.light_shape);
         let rows: Vec<Endpoint> = sp_clusters.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize]])).collect();

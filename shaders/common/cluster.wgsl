@@ -1,5 +1,5 @@
 // Shared by the clustering passes (cluster_*.wgsl; host side vplgi-gpu/src/cluster.rs): the
-// parameters every pass reads, the Eq. 7 distance and compatibility, and the grid's cells.
+// parameters every pass reads, the Eq. 7 distance and Eq. 2's error, and the grid's cells.
 // Per-point arrays are bound as windows of at most one storage binding (buffers.rs, Window);
 // per-point entry points see the window's points as 0 .. n.
 
@@ -16,6 +16,10 @@ struct Params {
     cells: u32,             // cells of the grid (or bitmap words)
     first: u32,             // global index of the bound window's first point
     window: u32,            // points in the bound window (gather)
+    alpha: f32,             // alpha of Eq. 2 (Wang et al.) per unit length
+    representative: u32,    // REPRESENTATIVE_NEAREST or REPRESENTATIVE_MIN_ERROR
+    pad0: u32,
+    pad1: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -30,11 +34,17 @@ fn dist2(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return s;
 }
 
-fn compatible(n: vec3<f32>, m: vec3<f32>) -> bool {
+fn cosine(n: vec3<f32>, m: vec3<f32>) -> f32 {
     var d = n.x * m.x;
     d = d + n.y * m.y;
     d = d + n.z * m.z;
-    return d > params.threshold;
+    return d;
+}
+
+// Eq. 2 of Wang et al. 2009 (vplgi_types::clustering::ward_error): alpha |x - c| + sqrt(2 - 2 n.m)
+// from the squared distance and the normals' dot product, in the CPU's order of operations.
+fn ward_error(alpha: f32, d2: f32, cos: f32) -> f32 {
+    return alpha * sqrt(d2) + sqrt(max(2.0 - 2.0 * cos, 0.0));
 }
 
 fn cell_coords(p: vec3<f32>) -> vec3<i32> {

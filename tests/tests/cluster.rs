@@ -8,6 +8,7 @@ use vplgi_cpu::cluster::{bounds, cluster, ClusterParams, Grid};
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
 use vplgi_gpu::visibility::Endpoint;
+use vplgi_types::clustering::{Metric, Representative};
 use vplgi_types::FuzzyMode;
 use vplgi_verify::cluster::{compare_assign, compare_update};
 
@@ -17,6 +18,22 @@ fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
 
 fn fuzzy_mode() -> impl Strategy<Value = FuzzyMode> {
     prop_oneof![Just(FuzzyMode::Hard), Just(FuzzyMode::Average), Just(FuzzyMode::Weighted)]
+}
+
+/// Eq. 7 at the paper's n_t, or Eq. 2 with alpha from 0.01 to 30 per diagonal of the point set
+/// (normals dominate at one end, positions at the other): `None` is Eq. 7, `Some(a)` Eq. 2 with
+/// `a` per diagonal.
+fn metric_choice() -> impl Strategy<Value = Option<f32>> {
+    prop_oneof![Just(None), (-2f32..1.5).prop_map(|e| Some(10f32.powf(e)))]
+}
+
+/// The metric of [`metric_choice`] for points spanning `ps`.
+fn metric_for(choice: Option<f32>, ps: &[Vec3]) -> Metric {
+    let (lo, hi) = bounds(ps);
+    match choice {
+        None => Metric::Eq7 { normal_threshold: 0.866 },
+        Some(a) => Metric::Ward { alpha: a / (hi - lo).length().max(1e-6) },
+    }
 }
 
 /// Centroids for a point set: `k` of its points, each moved by up to `jitter` of the set's size
@@ -45,14 +62,14 @@ proptest! {
     /// to 20 % of its size, some with unrelated normals), any K, F and weighting: the SPEC's
     /// assignment and fuzzy-assignment rows, measured by `vplgi verify`'s comparison.
     #[test]
-    fn cluster_assign_matches_the_cpu_on_random_points((ps, ns) in vplgi_tests::inputs::surface_points(), k_div in 2usize..60, f in 1u32..=8, fuzzy in fuzzy_mode(), jitter in 0f32..0.2, seed in any::<u64>()) {
+    fn cluster_assign_matches_the_cpu_on_random_points((ps, ns) in vplgi_tests::inputs::surface_points(), k_div in 2usize..60, f in 1u32..=8, fuzzy in fuzzy_mode(), metric in metric_choice(), jitter in 0f32..0.2, seed in any::<u64>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("cluster_assign_matches_the_cpu_on_random_points") else { return Ok(()) };
         let k = (ps.len() / k_div).max(1);
         let (cp, cn) = centroids_of((&ps, &ns), k, jitter, seed);
         let f = if fuzzy == FuzzyMode::Hard { 1 } else { f };
-        let rule = AssignRule { threshold: 0.866, f, fuzzy };
+        let rule = AssignRule { metric: metric_for(metric, &ps), f, fuzzy };
         let checks = compare_assign(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster, (&ps, &ns), (&cp, &cn), rule).expect("GPU");
-        println!("{} points, {k} centroids, F = {f} {fuzzy:?}", ps.len());
+        println!("{} points, {k} centroids, F = {f} {fuzzy:?}, {:?}", ps.len(), rule.metric);
         vplgi_tests::hold(&checks)?;
     }
 
@@ -80,14 +97,27 @@ fn cluster_assign_and_update_match_the_cpu() {
     };
     let (ps, ns) = vplgi_tests::inputs::cornell_points(72, 64, 2);
     // Centroids from a CPU clustering: realistic, and shared by both sides.
-    let c = cluster(&ps, &ns, &ClusterParams { k: 300, gamma: 2, iterations: 3, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 3 });
+    let c = cluster(
+        &ps,
+        &ns,
+        &ClusterParams {
+            k: 300,
+            gamma: 2,
+            iterations: 3,
+            f: 1,
+            fuzzy: FuzzyMode::Hard,
+            metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+            representative: vplgi_types::clustering::Representative::Nearest,
+            seed: 3,
+        },
+    );
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
-    let rule = AssignRule { threshold: 0.866, f: 6, fuzzy: FuzzyMode::Weighted };
+    let rule = AssignRule { metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 }, f: 6, fuzzy: FuzzyMode::Weighted };
     for d in compare_assign(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), rule).unwrap() {
         d.with_case("cornell points").check();
     }
     let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
-    let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, 0.866, None);
+    let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 }, None);
     compare_update(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), &hard).unwrap().with_case("cornell points").check();
 }
 
@@ -101,12 +131,24 @@ fn cluster_end_to_end_matches_the_cpu() {
     let kernel = ClusterKernel::new(&ctx.device).unwrap();
     let (ps, ns) = vplgi_tests::inputs::cornell_points(72, 64, 2);
     let m = ps.len();
-    for (k, f, fuzzy) in [(400u32, 6u32, FuzzyMode::Weighted), (150, 1, FuzzyMode::Hard), (5000, 4, FuzzyMode::Average)] {
-        let cpu = cluster(&ps, &ns, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 });
+    // Eq. 2 with the frame's default alpha (0.3 per diagonal) and the min-error representatives.
+    let diagonal = {
+        let (lo, hi) = bounds(&ps);
+        (hi - lo).length()
+    };
+    let eq7 = (Metric::Eq7 { normal_threshold: 0.866 }, Representative::Nearest);
+    let ward = (Metric::Ward { alpha: 0.3 / diagonal }, Representative::MinError { alpha: 0.3 / diagonal });
+    for (k, f, fuzzy, (metric, representative)) in [
+        (400u32, 6u32, FuzzyMode::Weighted, eq7),
+        (150, 1, FuzzyMode::Hard, eq7),
+        (5000, 4, FuzzyMode::Average, eq7),
+        (400, 6, FuzzyMode::Weighted, ward),
+        (150, 1, FuzzyMode::Hard, ward),
+    ] {
+        let params = ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, metric, representative, seed: 7 };
+        let cpu = cluster(&ps, &ns, &params);
         let pts = storage(&ctx.device, "points", &endpoints(&ps, &ns));
-        let g = kernel
-            .cluster(&ctx.device, &ctx.queue, &pts, m as u32, &ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, normal_threshold: 0.866, seed: 7 })
-            .unwrap();
+        let g = kernel.cluster(&ctx.device, &ctx.queue, &pts, m as u32, &params).unwrap();
         let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.labels, m * g.f as usize).unwrap();
         let gr: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.representatives, g.k as usize).unwrap();
         let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &g.centroids, g.k as usize).unwrap();
@@ -114,7 +156,7 @@ fn cluster_end_to_end_matches_the_cpu() {
         let labels_same = (0..m).filter(|&i| gl[i * g.f as usize..(i + 1) * g.f as usize] == cpu.labels[i * cpu.f..(i + 1) * cpu.f]).count();
         let centroids_same = same_k && (0..cpu.k()).all(|j| gc[j].position[..3] == cpu.positions[j].to_array());
         println!(
-            "cluster end to end (K = {k}, F = {f}, {fuzzy:?}): clusters CPU {} / GPU {}; label rows identical {labels_same}/{m}; centroids bit-identical: {centroids_same}; representatives identical: {}",
+            "cluster end to end (K = {k}, F = {f}, {fuzzy:?}, {metric:?}, {representative:?}): clusters CPU {} / GPU {}; label rows identical {labels_same}/{m}; centroids bit-identical: {centroids_same}; representatives identical: {}",
             cpu.k(),
             g.k,
             same_k && gr == cpu.representatives

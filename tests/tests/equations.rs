@@ -12,11 +12,16 @@ use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::AssignRule;
 use vplgi_gpu::shade::{ShadeInputs, Visibility};
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::clustering::GridGeometry;
+use vplgi_types::clustering::{GridGeometry, Metric};
 use vplgi_types::{Endpoint, FuzzyMode, ShadeParams, ShadingPoint, VplLight};
 
 /// n_t = cos 30°, the paper's threshold.
 const N_T: f32 = 0.866_025_4;
+
+/// Eq. 7 with n_t = `nt`.
+fn eq7(nt: f32) -> Metric {
+    Metric::Eq7 { normal_threshold: nt }
+}
 
 /// A point at the origin facing up, and five centroids on the +x axis: at distances 1, 2 and 4
 /// facing up, one at 0.5 with normal `tilted`, and one at 8 facing up.
@@ -27,10 +32,10 @@ fn hand_checked_assignment(tilted: Vec3) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Ve
 }
 
 /// Both backends' labels and weights for the point of [`hand_checked_assignment`] with F = 3.
-fn assign_both(fuzzy: FuzzyMode, tilted: Vec3, threshold: f32) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
+fn assign_both(fuzzy: FuzzyMode, tilted: Vec3, metric: Metric) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
     let gpu = vplgi_tests::shared_gpu("equations: assignment")?;
     let (ps, ns, cs, cn) = hand_checked_assignment(tilted);
-    let rule = AssignRule { threshold, f: 3, fuzzy };
+    let rule = AssignRule { metric, f: 3, fuzzy };
     // The grid is laid over the points and the centroids, so every centroid has a cell.
     let all: Vec<Vec3> = ps.iter().chain(&cs).copied().collect();
     let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
@@ -56,7 +61,7 @@ fn tilted_60() -> Vec3 {
 /// (16/21, 4/21, 1/21).
 #[test]
 fn eq_7_and_eq_10_on_a_hand_checked_point() {
-    let Some(both) = assign_both(FuzzyMode::Weighted, tilted_60(), N_T) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted_60(), eq7(N_T)) else { return };
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
         assert_eq!(labels, [0, 1, 2], "{name}: Eq. 7 picks the three compatible centroids, nearest first");
@@ -73,20 +78,40 @@ fn eq_7_and_eq_10_on_a_hand_checked_point() {
 #[test]
 fn eq_7_is_strict_at_the_threshold() {
     let tilted = Vec3::new(0.6, 0.8, 0.0);
-    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, 0.8) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, eq7(0.8)) else { return };
     for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
         assert_eq!(labels, [0, 1, 2], "{name}: n · m = n_t is not compatible");
     }
-    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, 0.8f32.next_down()) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, eq7(0.8f32.next_down())) else { return };
     for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
         assert_eq!(labels, [3, 0, 1], "{name}: n · m just above n_t is compatible, and nearest");
+    }
+}
+
+/// Eq. 2 of Wang et al. 2009 with Eq. 10's inverse weights, computed here in f64 from the
+/// geometry: with alpha = 0.4, the centroids facing up score 0.4 d (0.4, 0.8, 1.6, 3.2) and the one
+/// at 0.5 facing (0.6, 0.8, 0) scores 0.2 + sqrt(2 - 1.6) = 0.832: Eq. 2 takes it third, where
+/// Eq. 7 rules it out (cos 0.8 < n_t). The weights are the normalised inverse errors.
+#[test]
+fn eq_2_of_wang_et_al_on_a_hand_checked_point() {
+    let alpha = 0.4f64;
+    let Some(both) = assign_both(FuzzyMode::Weighted, Vec3::new(0.6, 0.8, 0.0), Metric::Ward { alpha: alpha as f32 }) else { return };
+    let errors = [alpha, 2.0 * alpha, 0.5 * alpha + (2.0f64 - 2.0 * 0.8).sqrt()];
+    let total: f64 = errors.iter().map(|e| 1.0 / e).sum();
+    for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
+        println!("{name}: labels {labels:?}, weights {weights:?}");
+        assert_eq!(labels, [0, 1, 3], "{name}: Eq. 2 ranks the tilted centroid at 0.5 third");
+        for (w, e) in weights.iter().zip(errors) {
+            let expected = (1.0 / e / total) as f32;
+            assert!((w - expected).abs() <= 1e-6, "{name}: weights {weights:?}, expected inverse Eq. 2 errors {expected} for error {e}");
+        }
     }
 }
 
 /// Eq. 8: the plain mean, 1/F for each of the F clusters.
 #[test]
 fn eq_8_on_a_hand_checked_point() {
-    let Some(both) = assign_both(FuzzyMode::Average, tilted_60(), N_T) else { return };
+    let Some(both) = assign_both(FuzzyMode::Average, tilted_60(), eq7(N_T)) else { return };
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
         assert_eq!(labels, [0, 1, 2], "{name}");
@@ -189,7 +214,16 @@ fn alg_1_centroids_are_the_means_of_their_members() {
     let ns = vec![Vec3::Y; ps.len()];
     let mean = |half: &[Vec3]| half.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3()) / half.len() as f64;
     let expected = [mean(&ps[..50]), mean(&ps[50..])];
-    let params = vplgi_types::clustering::ClusterParams { k: 2, gamma: 1, iterations: 4, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed: 1 };
+    let params = vplgi_types::clustering::ClusterParams {
+        k: 2,
+        gamma: 1,
+        iterations: 4,
+        f: 1,
+        fuzzy: FuzzyMode::Hard,
+        metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+        representative: vplgi_types::clustering::Representative::Nearest,
+        seed: 1,
+    };
     let cpu = vplgi_cpu::cluster::cluster(&ps, &ns, &params);
     let (device, queue) = (&gpu.ctx.device, &gpu.ctx.queue);
     let pts = storage(device, "points", &ps.iter().zip(&ns).map(|(&p, &n)| Endpoint::new(p, n)).collect::<Vec<_>>());

@@ -67,12 +67,38 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     // (b) Both clustered, fuzzy weighted F = 6.
     let pos: Vec<Vec3> = vpls.iter().map(|v| v.position.into()).collect();
     let nor: Vec<Vec3> = vpls.iter().map(|v| v.normal.into()).collect();
-    let vc = cluster(&pos, &nor, &ClusterParams { k: 60, gamma: 2, iterations: 5, f: 1, fuzzy: FuzzyMode::Hard, normal_threshold: 0.866, seed });
+    let vc = cluster(
+        &pos,
+        &nor,
+        &ClusterParams {
+            k: 60,
+            gamma: 2,
+            iterations: 5,
+            f: 1,
+            fuzzy: FuzzyMode::Hard,
+            metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+            representative: vplgi_types::clustering::Representative::Nearest,
+            seed,
+        },
+    );
     let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc), LightShape::Point);
     let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.iter().map(|l| l.endpoint()).collect();
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
-    let sc = cluster(&sp_pos, &sp_nor, &ClusterParams { k: 80, gamma: 2, iterations: 5, f: 6, fuzzy: FuzzyMode::Weighted, normal_threshold: 0.866, seed });
+    let sc = cluster(
+        &sp_pos,
+        &sp_nor,
+        &ClusterParams {
+            k: 80,
+            gamma: 2,
+            iterations: 5,
+            f: 6,
+            fuzzy: FuzzyMode::Weighted,
+            metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+            representative: vplgi_types::clustering::Representative::Nearest,
+            seed,
+        },
+    );
     let reps: Vec<vplgi_cpu::visibility::Endpoint> =
         sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
     let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);

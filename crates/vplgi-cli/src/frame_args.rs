@@ -9,7 +9,7 @@ use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplClustering, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, SpMetric, SpRepresentative, VplClustering, VplSource};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -78,11 +78,29 @@ pub struct FrameArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub iterations: Option<u32>,
     /// Normal threshold n_t of Eq. 7 (cosine; the default is cos 30°).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub normal_threshold: Option<f32>,
+    /// The shading points' clustering metric: the core paper's Eq. 7 (Euclidean distance,
+    /// normals beyond --normal-threshold never share a cluster), or Eq. 2 of Wang et al. 2009
+    /// (alpha |x - c| + sqrt(2 - 2 n.m), with --alpha; searched exactly).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metric: Option<SpMetric>,
+    /// alpha of Eq. 2 (Wang et al. 2009) per scene bounding-box diagonal, for --metric ward
+    /// and --representative min-error: larger weighs position more against the normal (the
+    /// paper uses 0.1 to 0.5 on a normalised scene).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f32>,
+    /// Which member stands for a shading-point cluster (the shading point its visibility is
+    /// traced from): the one nearest the centroid (the core paper), or the one of smallest
+    /// Eq. 2 error, position and normal (Wang et al. 2009).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub representative: Option<SpRepresentative>,
     /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
-    #[arg(long = "g-clamp")]
+    #[arg(long = "g-clamp", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub g_clamp_rel: Option<f32>,
     /// Put back the light the geometry-term clamp removes (Kollig and Keller's bias

@@ -167,6 +167,119 @@ pub fn stacked_bars(stem: &Path, title: &str, x_desc: &str, bars: &[Bar], error_
     write_text(&stem.with_extension("svg"), &svg)
 }
 
+/// One variant's line of [`variant_lines`]: its image error and frame time at each count.
+pub struct Series {
+    pub name: String,
+    pub error: Vec<f64>,
+    pub time_ms: Vec<f64>,
+}
+
+/// Distinct line colours, one per variant (colour-blind-safe Okabe-Ito order).
+const SERIES_COLOURS: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+];
+
+/// One panel of [`variant_lines`]: each series' error against `x(series, i)`.
+fn draw_lines<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    x_desc: &str,
+    error_name: &str,
+    series: &[Series],
+    x: &dyn Fn(&Series, usize) -> f64,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let xs = || series.iter().flat_map(|s| (0..s.error.len()).map(move |i| x(s, i)));
+    let x_max = xs().fold(0.0, f64::max).max(1e-3) * 1.05;
+    let x_min = xs().fold(f64::INFINITY, f64::min).min(x_max) * 0.95;
+    let y_max = series.iter().flat_map(|s| s.error.iter().copied()).fold(0.0, f64::max).max(1e-12) * 1.35;
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(72)
+        .build_cartesian_2d(x_min..x_max, 0f64..y_max)
+        .map_err(|e| anyhow!("{e}"))?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(error_name)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    for (j, s) in series.iter().enumerate() {
+        let colour = SERIES_COLOURS[j % SERIES_COLOURS.len()];
+        let points: Vec<(f64, f64)> = (0..s.error.len()).map(|i| (x(s, i), s.error[i])).collect();
+        chart
+            .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
+            .map_err(|e| anyhow!("{e}"))?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 14, y)], colour.stroke_width(2)));
+        chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled()))).map_err(|e| anyhow!("{e}"))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
+
+fn draw_variant_lines<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    counts: &[u32],
+    count_desc: &str,
+    series: &[Series],
+    error_name: &str,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(|e| anyhow!("{e}"))?;
+    let (w, _) = root.dim_in_pixel();
+    let (left, right) = root.split_horizontally(w / 2);
+    draw_lines(&left, "at equal time (lower left is better)", "frame time (ms)", error_name, series, &|s, i| s.time_ms[i])?;
+    draw_lines(&right, "at equal cluster count", count_desc, error_name, series, &|_, i| counts[i] as f64)?;
+    root.present().map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
+
+/// Variants of a stage side by side: each variant's image error against its frame time (left:
+/// which is better at equal time) and against the cluster count (right), one line per variant
+/// through `counts`: `stem.png` and `stem.svg`.
+pub fn variant_lines(stem: &Path, title: &str, counts: &[u32], count_desc: &str, series: &[Series], error_name: &str) -> Result<()> {
+    ensure_font()?;
+    let size = (1200u32, 540u32);
+    let mut rgb = vec![0u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw_variant_lines(&root, title, counts, count_desc, series, error_name)?;
+    }
+    write_png(stem, size, &rgb)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        draw_variant_lines(&root, title, counts, count_desc, series, error_name)?;
+    }
+    write_text(&stem.with_extension("svg"), &svg)
+}
+
 fn draw_heatmap<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,

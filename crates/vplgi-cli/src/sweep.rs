@@ -2,11 +2,13 @@
 //! shading-point clusters (VPLs unclustered), Figure 9 the number of VPL clusters (shading points
 //! unclustered), Figure 11 both. Each is drawn as PNG and SVG charts (stage times and image error,
 //! against MSE and against FLIP); every configuration's image and FLIP error map go into one
-//! contact sheet, and every number into sweep.json.
+//! contact sheet, and every number into sweep.json. `--figure variants` sets the core paper's
+//! choices for clustering shading points beside Wang et al.'s (metric, representative) at each
+//! shading-point cluster count, charted at equal time and at equal count.
 
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, SWEEP};
-use crate::plot::{contact_sheet, heatmap, stacked_bars, Bar, Tile};
+use crate::plot::{contact_sheet, heatmap, stacked_bars, variant_lines, Bar, Series, Tile};
 use crate::shared::{load_scene, write_json};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
@@ -16,7 +18,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
-use vplgi_types::{ClusterMode, FrameConfig};
+use vplgi_types::{ClusterMode, FrameConfig, SpMetric, SpRepresentative};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -29,6 +31,44 @@ enum Figure {
     /// Time and error over both counts (`--cluster both`).
     #[value(name = "11")]
     Eleven,
+    /// Error against time and against the shading-point cluster count for each of --variants
+    /// (`--cluster sp`): the two papers' choices side by side.
+    #[value(name = "variants")]
+    Variants,
+}
+
+/// One set of shading-point choices of `--figure variants`, over the sweep's frame options.
+#[derive(Clone, Debug)]
+struct Variant {
+    name: String,
+    metric: Option<SpMetric>,
+    representative: Option<SpRepresentative>,
+}
+
+impl Variant {
+    fn apply(&self, cfg: FrameConfig) -> FrameConfig {
+        FrameConfig { metric: self.metric.unwrap_or(cfg.metric), representative: self.representative.unwrap_or(cfg.representative), ..cfg }
+    }
+}
+
+/// `ward+min-error`: option values joined by `+`, at most one per option.
+fn parse_variant(s: &str) -> Result<Variant, String> {
+    let mut v = Variant { name: s.to_string(), metric: None, representative: None };
+    for token in s.split('+') {
+        let twice = |what: &str| format!("`{s}` names the {what} twice");
+        if let Ok(m) = SpMetric::from_str(token, true) {
+            if v.metric.replace(m).is_some() {
+                return Err(twice("metric"));
+            }
+        } else if let Ok(r) = SpRepresentative::from_str(token, true) {
+            if v.representative.replace(r).is_some() {
+                return Err(twice("representative"));
+            }
+        } else {
+            return Err(format!("`{token}` in `{s}` is neither a --metric (eq7, ward) nor a --representative (nearest, min-error)"));
+        }
+    }
+    Ok(v)
 }
 
 #[derive(Args)]
@@ -44,6 +84,11 @@ pub struct SweepArgs {
     /// VPL cluster counts (Figures 9 and 11), comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [500u32, 1000, 1500, 2000, 2500])]
     vpl_clusters: Vec<u32>,
+    /// With --figure variants: the shading-point choices compared, comma-separated; each joins
+    /// a --metric and a --representative value with `+` (either may be left out: the frame
+    /// options' value is used).
+    #[arg(long, value_delimiter = ',', value_parser = parse_variant, default_value = "eq7+nearest,eq7+min-error,ward+nearest,ward+min-error")]
+    variants: Vec<Variant>,
     /// Where the clustered frames run. The reference is always rendered by the CPU reference.
     #[arg(long, value_enum, default_value = "cpu")]
     backend: BackendArg,
@@ -65,6 +110,8 @@ struct Config {
     figure: Figure,
     label: String,
     cfg: FrameConfig,
+    /// The variant's name (`--figure variants`).
+    variant: Option<String>,
 }
 
 /// What a configuration measured.
@@ -84,11 +131,13 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
                 figure,
                 label: format!("fig7-sp{k}"),
                 cfg: FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() },
+                variant: None,
             })),
             Figure::Nine => out.extend(args.vpl_clusters.iter().map(|&k| Config {
                 figure,
                 label: format!("fig9-vpl{k}"),
                 cfg: FrameConfig { cluster: ClusterMode::Vpl, k_vpl: k, ..base.clone() },
+                variant: None,
             })),
             Figure::Eleven => {
                 for &s in &args.sp_clusters {
@@ -97,8 +146,19 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
                             figure,
                             label: format!("fig11-sp{s}-vpl{v}"),
                             cfg: FrameConfig { cluster: ClusterMode::Both, k_sp: s, k_vpl: v, ..base.clone() },
+                            variant: None,
                         });
                     }
+                }
+            }
+            Figure::Variants => {
+                for v in &args.variants {
+                    out.extend(args.sp_clusters.iter().map(|&k| Config {
+                        figure,
+                        label: format!("variants-sp{k}-{}", v.name),
+                        cfg: v.apply(FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() }),
+                        variant: Some(v.name.clone()),
+                    }));
                 }
             }
         }
@@ -223,6 +283,22 @@ pub fn run(args: SweepArgs) -> Result<()> {
             stacked_bars(&stem, &format!("{}: time and {name} against {what}{backend}", scene.name), x_desc, &bars, name, reference_line)?;
             charts.push(stem.with_extension("png"));
         }
+        let rows = of(Figure::Variants);
+        if !rows.is_empty() {
+            // Configurations are made variant by variant, each over every count.
+            let series: Vec<Series> = rows
+                .chunks(args.sp_clusters.len())
+                .map(|chunk| Series {
+                    name: chunk[0].0.variant.clone().unwrap_or_default(),
+                    error: chunk.iter().map(|(_, m)| err(m)).collect(),
+                    time_ms: chunk.iter().map(|(_, m)| m.timings.total()).collect(),
+                })
+                .collect();
+            let stem = args.out.join(format!("variants-{metric}"));
+            let title = format!("{}: {name} of shading-point clustering variants, --cluster sp{backend}", scene.name);
+            variant_lines(&stem, &title, &args.sp_clusters, "shading-point clusters", &series, name)?;
+            charts.push(stem.with_extension("png"));
+        }
         let rows = of(Figure::Eleven);
         if !rows.is_empty() {
             let (ns, nv) = (args.sp_clusters.len(), args.vpl_clusters.len());
@@ -262,6 +338,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         "reference": { "exr": args.reference.clone().unwrap_or_else(|| args.out.join("reference/image.exr")), "total_ms": reference_ms, "backend": "cpu" },
         "configs": configs.iter().zip(&measured).map(|(c, m)| json!({
             "label": c.label, "figure": format!("{:?}", c.figure).to_lowercase(), "cluster": c.cfg.cluster, "k_sp": c.cfg.k_sp, "k_vpl": c.cfg.k_vpl,
+            "variant": c.variant, "metric": c.cfg.metric, "representative": c.cfg.representative, "alpha": c.cfg.alpha,
             "timings_ms": m.timings, "mse": m.mse, "rel_mse": m.rel_mse, "flip": m.flip,
             "image": args.out.join("configs").join(&c.label).join("image.png"), "error_map": args.out.join("configs").join(&c.label).join("error_map.png"),
         })).collect::<Vec<_>>(),

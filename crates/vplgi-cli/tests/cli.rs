@@ -366,6 +366,57 @@ fn sweep_writes_figures_contact_sheet_and_numbers() {
     assert!(second["reference"]["total_ms"].is_null());
 }
 
+/// `vplgi sweep --figure variants` renders each shading-point variant at each count, charts
+/// them (at equal time and at equal count), and records each variant's options in sweep.json;
+/// Eq. 2 clusters differently from Eq. 7, so their errors differ.
+#[test]
+fn sweep_charts_shading_point_variants_side_by_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("variants");
+    let o = vplgi(&[
+        "sweep",
+        "--figure",
+        "variants",
+        "--variants",
+        "eq7+nearest,ward+min-error",
+        "--width",
+        "40",
+        "--height",
+        "40",
+        "--vpls",
+        "800",
+        "--sp-clusters",
+        "50,300",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "sweep failed: {}", String::from_utf8_lossy(&o.stderr));
+    for metric in ["mse", "flip"] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("variants-{metric}.{ext}"));
+            assert!(f.metadata().map(|m| m.len() > 1000).unwrap_or(false), "{} missing or empty", f.display());
+        }
+    }
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sweep.json")).unwrap()).unwrap();
+    let configs = report["configs"].as_array().unwrap();
+    assert_eq!(configs.len(), 4);
+    let find = |label: &str| configs.iter().find(|c| c["label"] == label).unwrap_or_else(|| panic!("{label} missing"));
+    let (eq7, ward) = (find("variants-sp300-eq7+nearest"), find("variants-sp300-ward+min-error"));
+    assert_eq!((eq7["metric"].as_str(), eq7["representative"].as_str()), (Some("eq7"), Some("nearest")));
+    assert_eq!((ward["metric"].as_str(), ward["representative"].as_str()), (Some("ward"), Some("min-error")));
+    assert_ne!(eq7["mse"], ward["mse"], "Eq. 2 and Eq. 7 cluster differently");
+    // A variant that is not a pair of option values is refused, naming the token.
+    let o = vplgi(&["sweep", "--figure", "variants", "--variants", "ward+farthest", "--out", dir.path().join("never").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("farthest"), "{}", String::from_utf8_lossy(&o.stderr));
+    // So is alpha <= 0, by name, with nothing written.
+    let never = dir.path().join("alpha");
+    let o = vplgi(&["render", "--metric", "ward", "--alpha", "-1", "--out", never.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("alpha"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!never.exists());
+}
+
 #[test]
 fn sweep_rejects_bad_input_before_any_work() {
     let dir = tempfile::tempdir().unwrap();

@@ -4,13 +4,18 @@
 //! Rules that make the result well defined (and reproducible by the GPU twin):
 //!
 //! * **Distance** (Eq. 7): Euclidean between positions when the normals' dot product exceeds
-//!   `n_t`, infinite otherwise. Squared distances are summed in the order x, y, z.
+//!   `n_t`, infinite otherwise. Squared distances are summed in the order x, y, z. Or, for
+//!   shading points after Wang et al. 2009, Eq. 2: `alpha |x - c| + sqrt(2 - 2 n . m)`, finite
+//!   for every pair ([`Metric`]).
 //! * **Ties** go to the lower centroid index, whatever the visiting order.
 //! * **Grid**: one uniform grid for the whole run, laid over the data's bounding box, with a cell
 //!   size chosen from the data so that about two centroids share an occupied cell
 //!   ([`Grid::for_data`]). A point looks at the 27 cells around its own (the paper's
 //!   approximation).
-//! * **No compatible centroid in the 27 cells**: the search widens ring by ring (Chebyshev
+//! * **Eq. 2 is searched exactly**: its normal term is non-negative, so a centroid r cells away
+//!   has an error of at least `alpha r cell`; the rings widen until the F-th best is below that,
+//!   and the 27 cells are only where the search starts.
+//! * **No compatible centroid in the 27 cells** (Eq. 7): the search widens ring by ring (Chebyshev
 //!   distance 2, 3, ...) until no unvisited ring can hold a centroid nearer than the F-th found,
 //!   so a widened search returns the exact F nearest compatible centroids, whichever way it ends:
 //!   once the rings would hold more cells than 8x the centroids, all centroids are scanned
@@ -21,12 +26,13 @@
 //! * **Centroid sums** are fixed-point integers (see [`FixedPoint`]), so they do not depend on
 //!   summation order; a cluster that loses all members keeps its previous centroid.
 //! * **Empty clusters** after the final assignment are dropped, so every reported cluster has a
-//!   member, and its **representative** is the member nearest its centroid (a real surface point).
+//!   member, and its **representative** is the member nearest its centroid (a real surface point),
+//!   or the member of smallest Eq. 2 error ([`Representative`]).
 
 use glam::Vec3;
 use rayon::prelude::*;
-pub use vplgi_types::clustering::ClusterParams;
 use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
+pub use vplgi_types::clustering::{ClusterParams, Metric, Representative};
 use vplgi_types::config::MAX_F;
 use vplgi_types::{FuzzyMode, MISS};
 
@@ -73,12 +79,13 @@ fn dist2(a: Vec3, b: Vec3) -> f32 {
     s
 }
 
+/// Dot product, summed x, y, z in that order (the GPU twin keeps this order).
 #[inline]
-fn compatible(n: Vec3, m: Vec3, threshold: f32) -> bool {
+fn cosine(n: Vec3, m: Vec3) -> f32 {
     let mut d = n.x * m.x;
     d += n.y * m.y;
     d += n.z * m.z;
-    d > threshold
+    d
 }
 
 /// A uniform grid over centroid positions, stored as a counting sort: `items[starts[c]..
@@ -199,32 +206,33 @@ impl Grid {
     /// lower index), written to `best` as (squared distance, index); returns how many were found
     /// and how the search ended. This one search serves both the k-means iterations (one entry)
     /// and the fuzzy assignment (F entries), so its first entry is always the hard label.
-    pub fn search(&self, p: Vec3, n: Vec3, threshold: f32, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
-        self.search_from(p, n, self.coords(p), threshold, best, None)
+    pub fn search(&self, p: Vec3, n: Vec3, metric: Metric, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
+        self.search_from(p, n, self.coords(p), metric, best, None)
     }
 
     /// [`Grid::search`] for the nearest centroid, knowing a candidate: centroid `hint` (the
     /// point's label in the previous k-means iteration). The answer is the same; only cells that
     /// cannot hold anything as near as the candidate are skipped, so most of the 27 are.
-    pub fn search_near(&self, p: Vec3, n: Vec3, threshold: f32, hint: u32) -> (u32, SearchOutcome) {
+    pub fn search_near(&self, p: Vec3, n: Vec3, metric: Metric, hint: u32) -> (u32, SearchOutcome) {
         let mut best = [(f32::INFINITY, MISS)];
         let pc = self.coords(p);
         let start = self.centroids.get(hint as usize).and_then(|&c| {
             let cc = self.coords(c);
             let near = (0..3).all(|a| (cc[a] - pc[a]).abs() <= 1);
-            (near && compatible(n, self.centroid_normals[hint as usize], threshold)).then(|| (dist2(p, c), hint))
+            let key = metric.key(dist2(p, c), cosine(n, self.centroid_normals[hint as usize]));
+            key.filter(|_| near).map(|key| (key, hint))
         });
-        let (count, outcome) = self.search_from(p, n, pc, threshold, &mut best, start);
+        let (count, outcome) = self.search_from(p, n, pc, metric, &mut best, start);
         (if count > 0 { best[0].1 } else { MISS }, outcome)
     }
 
     /// The search, with `best` starting as `start` (a compatible centroid of the 27-cell
     /// neighbourhood) if given. In the neighbourhood, cells farther from the point than the
     /// current F-th best cannot change the answer and are skipped. The bound of a neighbour cell
-    /// is the point's distance to the shared faces; it is lowered by 1e-4 cell against rounding
-    /// in [`Grid::coords`] and compared with a relative margin of 1e-5, so only cells that
-    /// cannot even tie are skipped (ties go to the lower index).
-    fn search_from(&self, p: Vec3, n: Vec3, c: [i32; 3], threshold: f32, best: &mut [(f32, u32)], start: Option<(f32, u32)>) -> (usize, SearchOutcome) {
+    /// is the point's distance to the shared faces ([`Metric::key_bound`]); it is lowered by
+    /// 1e-4 cell against rounding in [`Grid::coords`] and compared with a relative margin of
+    /// 1e-5, so only cells that cannot even tie are skipped (ties go to the lower index).
+    fn search_from(&self, p: Vec3, n: Vec3, c: [i32; 3], metric: Metric, best: &mut [(f32, u32)], start: Option<(f32, u32)>) -> (usize, SearchOutcome) {
         let f = best.len();
         let mut count = 0usize;
         if let Some(s) = start {
@@ -233,10 +241,10 @@ impl Grid {
         }
         let consider = |items: std::ops::Range<usize>, best: &mut [(f32, u32)], count: &mut usize| {
             for t in items {
-                if !compatible(n, self.item_normals[t], threshold) {
+                let Some(key) = metric.key(dist2(p, self.item_positions[t]), cosine(n, self.item_normals[t])) else {
                     continue;
-                }
-                let cand = (dist2(p, self.item_positions[t]), self.items[t]);
+                };
+                let cand = (key, self.items[t]);
                 if f == 1 {
                     // The k-means iterations: only the nearest (ties to the lower index).
                     if *count == 0 || cand < best[0] {
@@ -275,14 +283,20 @@ impl Grid {
             }
             let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
             let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
-            if row > limit {
+            if metric.key_bound(row) > limit {
                 continue;
             }
-            let x0 = if c[0] > 0 && row + gx[0] <= limit { c[0] - 1 } else { c[0] };
-            let x1 = if c[0] + 1 < self.dims[0] && row + gx[2] <= limit { c[0] + 1 } else { c[0] };
+            let x0 = if c[0] > 0 && metric.key_bound(row + gx[0]) <= limit { c[0] - 1 } else { c[0] };
+            let x1 = if c[0] + 1 < self.dims[0] && metric.key_bound(row + gx[2]) <= limit { c[0] + 1 } else { c[0] };
             consider(self.row_items(x0, x1, y, z), best, &mut count);
         }
-        if count > 0 {
+        // Eq. 7 keeps the paper's approximation: what the 27 cells hold, if anything. Eq. 2 is
+        // searched exactly: cells beyond are at least one cell away.
+        let done = match metric {
+            Metric::Eq7 { .. } => count > 0,
+            Metric::Ward { .. } => count == f && metric.settled(best[f - 1].0, self.cell),
+        };
+        if done {
             return (count, SearchOutcome::Neighbourhood);
         }
         let last = self.max_ring(c);
@@ -298,7 +312,7 @@ impl Grid {
             // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
             // so it is at least r cells away: once the F-th best is that near, nothing unvisited
             // can enter the list, and the widened answer is the exact F nearest.
-            if count == f && best[f - 1].0.sqrt() <= r as f32 * self.cell {
+            if count == f && metric.settled(best[f - 1].0, r as f32 * self.cell) {
                 return (count, SearchOutcome::Widened);
             }
         }
@@ -351,8 +365,8 @@ pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
 
 /// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11). `previous`
 /// labels (of the last iteration) only speed the search up: the labels are the same.
-pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], threshold: f32, previous: Option<&[u32]>) -> Vec<u32> {
-    points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, threshold, previous.map_or(MISS, |l| l[i])).0).collect()
+pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, previous: Option<&[u32]>) -> Vec<u32> {
+    points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, metric, previous.map_or(MISS, |l| l[i])).0).collect()
 }
 
 /// Recomputes the centroids from the labels with fixed-point sums (Alg. 1, lines 12-18).
@@ -428,11 +442,11 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
     let (lo, hi) = bounds(positions);
     let fix = FixedPoint::new(lo, hi);
     let geometry = Grid::for_data(bounds(positions), &sp, k);
-    let nt = params.normal_threshold;
+    let metric = params.metric;
     let mut labels: Option<Vec<u32>> = None;
     for _ in 0..params.iterations {
         let grid = geometry.fill(&cpos, &cnor);
-        let l = assign(&grid, &sp, &sn, nt, labels.as_deref());
+        let l = assign(&grid, &sp, &sn, metric, labels.as_deref());
         update(&fix, &sp, &sn, &l, &mut cpos, &mut cnor);
         labels = Some(l);
     }
@@ -440,7 +454,7 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
     // Final hard assignment of every point; drop the clusters nobody is nearest to. Without
     // downsampling the last iteration's labels are every point's.
     let grid = geometry.fill(&cpos, &cnor);
-    let hard = assign(&grid, positions, normals, nt, labels.as_deref().filter(|l| l.len() == m));
+    let hard = assign(&grid, positions, normals, metric, labels.as_deref().filter(|l| l.len() == m));
     let mut counts = vec![0u32; k];
     for &l in &hard {
         counts[l as usize] += 1;
@@ -465,13 +479,13 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
         .zip(normals)
         .map(|(&p, &n)| {
             let mut best = [(f32::INFINITY, MISS); MAX_F as usize];
-            let (count, outcome) = grid.search(p, n, nt, &mut best[..f]);
+            let (count, outcome) = grid.search(p, n, metric, &mut best[..f]);
             let mut labels = [MISS; MAX_F as usize];
             let mut weights = [0f32; MAX_F as usize];
             for j in 0..count {
                 labels[j] = best[j].1;
             }
-            fuzzy_weights(&best[..count], params.fuzzy, grid.cell, &mut weights[..count]);
+            fuzzy_weights(&best[..count], params.fuzzy, metric, grid.cell, &mut weights[..count]);
             (labels, weights, outcome)
         })
         .collect();
@@ -492,12 +506,19 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
     }
     debug_assert!((0..m).all(|i| labels[i * f] == remap[hard[i] as usize]));
 
-    let representatives = representatives(positions, &labels, f, &cpos);
+    let representatives = representatives((positions, normals), &labels, f, (&cpos, &cnor), params.representative);
     Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible }
 }
 
-/// For each cluster, the member (by hard label) nearest the centroid; ties to the lower index.
-fn representatives(positions: &[Vec3], labels: &[u32], f: usize, centroids: &[Vec3]) -> Vec<u32> {
+/// For each cluster, the member (by hard label) of smallest `rule` key to the centroid: the
+/// nearest, or the one of smallest Eq. 2 error; ties to the lower index.
+fn representatives(
+    (positions, normals): (&[Vec3], &[Vec3]),
+    labels: &[u32],
+    f: usize,
+    (centroids, cnormals): (&[Vec3], &[Vec3]),
+    rule: Representative,
+) -> Vec<u32> {
     let k = centroids.len();
     positions
         .par_iter()
@@ -506,7 +527,7 @@ fn representatives(positions: &[Vec3], labels: &[u32], f: usize, centroids: &[Ve
             || vec![(f32::INFINITY, MISS); k],
             |mut best, (i, &p)| {
                 let l = labels[i * f] as usize;
-                let cand = (dist2(p, centroids[l]), i as u32);
+                let cand = (rule.key(dist2(p, centroids[l]), cosine(normals[i], cnormals[l])), i as u32);
                 if cand < best[l] {
                     best[l] = cand;
                 }

@@ -88,7 +88,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         let cols = b.light_points(&lights, n_lights)?;
         let sp_clusters = if cfg.cluster.clusters_sps() && n_hits > 0 {
             let points = b.hit_points(&hits);
-            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params())?;
+            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params(extent))?;
             (stats.sp_clusters, stats.sp_widened) = (k.k, k.widened);
             let reps = b.representatives(&c, k.k, points, n_hits)?;
             Some((c, k.k, reps))

@@ -13,13 +13,15 @@
 use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
-use crate::shader::{pipeline_with, pipelines, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN};
+use crate::shader::{
+    pipeline_with, pipelines, METRIC_EQ7, METRIC_WARD, REPRESENTATIVE_MIN_ERROR, REPRESENTATIVE_NEAREST, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN,
+};
 use crate::visibility::Endpoint;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::sync::OnceLock;
-use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, FixedPoint, GridGeometry};
+use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, FixedPoint, GridGeometry, Metric, Representative};
 use vplgi_types::config::MAX_F;
 use vplgi_types::FuzzyMode;
 
@@ -38,6 +40,9 @@ pub(crate) struct Params {
     pub(crate) cells: u32,
     pub(crate) first: u32,
     pub(crate) window: u32,
+    pub(crate) alpha: f32,
+    pub(crate) representative: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 /// A grid filled with centroids, on the device.
@@ -88,10 +93,10 @@ impl GpuClustering {
     }
 }
 
-/// How [`ClusterKernel::assign`] assigns: n_t of Eq. 7, clusters per point, their weights.
+/// How [`ClusterKernel::assign`] assigns: the metric, clusters per point, their weights.
 #[derive(Clone, Copy, Debug)]
 pub struct AssignRule {
-    pub threshold: f32,
+    pub metric: Metric,
     pub f: u32,
     pub fuzzy: FuzzyMode,
 }
@@ -105,8 +110,9 @@ pub struct ClusterKernel {
     count_bits: Pass,
     grid_count: Pass,
     grid_scatter: Pass,
-    /// The assignment, by F (1 ..= MAX_F), compiled on first use: F fixes the trip count of
-    /// every loop over a point's list of nearest clusters (cluster_assign.wgsl).
+    /// The assignment, by metric and F (1 ..= MAX_F) ([`ClusterKernel::assign_pass`]),
+    /// compiled on first use: F fixes the trip count of every loop over a point's list of
+    /// nearest clusters (cluster_assign.wgsl), the metric which key the list holds.
     assign: Vec<OnceLock<Pass>>,
     accumulate: Pass,
     finalize: Pass,
@@ -152,7 +158,7 @@ impl ClusterKernel {
             let [gather, bounds, outcome_counts] = passes(device, "cluster_points.wgsl", ["gather", "bounds", "outcome_counts"]);
             let [occupancy, count_bits] = passes(device, "cluster_occupancy.wgsl", ["occupancy", "count_bits"]);
             let [grid_count, grid_scatter] = passes(device, "cluster_grid.wgsl", ["grid_count", "grid_scatter"]);
-            let assign = (0..=MAX_F).map(|_| OnceLock::new()).collect();
+            let assign = (0..2 * (MAX_F + 1)).map(|_| OnceLock::new()).collect();
             let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
             let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
             let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
@@ -178,16 +184,19 @@ impl ClusterKernel {
             // pipeline first created after the device is lost is only "invalid", and the frame's
             // error would not say that the device was lost.
             for f in [1, vplgi_types::FrameConfig::default().f] {
-                kernel.assign_pass(device, f);
+                kernel.assign_pass(device, f, METRIC_EQ7);
             }
             kernel
         })
     }
 
-    /// The assignment pass for `f` clusters per point, compiled on first use.
-    fn assign_pass(&self, device: &wgpu::Device, f: u32) -> &Pass {
-        self.assign[f as usize]
-            .get_or_init(|| Pass { name: "cluster assign".into(), pipeline: pipeline_with(device, "cluster_assign.wgsl", "assign", &[("F", f as f64)]) })
+    /// The assignment pass for `f` clusters per point under `metric` (a `METRIC_*` code),
+    /// compiled on first use.
+    fn assign_pass(&self, device: &wgpu::Device, f: u32, metric: u32) -> &Pass {
+        self.assign[(metric * (MAX_F + 1) + f) as usize].get_or_init(|| Pass {
+            name: "cluster assign".into(),
+            pipeline: pipeline_with(device, "cluster_assign.wgsl", "assign", &[("F", f as f64), ("METRIC", metric as f64)]),
+        })
     }
 
     fn run(
@@ -322,9 +331,19 @@ impl ClusterKernel {
         (centroids, k): (&wgpu::Buffer, u32),
         rule: AssignRule,
     ) -> Result<Assignment, GpuError> {
-        let AssignRule { threshold, f, fuzzy } = rule;
+        let AssignRule { metric, f, fuzzy } = rule;
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
-        (p.k, p.f, p.threshold) = (k, f, threshold);
+        (p.k, p.f) = (k, f);
+        let code = match metric {
+            Metric::Eq7 { normal_threshold } => {
+                p.threshold = normal_threshold;
+                METRIC_EQ7
+            }
+            Metric::Ward { alpha } => {
+                p.alpha = alpha;
+                METRIC_WARD
+            }
+        };
         p.fuzzy = if fuzzy == FuzzyMode::Weighted { WEIGHTS_INVERSE_DISTANCE } else { WEIGHTS_PLAIN_MEAN };
         let a = Assignment {
             labels: storage_zeroed::<u32>(device, "labels", (n * f) as usize),
@@ -343,7 +362,7 @@ impl ClusterKernel {
                 (8, w.of::<f32>(&a.weights, f64)),
                 (10, w.of::<u32>(&a.outcome, 1)),
             ];
-            self.run_windows(device, queue, self.assign_pass(device, f), &p, &b, w.count as u32)?;
+            self.run_windows(device, queue, self.assign_pass(device, f, code), &p, &b, w.count as u32)?;
         }
         Ok(a)
     }
@@ -428,16 +447,16 @@ impl ClusterKernel {
             return Err(e);
         }
         let fix = FixedPoint::new(min, max);
-        let nt = params.normal_threshold;
+        let metric = params.metric;
         for _ in 0..params.iterations {
             let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-            let a = self.assign(device, queue, &grid, (&sample_points, s), (&centroids, k), AssignRule { threshold: nt, f: 1, fuzzy: FuzzyMode::Hard })?;
+            let a = self.assign(device, queue, &grid, (&sample_points, s), (&centroids, k), AssignRule { metric, f: 1, fuzzy: FuzzyMode::Hard })?;
             self.update(device, queue, &fix, (&sample_points, s), (&a.labels, 1), (&centroids, k))?;
         }
 
         // Final hard assignment; drop clusters nobody is nearest to.
         let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
-        let hard = self.assign(device, queue, &grid, (points, m), (&centroids, k), AssignRule { threshold: nt, f: 1, fuzzy: FuzzyMode::Hard })?;
+        let hard = self.assign(device, queue, &grid, (points, m), (&centroids, k), AssignRule { metric, f: 1, fuzzy: FuzzyMode::Hard })?;
         let counts = storage_zeroed::<u32>(device, "member counts", k as usize);
         for w in Self::windows(device, m, 1) {
             let p = Params { n: w.count as u32, k, f: 1, ..Default::default() };
@@ -468,15 +487,20 @@ impl ClusterKernel {
 
         // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
         let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
-        let a = self.assign(device, queue, &grid, (points, m), (&survivors, kept), AssignRule { threshold: nt, f, fuzzy: params.fuzzy })?;
+        let a = self.assign(device, queue, &grid, (points, m), (&survivors, kept), AssignRule { metric, f, fuzzy: params.fuzzy })?;
 
-        // Representatives: per cluster the member nearest the centroid, ties to the lower index.
+        // Representatives: per cluster the member of smallest key (nearest, or smallest Eq. 2
+        // error), ties to the lower index.
+        let (representative, alpha) = match params.representative {
+            Representative::Nearest => (REPRESENTATIVE_NEAREST, 0.0),
+            Representative::MinError { alpha } => (REPRESENTATIVE_MIN_ERROR, alpha),
+        };
         let rep_d2 = storage(device, "rep d2", &vec![u32::MAX; kept as usize]);
         let reps = storage(device, "representatives", &vec![u32::MAX; kept as usize]);
         let windows = Self::windows(device, m, f);
         for (pass, name) in [(&self.rep_d2, "rep_d2"), (&self.rep_index, "rep_index")] {
             for w in &windows {
-                let p = Params { n: w.count as u32, k: kept, f, first: w.first as u32, ..Default::default() };
+                let p = Params { n: w.count as u32, k: kept, f, first: w.first as u32, alpha, representative, ..Default::default() };
                 let b = [
                     (1, w.of::<Endpoint>(points, 1)),
                     (3, survivors.as_entire_buffer_binding()),

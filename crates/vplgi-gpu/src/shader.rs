@@ -155,6 +155,12 @@ pub const SHADE_POINTS: u32 = 4;
 /// Codes of `fuzzy` in the clustering passes' parameters (`common/cluster.wgsl`): how a point's F clusters are weighted.
 pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
 pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
+/// Codes of the clustering metric (`METRIC`, an override of `cluster_assign.wgsl`).
+pub const METRIC_EQ7: u32 = 0;
+pub const METRIC_WARD: u32 = 1;
+/// Codes of `representative` in the clustering passes' parameters: which member stands for a cluster.
+pub const REPRESENTATIVE_NEAREST: u32 = 0;
+pub const REPRESENTATIVE_MIN_ERROR: u32 = 1;
 
 /// Constants by WGSL name, with their Rust values.
 type Named<T> = Vec<(&'static str, T)>;
@@ -183,6 +189,10 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("SHADE_POINTS", SHADE_POINTS),
         ("WEIGHTS_PLAIN_MEAN", WEIGHTS_PLAIN_MEAN),
         ("WEIGHTS_INVERSE_DISTANCE", WEIGHTS_INVERSE_DISTANCE),
+        ("METRIC_EQ7", METRIC_EQ7),
+        ("METRIC_WARD", METRIC_WARD),
+        ("REPRESENTATIVE_NEAREST", REPRESENTATIVE_NEAREST),
+        ("REPRESENTATIVE_MIN_ERROR", REPRESENTATIVE_MIN_ERROR),
     ];
     let f = vec![
         ("PI", std::f32::consts::PI),
@@ -498,7 +508,7 @@ mod tests {
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
             [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
-            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window }
+            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
             [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }

@@ -18,9 +18,101 @@ pub struct ClusterParams {
     pub f: u32,
     /// How the F clusters of a point are weighted.
     pub fuzzy: FuzzyMode,
-    /// n_t of Eq. 7.
-    pub normal_threshold: f32,
+    /// What "nearest" means.
+    pub metric: Metric,
+    /// Which member stands for each cluster.
+    pub representative: Representative,
     pub seed: u32,
+}
+
+/// The dissimilarity between a point and a centroid that the clustering minimises. Both
+/// metrics are compared through a key (smaller is nearer, ties to the lower centroid index):
+/// Eq. 7's squared distance, or Eq. 2's error itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Metric {
+    /// Eq. 7 of the core paper: Euclidean distance between positions, infinite when the
+    /// normals' dot product is at most `normal_threshold` (n_t).
+    Eq7 { normal_threshold: f32 },
+    /// Eq. 2 of Wang et al. 2009, the irradiance-caching change term without its R_k:
+    /// `alpha |x - c| + sqrt(2 - 2 n . m)`, with `alpha` per unit length (a frame divides its
+    /// scene-relative α by the scene's diagonal). Never infinite: every centroid is a candidate.
+    Ward { alpha: f32 },
+}
+
+impl Metric {
+    /// The key of a centroid at squared distance `d2` whose normal has dot product `cos` with
+    /// the point's (both summed x, y, z in that order, as the GPU does), or `None` when Eq. 7
+    /// rules it out.
+    #[inline]
+    pub fn key(self, d2: f32, cos: f32) -> Option<f32> {
+        match self {
+            Metric::Eq7 { normal_threshold } => (cos > normal_threshold).then_some(d2),
+            Metric::Ward { alpha } => Some(ward_error(alpha, d2, cos)),
+        }
+    }
+
+    /// The smallest key a centroid at squared distance `d2` can have, whatever its normal
+    /// (Eq. 2's normal term is non-negative).
+    #[inline]
+    pub fn key_bound(self, d2: f32) -> f32 {
+        match self {
+            Metric::Eq7 { .. } => d2,
+            Metric::Ward { alpha } => alpha * d2.sqrt(),
+        }
+    }
+
+    /// Whether every centroid at least `reach` away has a key above `key`: then a search
+    /// that has found `key` need look no farther. The GPU makes the same test in the same
+    /// operations (`cluster_assign.wgsl`), so both stop at the same ring.
+    #[inline]
+    pub fn settled(self, key: f32, reach: f32) -> bool {
+        match self {
+            Metric::Eq7 { .. } => key.sqrt() <= reach,
+            Metric::Ward { alpha } => key <= alpha * reach,
+        }
+    }
+
+    /// The distance Eq. 10's weights invert, from a key; and the floor it is held above for a
+    /// grid of cell size `cell` (1e-4 cell, in the metric's own units).
+    #[inline]
+    pub fn weight_distance(self, key: f32, cell: f32) -> f32 {
+        match self {
+            Metric::Eq7 { .. } => key.sqrt().max(1e-4 * cell),
+            Metric::Ward { alpha } => key.max(1e-4 * (alpha * cell)),
+        }
+    }
+}
+
+/// Eq. 2 of Wang et al. 2009 from the squared distance `d2` and the normals' dot product
+/// `cos`: `alpha sqrt(d2) + sqrt(2 - 2 cos)`, the root's argument held at 0 or more (unit
+/// normals can have a dot product a rounding above 1).
+#[inline]
+pub fn ward_error(alpha: f32, d2: f32, cos: f32) -> f32 {
+    alpha * d2.sqrt() + (2.0 - 2.0 * cos).max(0.0).sqrt()
+}
+
+/// Which member of a cluster stands for it (the shading point whose visibility the cluster
+/// takes, or the irradiance sample point).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Representative {
+    /// The member nearest the centroid by position (the core paper).
+    Nearest,
+    /// The member of smallest Eq. 2 error to the centroid (Wang et al. 2009), `alpha` per unit
+    /// length.
+    MinError { alpha: f32 },
+}
+
+impl Representative {
+    /// The key a member at squared distance `d2` from the centroid, with normal dot product
+    /// `cos`, is chosen by (smallest wins, ties to the lower point index). Non-negative, so its
+    /// bits order like the value (the GPU's atomicMin relies on it).
+    #[inline]
+    pub fn key(self, d2: f32, cos: f32) -> f32 {
+        match self {
+            Representative::Nearest => d2,
+            Representative::MinError { alpha } => ward_error(alpha, d2, cos),
+        }
+    }
 }
 
 /// At most about this many grid cells; the cell size grows to respect it.
@@ -125,15 +217,15 @@ pub fn u64_mean(sum: u64, count: u32) -> f32 {
     (hi as f32 * 4_294_967_296.0 + lo as f32) / count as f32
 }
 
-/// Normalised weights of a point's clusters given their squared distances (Eq. 10 for
-/// `Weighted`: inverse distance; Eq. 8's plain mean for `Average`). Distances are floored at
-/// 1e-4 of a grid cell, so a point sitting on a centroid gets a large but finite weight.
-pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, cell: f32, out: &mut [f32]) {
-    let floor = 1e-4 * cell;
+/// Normalised weights of a point's clusters given their keys under `metric` (Eq. 10 for
+/// `Weighted`: inverse distance, or inverse Eq. 2 error; Eq. 8's plain mean for `Average`).
+/// Distances are floored at 1e-4 of a grid cell ([`Metric::weight_distance`]), so a point
+/// sitting on a centroid gets a large but finite weight.
+pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, metric: Metric, cell: f32, out: &mut [f32]) {
     let mut total = 0.0f32;
-    for (w, &(d2, _)) in out.iter_mut().zip(best) {
+    for (w, &(key, _)) in out.iter_mut().zip(best) {
         *w = match mode {
-            FuzzyMode::Weighted => 1.0 / d2.sqrt().max(floor),
+            FuzzyMode::Weighted => 1.0 / metric.weight_distance(key, cell),
             FuzzyMode::Average | FuzzyMode::Hard => 1.0,
         };
         total += *w;

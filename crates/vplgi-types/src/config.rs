@@ -80,6 +80,32 @@ pub enum VplClustering {
     Rsm,
 }
 
+/// What "nearest" means when shading points are clustered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum SpMetric {
+    /// The core paper's Eq. 7: Euclidean distance, with normals beyond n_t never in one cluster.
+    #[default]
+    Eq7,
+    /// Wang et al. 2009, Eq. 2: alpha |x - c| + sqrt(2 - 2 n . m), alpha relative to the scene's
+    /// diagonal (`--alpha`); no normal threshold.
+    Ward,
+}
+
+/// Which member stands for a shading-point cluster (its visibility row's shading point).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum SpRepresentative {
+    /// The member nearest the centroid (the core paper).
+    #[default]
+    Nearest,
+    /// The member of smallest Eq. 2 error to the centroid, position and normal (Wang et al.
+    /// 2009), with `--alpha`.
+    MinError,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -171,6 +197,25 @@ pub struct FrameConfig {
     /// With `VplClustering::Rsm`: the weights of Eq. 1 (position, normal, flux colour).
     #[serde(default)]
     pub rsm_weights: crate::rsm::RsmWeights,
+    /// The metric of the shading points' clustering. Files written before the option existed
+    /// read as Eq. 7.
+    #[serde(default)]
+    pub metric: SpMetric,
+    /// α of Eq. 2 (Wang et al. 2009) per scene bounding-box diagonal, for `SpMetric::Ward` and
+    /// `SpRepresentative::MinError`: an Eq. 2 error of 1 is a normal turned by 60° or a move of
+    /// 1/α diagonals.
+    #[serde(default = "default_alpha")]
+    pub alpha: f32,
+    /// Which member stands for each shading-point cluster. Files written before the option
+    /// existed read as the nearest.
+    #[serde(default)]
+    pub representative: SpRepresentative,
+}
+
+/// Wang et al. use α = 0.1 to 0.5 after normalising the scene's size; vplgi divides by the
+/// bounding-box diagonal and takes the middle of that range.
+fn default_alpha() -> f32 {
+    0.3
 }
 
 /// The paper's Cornell-box RSM (Table 1): 128².
@@ -209,6 +254,9 @@ impl FrameConfig {
             rsm_size: default_rsm_size(),
             vpl_cluster: VplClustering::Eq7,
             rsm_weights: crate::rsm::RsmWeights::default(),
+            metric: SpMetric::Eq7,
+            alpha: default_alpha(),
+            representative: SpRepresentative::Nearest,
         }
     }
 
@@ -251,20 +299,32 @@ impl FrameConfig {
             iterations: self.iterations,
             f: 1,
             fuzzy: FuzzyMode::Hard,
-            normal_threshold: self.normal_threshold,
+            metric: crate::clustering::Metric::Eq7 { normal_threshold: self.normal_threshold },
+            representative: crate::clustering::Representative::Nearest,
             seed: self.seed,
         }
     }
 
-    /// The clustering of the shading points (F-fuzzy, K_SP clusters), as every backend runs it.
-    pub fn sp_cluster_params(&self) -> crate::clustering::ClusterParams {
+    /// The clustering of the shading points (F-fuzzy, K_SP clusters) in a scene of bounding-box
+    /// diagonal `extent`, as every backend runs it: `extent` turns the scene-relative α of
+    /// Eq. 2 into one per unit length.
+    pub fn sp_cluster_params(&self, extent: f32) -> crate::clustering::ClusterParams {
+        use crate::clustering::{Metric, Representative};
+        let alpha = self.alpha / extent.max(f32::MIN_POSITIVE);
         crate::clustering::ClusterParams {
             k: self.k_sp,
             gamma: self.gamma,
             iterations: self.iterations,
             f: self.effective_f(),
             fuzzy: self.fuzzy,
-            normal_threshold: self.normal_threshold,
+            metric: match self.metric {
+                SpMetric::Eq7 => Metric::Eq7 { normal_threshold: self.normal_threshold },
+                SpMetric::Ward => Metric::Ward { alpha },
+            },
+            representative: match self.representative {
+                SpRepresentative::Nearest => Representative::Nearest,
+                SpRepresentative::MinError => Representative::MinError { alpha },
+            },
             seed: self.seed.wrapping_add(1),
         }
     }
@@ -333,6 +393,10 @@ impl FrameConfig {
         if !(-1.0..1.0).contains(&self.normal_threshold) {
             // n1 . n2 > 1 never holds: every point would be incompatible with every centroid.
             return Err("normal threshold must be in [-1, 1)".into());
+        }
+        if !(self.alpha > 0.0 && self.alpha.is_finite()) {
+            // Eq. 2 with alpha = 0 ignores positions: a cluster could span the whole scene.
+            return Err(format!("alpha must be a finite number > 0 (got {})", self.alpha));
         }
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
             return Err("g-clamp must be a finite number >= 0".into());
@@ -414,6 +478,8 @@ mod tests {
         assert!(bad(|c| c.f = 17).contains('F'));
         assert!(bad(|c| c.normal_threshold = 1.0).contains("normal threshold"));
         assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));
+        assert!(bad(|c| c.alpha = 0.0).contains("alpha"));
+        assert!(bad(|c| c.alpha = f32::INFINITY).contains("alpha"));
         assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28"));
     }
 }

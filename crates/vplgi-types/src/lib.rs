@@ -24,7 +24,7 @@ pub mod rng;
 pub mod rsm;
 pub mod sampling;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, VplClustering, VplSource};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, SpMetric, SpRepresentative, VplClustering, VplSource};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

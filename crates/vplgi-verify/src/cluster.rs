@@ -9,22 +9,22 @@ use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
-use vplgi_types::clustering::{fuzzy_weights, FixedPoint, GridGeometry};
+use vplgi_types::clustering::{fuzzy_weights, FixedPoint, GridGeometry, Metric, Representative};
 use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, MISS};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
     ps.iter().zip(ns).map(|(&p, &n)| Endpoint::new(p, n)).collect()
 }
 
-/// The CPU's F nearest compatible centroids of each point on `grid` (Eq. 7), `MISS`-padded, and
+/// The CPU's F nearest compatible centroids of each point on `grid` (Eq. 7 or Eq. 2), `MISS`-padded, and
 /// their weights (Eq. 8 or Eq. 9-10).
 pub fn cpu_assign(grid: &Grid, (ps, ns): (&[Vec3], &[Vec3]), rule: AssignRule) -> (Vec<u32>, Vec<f32>) {
     let f = rule.f as usize;
     let (mut labels, mut weights) = (vec![MISS; ps.len() * f], vec![0.0f32; ps.len() * f]);
     for (i, (&p, &n)) in ps.iter().zip(ns).enumerate() {
         let mut best = vec![(f32::INFINITY, MISS); f];
-        let (found, _) = grid.search(p, n, rule.threshold, &mut best);
-        fuzzy_weights(&best[..found], rule.fuzzy, grid.cell, &mut weights[i * f..i * f + found]);
+        let (found, _) = grid.search(p, n, rule.metric, &mut best);
+        fuzzy_weights(&best[..found], rule.fuzzy, rule.metric, grid.cell, &mut weights[i * f..i * f + found]);
         for (j, b) in best.iter().enumerate() {
             labels[i * f + j] = b.1;
         }
@@ -172,30 +172,42 @@ pub fn compare_clustering(
     ])
 }
 
+/// The metric and representative rule of a clustering, for a check's case.
+fn describe(params: &ClusterParams) -> String {
+    let metric = match params.metric {
+        Metric::Eq7 { normal_threshold } => format!("Eq. 7 (n_t {normal_threshold})"),
+        Metric::Ward { alpha } => format!("Eq. 2 (alpha {alpha:.4} per unit)"),
+    };
+    match params.representative {
+        Representative::Nearest => metric,
+        Representative::MinError { .. } => format!("{metric}, min-error representatives"),
+    }
+}
+
 /// All of the above on the frame's two point sets: its hits (the shading-point clustering's
 /// parameters) and its VPLs (the VPL clustering's), with centroids and labels from the CPU.
 pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Cluster);
     let frame = CpuFrame::new(twins.cpu, cfg);
     let (device, queue, kernel) = (twins.device(), twins.queue(), &twins.gpu.kernels().cluster);
-    let sets = [("hit points", frame.hit_points(), cfg.sp_cluster_params()), ("VPLs", frame.vpl_points(), cfg.vpl_cluster_params())];
+    let sets = [("hit points", frame.hit_points(), cfg.sp_cluster_params(twins.cpu.extent)), ("VPLs", frame.vpl_points(), cfg.vpl_cluster_params())];
     for (name, (ps, ns), params) in sets {
         if ps.is_empty() {
             r.notes.push(format!("no {name} to cluster"));
             continue;
         }
         let c = cluster(&ps, &ns, &ClusterParams { f: 1, fuzzy: FuzzyMode::Hard, ..params });
-        let case = format!("{} {name}, {} centroids", count(ps.len()), count(c.k()));
+        let case = format!("{} {name}, {} centroids, {}", count(ps.len()), count(c.k()), describe(&params));
         let centroids = (&c.positions[..], &c.normals[..]);
-        let rule = AssignRule { threshold: params.normal_threshold, f: params.f, fuzzy: params.fuzzy };
+        let rule = AssignRule { metric: params.metric, f: params.f, fuzzy: params.fuzzy };
         let fuzzy_case = if params.f > 1 { format!("{case}, F = {} {:?}", params.f, params.fuzzy) } else { case.clone() };
         for d in compare_assign(device, queue, kernel, (&ps, &ns), centroids, rule)? {
             r.checks.push(d.with_case(&fuzzy_case));
         }
         let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
-        let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, params.normal_threshold, None);
+        let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, params.metric, None);
         r.checks.push(compare_update(device, queue, kernel, (&ps, &ns), centroids, &hard)?.with_case(&case));
-        let whole = format!("{} {name}, K = {}, {} iterations, F = {}", count(ps.len()), params.k, params.iterations, params.f);
+        let whole = format!("{} {name}, K = {}, {} iterations, F = {}, {}", count(ps.len()), params.k, params.iterations, params.f, describe(&params));
         for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params)? {
             r.checks.push(d.with_case(&whole));
         }

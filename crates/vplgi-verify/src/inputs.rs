@@ -76,7 +76,7 @@ impl CpuClusters {
         let cols = lights.iter().map(VplLight::endpoint).collect();
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
-            cluster(&p, &n, &cfg.sp_cluster_params())
+            cluster(&p, &n, &cfg.sp_cluster_params(cs.extent))
         });
         let rows = match &sp_clusters {
             Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),

@@ -23,14 +23,16 @@ pub const SHADING_POINTS_POSITION_REL: f64 = 1e-4;
 /// points, corner pairs differed by up to 1.1e-4. Absolute, because where G barely exceeds
 /// g_max the share is near 0 and its relative rounding large.
 pub const BIAS_POINTS_WEIGHT_ABS: f64 = 1e-5;
-/// K-means assignment given the same centroids: at least this share of identical labels.
+/// K-means assignment given the same centroids: at least this share of identical labels. The
+/// same row judges both metrics, Eq. 7 and Eq. 2 (`--metric ward`): each backend evaluates a
+/// metric in the same order of operations.
 pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
 /// Centroid update given the same labels: bit-identical (integer sums): no differing centroid.
 pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
 /// The RSM-space centroid update (`--vpl-cluster rsm`): float sums in the same order on both
 /// backends, so the SPEC's "else 1e-6 relative", relative to the scene's diagonal.
 pub const RSM_UPDATE_REL: f64 = 1e-6;
-/// Fuzzy assignment: at least this share of points with identical F-index sets.
+/// Fuzzy assignment: at least this share of points with identical F-index sets (either metric).
 pub const FUZZY_SAME_SETS: f64 = 0.999;
 /// Fuzzy assignment: weights within this, absolute, and summing to 1 within this.
 pub const FUZZY_WEIGHTS_ABS: f64 = 1e-5;

@@ -1,10 +1,19 @@
 use super::*;
 use proptest::prelude::*;
-use vplgi_types::clustering::FixedPoint;
+use vplgi_types::clustering::{ward_error, FixedPoint};
 use vplgi_types::{Rng, Stream};
 
+/// Eq. 7 with normal threshold `nt`.
+fn eq7(nt: f32) -> Metric {
+    Metric::Eq7 { normal_threshold: nt }
+}
+
+fn compatible(n: Vec3, m: Vec3, nt: f32) -> bool {
+    cosine(n, m) > nt
+}
+
 fn params(k: u32, f: u32, fuzzy: FuzzyMode) -> ClusterParams {
-    ClusterParams { k, gamma: 2, iterations: 5, f, fuzzy, normal_threshold: 0.866_025_4, seed: 3 }
+    ClusterParams { k, gamma: 2, iterations: 5, f, fuzzy, metric: eq7(0.866_025_4), representative: Representative::Nearest, seed: 3 }
 }
 
 /// Points on the six faces of a unit cube (normals outward), like shading points in a room.
@@ -56,7 +65,7 @@ fn grid_search_against_all_pairs() {
         let grid = geometry.fill(&cs, &cn);
         for (&p, &n) in ps.iter().zip(&ns) {
             let mut best = [(f32::INFINITY, MISS)];
-            let (count, outcome) = grid.search(p, n, 0.866, &mut best);
+            let (count, outcome) = grid.search(p, n, eq7(0.866), &mut best);
             let brute = brute_nearest(p, n, &cs, &cn, 0.866);
             total += 1;
             match brute {
@@ -89,11 +98,11 @@ fn widened_search_when_neighbourhood_is_empty() {
     all.push(Vec3::splat(10.0));
     let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
     let mut best = [(f32::INFINITY, MISS)];
-    let (count, outcome) = grid.search(Vec3::splat(10.0), Vec3::Z, 0.5, &mut best);
+    let (count, outcome) = grid.search(Vec3::splat(10.0), Vec3::Z, eq7(0.5), &mut best);
     assert_eq!((count, outcome), (1, SearchOutcome::Widened));
     assert_eq!(best[0], brute_nearest(Vec3::splat(10.0), Vec3::Z, &cs, &cn, 0.5).unwrap());
     // With a normal nobody shares, the nearest by position is taken.
-    let (count, outcome) = grid.search(Vec3::splat(10.0), -Vec3::Z, 0.5, &mut best);
+    let (count, outcome) = grid.search(Vec3::splat(10.0), -Vec3::Z, eq7(0.5), &mut best);
     assert_eq!((count, outcome), (1, SearchOutcome::Incompatible));
     assert_eq!(best[0].1, 63);
 }
@@ -256,7 +265,7 @@ proptest! {
     /// weights sum to 1; representatives are members; K is never exceeded.
     #[test]
     fn clustering_invariants((ps, ns) in arb_points(), k in 1u32..600, f in 1u32..8, mode in prop_oneof![Just(FuzzyMode::Hard), Just(FuzzyMode::Average), Just(FuzzyMode::Weighted)], seed in 0u32..1000) {
-        let c = cluster(&ps, &ns, &ClusterParams { k, gamma: 3, iterations: 4, f, fuzzy: mode, normal_threshold: 0.866_025_4, seed });
+        let c = cluster(&ps, &ns, &ClusterParams { k, gamma: 3, iterations: 4, f, fuzzy: mode, metric: eq7(0.866_025_4), representative: Representative::Nearest, seed });
         check_invariants(&c, &ps, k);
         if mode == FuzzyMode::Hard { prop_assert_eq!(c.f, 1); }
     }
@@ -275,7 +284,7 @@ fn hinted_search_equals_the_plain_search() {
         let mut rng = Rng::new(seed, Stream::Oracle, 1);
         for (&p, &n) in ps.iter().zip(&ns) {
             let mut best = [(f32::INFINITY, MISS)];
-            let (count, outcome) = grid.search(p, n, 0.866, &mut best);
+            let (count, outcome) = grid.search(p, n, eq7(0.866), &mut best);
             let plain = if count > 0 { best[0].1 } else { MISS };
             // The oracle of the paper's approximation, without grid runs or distance bounds:
             // the nearest compatible centroid whose cell is one of the 27 around the point's.
@@ -288,7 +297,7 @@ fn hinted_search_equals_the_plain_search() {
                 assert_eq!(Some(best[0]), oracle, "point {p}");
             }
             for hint in [plain, rng.next_u32() % cs.len() as u32, rng.next_u32() % cs.len() as u32, MISS] {
-                assert_eq!(grid.search_near(p, n, 0.866, hint), (plain, outcome), "point {p}, hint {hint}");
+                assert_eq!(grid.search_near(p, n, eq7(0.866), hint), (plain, outcome), "point {p}, hint {hint}");
                 compared += 1;
             }
         }
@@ -303,7 +312,7 @@ fn hinted_search_equals_the_plain_search() {
     let data: Vec<Vec3> = (0..64).map(|i| Vec3::new((i % 4) as f32 / 3.0, ((i / 4) % 4) as f32 / 3.0, (i / 16) as f32 / 3.0)).collect();
     let grid = Grid::for_data(bounds(&data), &data, cs.len()).fill(&cs, &cn);
     for hint in [0, 1, 2, 3, MISS] {
-        assert_eq!(grid.search_near(p, Vec3::Z, 0.5, hint).0, 0, "hint {hint}: the tie goes to the lowest index");
+        assert_eq!(grid.search_near(p, Vec3::Z, eq7(0.5), hint).0, 0, "hint {hint}: the tie goes to the lowest index");
     }
 }
 
@@ -333,7 +342,7 @@ fn widened_search_returns_the_exact_f_nearest() {
             let n = if i % 4 == 0 { -Vec3::Z } else { Vec3::Z };
             for f in 1..=8usize {
                 let mut best = [(f32::INFINITY, MISS); 8];
-                let (count, outcome) = grid.search(p, n, 0.5, &mut best[..f]);
+                let (count, outcome) = grid.search(p, n, eq7(0.5), &mut best[..f]);
                 if outcome != SearchOutcome::Widened {
                     continue;
                 }
@@ -372,7 +381,7 @@ fn centroid_just_across_a_face_beats_the_hint() {
             assert_ne!(grid.coords(p), grid.coords(across), "axis {axis}, side {side}: the test needs the face between them");
             assert_eq!(grid.coords(p), grid.coords(hint));
             assert!(dist2(p, across) < dist2(p, hint));
-            assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 0).0, 1, "axis {axis}, side {side}");
+            assert_eq!(grid.search_near(p, Vec3::Z, eq7(0.5), 0).0, 1, "axis {axis}, side {side}");
         }
     }
 }
@@ -384,8 +393,8 @@ fn tie_at_zero_distance_goes_to_the_lower_index_with_a_hint() {
     let data: Vec<Vec3> = (0..64).map(|i| Vec3::new((i % 4) as f32, ((i / 4) % 4) as f32, (i / 16) as f32)).collect();
     let p = Vec3::new(1.3, 1.6, 1.2);
     let grid = Grid::for_data(bounds(&data), &data, 8).fill(&[p, p], &[Vec3::Z, Vec3::Z]);
-    assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 1).0, 0);
-    assert_eq!(grid.search_near(p, Vec3::Z, 0.5, 0).0, 0);
+    assert_eq!(grid.search_near(p, Vec3::Z, eq7(0.5), 1).0, 0);
+    assert_eq!(grid.search_near(p, Vec3::Z, eq7(0.5), 0).0, 0);
 }
 
 /// With no compatible centroid anywhere, the nearest by position is taken, ties to the lower
@@ -396,7 +405,7 @@ fn incompatible_tie_goes_to_the_lower_index() {
     let cn = vec![Vec3::Z; 3];
     let grid = Grid::for_data(bounds(&cs), &cs, cs.len()).fill(&cs, &cn);
     let mut best = [(f32::INFINITY, MISS)];
-    assert_eq!(grid.search(Vec3::ZERO, -Vec3::Z, 0.5, &mut best), (1, SearchOutcome::Incompatible));
+    assert_eq!(grid.search(Vec3::ZERO, -Vec3::Z, eq7(0.5), &mut best), (1, SearchOutcome::Incompatible));
     assert_eq!(best[0], (1.0, 0));
 }
 
@@ -423,7 +432,7 @@ fn widened_and_incompatible_points_are_counted() {
         let (mut widened, mut incompatible) = (0, 0);
         for (&q, &n) in ps.iter().zip(&ns) {
             let mut best = [(f32::INFINITY, MISS); 3];
-            match grid.search(q, n, p.normal_threshold, &mut best).1 {
+            match grid.search(q, n, p.metric, &mut best).1 {
                 SearchOutcome::Neighbourhood => {}
                 SearchOutcome::Widened => widened += 1,
                 SearchOutcome::Incompatible => (widened, incompatible) = (widened + 1, incompatible + 1),
@@ -435,4 +444,130 @@ fn widened_and_incompatible_points_are_counted() {
             assert_eq!(incompatible, 3);
         }
     }
+}
+
+/// Eq. 2 of Wang et al. on hand-checked pairs: alpha |x - c| + sqrt(2 - 2 n . m).
+#[test]
+fn ward_error_on_hand_checked_pairs() {
+    let m = Metric::Ward { alpha: 0.5 };
+    let d2 = dist2(Vec3::ZERO, Vec3::new(3.0, 4.0, 0.0));
+    // Distance 5, normals at 90°: 2.5 + sqrt 2.
+    assert_eq!(m.key(d2, cosine(Vec3::Z, Vec3::X)), Some(2.5 + std::f32::consts::SQRT_2));
+    // Same normal: the position term alone; opposite normals: + 2; 60° apart: + 1.
+    assert_eq!(m.key(d2, 1.0), Some(2.5));
+    assert_eq!(m.key(d2, -1.0), Some(4.5));
+    assert_eq!(m.key(0.0, 0.5), Some(1.0));
+    // A dot product a rounding above 1 (unit normals) gives no NaN.
+    assert_eq!(m.key(0.0, 1.000_000_1), Some(0.0));
+    // Never ruled out, where Eq. 7 rules out anything at or below n_t.
+    assert_eq!(eq7(0.5).key(d2, 0.5), None);
+    assert_eq!(eq7(0.5).key(d2, 0.6), Some(25.0));
+    // The bounds a search skips cells by: nothing at distance 5 scores below 2.5 under Eq. 2,
+    // and a key of 2.5 is settled once the unvisited cells are 5 away.
+    assert_eq!(m.key_bound(d2), 2.5);
+    assert!(m.settled(2.5, 5.0) && !m.settled(2.5, 4.9));
+}
+
+/// The F smallest Eq. 2 errors by brute force, ties to the lower index.
+fn brute_f_ward(p: Vec3, n: Vec3, cs: &[Vec3], cn: &[Vec3], alpha: f32, f: usize) -> Vec<(f32, u32)> {
+    let mut all: Vec<(f32, u32)> = (0..cs.len()).map(|k| (ward_error(alpha, dist2(p, cs[k]), cosine(n, cn[k])), k as u32)).collect();
+    all.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    all.truncate(f);
+    all
+}
+
+/// Under Eq. 2 the grid search is exact, neighbourhood or not: on room-like points with
+/// centroids of every orientation (some unrelated to any surface), at alphas from one where
+/// normals dominate to one where position does, every search equals the brute-force F
+/// smallest errors, and a hinted search the plain one.
+#[test]
+fn ward_search_equals_brute_force() {
+    let (mut searches, mut widened) = (0, 0);
+    for (seed, alpha) in [(0u32, 0.05f32), (1, 0.3), (2, 3.0), (3, 30.0)] {
+        let (ps, ns) = cube_surface(1500, seed);
+        let (cs, mut cn) = cube_surface(40 + 90 * seed as usize, seed + 70);
+        let mut rng = Rng::new(seed, Stream::Oracle, 4);
+        for n in cn.iter_mut().step_by(3) {
+            *n = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::Y);
+        }
+        let metric = Metric::Ward { alpha };
+        let grid = Grid::for_data(bounds(&ps), &ps, cs.len()).fill(&cs, &cn);
+        for (&p, &n) in ps.iter().zip(&ns) {
+            for f in [1usize, 3, 8] {
+                let mut best = [(f32::INFINITY, MISS); 8];
+                let (count, outcome) = grid.search(p, n, metric, &mut best[..f]);
+                assert_ne!(outcome, SearchOutcome::Incompatible);
+                widened += (outcome == SearchOutcome::Widened) as usize;
+                searches += 1;
+                assert_eq!(&best[..count], &brute_f_ward(p, n, &cs, &cn, alpha, f)[..], "point {p}, F {f}, alpha {alpha}");
+            }
+            let nearest = brute_f_ward(p, n, &cs, &cn, alpha, 1)[0].1;
+            for hint in [nearest, rng.next_u32() % cs.len() as u32, MISS] {
+                assert_eq!(grid.search_near(p, n, metric, hint).0, nearest, "point {p}, hint {hint}, alpha {alpha}");
+            }
+        }
+    }
+    println!("{searches} Eq. 2 searches equal to brute force, {widened} of them beyond the 27 cells");
+    assert!(widened > 100 && widened < searches, "the test must exercise both ways a search ends ({widened} of {searches} widened)");
+}
+
+/// `--representative min-error`: each cluster's representative is the member of smallest
+/// Eq. 2 error to its centroid (brute force over the hard labels), and on a surface with a
+/// crease it is a different member than the nearest.
+#[test]
+fn min_error_representative_is_the_brute_force_minimum() {
+    let (ps, mut ns) = cube_surface(3000, 5);
+    // Tilt a third of the normals, so that position and normal disagree on who is closest.
+    let mut rng = Rng::new(5, Stream::Oracle, 5);
+    for n in ns.iter_mut().step_by(3) {
+        *n = (*n + 0.6 * (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5)).normalize();
+    }
+    let alpha = 0.4;
+    let base = ClusterParams { metric: Metric::Ward { alpha }, ..params(60, 1, FuzzyMode::Hard) };
+    let near = cluster(&ps, &ns, &base);
+    let min_error = cluster(&ps, &ns, &ClusterParams { representative: Representative::MinError { alpha }, ..base });
+    assert_eq!(near.labels, min_error.labels, "the representative rule must not change the clusters");
+    let mut differ = 0;
+    for j in 0..min_error.k() {
+        let (c, cn) = (min_error.positions[j], min_error.normals[j]);
+        let brute = (0..ps.len())
+            .filter(|&i| min_error.hard_label(i) == j as u32)
+            .map(|i| (ward_error(alpha, dist2(ps[i], c), cosine(ns[i], cn)), i as u32))
+            .fold((f32::INFINITY, MISS), |b, x| if x < b { x } else { b });
+        assert_eq!(min_error.representatives[j], brute.1, "cluster {j}");
+        differ += (near.representatives[j] != brute.1) as usize;
+    }
+    println!("min-error representatives differ from the nearest in {differ} of {} clusters", min_error.k());
+    assert!(differ > 0, "tilted normals must change some representatives");
+}
+
+/// Eq. 2 with a small alpha clusters by normal first: two perpendicular walls meeting at an
+/// edge, two clusters, and every cluster lies on one wall; a huge alpha clusters by position
+/// and mixes them near the edge.
+#[test]
+fn ward_with_a_small_alpha_separates_walls_by_normal() {
+    let mut rng = Rng::new(8, Stream::Oracle, 6);
+    let (mut ps, mut ns) = (Vec::new(), Vec::new());
+    for i in 0..2000 {
+        let (u, v) = (rng.next_f32(), rng.next_f32());
+        // A long floor and a short wall: position alone would cut across the edge.
+        if i % 2 == 0 {
+            ps.push(Vec3::new(u * 4.0, 0.0, v));
+            ns.push(Vec3::Y);
+        } else {
+            ps.push(Vec3::new(0.0, u * 0.5, v));
+            ns.push(Vec3::X);
+        }
+    }
+    let mixed = |alpha: f32| {
+        let c = cluster(&ps, &ns, &ClusterParams { metric: Metric::Ward { alpha }, gamma: 1, iterations: 10, ..params(2, 1, FuzzyMode::Hard) });
+        (0..c.k())
+            .filter(|&j| {
+                let walls: std::collections::HashSet<bool> = (0..ps.len()).filter(|&i| c.hard_label(i) == j as u32).map(|i| ns[i] == Vec3::X).collect();
+                walls.len() > 1
+            })
+            .count()
+    };
+    assert_eq!(mixed(0.01), 0, "alpha 0.01: a cluster spans both walls");
+    assert!(mixed(1000.0) > 0, "alpha 1000 should cluster by position alone");
 }
