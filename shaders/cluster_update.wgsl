@@ -27,10 +27,8 @@ fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let pt = points[i];
-    let q = clamp((pt.position.xyz - params.fix_min.xyz) / params.fix_ext.xyz * FIX_ONE, vec3<f32>(0.0), vec3<f32>(FIX_ONE));
-    let m = clamp(clamp(pt.normal.xyz, vec3<f32>(-1.0), vec3<f32>(1.0)) * FIX_ONE + FIX_ONE, vec3<f32>(0.0), vec3<f32>(2.0 * FIX_ONE));
-    let qu = vec3<u32>(round(q));
-    let mu = vec3<u32>(round(m));
+    let qu = fix_position(pt.position.xyz, params.fix_min.xyz, params.fix_ext.xyz);
+    let mu = fix_normal(pt.normal.xyz);
     let base = l * 12u;
     add64(base + 0u, qu.x);
     add64(base + 2u, qu.y);
@@ -41,10 +39,8 @@ fn accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     atomicAdd(&counts[l], 1u);
 }
 
-fn mean64(slot: u32, count: u32) -> f32 {
-    let lo = atomicLoad(&sums[slot]);
-    let hi = atomicLoad(&sums[slot + 1u]);
-    return (f32(hi) * 4294967296.0 + f32(lo)) / f32(count);
+fn sum_mean(slot: u32, count: u32) -> f32 {
+    return mean64(atomicLoad(&sums[slot]), atomicLoad(&sums[slot + 1u]), count);
 }
 
 @compute @workgroup_size(64)
@@ -58,13 +54,12 @@ fn finalize(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         return;
     }
     let base = k * 12u;
-    let m = vec3<f32>(mean64(base, count), mean64(base + 2u, count), mean64(base + 4u, count));
-    let mn = vec3<f32>(mean64(base + 6u, count), mean64(base + 8u, count), mean64(base + 10u, count));
-    centroids[k].position = vec4<f32>(params.fix_min.xyz + m / FIX_ONE * params.fix_ext.xyz, 0.0);
-    let nrm = (mn - vec3<f32>(FIX_ONE)) / FIX_ONE;
-    // glam try_normalize: 1 / length must be finite and positive.
-    let rcp = 1.0 / sqrt(dot(nrm, nrm));
-    if (rcp < bitcast<f32>(0x7f800000u) && rcp > 0.0) {
-        centroids[k].normal = vec4<f32>(nrm * rcp, 0.0);
+    let m = vec3<f32>(sum_mean(base, count), sum_mean(base + 2u, count), sum_mean(base + 4u, count));
+    let mn = vec3<f32>(sum_mean(base + 6u, count), sum_mean(base + 8u, count), sum_mean(base + 10u, count));
+    centroids[k].position = vec4<f32>(fix_mean_position(m, params.fix_min.xyz, params.fix_ext.xyz), 0.0);
+    // A cluster whose members' normals cancel keeps its normal (FixedPoint::mean gives None).
+    let nrm = fix_mean_normal(mn);
+    if (any(nrm != vec3<f32>(0.0))) {
+        centroids[k].normal = vec4<f32>(nrm, 0.0);
     }
 }

@@ -1,5 +1,5 @@
 // Shared by the clustering passes (cluster_*.wgsl; host side vplgi-gpu/src/cluster.rs): the
-// parameters every pass reads, the Eq. 7 distance and Eq. 2's error, and the grid's cells.
+// parameters every pass reads and the grid's cells (the metrics are in common/metric.wgsl).
 // Per-point arrays are bound as windows of at most one storage binding (buffers.rs, Window);
 // per-point entry points see the window's points as 0 .. n.
 
@@ -23,29 +23,6 @@ struct Params {
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
-
-fn dist2(a: vec3<f32>, b: vec3<f32>) -> f32 {
-    let dx = a.x - b.x;
-    let dy = a.y - b.y;
-    let dz = a.z - b.z;
-    var s = dx * dx;
-    s = s + dy * dy;
-    s = s + dz * dz;
-    return s;
-}
-
-fn cosine(n: vec3<f32>, m: vec3<f32>) -> f32 {
-    var d = n.x * m.x;
-    d = d + n.y * m.y;
-    d = d + n.z * m.z;
-    return d;
-}
-
-// Eq. 2 of Wang et al. 2009 (vplgi_types::clustering::ward_error): alpha |x - c| + sqrt(2 - 2 n.m)
-// from the squared distance and the normals' dot product, in the CPU's order of operations.
-fn ward_error(alpha: f32, d2: f32, cos: f32) -> f32 {
-    return alpha * sqrt(d2) + sqrt(max(2.0 - 2.0 * cos, 0.0));
-}
 
 fn cell_coords(p: vec3<f32>) -> vec3<i32> {
     let q = (p - params.origin.xyz) / params.origin.w;

@@ -9,7 +9,7 @@ use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, SpMetric, SpRepresentative, VplClustering, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, SpMetric, SpRepresentative, VplClustering, VplSource};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -99,6 +99,13 @@ pub struct FrameArgs {
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub representative: Option<SpRepresentative>,
+    /// How the shading-point clustering picks its K initial centroids: evenly spread over the
+    /// shading points (the core paper), or handed down a screen-space quadtree in proportion to
+    /// each node's geometric variation under Eq. 2 with --alpha (Wang et al. 2009), so that
+    /// corners and curved surfaces get more clusters than flat walls.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seeding: Option<Seeding>,
     /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
     #[arg(long = "g-clamp", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -3,7 +3,7 @@
 //! unclustered), Figure 11 both. Each is drawn as PNG and SVG charts (stage times and image error,
 //! against MSE and against FLIP); every configuration's image and FLIP error map go into one
 //! contact sheet, and every number into sweep.json. `--figure variants` sets the core paper's
-//! choices for clustering shading points beside Wang et al.'s (metric, representative) at each
+//! choices for clustering shading points beside Wang et al.'s (metric, representative, seeding) at each
 //! shading-point cluster count, charted at equal time and at equal count.
 
 use crate::engine::{with_engine, BackendArg};
@@ -18,7 +18,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
-use vplgi_types::{ClusterMode, FrameConfig, SpMetric, SpRepresentative};
+use vplgi_types::{ClusterMode, FrameConfig, Seeding, SpMetric, SpRepresentative};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -43,17 +43,23 @@ struct Variant {
     name: String,
     metric: Option<SpMetric>,
     representative: Option<SpRepresentative>,
+    seeding: Option<Seeding>,
 }
 
 impl Variant {
     fn apply(&self, cfg: FrameConfig) -> FrameConfig {
-        FrameConfig { metric: self.metric.unwrap_or(cfg.metric), representative: self.representative.unwrap_or(cfg.representative), ..cfg }
+        FrameConfig {
+            metric: self.metric.unwrap_or(cfg.metric),
+            representative: self.representative.unwrap_or(cfg.representative),
+            seeding: self.seeding.unwrap_or(cfg.seeding),
+            ..cfg
+        }
     }
 }
 
-/// `ward+min-error`: option values joined by `+`, at most one per option.
+/// `ward+min-error+adaptive`: option values joined by `+`, at most one per option.
 fn parse_variant(s: &str) -> Result<Variant, String> {
-    let mut v = Variant { name: s.to_string(), metric: None, representative: None };
+    let mut v = Variant { name: s.to_string(), metric: None, representative: None, seeding: None };
     for token in s.split('+') {
         let twice = |what: &str| format!("`{s}` names the {what} twice");
         if let Ok(m) = SpMetric::from_str(token, true) {
@@ -64,8 +70,12 @@ fn parse_variant(s: &str) -> Result<Variant, String> {
             if v.representative.replace(r).is_some() {
                 return Err(twice("representative"));
             }
+        } else if let Ok(x) = Seeding::from_str(token, true) {
+            if v.seeding.replace(x).is_some() {
+                return Err(twice("seeding"));
+            }
         } else {
-            return Err(format!("`{token}` in `{s}` is neither a --metric (eq7, ward) nor a --representative (nearest, min-error)"));
+            return Err(format!("`{token}` in `{s}` is not a --metric (eq7, ward), --representative (nearest, min-error) or --seeding (stride, adaptive)"));
         }
     }
     Ok(v)
@@ -85,9 +95,15 @@ pub struct SweepArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [500u32, 1000, 1500, 2000, 2500])]
     vpl_clusters: Vec<u32>,
     /// With --figure variants: the shading-point choices compared, comma-separated; each joins
-    /// a --metric and a --representative value with `+` (either may be left out: the frame
-    /// options' value is used).
-    #[arg(long, value_delimiter = ',', value_parser = parse_variant, default_value = "eq7+nearest,eq7+min-error,ward+nearest,ward+min-error")]
+    /// values of --metric, --representative and --seeding with `+` (what is left out comes from
+    /// the frame options). The default sets the core paper's choices, Wang et al.'s, and each
+    /// half of Wang et al.'s alone.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = parse_variant,
+        default_value = "eq7+nearest+stride,ward+min-error+adaptive,eq7+nearest+adaptive,ward+min-error+stride"
+    )]
     variants: Vec<Variant>,
     /// Where the clustered frames run. The reference is always rendered by the CPU reference.
     #[arg(long, value_enum, default_value = "cpu")]
@@ -338,7 +354,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         "reference": { "exr": args.reference.clone().unwrap_or_else(|| args.out.join("reference/image.exr")), "total_ms": reference_ms, "backend": "cpu" },
         "configs": configs.iter().zip(&measured).map(|(c, m)| json!({
             "label": c.label, "figure": format!("{:?}", c.figure).to_lowercase(), "cluster": c.cfg.cluster, "k_sp": c.cfg.k_sp, "k_vpl": c.cfg.k_vpl,
-            "variant": c.variant, "metric": c.cfg.metric, "representative": c.cfg.representative, "alpha": c.cfg.alpha,
+            "variant": c.variant, "metric": c.cfg.metric, "representative": c.cfg.representative, "seeding": c.cfg.seeding, "alpha": c.cfg.alpha,
             "timings_ms": m.timings, "mse": m.mse, "rel_mse": m.rel_mse, "flip": m.flip,
             "image": args.out.join("configs").join(&c.label).join("image.png"), "error_map": args.out.join("configs").join(&c.label).join("error_map.png"),
         })).collect::<Vec<_>>(),

@@ -368,7 +368,7 @@ fn sweep_writes_figures_contact_sheet_and_numbers() {
 
 /// `vplgi sweep --figure variants` renders each shading-point variant at each count, charts
 /// them (at equal time and at equal count), and records each variant's options in sweep.json;
-/// Eq. 2 clusters differently from Eq. 7, so their errors differ.
+/// Wang et al.'s choices cluster differently from the core paper's, so their errors differ.
 #[test]
 fn sweep_charts_shading_point_variants_side_by_side() {
     let dir = tempfile::tempdir().unwrap();
@@ -378,7 +378,7 @@ fn sweep_charts_shading_point_variants_side_by_side() {
         "--figure",
         "variants",
         "--variants",
-        "eq7+nearest,ward+min-error",
+        "eq7+nearest+stride,ward+min-error+adaptive",
         "--width",
         "40",
         "--height",
@@ -401,9 +401,9 @@ fn sweep_charts_shading_point_variants_side_by_side() {
     let configs = report["configs"].as_array().unwrap();
     assert_eq!(configs.len(), 4);
     let find = |label: &str| configs.iter().find(|c| c["label"] == label).unwrap_or_else(|| panic!("{label} missing"));
-    let (eq7, ward) = (find("variants-sp300-eq7+nearest"), find("variants-sp300-ward+min-error"));
-    assert_eq!((eq7["metric"].as_str(), eq7["representative"].as_str()), (Some("eq7"), Some("nearest")));
-    assert_eq!((ward["metric"].as_str(), ward["representative"].as_str()), (Some("ward"), Some("min-error")));
+    let (eq7, ward) = (find("variants-sp300-eq7+nearest+stride"), find("variants-sp300-ward+min-error+adaptive"));
+    assert_eq!((eq7["metric"].as_str(), eq7["representative"].as_str(), eq7["seeding"].as_str()), (Some("eq7"), Some("nearest"), Some("stride")));
+    assert_eq!((ward["metric"].as_str(), ward["representative"].as_str(), ward["seeding"].as_str()), (Some("ward"), Some("min-error"), Some("adaptive")));
     assert_ne!(eq7["mse"], ward["mse"], "Eq. 2 and Eq. 7 cluster differently");
     // A variant that is not a pair of option values is refused, naming the token.
     let o = vplgi(&["sweep", "--figure", "variants", "--variants", "ward+farthest", "--out", dir.path().join("never").to_str().unwrap()]);

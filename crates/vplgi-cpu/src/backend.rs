@@ -2,9 +2,10 @@
 //! module. The frame itself is [`vplgi_frame::render`].
 
 use crate::bias_points::bias_points;
-use crate::cluster::{cluster, Clustering};
+use crate::cluster::{cluster_from, Clustering};
 use crate::rsm_cluster::rsm_cluster;
 use crate::rsm_vpls::rsm_vpls;
+use crate::seeding::{seeding, ImageHits};
 use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
 use crate::shading_points::shading_points_of;
 use crate::trace_vpls::trace_vpls;
@@ -15,6 +16,7 @@ use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::ClusterParams;
 use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
@@ -82,12 +84,22 @@ impl Backend for CpuScene<'_> {
         Ok(vpls.iter().map(Endpoint::of_vpl).collect())
     }
 
-    fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {
+    fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(Clustering, ClusterCounts), FrameError> {
         let pos: Vec<Vec3> = points.iter().map(Endpoint::p).collect();
         let nor: Vec<Vec3> = points.iter().map(Endpoint::n).collect();
-        let c = cluster(&pos, &nor, params);
+        let c = cluster_from(&pos, &nor, params, seeds);
         let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32 };
         Ok((c, counts))
+    }
+
+    fn seeding(&self, hits: &CpuHits, _n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, FrameError> {
+        let pos: Vec<Vec3> = hits.points.iter().map(Endpoint::p).collect();
+        let nor: Vec<Vec3> = hits.points.iter().map(Endpoint::n).collect();
+        // Hits are in sample order: pixel p's are those of samples p spp .. (p + 1) spp.
+        let pixels = camera.width as usize * camera.height as usize;
+        let pixel_first: Vec<u32> = (0..=pixels).map(|p| hits.samples.partition_point(|&s| (s as usize) < p * camera.spp as usize) as u32).collect();
+        let image = ImageHits { positions: &pos, normals: &nor, pixel_first: &pixel_first, width: camera.width, height: camera.height };
+        Ok(seeding(&image, params))
     }
 
     fn rsm_cluster(&self, vpls: &Vec<Vpl>, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {

@@ -69,7 +69,7 @@ impl Clustering {
 
 /// Squared distance, summed x, y, z in that order (the GPU twin keeps this order).
 #[inline]
-fn dist2(a: Vec3, b: Vec3) -> f32 {
+pub(crate) fn dist2(a: Vec3, b: Vec3) -> f32 {
     let dx = a.x - b.x;
     let dy = a.y - b.y;
     let dz = a.z - b.z;
@@ -81,7 +81,7 @@ fn dist2(a: Vec3, b: Vec3) -> f32 {
 
 /// Dot product, summed x, y, z in that order (the GPU twin keeps this order).
 #[inline]
-fn cosine(n: Vec3, m: Vec3) -> f32 {
+pub(crate) fn cosine(n: Vec3, m: Vec3) -> f32 {
     let mut d = n.x * m.x;
     d += n.y * m.y;
     d += n.z * m.z;
@@ -419,24 +419,33 @@ pub fn update(fix: &FixedPoint, points: &[Vec3], normals: &[Vec3], labels: &[u32
 }
 
 /// Clusters the points (`positions`, unit `normals`) with Alg. 1 and assigns every point to its
-/// F nearest clusters with Alg. 2.
+/// F nearest clusters with Alg. 2, from K seeds spread evenly over the downsampled points.
 pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> Clustering {
+    cluster_from(positions, normals, params, None)
+}
+
+/// [`cluster`] from given seeds (point indices, such as [`crate::seeding::seeding`]'s), if any:
+/// their number is K.
+pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams, seeds: Option<&[u32]>) -> Clustering {
     let m = positions.len();
     let f = match params.fuzzy {
         FuzzyMode::Hard => 1,
         _ => params.f.clamp(1, MAX_F) as usize,
     };
-    if m == 0 || params.k == 0 {
+    let k = seeds.map_or(params.k as usize, <[u32]>::len).min(m);
+    if m == 0 || k == 0 {
         return Clustering { f, ..Default::default() };
     }
-    let k = (params.k as usize).min(m);
     // Downsample by gamma, but never below K points.
     let gamma = (params.gamma as usize).clamp(1, (m / k).max(1));
     let sample = downsample(m, gamma, params.seed);
     let sp: Vec<Vec3> = sample.iter().map(|&i| positions[i as usize]).collect();
     let sn: Vec<Vec3> = sample.iter().map(|&i| normals[i as usize]).collect();
 
-    let seeds = seed_centroids(&sample, k, params.seed);
+    let seeds = match seeds {
+        Some(given) => given[..k].to_vec(),
+        None => seed_centroids(&sample, k, params.seed),
+    };
     let mut cpos: Vec<Vec3> = seeds.iter().map(|&i| positions[i as usize]).collect();
     let mut cnor: Vec<Vec3> = seeds.iter().map(|&i| normals[i as usize]).collect();
     let (lo, hi) = bounds(positions);

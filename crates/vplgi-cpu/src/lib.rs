@@ -15,6 +15,7 @@ pub mod bias_points;
 pub mod cluster;
 pub mod rsm_cluster;
 pub mod rsm_vpls;
+pub mod seeding;
 pub mod shade;
 pub mod shading_points;
 pub mod trace_vpls;

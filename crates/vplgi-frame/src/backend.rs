@@ -6,6 +6,7 @@ use crate::frame::{FrameError, Progress};
 use std::ops::Range;
 use vplgi_types::clustering::ClusterParams;
 use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
@@ -128,8 +129,13 @@ pub trait Backend {
     /// The VPLs as surface points.
     fn vpl_points(&self, vpls: &Self::Vpls, n: u32) -> Result<Self::Points, Self::Error>;
 
-    /// Stage 3: Alg. 1 and 2 over `n` points.
-    fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+    /// Stage 3: Alg. 1 and 2 over `n` points, from `seeds` (point indices) if given, else from
+    /// K points evenly spread over the downsampled set.
+    fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+
+    /// Stage 3's seeds with `--seeding adaptive`: at most K of the `n` hits of the image of
+    /// `camera`, by Wang et al.'s quadtree (`vplgi_types::seeding`), as hit indices.
+    fn seeding(&self, hits: &Self::Hits, n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, Self::Error>;
 
     /// Stage 3 with `--vpl-cluster rsm`: the `n` VPLs of `rsm_vpls` (maps of budget `rsm_size`)
     /// clustered in reflective-shadow-map space.

@@ -5,7 +5,7 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig, ShadeParams, VplClustering, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeParams, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -77,7 +77,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         let n_vpls = counts.vpls;
         let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
             let (c, k) = match cfg.vpl_cluster {
-                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params())?,
+                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params(), None)?,
                 VplClustering::Rsm => b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent))?,
             };
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
@@ -88,7 +88,11 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
         let cols = b.light_points(&lights, n_lights)?;
         let sp_clusters = if cfg.cluster.clusters_sps() && n_hits > 0 {
             let points = b.hit_points(&hits);
-            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params(extent))?;
+            let seeds = match cfg.seeding {
+                Seeding::Stride => None,
+                Seeding::Adaptive => Some(b.seeding(&hits, n_hits, &camera, &cfg.seed_params(extent))?),
+            };
+            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params(extent), seeds.as_deref())?;
             (stats.sp_clusters, stats.sp_widened) = (k.k, k.widened);
             let reps = b.representatives(&c, k.k, points, n_hits)?;
             Some((c, k.k, reps))

@@ -11,6 +11,7 @@ use crate::rsm_cluster::RsmClusterKernel;
 use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
+use crate::seeding::{GpuImageHits, SeedingKernel};
 use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
 use crate::shader::pipelines;
 use crate::shading_points::ShadingPointsKernel;
@@ -23,6 +24,7 @@ use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgres
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
 use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
@@ -47,6 +49,7 @@ pub struct GpuKernels {
     pub visibility: VisibilityKernel,
     pub shade: ShadeKernel,
     pub bias_points: BiasPointsKernel,
+    pub seeding: SeedingKernel,
     scan: ScanKernel,
     glue: GlueKernels,
 }
@@ -91,6 +94,7 @@ impl GpuKernels {
             visibility: VisibilityKernel::new(device)?,
             shade: ShadeKernel::new(device)?,
             bias_points: BiasPointsKernel::new(device)?,
+            seeding: SeedingKernel::new(device)?,
             scan: ScanKernel::new(device)?,
             glue,
         })
@@ -275,11 +279,16 @@ impl Backend for GpuBackend<'_> {
         Ok(pts)
     }
 
-    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams) -> Result<(GpuClustering, ClusterCounts), GpuError> {
-        let c = self.kernels.cluster.cluster(self.device, self.queue, points, n, params)?;
+    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let c = self.kernels.cluster.cluster_from(self.device, self.queue, (points, n), params, seeds)?;
         let [_, widened, incompatible] = self.kernels.cluster.outcome_counts(self.device, self.queue, &c.outcome, n)?;
         let counts = ClusterCounts { k: c.k, widened: widened + incompatible };
         Ok((c, counts))
+    }
+
+    fn seeding(&self, hits: &GpuHits, n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, GpuError> {
+        let image = GpuImageHits { points: &hits.points, count: n, offsets: &hits.offsets, width: camera.width, height: camera.height, spp: camera.spp };
+        self.kernels.seeding.run(self.device, self.queue, &self.kernels.cluster, &image, params)
     }
 
     fn rsm_cluster(&self, vpls: &GpuVpls, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(GpuClustering, ClusterCounts), GpuError> {

@@ -406,11 +406,24 @@ impl ClusterKernel {
         m: u32,
         params: &ClusterParams,
     ) -> Result<GpuClustering, GpuError> {
+        self.cluster_from(device, queue, (points, m), params, None)
+    }
+
+    /// [`ClusterKernel::cluster`] from given seeds (point indices), if any, like
+    /// `vplgi_cpu::cluster::cluster_from`: their number is K.
+    pub fn cluster_from(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        (points, m): (&wgpu::Buffer, u32),
+        params: &ClusterParams,
+        seeds: Option<&[u32]>,
+    ) -> Result<GpuClustering, GpuError> {
         let f = match params.fuzzy {
             FuzzyMode::Hard => 1,
             _ => params.f.clamp(1, MAX_F),
         };
-        let k = params.k.min(m);
+        let k = seeds.map_or(params.k, |s| s.len() as u32).min(m);
         if m == 0 || k == 0 {
             let e = |name| storage_zeroed::<u32>(device, name, 1);
             return Ok(GpuClustering {
@@ -425,7 +438,10 @@ impl ClusterKernel {
         }
         let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
         let sample = downsample(m as usize, gamma, params.seed);
-        let seeds = seed_centroids(&sample, k as usize, params.seed);
+        let seeds = match seeds {
+            Some(given) => given[..k as usize].to_vec(),
+            None => seed_centroids(&sample, k as usize, params.seed),
+        };
         let s = sample.len() as u32;
         // The downsampled set is gathered once, so the iterations read it as plain points.
         let sample_points = storage_zeroed::<Endpoint>(device, "sample points", s as usize);

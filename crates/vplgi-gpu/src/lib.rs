@@ -5,7 +5,7 @@
 //! WGSL of a stage is the shared files of `shaders/common/` followed by the stage's own file
 //! ([`shader::compose`]).
 //!
-//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`], [`visibility`], [`shade`],
+//! Stages: [`trace_vpls`], [`shading_points`], [`cluster`] (with [`seeding`]), [`visibility`], [`shade`],
 //! [`bias_points`] (the clamp's bias compensation).
 //! [`GpuBackend`] implements [`vplgi_frame::Backend`] with them on device buffers, so the one
 //! frame driver ([`vplgi_frame::render`]) chains them.
@@ -22,6 +22,7 @@ pub mod rsm_cluster;
 pub mod rsm_vpls;
 pub mod scan;
 pub mod scene;
+pub mod seeding;
 pub mod shade;
 pub mod shader;
 pub mod shading_points;

@@ -18,6 +18,7 @@ const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
 const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
 const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
 const CLUSTER_COMMON: &str = include_str!("../../../shaders/common/cluster.wgsl");
+const METRIC: &str = include_str!("../../../shaders/common/metric.wgsl");
 const SCENE: &str = include_str!("../../../shaders/common/scene.wgsl");
 
 /// Shared WGSL files by name.
@@ -28,12 +29,13 @@ pub const COMMON: &[(&str, &str)] = &[
     ("common/lights.wgsl", LIGHTS),
     ("common/sampling.wgsl", SAMPLING),
     ("common/surface.wgsl", SURFACE),
+    ("common/metric.wgsl", METRIC),
     ("common/cluster.wgsl", CLUSTER_COMMON),
     ("common/scene.wgsl", SCENE),
 ];
 
 /// What every clustering pass includes.
-const CLUSTER: &[&str] = &["common/types.wgsl", "common/cluster.wgsl"];
+const CLUSTER: &[&str] = &["common/types.wgsl", "common/metric.wgsl", "common/cluster.wgsl"];
 
 /// Stage files: (name, source, the common files it includes, in order).
 pub const STAGES: &[(&str, &str, &[&str])] = &[
@@ -62,6 +64,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("cluster_update.wgsl", include_str!("../../../shaders/cluster_update.wgsl"), CLUSTER),
     ("cluster_compact.wgsl", include_str!("../../../shaders/cluster_compact.wgsl"), CLUSTER),
     ("cluster_representatives.wgsl", include_str!("../../../shaders/cluster_representatives.wgsl"), CLUSTER),
+    ("seeding.wgsl", include_str!("../../../shaders/seeding.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/metric.wgsl"]),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
     ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
     (
@@ -177,6 +180,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_CLUSTER", Stream::Cluster as u32),
         ("STREAM_BIAS", Stream::Bias as u32),
         ("STREAM_SCRAMBLE", Stream::Scramble as u32),
+        ("STREAM_SEEDING", Stream::Seeding as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("BVH_LINK_LEAF", crate::bvh::LINK_LEAF),
@@ -197,6 +201,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
     let f = vec![
         ("PI", std::f32::consts::PI),
         ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
+        ("ERROR_ONE", vplgi_types::seeding::ERROR_ONE),
         ("MAX_SURVIVAL", vplgi_types::params::MAX_SURVIVAL),
         ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
@@ -509,6 +514,7 @@ mod tests {
             [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
             [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative }
+            [crate::seeding::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
             [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }

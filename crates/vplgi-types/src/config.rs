@@ -106,6 +106,19 @@ pub enum SpRepresentative {
     MinError,
 }
 
+/// How the shading-point clustering picks its K initial centroids.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Seeding {
+    /// K points evenly spread over the downsampled shading points (the core paper).
+    #[default]
+    Stride,
+    /// Wang et al. 2009: a screen-space quadtree hands the K seeds down in proportion to each
+    /// node's geometric variation under Eq. 2 (with --alpha), jittered inside a node.
+    Adaptive,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -210,6 +223,10 @@ pub struct FrameConfig {
     /// existed read as the nearest.
     #[serde(default)]
     pub representative: SpRepresentative,
+    /// How the shading-point clustering is seeded. Files written before the option existed read
+    /// as the stride.
+    #[serde(default)]
+    pub seeding: Seeding,
 }
 
 /// Wang et al. use α = 0.1 to 0.5 after normalising the scene's size; vplgi divides by the
@@ -257,6 +274,7 @@ impl FrameConfig {
             metric: SpMetric::Eq7,
             alpha: default_alpha(),
             representative: SpRepresentative::Nearest,
+            seeding: Seeding::Stride,
         }
     }
 
@@ -327,6 +345,13 @@ impl FrameConfig {
             },
             seed: self.seed.wrapping_add(1),
         }
+    }
+
+    /// The adaptive seeding of the shading points (`Seeding::Adaptive`) in a scene of
+    /// bounding-box diagonal `extent`: K_SP seeds, Eq. 2 with α per unit length, the
+    /// shading-point clustering's seed.
+    pub fn seed_params(&self, extent: f32) -> crate::seeding::SeedParams {
+        crate::seeding::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
     }
 
     /// The parameters of `trace_vpls`.

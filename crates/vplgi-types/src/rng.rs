@@ -30,6 +30,9 @@ pub enum Stream {
     /// Per-frame digital shifts of low-discrepancy sets shared by many items (index 0: the light
     /// particles' emission, `trace_vpls`).
     Scramble = 7,
+    /// Adaptive seeding of the shading-point clustering: which hits of a quadtree node become
+    /// seeds (`vplgi_types::seeding`).
+    Seeding = 8,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.

@@ -3,14 +3,17 @@
 //! update bit-identical; >= 99.9 % identical F-index sets, weights within 1e-5 summing to 1).
 
 use crate::inputs::CpuFrame;
-use crate::tolerance::{Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, UPDATE_DIFFERING_CENTROIDS};
+use crate::tolerance::{
+    Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS, UPDATE_DIFFERING_CENTROIDS,
+};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
-use vplgi_cpu::cluster::{bounds, cluster, update, ClusterParams, Grid};
+use vplgi_cpu::cluster::{bounds, cluster, cluster_from, update, ClusterParams, Grid};
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
+use vplgi_gpu::seeding::GpuImageHits;
 use vplgi_types::clustering::{fuzzy_weights, FixedPoint, GridGeometry, Metric, Representative};
-use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, MISS};
+use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, Seeding, MISS};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
     ps.iter().zip(ns).map(|(&p, &n)| Endpoint::new(p, n)).collect()
@@ -140,7 +143,7 @@ pub fn compare_update(
 }
 
 /// The whole clustering (Alg. 1 iterations, empty-cluster removal, Alg. 2, representatives) on
-/// both backends from the same points and seed. Every step is one of the rows above on identical
+/// both backends from the same points and seed (and the same given seeds, if any). Every step is one of the rows above on identical
 /// inputs, so the trajectories stay together: the cluster counts must agree, and the label rows
 /// meet the fuzzy-assignment row.
 pub fn compare_clustering(
@@ -149,11 +152,12 @@ pub fn compare_clustering(
     kernel: &ClusterKernel,
     (ps, ns): (&[Vec3], &[Vec3]),
     params: &ClusterParams,
+    seeds: Option<&[u32]>,
 ) -> Result<Vec<Disagreement>, VerifyError> {
     let m = ps.len();
-    let cpu = cluster(ps, ns, params);
+    let cpu = cluster_from(ps, ns, params, seeds);
     let pts = storage(device, "points", &endpoints(ps, ns));
-    let g = kernel.cluster(device, queue, &pts, m as u32, params)?;
+    let g = kernel.cluster_from(device, queue, (&pts, m as u32), params, seeds)?;
     let f = g.f as usize;
     let gl: Vec<u32> = read_back(device, queue, &g.labels, m * f)?;
     let gr: Vec<u32> = read_back(device, queue, &g.representatives, g.k as usize)?;
@@ -170,6 +174,28 @@ pub fn compare_clustering(
         Disagreement::at_least("whole clustering", "share of identical label rows", rows_same as f64 / m.max(1) as f64, FUZZY_SAME_SETS).with_worst(worst),
         Disagreement::info("whole clustering", "representatives that differ", reps_differ as f64),
     ])
+}
+
+/// The adaptive seeding (`--seeding adaptive`) of a frame's hits on both backends, from the
+/// CPU's hits: the SPEC's seeding row (the same seeds in the same order: integer sums and the
+/// same f32 operations on both). Returns the CPU's seeds with the check.
+pub fn compare_seeding(twins: &Twins, frame: &CpuFrame, cfg: &FrameConfig) -> Result<(Vec<u32>, Disagreement), VerifyError> {
+    let (device, queue) = (twins.device(), twins.queue());
+    let cpu = frame.adaptive_seeds(cfg, twins.cpu.extent);
+    let (ps, ns) = frame.hit_points();
+    let points = storage(device, "hits", &endpoints(&ps, &ns));
+    let offsets = storage(device, "hit offsets", &frame.sample_offsets());
+    let image = GpuImageHits { points: &points, count: ps.len() as u32, offsets: &offsets, width: cfg.width, height: cfg.height, spp: cfg.spp };
+    let kernels = twins.gpu.kernels();
+    let gpu = kernels.seeding.run(device, queue, &kernels.cluster, &image, &cfg.seed_params(twins.cpu.extent))?;
+    let differ = cpu.len().max(gpu.len()) - cpu.iter().zip(&gpu).filter(|(a, b)| a == b).count();
+    let first =
+        (0..cpu.len().max(gpu.len())).find(|&i| cpu.get(i) != gpu.get(i)).map(|i| format!("seed {i}: CPU hit {:?}, GPU hit {:?}", cpu.get(i), gpu.get(i)));
+    let case =
+        format!("{} hits, {}x{} pixels, K = {}: {} seeds on the CPU, {} on the GPU", count(ps.len()), cfg.width, cfg.height, cfg.k_sp, cpu.len(), gpu.len());
+    let check =
+        Disagreement::at_most("seeding (adaptive)", "seeds that differ", differ as f64, SEEDING_DIFFERING_SEEDS as f64).with_case(&case).with_worst(first);
+    Ok((cpu, check))
 }
 
 /// The metric and representative rule of a clustering, for a check's case.
@@ -207,8 +233,18 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
         let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
         let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, params.metric, None);
         r.checks.push(compare_update(device, queue, kernel, (&ps, &ns), centroids, &hard)?.with_case(&case));
-        let whole = format!("{} {name}, K = {}, {} iterations, F = {}, {}", count(ps.len()), params.k, params.iterations, params.f, describe(&params));
-        for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params)? {
+        // The seeding is checked on every frame's hits; the clustering runs from its seeds when
+        // the frame asks for them.
+        let seeds = if name == "hit points" {
+            let (seeds, check) = compare_seeding(twins, &frame, cfg)?;
+            r.checks.push(check);
+            (cfg.seeding == Seeding::Adaptive).then_some(seeds)
+        } else {
+            None
+        };
+        let seeded = if seeds.is_some() { ", adaptive seeds" } else { "" };
+        let whole = format!("{} {name}, K = {}, {} iterations, F = {}, {}{seeded}", count(ps.len()), params.k, params.iterations, params.f, describe(&params));
+        for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params, seeds.as_deref())? {
             r.checks.push(d.with_case(&whole));
         }
     }

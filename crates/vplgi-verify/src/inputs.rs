@@ -1,10 +1,11 @@
 //! The CPU's intermediate results of a frame: what the chained GPU stages are fed.
 
 use glam::Vec3;
-use vplgi_cpu::cluster::{cluster, Clustering};
+use vplgi_cpu::cluster::{cluster, cluster_from, Clustering};
+use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_cpu::shade::VplLight;
 use vplgi_cpu::CpuScene;
-use vplgi_types::{Endpoint, FrameConfig, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
+use vplgi_types::{Endpoint, FrameConfig, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
 
 /// Points as clustering takes them: positions and normals.
 pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
@@ -45,6 +46,27 @@ impl CpuFrame {
         self.hits.iter().map(|&i| (Vec3::from(self.sps[i as usize].position), Vec3::from(self.sps[i as usize].normal))).unzip()
     }
 
+    /// Hits before each camera sample, one entry past the last (the GPU's hit offsets).
+    pub fn sample_offsets(&self) -> Vec<u32> {
+        let mut offsets = Vec::with_capacity(self.sps.len() + 1);
+        let mut before = 0u32;
+        for &row in &self.row_of {
+            offsets.push(before);
+            before += (row != MISS) as u32;
+        }
+        offsets.push(before);
+        offsets
+    }
+
+    /// The adaptive seeds of the frame's hits (`--seeding adaptive`), on the CPU.
+    pub fn adaptive_seeds(&self, cfg: &FrameConfig, extent: f32) -> Vec<u32> {
+        let (p, n) = self.hit_points();
+        let offsets = self.sample_offsets();
+        let pixel_first: Vec<u32> = offsets.iter().step_by(cfg.spp as usize).copied().collect();
+        let image = ImageHits { positions: &p, normals: &n, pixel_first: &pixel_first, width: cfg.width, height: cfg.height };
+        seeding(&image, &cfg.seed_params(extent))
+    }
+
     /// The VPLs as clustering input.
     pub fn vpl_points(&self) -> PointSet {
         self.vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip()
@@ -76,7 +98,8 @@ impl CpuClusters {
         let cols = lights.iter().map(VplLight::endpoint).collect();
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
-            cluster(&p, &n, &cfg.sp_cluster_params(cs.extent))
+            let seeds = (cfg.seeding == Seeding::Adaptive).then(|| frame.adaptive_seeds(cfg, cs.extent));
+            cluster_from(&p, &n, &cfg.sp_cluster_params(cs.extent), seeds.as_deref())
         });
         let rows = match &sp_clusters {
             Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),

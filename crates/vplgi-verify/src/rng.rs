@@ -5,7 +5,8 @@ use crate::{result, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_types::{FrameConfig, Rng, Stream};
 
 /// Every stream the pipeline draws from.
-pub const STREAMS: [Stream; 7] = [Stream::LightPath, Stream::Direct, Stream::Camera, Stream::Cluster, Stream::Oracle, Stream::Bias, Stream::Scramble];
+pub const STREAMS: [Stream; 8] =
+    [Stream::LightPath, Stream::Direct, Stream::Camera, Stream::Cluster, Stream::Oracle, Stream::Bias, Stream::Scramble, Stream::Seeding];
 
 /// Draws `draws` numbers from each of the counters `first .. first + count` of `stream` on both
 /// sides and counts the draws that differ; the worst item is the first of them.

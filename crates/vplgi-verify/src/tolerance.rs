@@ -27,6 +27,10 @@ pub const BIAS_POINTS_WEIGHT_ABS: f64 = 1e-5;
 /// same row judges both metrics, Eq. 7 and Eq. 2 (`--metric ward`): each backend evaluates a
 /// metric in the same order of operations.
 pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
+/// Adaptive seeding (`--seeding adaptive`, Wang et al.'s quadtree) of the same hits: the same
+/// seeds in the same order. Node sums are integers and the shares the same f32 operations on
+/// both backends, so no seed may differ.
+pub const SEEDING_DIFFERING_SEEDS: u64 = 0;
 /// Centroid update given the same labels: bit-identical (integer sums): no differing centroid.
 pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
 /// The RSM-space centroid update (`--vpl-cluster rsm`): float sums in the same order on both
