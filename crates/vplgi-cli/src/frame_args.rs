@@ -9,7 +9,7 @@ use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, SpMetric, SpRepresentative, VplClustering, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -106,6 +106,19 @@ pub struct FrameArgs {
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seeding: Option<Seeding>,
+    /// Where clustered shading points' indirect light comes from: every shading point sums
+    /// every VPL light through its F clusters' visibility (the core paper, Eq. 8-10), or the
+    /// lights are summed only at each cluster's representative (its sample point) and every
+    /// shading point interpolates the samples of its F nearest clusters with irradiance-caching
+    /// weights (Wang et al. 2009); needs --cluster sp or both.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shade: Option<ShadeMode>,
+    /// With --shade interpolate: cosine-distributed gather rays per sample point that measure
+    /// R_j, the harmonic mean distance to what it sees (the interpolation weight's scale).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gather_rays: Option<u32>,
     /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
     #[arg(long = "g-clamp", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -3,6 +3,8 @@
 
 use crate::bias_points::bias_points;
 use crate::cluster::{cluster_from, Clustering};
+use crate::gather_radius::gather_radius;
+use crate::interpolate::{sample_irradiance, IrradianceSamples};
 use crate::rsm_cluster::rsm_cluster;
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
@@ -15,6 +17,7 @@ use glam::Vec3;
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
@@ -36,6 +39,8 @@ impl Backend for CpuScene<'_> {
     type Lights = Vec<VplLight>;
     type Clustering = Clustering;
     type Matrix = BitMatrix;
+    type Scalars = Vec<f32>;
+    type IrradianceSamples = IrradianceSamples;
 
     fn scene_extent(&self) -> f32 {
         self.extent
@@ -150,9 +155,28 @@ impl Backend for CpuScene<'_> {
         let src = match input.visibility {
             ShadeVisibility::Own { first_row } => VisibilitySource::Own { matrix, row_of, first_row },
             ShadeVisibility::Fuzzy { clustering: c, .. } => VisibilitySource::Fuzzy { matrix, row_of, labels: &c.labels, weights: &c.weights, f: c.f },
+            ShadeVisibility::Interpolated { clustering: c, samples, .. } => VisibilitySource::Interpolated { row_of, labels: &c.labels, f: c.f, samples },
         };
         let pixels = pixels.start as usize..pixels.end as usize;
         Ok(shade(self, &input.chunk.samples, input.chunk.first as usize, pixels, input.lights, &src, params))
+    }
+
+    fn gather_radius(&self, points: &Vec<Endpoint>, _n: u32, params: &GatherParams) -> Result<Vec<f32>, FrameError> {
+        Ok(gather_radius(self, points, params))
+    }
+
+    fn sample_irradiance(
+        &self,
+        points: Vec<Endpoint>,
+        _n: u32,
+        inv_radius: Vec<f32>,
+        lights: &Vec<VplLight>,
+        _n_lights: u32,
+        matrix: &BitMatrix,
+        g_max: f32,
+    ) -> Result<IrradianceSamples, FrameError> {
+        let irradiance = sample_irradiance(&points, lights, matrix, g_max);
+        Ok(IrradianceSamples { points, inv_radius, irradiance })
     }
 
     fn bias_points(&self, parent: &Vec<ShadingPoint>, samples: Range<u32>, params: &BiasParams) -> Result<Vec<ShadingPoint>, FrameError> {

@@ -13,6 +13,8 @@
 mod backend;
 pub mod bias_points;
 pub mod cluster;
+pub mod gather_radius;
+pub mod interpolate;
 pub mod rsm_cluster;
 pub mod rsm_vpls;
 pub mod seeding;

@@ -17,6 +17,7 @@
 //! Prutkin et al. 2012 (`vplgi_types::disk`), and no clamp.
 
 use crate::cluster::Clustering;
+use crate::interpolate::IrradianceSamples;
 use crate::visibility::BitMatrix;
 use crate::CpuScene;
 use glam::Vec3;
@@ -59,7 +60,8 @@ impl LightArrays {
     }
 }
 
-/// Where a shading point's visibility of each VPL light comes from.
+/// Where a shading point's visibility of each VPL light comes from (or, interpolating, its
+/// irradiance).
 #[derive(Clone, Copy, Debug)]
 pub enum VisibilitySource<'a> {
     /// Row `row_of[i] - first_row` of the matrix belongs to shading point i itself.
@@ -67,6 +69,9 @@ pub enum VisibilitySource<'a> {
     /// Shading point i belongs to clusters `labels[row_of[i] * f ..][..f]` with `weights`; the
     /// matrix has one row per cluster.
     Fuzzy { matrix: &'a BitMatrix, row_of: &'a [u32], labels: &'a [u32], weights: &'a [f32], f: usize },
+    /// `--shade interpolate`: no light is summed at shading point i; its irradiance is
+    /// interpolated from the sample points of its clusters `labels[row_of[i] * f ..][..f]`.
+    Interpolated { row_of: &'a [u32], labels: &'a [u32], f: usize, samples: &'a IrradianceSamples },
 }
 
 /// Geometry term with the clamp; zero when either surface faces away.
@@ -86,14 +91,18 @@ pub fn geometry_term(p: Vec3, np: Vec3, x: Vec3, nx: Vec3, g_max: f32) -> f32 {
     (cos_p * cos_x / d2).min(g_max)
 }
 
-/// Indirect radiance at shading point `i` (Eq. 6).
+/// Indirect radiance at shading point `i` (Eq. 6): ρ / π times its [`irradiance`].
 pub fn indirect(sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
-    let p = Vec3::from(sp.position);
-    let n = Vec3::from(sp.normal);
-    let brdf = Vec3::from(sp.albedo) / PI;
+    irradiance(Vec3::from(sp.position), Vec3::from(sp.normal), i, lights, vis, g_max) * (Vec3::from(sp.albedo) / PI)
+}
+
+/// The irradiance Σ_c Φ_c G / π Ṽ(c) of the VPL lights at point `p` with normal `n`, shading
+/// point `i` of `vis` (Φ_c cos θ_c / π is the light's intensity towards p, and G's other factor
+/// cos θ_p / d² turns it into irradiance).
+pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
     // The visibility source is resolved once per shading point, so the per-light loop is a
     // monomorphised closure over plain slices.
-    let sum = match *vis {
+    match *vis {
         VisibilitySource::Own { matrix, row_of, first_row } => {
             let row = matrix.row((row_of[i] - first_row) as usize);
             sum_lights(p, n, lights, g_max, |word, v| {
@@ -123,8 +132,11 @@ pub fn indirect(sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &Visibil
                 }
             })
         }
-    };
-    sum * brdf
+        VisibilitySource::Interpolated { row_of, labels, f, samples } => {
+            let r = row_of[i] as usize * f;
+            crate::interpolate::interpolate(p, n, &labels[r..r + f], samples)
+        }
+    }
 }
 
 /// `v[k] += w` for every set bit k of `bits` (and += 0 for the others, which changes nothing).

@@ -5,6 +5,7 @@
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
@@ -33,14 +34,18 @@ pub struct SampleChunk<S> {
     pub samples: S,
 }
 
-/// Where the visibility of a shaded point comes from (SPEC, Eq. 6-10).
-pub enum ShadeVisibility<'a, C> {
+/// Where the visibility of a shaded point comes from (SPEC, Eq. 6-10), or, interpolating, its
+/// irradiance.
+pub enum ShadeVisibility<'a, C, S> {
     /// Row `row_of(i) - first_row` of the matrix belongs to hit i itself (shading points not
     /// clustered).
     Own { first_row: u32 },
     /// The matrix has one row per shading-point cluster; a hit combines its F clusters' rows by
     /// the clustering's labels and weights. `hits` are the hits of the shaded samples.
     Fuzzy { clustering: &'a C, hits: Range<u32> },
+    /// `--shade interpolate`: a hit's irradiance is interpolated from the irradiance samples of
+    /// its F clusters (by the clustering's labels); the matrix is not read.
+    Interpolated { clustering: &'a C, hits: Range<u32>, samples: &'a S },
 }
 
 /// Which lights [`Backend::vpl_lights`] makes.
@@ -60,7 +65,7 @@ pub struct ShadeInput<'a, B: Backend + ?Sized> {
     pub lights: &'a B::Lights,
     pub light_count: u32,
     pub matrix: &'a B::Matrix,
-    pub visibility: ShadeVisibility<'a, B::Clustering>,
+    pub visibility: ShadeVisibility<'a, B::Clustering, B::IrradianceSamples>,
 }
 
 /// One implementation of every stage. Counts travel beside the data (a device buffer does not
@@ -81,6 +86,10 @@ pub trait Backend {
     type Clustering;
     /// A block of rows of the visibility matrix.
     type Matrix;
+    /// One f32 per point (`gather_radius`'s 1 / R_j).
+    type Scalars;
+    /// The sample points of `--shade interpolate` with their 1 / R_j and irradiance.
+    type IrradianceSamples;
 
     /// The scene's bounding-box diagonal (what the geometry-term clamp is relative to).
     fn scene_extent(&self) -> f32;
@@ -164,6 +173,25 @@ pub trait Backend {
 
     /// Stage 5: the radiance of `pixels` (all of whose samples are in `input.chunk`).
     fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, Self::Error>;
+
+    /// `--shade interpolate`: 1 / R_j, the inverse harmonic mean distance to the surfaces each of
+    /// the `n` sample points `points` sees, from `params.rays` gather rays.
+    fn gather_radius(&self, points: &Self::Points, n: u32, params: &GatherParams) -> Result<Self::Scalars, Self::Error>;
+
+    /// `--shade interpolate`: the irradiance of the `n_lights` `lights` at each of the `n` sample
+    /// points `points`, sample point j seeing the lights of row j of `matrix`, kept with the
+    /// points and their `inv_radius` for interpolation.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_irradiance(
+        &self,
+        points: Self::Points,
+        n: u32,
+        inv_radius: Self::Scalars,
+        lights: &Self::Lights,
+        n_lights: u32,
+        matrix: &Self::Matrix,
+        g_max: f32,
+    ) -> Result<Self::IrradianceSamples, Self::Error>;
 
     /// Bias compensation: from each shading point of `parent` (camera samples `samples`), a
     /// cosine-sampled segment to the surface it sees, kept as a shading point where the clamp

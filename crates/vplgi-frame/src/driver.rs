@@ -5,7 +5,7 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeParams, VplClustering, VplSource};
+use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -110,12 +110,24 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
             *rays.get_or_insert(0) += r;
         }
     };
-    // With clustered shading points the matrix has a row per cluster and is made once.
-    let clustered = match &sp_clusters {
+    // With clustered shading points the matrix has a row per cluster and is made once. With
+    // `--shade interpolate` the rows' points (the representatives) become the sample points:
+    // their gather rays, then the irradiance of the lights at each with its own row.
+    let clustered = match sp_clusters {
         Some((c, k, reps)) => {
-            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(reps, *k, 0..*k, &cols, n_lights, progress))?;
+            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(&reps, k, 0..k, &cols, n_lights, progress))?;
             count_rays(r);
-            Some((c, matrix))
+            let samples = match cfg.shade {
+                ShadeMode::Fuzzy => None,
+                ShadeMode::Interpolate => {
+                    progress.start(Stage::Interpolate.name(), 1);
+                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || b.gather_radius(&reps, k, &cfg.gather_params()))?;
+                    let samples = timed(b, &mut t, Stage::Interpolate, || b.sample_irradiance(reps, k, inv_radius, &lights, n_lights, &matrix, shade.g_max))?;
+                    progress.finish();
+                    Some(samples)
+                }
+            };
+            Some((c, matrix, samples))
         }
         None => None,
     };
@@ -123,17 +135,14 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     for chunk in &chunks {
         let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
         match &clustered {
-            Some((c, matrix)) => {
+            Some((c, matrix, samples)) => {
                 let h = b.hits_before(&hits, chunk.first)?..b.hits_before(&hits, chunk.first + chunk.count)?;
                 progress.start(Stage::Shade.name(), 1);
-                let input = ShadeInput {
-                    chunk,
-                    hits: &hits,
-                    lights: &lights,
-                    light_count: n_lights,
-                    matrix,
-                    visibility: ShadeVisibility::Fuzzy { clustering: *c, hits: h },
+                let visibility = match samples {
+                    None => ShadeVisibility::Fuzzy { clustering: c, hits: h },
+                    Some(samples) => ShadeVisibility::Interpolated { clustering: c, hits: h, samples },
                 };
+                let input = ShadeInput { chunk, hits: &hits, lights: &lights, light_count: n_lights, matrix, visibility };
                 pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px0..px1, &shade))?);
                 progress.finish();
             }

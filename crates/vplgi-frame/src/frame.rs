@@ -14,6 +14,11 @@ pub enum Stage {
     ShadingPoints,
     Cluster,
     Visibility,
+    /// `--shade interpolate`: the sample points' gather rays.
+    GatherRadius,
+    /// `--shade interpolate`: the irradiance at the sample points (the interpolation itself is
+    /// part of `shade`).
+    Interpolate,
     Shade,
     /// The bias compensation's segments (their visibility and shading count as `visibility` and
     /// `shade`).
@@ -22,7 +27,17 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 7] = [Stage::TraceVpls, Stage::RsmVpls, Stage::ShadingPoints, Stage::Cluster, Stage::Visibility, Stage::Shade, Stage::BiasPoints];
+    pub const ALL: [Stage; 9] = [
+        Stage::TraceVpls,
+        Stage::RsmVpls,
+        Stage::ShadingPoints,
+        Stage::Cluster,
+        Stage::Visibility,
+        Stage::GatherRadius,
+        Stage::Interpolate,
+        Stage::Shade,
+        Stage::BiasPoints,
+    ];
 
     /// The stage's name: the same for the CPU function, the GPU kernel, the shader, the test and
     /// the bench.
@@ -34,6 +49,8 @@ impl Stage {
             Stage::Cluster => "cluster",
             Stage::Visibility => "visibility",
             Stage::Shade => "shade",
+            Stage::GatherRadius => "gather_radius",
+            Stage::Interpolate => "interpolate",
             Stage::BiasPoints => "bias_points",
         }
     }

@@ -7,6 +7,8 @@ use crate::bias_points::BiasPointsKernel;
 use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
 use crate::context::validated;
+use crate::gather_radius::GatherRadiusKernel;
+use crate::interpolate::{GpuIrradianceSamples, InterpolateInputs, InterpolateKernel, SampleLighting};
 use crate::rsm_cluster::RsmClusterKernel;
 use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
@@ -23,6 +25,7 @@ use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
+use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
@@ -50,6 +53,8 @@ pub struct GpuKernels {
     pub shade: ShadeKernel,
     pub bias_points: BiasPointsKernel,
     pub seeding: SeedingKernel,
+    pub gather_radius: GatherRadiusKernel,
+    pub interpolate: InterpolateKernel,
     scan: ScanKernel,
     glue: GlueKernels,
 }
@@ -95,6 +100,8 @@ impl GpuKernels {
             shade: ShadeKernel::new(device)?,
             bias_points: BiasPointsKernel::new(device)?,
             seeding: SeedingKernel::new(device)?,
+            gather_radius: GatherRadiusKernel::new(device)?,
+            interpolate: InterpolateKernel::new(device)?,
             scan: ScanKernel::new(device)?,
             glue,
         })
@@ -171,6 +178,8 @@ impl Backend for GpuBackend<'_> {
     type Lights = wgpu::Buffer;
     type Clustering = GpuClustering;
     type Matrix = wgpu::Buffer;
+    type Scalars = wgpu::Buffer;
+    type IrradianceSamples = GpuIrradianceSamples;
 
     fn scene_extent(&self) -> f32 {
         self.extent
@@ -365,14 +374,10 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, GpuError> {
-        let visibility = match input.visibility {
-            ShadeVisibility::Own { first_row } => Visibility::Own { first_row },
-            ShadeVisibility::Fuzzy { clustering: c, ref hits } => {
-                Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window: Window::covering(hits.start as u64, hits.end as u64) }
-            }
-        };
-        let inputs = ShadeInputs {
-            sps: &input.chunk.samples,
+        let (device, queue, k) = (self.device, self.queue, self.kernels);
+        let sps = &input.chunk.samples;
+        let own = |visibility| ShadeInputs {
+            sps,
             sp_first: input.chunk.first,
             row_of: &input.hits.row_of,
             words: input.matrix,
@@ -381,9 +386,43 @@ impl Backend for GpuBackend<'_> {
             light_count: input.light_count,
             visibility,
         };
+        let running = match input.visibility {
+            ShadeVisibility::Own { first_row } => {
+                k.shade.light_sums(device, queue, &own(Visibility::Own { first_row }), pixels.clone(), params.spp, params.g_max)?
+            }
+            ShadeVisibility::Fuzzy { clustering: c, ref hits } => {
+                let window = Window::covering(hits.start as u64, hits.end as u64);
+                let inputs = own(Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window });
+                k.shade.light_sums(device, queue, &inputs, pixels.clone(), params.spp, params.g_max)?
+            }
+            ShadeVisibility::Interpolated { clustering: c, ref hits, samples } => {
+                let window = Window::covering(hits.start as u64, hits.end as u64);
+                let inputs = InterpolateInputs { sps, sp_first: input.chunk.first, row_of: &input.hits.row_of, labels: &c.labels, f: c.f, window };
+                k.interpolate.run(device, queue, samples, &inputs, pixels.start * params.spp..pixels.end * params.spp)?
+            }
+        };
         let n = (pixels.end - pixels.start) as usize;
-        let out = self.kernels.shade.run(self.device, self.queue, &self.scene, &inputs, pixels, params)?;
-        Ok(read_back::<[f32; 4]>(self.device, self.queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+        let out = k.shade.finish(device, queue, &self.scene, sps, input.chunk.first, &running, pixels, params)?;
+        Ok(read_back::<[f32; 4]>(device, queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    fn gather_radius(&self, points: &wgpu::Buffer, n: u32, params: &GatherParams) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.gather_radius.run(self.device, self.queue, &self.scene, points, n, params)
+    }
+
+    fn sample_irradiance(
+        &self,
+        points: wgpu::Buffer,
+        n: u32,
+        inv_radius: wgpu::Buffer,
+        lights: &wgpu::Buffer,
+        n_lights: u32,
+        matrix: &wgpu::Buffer,
+        g_max: f32,
+    ) -> Result<GpuIrradianceSamples, GpuError> {
+        let lighting =
+            SampleLighting { words: matrix, words_per_row: words_per_row(n_lights as usize) as u32, vpl_lights: lights, light_count: n_lights, g_max };
+        self.kernels.interpolate.sample_irradiance(self.device, self.queue, &self.kernels.shade, (points, n), inv_radius, &lighting)
     }
 
     fn bias_points(&self, parent: &wgpu::Buffer, samples: Range<u32>, params: &BiasParams) -> Result<wgpu::Buffer, GpuError> {

@@ -16,6 +16,8 @@ pub mod buffers;
 pub mod bvh;
 pub mod cluster;
 pub mod context;
+pub mod gather_radius;
+pub mod interpolate;
 pub mod lights;
 pub mod rng;
 pub mod rsm_cluster;

@@ -103,7 +103,7 @@ impl ShadeKernel {
     }
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
-    /// range.
+    /// range: the light sums of [`Self::light_sums`], then [`Self::finish`].
     pub fn run(
         &self,
         device: &wgpu::Device,
@@ -113,7 +113,21 @@ impl ShadeKernel {
         pixels: std::ops::Range<u32>,
         shade: &ShadeParams,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let ShadeParams { spp, seed, direct_samples, g_max } = *shade;
+        let running = self.light_sums(device, queue, inputs, pixels.clone(), shade.spp, shade.g_max)?;
+        self.finish(device, queue, scene, inputs.sps, inputs.sp_first, &running, pixels, shade)
+    }
+
+    /// `shade_lights`: the irradiance of the VPL lights at every shading point of `pixels` (`spp`
+    /// each), one `vec4<f32>` per shading point of the range.
+    pub fn light_sums(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        inputs: &ShadeInputs,
+        pixels: std::ops::Range<u32>,
+        spp: u32,
+        g_max: f32,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {
@@ -126,8 +140,8 @@ impl ShadeKernel {
         let chunk = lights_per_dispatch(f);
         let params = Params {
             spp,
-            seed,
-            direct_samples,
+            seed: 0,
+            direct_samples: 0,
             f,
             mode,
             first_row,
@@ -135,13 +149,12 @@ impl ShadeKernel {
             first_pixel: pixels.start,
             pixel_count: count,
             g_max,
-            eps: scene.eps,
+            eps: 0.0,
             sp_first: inputs.sp_first,
             light_first: 0,
             light_end: 0,
         };
-        validated(device, "shade", || {
-            let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
+        validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
             let lights_pipeline = self.lights_pipeline(device, f);
             let invocations = (count * spp).div_ceil(SHADE_POINTS);
@@ -155,8 +168,47 @@ impl ShadeKernel {
                 in_kernel("shade lights", || dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64)));
                 first = end;
             }
+            running
+        })
+    }
+
+    /// `shade_finish`: per pixel of `pixels`, the mean over its samples (in `sps`, from sample
+    /// `sp_first` on) of emitted + direct light + albedo / π × the sample's irradiance in
+    /// `running` (one per shading point of the range).
+    #[allow(clippy::too_many_arguments)]
+    pub fn finish(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &GpuScene,
+        sps: &wgpu::Buffer,
+        sp_first: u32,
+        running: &wgpu::Buffer,
+        pixels: std::ops::Range<u32>,
+        shade: &ShadeParams,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        let ShadeParams { spp, seed, direct_samples, g_max } = *shade;
+        let count = pixels.end - pixels.start;
+        let params = Params {
+            spp,
+            seed,
+            direct_samples,
+            f: 1,
+            mode: SHADE_OWN_ROW,
+            first_row: 0,
+            words_per_row: 0,
+            first_pixel: pixels.start,
+            pixel_count: count,
+            g_max,
+            eps: scene.eps,
+            sp_first,
+            light_first: 0,
+            light_end: 0,
+        };
+        validated(device, "shade", || {
+            let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
             let p = kernel_params(device, "shade params", &params);
-            let mut bindings = bind(&[(0, &p), (7, inputs.sps), (13, &out), (14, &running)]);
+            let mut bindings = bind(&[(0, &p), (7, sps), (13, &out), (14, running)]);
             bindings.extend(self.finish.scene_bindings(scene));
             in_kernel("shade finish", || dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64)));
             out

@@ -73,6 +73,12 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
     (
+        "gather_radius.wgsl",
+        include_str!("../../../shaders/gather_radius.wgsl"),
+        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/sampling.wgsl", "common/scene.wgsl"],
+    ),
+    ("interpolate.wgsl", include_str!("../../../shaders/interpolate.wgsl"), &["common/types.wgsl"]),
+    (
         "bias_points.wgsl",
         include_str!("../../../shaders/bias_points.wgsl"),
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/scene.wgsl"],
@@ -181,6 +187,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_BIAS", Stream::Bias as u32),
         ("STREAM_SCRAMBLE", Stream::Scramble as u32),
         ("STREAM_SEEDING", Stream::Seeding as u32),
+        ("STREAM_GATHER", Stream::Gather as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("BVH_LINK_LEAF", crate::bvh::LINK_LEAF),
@@ -206,6 +213,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
         ("FACING_COS", vplgi_types::params::FACING_COS),
+        ("MIN_INTERPOLATION_ERROR", vplgi_types::interpolation::MIN_ERROR),
     ];
     (u, f)
 }

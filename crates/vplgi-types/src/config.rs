@@ -119,6 +119,21 @@ pub enum Seeding {
     Adaptive,
 }
 
+/// Where the indirect light of clustered shading points comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum ShadeMode {
+    /// Every shading point sums every VPL light, with the visibility of its F clusters'
+    /// representatives (Eq. 8-10, the core paper).
+    #[default]
+    Fuzzy,
+    /// Wang et al. 2009: the VPL lights are summed only at each cluster's sample point (its
+    /// representative, with its own visibility row), and every shading point interpolates its F
+    /// nearest clusters' sums with irradiance-caching weights, R_j measured by `--gather-rays`.
+    Interpolate,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -227,6 +242,17 @@ pub struct FrameConfig {
     /// as the stride.
     #[serde(default)]
     pub seeding: Seeding,
+    /// Where clustered shading points' indirect light comes from. Files written before the
+    /// option existed read as fuzzy visibility.
+    #[serde(default)]
+    pub shade: ShadeMode,
+    /// Gather rays per sample point for R_j of `ShadeMode::Interpolate`.
+    #[serde(default = "default_gather_rays")]
+    pub gather_rays: u32,
+}
+
+fn default_gather_rays() -> u32 {
+    crate::interpolation::DEFAULT_GATHER_RAYS
 }
 
 /// Wang et al. use α = 0.1 to 0.5 after normalising the scene's size; vplgi divides by the
@@ -275,6 +301,8 @@ impl FrameConfig {
             alpha: default_alpha(),
             representative: SpRepresentative::Nearest,
             seeding: Seeding::Stride,
+            shade: ShadeMode::Fuzzy,
+            gather_rays: default_gather_rays(),
         }
     }
 
@@ -354,6 +382,11 @@ impl FrameConfig {
         crate::seeding::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
     }
 
+    /// The parameters of `gather_radius` (`ShadeMode::Interpolate`).
+    pub fn gather_params(&self) -> crate::interpolation::GatherParams {
+        crate::interpolation::GatherParams { seed: self.seed, rays: self.gather_rays }
+    }
+
     /// The parameters of `trace_vpls`.
     pub fn trace_params(&self) -> crate::TraceParams {
         crate::TraceParams { seed: self.seed, count: self.vpls, bounces: self.bounces }
@@ -422,6 +455,19 @@ impl FrameConfig {
         if !(self.alpha > 0.0 && self.alpha.is_finite()) {
             // Eq. 2 with alpha = 0 ignores positions: a cluster could span the whole scene.
             return Err(format!("alpha must be a finite number > 0 (got {})", self.alpha));
+        }
+        if self.shade == ShadeMode::Interpolate {
+            if !self.cluster.clusters_sps() {
+                // Sample points are the shading-point clusters' representatives.
+                return Err(format!(
+                    "shade interpolate interpolates between shading-point clusters: use --cluster sp or both (got {})",
+                    format!("{:?}", self.cluster).to_lowercase()
+                ));
+            }
+            let max = crate::interpolation::MAX_GATHER_RAYS;
+            if !(1..=max).contains(&self.gather_rays) {
+                return Err(format!("gather-rays must be between 1 and {max} (got {})", self.gather_rays));
+            }
         }
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
             return Err("g-clamp must be a finite number >= 0".into());
@@ -505,6 +551,8 @@ mod tests {
         assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));
         assert!(bad(|c| c.alpha = 0.0).contains("alpha"));
         assert!(bad(|c| c.alpha = f32::INFINITY).contains("alpha"));
+        assert!(bad(|c| (c.shade, c.cluster) = (ShadeMode::Interpolate, ClusterMode::Vpl)).contains("--cluster sp or both"));
+        assert!(bad(|c| (c.shade, c.gather_rays) = (ShadeMode::Interpolate, 0)).contains("gather-rays"));
         assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28"));
     }
 }

@@ -12,12 +12,14 @@
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
+//! * [`interpolation`]: `--shade interpolate`'s weights and radii (Wang et al.).
 //! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
 
 pub mod clustering;
 pub mod config;
 pub mod device;
 pub mod disk;
+pub mod interpolation;
 pub mod light_groups;
 pub mod params;
 pub mod pod;
@@ -26,7 +28,7 @@ pub mod rsm;
 pub mod sampling;
 pub mod seeding;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, SpMetric, SpRepresentative, VplClustering, VplSource};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -33,6 +33,9 @@ pub enum Stream {
     /// Adaptive seeding of the shading-point clustering: which hits of a quadtree node become
     /// seeds (`vplgi_types::seeding`).
     Seeding = 8,
+    /// The directions of the gather rays that measure a sample point's harmonic mean distance
+    /// (`gather_radius`, `--shade interpolate`).
+    Gather = 9,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.
