@@ -1,5 +1,5 @@
 // Stage gather_radius (vplgi-cpu/src/gather_radius.rs): per sample point, 1 / R_j, the mean over
-// its gather rays of 1 / t (an escaped ray adds 0), R_j being the harmonic mean distance of Wang
+// its gather rays of 1 / t for hits beyond the offset eps (an escaped ray adds 0), R_j being the harmonic mean distance of Wang
 // et al.'s interpolation weight. Ray r draws two numbers from stream (seed, STREAM_GATHER, j) at
 // counter 2r. A dispatch traces rays ray_first .. ray_end of every point and continues the sums
 // in `sums` (lavapipe ends an invocation's loops, traversal included, after 65,535 iterations);
@@ -38,7 +38,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let u1 = rng_next_f32(&rng);
         let u2 = rng_next_f32(&rng);
         let dir = cosine_hemisphere(n, u1, u2);
-        let hit = bvh_trace(origin, dir, 0.0, inf, false);
+        // Hits beyond the offset only (gather_radius.rs: a point on a corner edge starts on the
+        // other surface's plane).
+        let hit = bvh_trace(origin, dir, params.eps, inf, false);
         if (hit.triangle != NO_HIT) {
             sum = sum + 1.0 / hit.t;
         }

@@ -1,7 +1,11 @@
 //! Stage `gather_radius` (`--shade interpolate`): at each sample point s_j, the inverse of the
 //! harmonic mean distance R_j to the surfaces it sees (Wang et al. 2009, section 3.4), from
-//! `rays` cosine-distributed gather rays: 1 / R_j = (1 / rays) Σ 1 / t_r, an escaped ray adding
-//! 0 (`vplgi_types::interpolation`). Near a corner R_j is small and the interpolation weight
+//! `rays` cosine-distributed gather rays: 1 / R_j = (1 / rays) Σ 1 / t_r, an escaped ray adding 0
+//! (`vplgi_types::interpolation`). Each ray starts pushed off the surface by eps and counts hits
+//! beyond eps only: a sample point on the edge where a wall meets the floor starts its rays on
+//! the floor's plane, where a hit at t = ±0 would make 1 / t infinite (and the sum ∞ − ∞) and
+//! whether the plane is hit at all depends on the tracer's rounding; nothing nearer than the
+//! offset can be resolved anyway. Near a corner R_j is small and the interpolation weight
 //! falls off quickly with distance; in the open it is large and the weight is set by normals.
 
 use crate::CpuScene;
@@ -25,7 +29,7 @@ pub fn inverse_radius_at(cs: &CpuScene, p: Vec3, n: Vec3, index: u32, params: &G
     for _ in 0..params.rays {
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
         let dir = sampling::cosine_hemisphere(n, u1, u2);
-        if let Some(hit) = cs.trace(origin, dir) {
+        if let Some(hit) = cs.rt.intersect(origin, dir, cs.eps, f32::INFINITY) {
             sum += 1.0 / hit.t;
         }
     }
@@ -63,6 +67,16 @@ mod tests {
         // 1 / t = cos θ / h' has standard deviation √(1/2 − 4/9) / h' = 0.236 / h' per ray: the
         // mean of 32,768 rays is within 0.5 % of the exact value (3.8 standard errors).
         assert!((mean / exact - 1.0).abs() < 5e-3, "mean 1/R {mean}, exact {exact}, per point {got:?}");
+    }
+
+    /// A point on the edge where a wall would meet the plane, its normal along the plane: the
+    /// pushed-off origin lies on the plane, and the rays that go down would meet it at t = ±0
+    /// (1 / 0 made a NaN of ∞ − ∞). Hits within the offset are not counted, so with nothing else
+    /// to see the point is in the open.
+    #[test]
+    fn on_a_corner_edge_the_plane_through_the_origin_is_not_seen() {
+        let got = with_plane(1.0, |cs| inverse_radius_at(cs, Vec3::new(0.5, 0.0, 0.0), Vec3::X, 7, &GatherParams { seed: 1, rays: 64 }));
+        assert_eq!(got, 0.0);
     }
 
     /// With nothing to see, every ray escapes: 1 / R = 0 (R infinite), not a NaN.

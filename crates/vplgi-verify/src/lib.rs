@@ -13,7 +13,9 @@
 pub mod bias_points;
 pub mod cluster;
 pub mod frame;
+pub mod gather_radius;
 pub mod inputs;
+pub mod interpolate;
 pub mod report;
 pub mod rng;
 pub mod rsm_vpls;
@@ -29,7 +31,7 @@ use tolerance::Disagreement;
 use vplgi_cpu::CpuScene;
 use vplgi_gpu::{GpuBackend, GpuError};
 use vplgi_scene::Scene;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
+use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, ShadeMode};
 
 /// The two implementations of one scene: the CPU reference and the GPU twin.
 pub struct Twins<'a> {
@@ -74,6 +76,11 @@ pub enum VerifyStage {
     Cluster,
     /// Stage 4: shadow rays between the CPU's rows and columns, three ways (Embree, obvhs, GPU).
     Visibility,
+    /// `--shade interpolate`: the sample points' gather rays, on the CPU's sample points.
+    GatherRadius,
+    /// `--shade interpolate`: the irradiance samples and the interpolated image, on the CPU's
+    /// sample points, radii, lights, clusters and visibility.
+    Interpolate,
     /// Stage 5 and the final image: the GPU's shade on the CPU's shading points, lights,
     /// clusters and visibility, in every mode.
     Shade,
@@ -84,13 +91,15 @@ pub enum VerifyStage {
 }
 
 impl VerifyStage {
-    pub const ALL: [VerifyStage; 9] = [
+    pub const ALL: [VerifyStage; 11] = [
         VerifyStage::Rng,
         VerifyStage::TraceVpls,
         VerifyStage::RsmVpls,
         VerifyStage::ShadingPoints,
         VerifyStage::Cluster,
         VerifyStage::Visibility,
+        VerifyStage::GatherRadius,
+        VerifyStage::Interpolate,
         VerifyStage::Shade,
         VerifyStage::BiasPoints,
         VerifyStage::Frame,
@@ -105,6 +114,8 @@ impl VerifyStage {
             VerifyStage::ShadingPoints => "shading_points",
             VerifyStage::Cluster => "cluster",
             VerifyStage::Visibility => "visibility",
+            VerifyStage::GatherRadius => "gather_radius",
+            VerifyStage::Interpolate => "interpolate",
             VerifyStage::Shade => "shade",
             VerifyStage::BiasPoints => "bias_points",
             VerifyStage::Frame => "frame",
@@ -140,9 +151,19 @@ impl Mode {
         Mode { cluster: cfg.cluster, fuzzy: cfg.fuzzy }
     }
 
-    /// `cfg` in this mode.
+    /// `cfg` in this mode. Interpolation needs clustered shading points: a mode without them
+    /// shades as the core paper does.
     pub fn apply(self, cfg: &FrameConfig) -> FrameConfig {
-        FrameConfig { cluster: self.cluster, fuzzy: self.fuzzy, ..cfg.clone() }
+        let shade = if self.cluster.clusters_sps() { cfg.shade } else { ShadeMode::Fuzzy };
+        FrameConfig { cluster: self.cluster, fuzzy: self.fuzzy, shade, ..cfg.clone() }
+    }
+
+    /// [`Self::name`], with `+interpolate` when `cfg` interpolates in this mode.
+    pub fn name_in(self, cfg: &FrameConfig) -> String {
+        match self.apply(cfg).shade {
+            ShadeMode::Interpolate => format!("{}+interpolate", self.name()),
+            ShadeMode::Fuzzy => self.name(),
+        }
     }
 
     /// `both/weighted`; `none` and `vpl` alone (their fuzzy choice does not apply).
@@ -226,6 +247,8 @@ pub fn run(twins: &Twins, plan: &Plan, listener: &dyn Listener) -> Result<Vec<St
             VerifyStage::ShadingPoints => shading_points::verify(twins, &plan.config)?,
             VerifyStage::Cluster => cluster::verify(twins, &plan.config)?,
             VerifyStage::Visibility => visibility::verify(twins, &plan.config)?,
+            VerifyStage::GatherRadius => gather_radius::verify(twins, &plan.config)?,
+            VerifyStage::Interpolate => interpolate::verify(twins, &plan.config, &plan.modes)?,
             VerifyStage::Shade => shade::verify(twins, &plan.config, &plan.modes)?,
             VerifyStage::BiasPoints => bias_points::verify(twins, &plan.config)?,
             VerifyStage::Frame => frame::verify(twins, &plan.config, &plan.modes)?,

@@ -5,14 +5,16 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::tolerance::{Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
 use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_cpu::interpolate::{sample_irradiance, IrradianceSamples};
 use vplgi_cpu::shade::VisibilitySource;
 use vplgi_frame::{Backend, LightSet};
 use vplgi_gpu::buffers::{read_back, storage, Window};
 use vplgi_gpu::cluster::GpuClustering;
+use vplgi_gpu::interpolate::{InterpolateInputs, SampleLighting};
 use vplgi_gpu::shade::{ShadeInputs, Visibility};
 use vplgi_gpu::trace_vpls::GpuVpls;
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::{FrameConfig, VplLight};
+use vplgi_types::{FrameConfig, ShadeMode, VplLight};
 
 /// An image's pixels, row-major.
 pub type Pixels = Vec<[f32; 3]>;
@@ -65,9 +67,20 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     }
     let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
     let params = cfg.shade_params(cs.extent);
-    let src = match &clusters.sp_clusters {
-        Some(sc) => VisibilitySource::Fuzzy { matrix: &matrix, row_of: &frame.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f },
-        None => VisibilitySource::Own { matrix: &matrix, row_of: &frame.row_of, first_row: 0 },
+    // Interpolating, the sample points' 1 / R_j are the CPU's for both (gather_radius is judged
+    // on its own); each backend sums the irradiance samples itself.
+    let samples = match &clusters.sp_clusters {
+        Some(_) if cfg.shade == ShadeMode::Interpolate => {
+            let inv_radius = vplgi_cpu::gather_radius::gather_radius(cs, &clusters.rows, &cfg.gather_params());
+            let irradiance = sample_irradiance(&clusters.rows, &clusters.lights, &matrix, params.g_max);
+            Some(IrradianceSamples { points: clusters.rows.clone(), inv_radius, irradiance })
+        }
+        _ => None,
+    };
+    let src = match (&clusters.sp_clusters, &samples) {
+        (Some(sc), Some(samples)) => VisibilitySource::Interpolated { row_of: &frame.row_of, labels: &sc.labels, f: sc.f, samples },
+        (Some(sc), None) => VisibilitySource::Fuzzy { matrix: &matrix, row_of: &frame.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f },
+        (None, _) => VisibilitySource::Own { matrix: &matrix, row_of: &frame.row_of, first_row: 0 },
     };
     let cpu = vplgi_cpu::shade::shade(cs, &frame.sps, 0, 0..n_pixels, &clusters.lights, &src, &params);
 
@@ -79,8 +92,9 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
         Some(sc) => (storage(device, "labels", &sc.labels), storage(device, "weights", &sc.weights)),
         None => (storage::<u32>(device, "labels", &[]), storage::<f32>(device, "weights", &[])),
     };
+    let all_hits = Window { first: 0, count: frame.hits.len() as u64 };
     let visibility = match &clusters.sp_clusters {
-        Some(sc) => Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: Window { first: 0, count: frame.hits.len() as u64 } },
+        Some(sc) => Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: all_hits },
         None => Visibility::Own { first_row: 0 },
     };
     let inputs = ShadeInputs {
@@ -93,7 +107,31 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
         light_count: clusters.lights.len() as u32,
         visibility,
     };
-    let out = twins.gpu.kernels().shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?;
+    let kernels = twins.gpu.kernels();
+    let out = match (&clusters.sp_clusters, &samples) {
+        (Some(sc), Some(samples)) => {
+            let lighting = SampleLighting {
+                words: &words,
+                words_per_row: wpr as u32,
+                vpl_lights: &lights,
+                light_count: clusters.lights.len() as u32,
+                g_max: params.g_max,
+            };
+            let points = (storage(device, "sample points", &samples.points), samples.points.len() as u32);
+            let gpu_samples = kernels.interpolate.sample_irradiance(
+                device,
+                queue,
+                &kernels.shade,
+                points,
+                storage(device, "inverse radii", &samples.inv_radius),
+                &lighting,
+            )?;
+            let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: all_hits };
+            let running = kernels.interpolate.run(device, queue, &gpu_samples, &at, 0..frame.sps.len() as u32)?;
+            kernels.shade.finish(device, queue, twins.gpu.scene(), &sps, 0, &running, 0..n_pixels as u32, &params)?
+        }
+        _ => kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?,
+    };
     let gpu: Vec<[f32; 4]> = read_back(device, queue, &out, n_pixels)?;
     Ok((cpu, gpu.into_iter().map(|p| [p[0], p[1], p[2]]).collect()))
 }
@@ -121,7 +159,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let shape = serde_json::to_value(cfg.light_shape).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
     Ok(Some(
         Disagreement::at_most("shade / cluster lights", "largest relative difference of a light's flux or R²", worst.0, CLUSTER_LIGHTS_REL)
-            .with_case(format!("{} {shape}", Mode::of(cfg).name()))
+            .with_case(format!("{} {shape}", Mode::of(cfg).name_in(cfg)))
             .with_worst(worst.1),
     ))
 }
@@ -132,11 +170,11 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, I
 }
 
 /// [`compare`] on the CPU's stages 1 and 2 already made (they do not depend on the mode).
-fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
+pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
     let clusters = CpuClusters::new(twins.cpu, frame, cfg);
     let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, |_| true);
-    let case = Mode::of(cfg).name();
+    let case = Mode::of(cfg).name_in(cfg);
     let mut checks = vec![
         Disagreement::at_most("shade / final image", "relMSE(GPU, CPU) on the same inputs", rel_mse(&cpu, &gpu), SHADE_REL_MSE)
             .with_case(&case)

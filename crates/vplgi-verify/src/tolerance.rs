@@ -49,6 +49,18 @@ pub const SHADE_REL_MSE: f64 = 1e-4;
 /// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice.
 pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
 
+/// `gather_radius` (`--shade interpolate`) of the same sample points: 1 / R_j within this,
+/// relative. Directions differ only by the rounding of cos and sin, which moves a hit by about
+/// as much.
+pub const GATHER_RADIUS_REL: f64 = 1e-4;
+/// `gather_radius`: the share of sample points within [`GATHER_RADIUS_REL`] is at least
+/// 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]): each gather ray may see a different surface
+/// (or escape past a silhouette) as often as a camera ray may, and one such ray moves its point's
+/// 1 / R_j by a whole term. Derived from the shading-point row, not measured.
+pub fn gather_radius_same_share(rays: u32) -> f64 {
+    (1.0 - rays as f64 * (1.0 - SHADING_POINTS_SAME_SURFACE)).max(0.0)
+}
+
 /// The side of its bound a measurement must be on.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]

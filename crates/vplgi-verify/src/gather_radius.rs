@@ -1,0 +1,65 @@
+//! `gather_radius` (`--shade interpolate`): the GPU's 1 / R_j of the CPU's sample points (the
+//! representatives of the CPU's shading-point clusters) against the CPU's.
+
+use crate::inputs::{CpuClusters, CpuFrame};
+use crate::tolerance::{gather_radius_same_share, Disagreement, GATHER_RADIUS_REL};
+use crate::{count, result, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_frame::Backend;
+use vplgi_gpu::buffers::{read_back, storage};
+use vplgi_types::interpolation::GatherParams;
+use vplgi_types::{ClusterMode, Endpoint, FrameConfig, ShadeMode};
+
+/// `cfg` interpolating: its own clustering of shading points, or both point sets clustered if it
+/// clusters none.
+pub fn interpolating(cfg: &FrameConfig) -> FrameConfig {
+    let cluster = if cfg.cluster.clusters_sps() { cfg.cluster } else { ClusterMode::Both };
+    FrameConfig { shade: ShadeMode::Interpolate, cluster, ..cfg.clone() }
+}
+
+/// 1 / R_j of `points` on both backends.
+pub fn both(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Result<(Vec<f32>, Vec<f32>), VerifyError> {
+    let cpu = vplgi_cpu::gather_radius::gather_radius(twins.cpu, points, params);
+    let n = points.len() as u32;
+    let out = twins.gpu.gather_radius(&storage(twins.device(), "sample points", points), n, params)?;
+    let gpu = read_back::<f32>(twins.device(), twins.queue(), &out, points.len())?;
+    Ok((cpu, gpu))
+}
+
+/// Compares 1 / R_j of `points` (SPEC: within `GATHER_RADIUS_REL` for the share of points
+/// `gather_radius_same_share` allows).
+pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Result<Vec<Disagreement>, VerifyError> {
+    let (cpu, gpu) = both(twins, points, params)?;
+    let (mut same, mut worst, mut worst_at) = (0usize, 0.0f64, None);
+    for (j, (&c, &g)) in cpu.iter().zip(&gpu).enumerate() {
+        let rel = if c == g { 0.0 } else { (c - g).abs() as f64 / (c.abs() as f64).max(1e-30) };
+        same += (rel <= GATHER_RADIUS_REL) as usize;
+        if rel > worst || rel.is_nan() {
+            worst = rel;
+            worst_at = Some(format!("sample point {j}: CPU 1/R {c:e}, GPU {g:e}"));
+        }
+    }
+    let n = points.len();
+    let case = format!("{} sample points, {} gather rays each", count(n), params.rays);
+    let share = if n == 0 { 1.0 } else { same as f64 / n as f64 };
+    Ok(vec![
+        Disagreement::at_least(
+            "gather_radius",
+            format!("share of sample points with 1/R within {GATHER_RADIUS_REL:e} relative"),
+            share,
+            gather_radius_same_share(params.rays),
+        )
+        .with_case(&case)
+        .with_worst(worst_at),
+        Disagreement::info("gather_radius", "largest relative difference of 1/R", worst).with_case(case),
+    ])
+}
+
+pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+    let cfg = interpolating(cfg);
+    let frame = CpuFrame::new(twins.cpu, &cfg);
+    let clusters = CpuClusters::new(twins.cpu, &frame, &cfg);
+    let mut r = result(VerifyStage::GatherRadius);
+    r.checks = compare(twins, &clusters.rows, &cfg.gather_params())?;
+    r.notes.push("the GPU's gather rays from the CPU's sample points (its shading-point clusters' representatives)".into());
+    Ok(r)
+}

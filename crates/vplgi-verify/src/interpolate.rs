@@ -1,0 +1,73 @@
+//! `interpolate` (`--shade interpolate`): the GPU's irradiance samples at the CPU's sample points
+//! (from the CPU's radii, lights and visibility rows) against the CPU's, and the interpolated
+//! final image of each mode that clusters shading points (SPEC: the shade row, relMSE ≤ 1e-4).
+
+use crate::gather_radius::interpolating;
+use crate::inputs::{CpuClusters, CpuFrame};
+use crate::shade::{compare_on, rel_mse};
+use crate::tolerance::{Disagreement, SHADE_REL_MSE};
+use crate::{count, result, v3, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_gpu::buffers::{read_back, storage};
+use vplgi_gpu::interpolate::SampleLighting;
+use vplgi_gpu::visibility::words_per_row;
+use vplgi_types::FrameConfig;
+
+/// The irradiance samples of `clusters`' sample points on both backends.
+pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<(Vec<[f32; 3]>, Vec<[f32; 3]>), VerifyError> {
+    let cs = twins.cpu;
+    let (device, queue) = (twins.device(), twins.queue());
+    let g_max = cfg.g_max(cs.extent);
+    let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
+    let cpu = vplgi_cpu::interpolate::sample_irradiance(&clusters.rows, &clusters.lights, &matrix, g_max);
+    let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+    let lights = storage(device, "lights", &clusters.lights);
+    let n_lights = clusters.lights.len() as u32;
+    let lighting =
+        SampleLighting { words: &words, words_per_row: words_per_row(clusters.lights.len()) as u32, vpl_lights: &lights, light_count: n_lights, g_max };
+    let n = clusters.rows.len();
+    let k = twins.gpu.kernels();
+    let points = (storage(device, "sample points", &clusters.rows), n as u32);
+    let samples = k.interpolate.sample_irradiance(device, queue, &k.shade, points, storage(device, "inverse radii", &vec![0.0f32; n]), &lighting)?;
+    let gpu: Vec<[f32; 4]> = read_back(device, queue, &samples.irradiance, n)?;
+    Ok((cpu, gpu.into_iter().map(|e| [e[0], e[1], e[2]]).collect()))
+}
+
+/// Compares the irradiance samples of `cfg`'s sample points.
+pub fn compare_samples(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<Vec<Disagreement>, VerifyError> {
+    let clusters = CpuClusters::new(twins.cpu, frame, cfg);
+    let (cpu, gpu) = both(twins, cfg, &clusters)?;
+    let (worst, at) = crate::shade::worst_pixel(&cpu, &gpu, u32::MAX, |_| true);
+    let at = at.map(|s| s.replace("pixel (", "sample point (").replace(", 0)", ")"));
+    let at = at.or_else(|| cpu.first().zip(gpu.first()).map(|(c, g)| format!("sample point 0: CPU {}, GPU {}", v3(*c), v3(*g))));
+    let case = format!("{} {} sample points", Mode::of(cfg).name_in(cfg), count(cpu.len()));
+    Ok(vec![
+        Disagreement::at_most("interpolate / samples", "relMSE(GPU, CPU) of the irradiance samples on the same inputs", rel_mse(&cpu, &gpu), SHADE_REL_MSE)
+            .with_case(&case)
+            .with_worst(at),
+        Disagreement::info("interpolate / samples", "largest relative difference of a sample", worst as f64).with_case(case),
+    ])
+}
+
+/// The samples of the plan's frame, interpolating, and the interpolated image of each mode of
+/// `modes` that clusters shading points (of none does, `both/weighted`).
+pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
+    let mut r = result(VerifyStage::Interpolate);
+    let cfg = interpolating(cfg);
+    let frame = CpuFrame::new(twins.cpu, &cfg);
+    r.checks.extend(compare_samples(twins, &cfg, &frame)?);
+    let mut clustered: Vec<Mode> = modes.iter().copied().filter(|m| m.cluster.clusters_sps()).collect();
+    if clustered.is_empty() {
+        clustered.push(Mode::of(&cfg));
+    }
+    for mode in clustered {
+        let (checks, pair) = compare_on(twins, &mode.apply(&cfg), &frame)?;
+        r.checks.extend(checks);
+        r.images.push(pair);
+    }
+    r.notes.push(
+        "the GPU sums the lights at the CPU's sample points (each its own visibility row) and interpolates them with the CPU's 1/R and clusters: \
+         the irradiance samples, then the final image of each mode"
+            .into(),
+    );
+    Ok(r)
+}
