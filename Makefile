@@ -64,7 +64,7 @@ test: setup
 # table, through vplgi-verify's comparisons) at 10,000 cases each instead of make test's few.
 # Override with VPLGI_PROPTEST_CASES=N. Shrunk failures are written next to the test file
 # (tests/tests/<stage>.proptest-regressions): commit them, every later run replays them first.
-PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster seeding
+PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster seeding gather_radius interpolate
 verify-long: setup
 	@for t in $(PROPERTY_TESTS); do \
 	  start=$$(date +%s); \
@@ -94,8 +94,10 @@ verify-long: setup
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
 # as caught.
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
-  crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs crates/vplgi-cpu/src/seeding.rs
-MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points
+  crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs crates/vplgi-cpu/src/seeding.rs \
+  crates/vplgi-cpu/src/gather_radius.rs crates/vplgi-cpu/src/interpolate.rs
+MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points \
+  seeding gather_radius interpolate
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_TREE := target/mutants-tree

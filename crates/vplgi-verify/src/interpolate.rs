@@ -4,7 +4,7 @@
 
 use crate::gather_radius::interpolating;
 use crate::inputs::{CpuClusters, CpuFrame};
-use crate::shade::{compare_on, rel_mse};
+use crate::shade::{compare_on, rel_mse, Pixels};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE};
 use crate::{count, result, v3, Mode, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_gpu::buffers::{read_back, storage};
@@ -13,7 +13,7 @@ use vplgi_gpu::visibility::words_per_row;
 use vplgi_types::FrameConfig;
 
 /// The irradiance samples of `clusters`' sample points on both backends.
-pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<(Vec<[f32; 3]>, Vec<[f32; 3]>), VerifyError> {
+pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<(Pixels, Pixels), VerifyError> {
     let cs = twins.cpu;
     let (device, queue) = (twins.device(), twins.queue());
     let g_max = cfg.g_max(cs.extent);
