@@ -18,7 +18,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
-use vplgi_types::{ClusterMode, FrameConfig, Seeding, SpMetric, SpRepresentative};
+use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, SpMetric, SpRepresentative};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -44,6 +44,7 @@ struct Variant {
     metric: Option<SpMetric>,
     representative: Option<SpRepresentative>,
     seeding: Option<Seeding>,
+    shade: Option<ShadeMode>,
 }
 
 impl Variant {
@@ -52,6 +53,7 @@ impl Variant {
             metric: self.metric.unwrap_or(cfg.metric),
             representative: self.representative.unwrap_or(cfg.representative),
             seeding: self.seeding.unwrap_or(cfg.seeding),
+            shade: self.shade.unwrap_or(cfg.shade),
             ..cfg
         }
     }
@@ -59,7 +61,7 @@ impl Variant {
 
 /// `ward+min-error+adaptive`: option values joined by `+`, at most one per option.
 fn parse_variant(s: &str) -> Result<Variant, String> {
-    let mut v = Variant { name: s.to_string(), metric: None, representative: None, seeding: None };
+    let mut v = Variant { name: s.to_string(), metric: None, representative: None, seeding: None, shade: None };
     for token in s.split('+') {
         let twice = |what: &str| format!("`{s}` names the {what} twice");
         if let Ok(m) = SpMetric::from_str(token, true) {
@@ -74,8 +76,14 @@ fn parse_variant(s: &str) -> Result<Variant, String> {
             if v.seeding.replace(x).is_some() {
                 return Err(twice("seeding"));
             }
+        } else if let Ok(x) = ShadeMode::from_str(token, true) {
+            if v.shade.replace(x).is_some() {
+                return Err(twice("shade"));
+            }
         } else {
-            return Err(format!("`{token}` in `{s}` is not a --metric (eq7, ward), --representative (nearest, min-error) or --seeding (stride, adaptive)"));
+            return Err(format!(
+                "`{token}` in `{s}` is not a --metric (eq7, ward), --representative (nearest, min-error), --seeding (stride, adaptive) or --shade (fuzzy, interpolate)"
+            ));
         }
     }
     Ok(v)
@@ -95,14 +103,14 @@ pub struct SweepArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [500u32, 1000, 1500, 2000, 2500])]
     vpl_clusters: Vec<u32>,
     /// With --figure variants: the shading-point choices compared, comma-separated; each joins
-    /// values of --metric, --representative and --seeding with `+` (what is left out comes from
-    /// the frame options). The default sets the core paper's choices, Wang et al.'s, and each
-    /// half of Wang et al.'s alone.
+    /// values of --metric, --representative, --seeding and --shade with `+` (what is left out
+    /// comes from the frame options). The default sets the core paper's choices, Wang et al.'s
+    /// with and without their interpolation, and each half of Wang et al.'s clustering alone.
     #[arg(
         long,
         value_delimiter = ',',
         value_parser = parse_variant,
-        default_value = "eq7+nearest+stride,ward+min-error+adaptive,eq7+nearest+adaptive,ward+min-error+stride"
+        default_value = "eq7+nearest+stride+fuzzy,ward+min-error+adaptive+interpolate,ward+min-error+adaptive+fuzzy,eq7+nearest+adaptive+fuzzy,ward+min-error+stride+fuzzy"
     )]
     variants: Vec<Variant>,
     /// Where the clustered frames run. The reference is always rendered by the CPU reference.
@@ -354,7 +362,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         "reference": { "exr": args.reference.clone().unwrap_or_else(|| args.out.join("reference/image.exr")), "total_ms": reference_ms, "backend": "cpu" },
         "configs": configs.iter().zip(&measured).map(|(c, m)| json!({
             "label": c.label, "figure": format!("{:?}", c.figure).to_lowercase(), "cluster": c.cfg.cluster, "k_sp": c.cfg.k_sp, "k_vpl": c.cfg.k_vpl,
-            "variant": c.variant, "metric": c.cfg.metric, "representative": c.cfg.representative, "seeding": c.cfg.seeding, "alpha": c.cfg.alpha,
+            "variant": c.variant, "metric": c.cfg.metric, "representative": c.cfg.representative, "seeding": c.cfg.seeding, "shade": c.cfg.shade, "alpha": c.cfg.alpha,
             "timings_ms": m.timings, "mse": m.mse, "rel_mse": m.rel_mse, "flip": m.flip,
             "image": args.out.join("configs").join(&c.label).join("image.png"), "error_map": args.out.join("configs").join(&c.label).join("error_map.png"),
         })).collect::<Vec<_>>(),

@@ -378,7 +378,7 @@ fn sweep_charts_shading_point_variants_side_by_side() {
         "--figure",
         "variants",
         "--variants",
-        "eq7+nearest+stride,ward+min-error+adaptive",
+        "eq7+nearest+stride,ward+min-error+adaptive+interpolate",
         "--width",
         "40",
         "--height",
@@ -401,9 +401,10 @@ fn sweep_charts_shading_point_variants_side_by_side() {
     let configs = report["configs"].as_array().unwrap();
     assert_eq!(configs.len(), 4);
     let find = |label: &str| configs.iter().find(|c| c["label"] == label).unwrap_or_else(|| panic!("{label} missing"));
-    let (eq7, ward) = (find("variants-sp300-eq7+nearest+stride"), find("variants-sp300-ward+min-error+adaptive"));
-    assert_eq!((eq7["metric"].as_str(), eq7["representative"].as_str(), eq7["seeding"].as_str()), (Some("eq7"), Some("nearest"), Some("stride")));
-    assert_eq!((ward["metric"].as_str(), ward["representative"].as_str(), ward["seeding"].as_str()), (Some("ward"), Some("min-error"), Some("adaptive")));
+    let (eq7, ward) = (find("variants-sp300-eq7+nearest+stride"), find("variants-sp300-ward+min-error+adaptive+interpolate"));
+    let choices = |c: &serde_json::Value| ["metric", "representative", "seeding", "shade"].map(|k| c[k].as_str().map(String::from));
+    assert_eq!(choices(eq7), ["eq7", "nearest", "stride", "fuzzy"].map(|s| Some(s.to_string())));
+    assert_eq!(choices(ward), ["ward", "min-error", "adaptive", "interpolate"].map(|s| Some(s.to_string())));
     assert_ne!(eq7["mse"], ward["mse"], "Eq. 2 and Eq. 7 cluster differently");
     // A variant that is not a pair of option values is refused, naming the token.
     let o = vplgi(&["sweep", "--figure", "variants", "--variants", "ward+farthest", "--out", dir.path().join("never").to_str().unwrap()]);
@@ -415,6 +416,16 @@ fn sweep_charts_shading_point_variants_side_by_side() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("alpha"), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!never.exists());
+    // Interpolation without clustered shading points, or without gather rays, likewise.
+    for (bad, named) in
+        [(&["--shade", "interpolate", "--cluster", "vpl"][..], "--cluster sp or both"), (&["--shade", "interpolate", "--gather-rays", "0"][..], "gather-rays")]
+    {
+        let never = dir.path().join("interpolate");
+        let o = vplgi(&[&["render", "--out", never.to_str().unwrap()][..], bad].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(named), "{bad:?}: {err}");
+        assert!(!never.exists());
+    }
 }
 
 #[test]
