@@ -5,8 +5,8 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
-use vplgi_cpu::interpolate::{sample_irradiance, IrradianceSamples};
-use vplgi_cpu::shade::{irradiance, LightArrays, VisibilitySource};
+use vplgi_cpu::interpolate::IrradianceSamples;
+use vplgi_cpu::shade::{irradiance, sample_irradiance, LightArrays, VisibilitySource};
 use vplgi_gpu::buffers::{storage, Window};
 use vplgi_gpu::interpolate::{InterpolateInputs, InterpolateKernel, SampleLighting};
 use vplgi_gpu::shade::ShadeKernel;

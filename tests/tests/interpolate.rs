@@ -71,7 +71,7 @@ fn both(
     let lights: Vec<VplLight> = light.into_iter().collect();
     let mut cpu_samples = samples.clone();
     if light.is_some() {
-        cpu_samples.irradiance = vplgi_cpu::interpolate::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
+        cpu_samples.irradiance = vplgi_cpu::shade::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
     }
     let vis = VisibilitySource::Interpolated { row_of: &row_of, labels, f: f as usize, samples: &cpu_samples };
     let arrays = LightArrays::new(&lights);

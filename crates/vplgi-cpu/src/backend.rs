@@ -4,11 +4,11 @@
 use crate::bias_points::bias_points;
 use crate::cluster::{cluster_from, Clustering};
 use crate::gather_radius::gather_radius;
-use crate::interpolate::{sample_irradiance, IrradianceSamples};
+use crate::interpolate::IrradianceSamples;
 use crate::rsm_cluster::rsm_cluster;
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
-use crate::shade::{shade, vpl_lights, VisibilitySource, VplLight};
+use crate::shade::{sample_irradiance, shade, vpl_lights, VisibilitySource, VplLight};
 use crate::shading_points::shading_points_of;
 use crate::trace_vpls::trace_vpls;
 use crate::visibility::{visibility, BitMatrix, Endpoint};

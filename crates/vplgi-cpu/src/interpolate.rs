@@ -1,14 +1,12 @@
 //! Stage `interpolate` (`--shade interpolate`, Wang et al. 2009, section 3.4): irradiance from the
 //! VPL lights at the sample points only, each a shading-point cluster's representative with its
-//! own visibility row, then at every shading point the irradiance-caching interpolation of its F
-//! nearest clusters' samples (`vplgi_types::interpolation`). Where fuzzy visibility sums every
+//! own visibility row (`shade::sample_irradiance`, shade's own sums), then at every shading point
+//! the irradiance-caching interpolation of its F nearest clusters' samples
+//! (`vplgi_types::interpolation`), here. Where fuzzy visibility sums every
 //! light at every shading point, this sums them at K points and costs F weights per shading
 //! point.
 
-use crate::shade::{irradiance, LightArrays, VisibilitySource};
-use crate::visibility::BitMatrix;
 use glam::Vec3;
-use rayon::prelude::*;
 use vplgi_types::interpolation::weight;
 use vplgi_types::{Endpoint, MISS};
 
@@ -19,15 +17,6 @@ pub struct IrradianceSamples {
     pub points: Vec<Endpoint>,
     pub inv_radius: Vec<f32>,
     pub irradiance: Vec<[f32; 3]>,
-}
-
-/// The irradiance of `lights` at each of `points`, point j seeing the lights of row j of `matrix`
-/// (the sum of `shade`, light by light in the same order).
-pub fn sample_irradiance(points: &[Endpoint], lights: &[vplgi_types::VplLight], matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
-    let lights = LightArrays::new(lights);
-    let rows: Vec<u32> = (0..points.len() as u32).collect();
-    let vis = VisibilitySource::Own { matrix, row_of: &rows, first_row: 0 };
-    points.par_iter().enumerate().map(|(j, e)| irradiance(e.p(), e.n(), j, &lights, &vis, g_max).to_array()).collect()
 }
 
 /// The irradiance at `p` (normal `n`) interpolated from the sample points of clusters `labels`

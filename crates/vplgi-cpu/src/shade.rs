@@ -24,7 +24,7 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{disk, sampling, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
+use vplgi_types::{disk, sampling, Endpoint, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 pub use vplgi_types::VplLight;
 
@@ -137,6 +137,17 @@ pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &Visibi
             crate::interpolate::interpolate(p, n, &labels[r..r + f], samples)
         }
     }
+}
+
+/// `--shade interpolate`'s irradiance samples: the irradiance of `lights` at each of `points`,
+/// point j seeing the lights of row j of `matrix` (the sum of [`shade`], light by light in the same
+/// order).
+pub fn sample_irradiance(points: &[Endpoint], lights: &[VplLight], matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
+    let lights = LightArrays::new(lights);
+    let rows: Vec<u32> = (0..points.len() as u32).collect();
+    let vis = VisibilitySource::Own { matrix, row_of: &rows, first_row: 0 };
+    use rayon::prelude::*;
+    points.par_iter().enumerate().map(|(j, e)| irradiance(e.p(), e.n(), j, &lights, &vis, g_max).to_array()).collect()
 }
 
 /// `v[k] += w` for every set bit k of `bits` (and += 0 for the others, which changes nothing).

@@ -18,7 +18,7 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
     let (device, queue) = (twins.device(), twins.queue());
     let g_max = cfg.g_max(cs.extent);
     let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
-    let cpu = vplgi_cpu::interpolate::sample_irradiance(&clusters.rows, &clusters.lights, &matrix, g_max);
+    let cpu = vplgi_cpu::shade::sample_irradiance(&clusters.rows, &clusters.lights, &matrix, g_max);
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
     let lights = storage(device, "lights", &clusters.lights);
     let n_lights = clusters.lights.len() as u32;

@@ -5,8 +5,8 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::tolerance::{Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
 use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_cpu::interpolate::{sample_irradiance, IrradianceSamples};
-use vplgi_cpu::shade::VisibilitySource;
+use vplgi_cpu::interpolate::IrradianceSamples;
+use vplgi_cpu::shade::{sample_irradiance, VisibilitySource};
 use vplgi_frame::{Backend, LightSet};
 use vplgi_gpu::buffers::{read_back, storage, Window};
 use vplgi_gpu::cluster::GpuClustering;
