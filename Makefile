@@ -10,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results validate test-slurm clean
+.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants validate test-slurm clean
 
 all: build
 
@@ -47,7 +47,7 @@ demo: build
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
-CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results perf_report
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants perf_report
 # The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
 # (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
 GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify
@@ -194,6 +194,12 @@ references: build
 # RESULTS_ARGS=--reuse keeps frames already in target/results (after an interrupted run).
 results: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
+
+# The core paper's and Wang et al.'s shading-point choices (seeding, metric, representative,
+# fuzzy visibility or interpolation) at equal time on the three generated scenes, one
+# `vplgi sweep --figure variants` each on the CPU: docs/VARIANTS.md. About three minutes.
+variants: build
+	$(CARGO) run --release -p vplgi-benches --bin variants -- --out docs/VARIANTS.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
 # under target/ with numpy (nothing system-wide): each of the four scenes exported with
