@@ -197,7 +197,7 @@ results: build
 
 # The core paper's and Wang et al.'s shading-point choices (seeding, metric, representative,
 # fuzzy visibility or interpolation) at equal time on the three generated scenes, one
-# `vplgi sweep --figure variants` each on the CPU: docs/VARIANTS.md. About three minutes.
+# `vplgi sweep --figure variants` each on the CPU: docs/VARIANTS.md. About five minutes.
 variants: build
 	$(CARGO) run --release -p vplgi-benches --bin variants -- --out docs/VARIANTS.md
 
