@@ -6,7 +6,7 @@
 //! own light): each variant at each shading-point cluster count, against the unclustered
 //! reference. The question is which variant is best **at equal time**: for each time budget (the
 //! core paper's frame time at each count), the lowest error each variant reached in a frame no
-//! slower than the budget. About three minutes on 2 cores.
+//! slower than the budget. About five minutes on 2 cores.
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
