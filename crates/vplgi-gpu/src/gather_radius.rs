@@ -11,14 +11,14 @@ use vplgi_types::interpolation::GatherParams;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    count: u32,
-    seed: u32,
-    rays: u32,
-    ray_first: u32,
-    ray_end: u32,
-    eps: f32,
-    pad: [u32; 2],
+pub(crate) struct Params {
+    pub(crate) count: u32,
+    pub(crate) seed: u32,
+    pub(crate) rays: u32,
+    pub(crate) ray_first: u32,
+    pub(crate) ray_end: u32,
+    pub(crate) eps: f32,
+    pub(crate) pad: [u32; 2],
 }
 
 /// Gather rays one dispatch traces per point: with their traversal loops well inside lavapipe's

@@ -15,13 +15,13 @@ use vplgi_types::ShadingPoint;
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
-struct Params {
-    count: u32,
-    first_sample: u32,
-    sp_first: u32,
-    f: u32,
-    first_row: u32,
-    pad: [u32; 3],
+pub(crate) struct Params {
+    pub(crate) count: u32,
+    pub(crate) first_sample: u32,
+    pub(crate) sp_first: u32,
+    pub(crate) f: u32,
+    pub(crate) first_row: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 /// The sample points of a frame on the device (the twin of

@@ -438,7 +438,7 @@ mod tests {
     fn scene_declarations_match_the_binding_table() {
         use crate::scene::{FIRST_SCENE_BINDING, SCENE_BINDINGS};
         let with_scene: Vec<&str> = STAGES.iter().filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl")).map(|(n, _, _)| *n).collect();
-        assert_eq!(with_scene.len(), 6, "the ray-tracing stages: {with_scene:?}");
+        assert_eq!(with_scene.len(), 7, "the ray-tracing stages: {with_scene:?}");
         for stage in with_scene {
             let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
             let mut seen: Vec<(u32, String)> = module
@@ -528,6 +528,8 @@ mod tests {
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
+            [crate::gather_radius::Params] "gather_radius.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
+            [crate::interpolate::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
             [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
             [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
             [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent }
