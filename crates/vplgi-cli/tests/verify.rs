@@ -55,10 +55,11 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("verify.json")).expect("verify.json")).expect("JSON");
     assert_eq!(report["passed"], true);
     let stages: Vec<&str> = report["stages"].as_array().expect("stages").iter().filter_map(|s| s["stage"].as_str()).collect();
-    assert_eq!(stages, ["rng", "trace_vpls", "rsm_vpls", "shading_points", "cluster", "visibility", "shade", "bias_points", "frame"]);
+    assert_eq!(stages, ["rng", "trace_vpls", "rsm_vpls", "shading_points", "cluster", "visibility", "gather_radius", "interpolate", "shade", "bias_points", "frame"]);
     assert_eq!(report["modes"].as_array().map(Vec::len), Some(8), "every mode by default");
-    // 8 modes x (shade, frame), three pictures each.
-    assert_eq!(report["images"].as_array().map(Vec::len), Some(16));
+    // 8 modes x (shade, frame) and the 6 that cluster shading points interpolated, three
+    // pictures each.
+    assert_eq!(report["images"].as_array().map(Vec::len), Some(22));
     assert!(std::fs::read_to_string(dir.path().join("verify.md")).expect("verify.md").contains("## shade"));
 
     let (console, dom) = load_in_chromium(&dir.path().join("verify.html"));
@@ -68,7 +69,7 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     }
     let errors: Vec<&String> = console.iter().filter(|l| !l.contains("probe: ")).collect();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
-    assert!(console.iter().any(|l| l.contains("probe: 9 sections, 48 images")), "the probe did not run: {console:#?}");
+    assert!(console.iter().any(|l| l.contains("probe: 11 sections, 66 images")), "the probe did not run: {console:#?}");
 }
 
 /// The probe itself sees a missing image: the browser check can fail.
