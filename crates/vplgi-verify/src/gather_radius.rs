@@ -2,7 +2,7 @@
 //! representatives of the CPU's shading-point clusters) against the CPU's.
 
 use crate::inputs::{CpuClusters, CpuFrame};
-use crate::tolerance::{gather_radius_same_share, Disagreement, GATHER_RADIUS_REL};
+use crate::tolerance::{gather_radius_bound, gather_radius_same_share, Disagreement, GATHER_RADIUS_REL, SHADING_POINTS_POSITION_REL};
 use crate::{count, result, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_frame::Backend;
 use vplgi_gpu::buffers::{read_back, storage};
@@ -25,16 +25,18 @@ pub fn both(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Result
     Ok((cpu, gpu))
 }
 
-/// Compares 1 / R_j of `points` (SPEC: within `GATHER_RADIUS_REL` for the share of points
+/// Compares 1 / R_j of `points` (within `gather_radius_bound` for the share of points
 /// `gather_radius_same_share` allows).
 pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu) = both(twins, points, params)?;
+    let extent = twins.cpu.extent as f64;
+    // Each point's difference as a share of its bound (NaN if either side is).
     let (mut same, mut worst, mut worst_at) = (0usize, 0.0f64, None);
     for (j, (&c, &g)) in cpu.iter().zip(&gpu).enumerate() {
-        let rel = if c == g { 0.0 } else { (c - g).abs() as f64 / (c.abs() as f64).max(1e-30) };
-        same += (rel <= GATHER_RADIUS_REL) as usize;
-        if rel > worst || rel.is_nan() {
-            worst = rel;
+        let share = if c == g { 0.0 } else { (c - g).abs() as f64 / gather_radius_bound(c as f64, extent).max(f64::MIN_POSITIVE) };
+        same += (share <= 1.0) as usize;
+        if share > worst || share.is_nan() {
+            worst = share;
             worst_at = Some(format!("sample point {j}: CPU 1/R {c:e}, GPU {g:e}"));
         }
     }
@@ -44,13 +46,13 @@ pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Res
     Ok(vec![
         Disagreement::at_least(
             "gather_radius",
-            format!("share of sample points with 1/R within {GATHER_RADIUS_REL:e} relative"),
+            format!("share of sample points with 1/R within {GATHER_RADIUS_REL:e} relative + the hits' {SHADING_POINTS_POSITION_REL:e} x extent"),
             share,
             gather_radius_same_share(params.rays),
         )
         .with_case(&case)
         .with_worst(worst_at),
-        Disagreement::info("gather_radius", "largest relative difference of 1/R", worst).with_case(case),
+        Disagreement::info("gather_radius", "largest difference of 1/R as a share of its bound", worst).with_case(case),
     ])
 }
 

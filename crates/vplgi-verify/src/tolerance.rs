@@ -49,11 +49,23 @@ pub const SHADE_REL_MSE: f64 = 1e-4;
 /// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice.
 pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
 
-/// `gather_radius` (`--shade interpolate`) of the same sample points: 1 / R_j within this,
-/// relative. Directions differ only by the rounding of cos and sin, which moves a hit by about
-/// as much.
+/// `gather_radius` (`--shade interpolate`) of the same sample points: 1 / R_j, the mean of 1 / t
+/// over its rays, within [`gather_radius_bound`]. Directions differ only by the rounding of cos
+/// and sin, which moves a hit by about as much.
 pub const GATHER_RADIUS_REL: f64 = 1e-4;
-/// `gather_radius`: the share of sample points within [`GATHER_RADIUS_REL`] is at least
+
+/// How far the two backends' 1 / R of one sample point may be apart: [`GATHER_RADIUS_REL`]
+/// relative, plus what the shading-point row allows a hit to move. Hits agree to
+/// [`SHADING_POINTS_POSITION_REL`] × the scene's extent E, not relative to their distance: a ray
+/// that meets a surface at t ≈ 4e-3 E, at a grazing angle, may move its hit by 2.5e-4 of t
+/// (measured on a random soup). A move δt ≤ 1e-4 E changes 1 / t by δt / t² ≤ 1e-4 E (1 / t)²,
+/// and the mean of (1 / t)² over the rays is at least (1 / R)², so 1e-4 E (1 / R)² is the
+/// smallest allowance the hits' own bound implies. Derived from the SPEC's shading-point row.
+pub fn gather_radius_bound(inv_radius: f64, extent: f64) -> f64 {
+    GATHER_RADIUS_REL * inv_radius.abs() + SHADING_POINTS_POSITION_REL * extent * inv_radius * inv_radius
+}
+
+/// `gather_radius`: the share of sample points within [`gather_radius_bound`] is at least
 /// 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]): each gather ray may see a different surface
 /// (or escape past a silhouette) as often as a camera ray may, and one such ray moves its point's
 /// 1 / R_j by a whole term. Derived from the shading-point row, not measured.
