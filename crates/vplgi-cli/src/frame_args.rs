@@ -253,6 +253,16 @@ fn flag(id: &str) -> String {
     }
 }
 
+/// A default as `--help` shows it: the frame's f32 fields reach here as f64, so a number is
+/// written as the f32 it was (0.05, not 0.05000000074505806).
+fn shown_default(value: &serde_json::Value) -> String {
+    match value {
+        serde_json::Value::String(s) => s.clone(),
+        serde_json::Value::Number(n) if n.is_f64() => n.as_f64().map_or_else(|| n.to_string(), |x| (x as f32).to_string()),
+        v => v.to_string(),
+    }
+}
+
 /// Adds each frame option's default (the subcommand's preset value) to its help, and hides the
 /// options the subcommand fixes.
 pub fn document(mut cmd: clap::Command) -> clap::Command {
@@ -264,7 +274,7 @@ pub fn document(mut cmd: clap::Command) -> clap::Command {
         cmd = cmd.mut_subcommand(u.command, |mut sc| {
             for (id, value) in &defaults {
                 if sc.get_arguments().any(|a| a.get_id() == id.as_str()) {
-                    let shown = value.as_str().map_or_else(|| value.to_string(), str::to_string);
+                    let shown = shown_default(value);
                     sc = sc.mut_arg(id.as_str(), |a| {
                         let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
                         a.help(format!("{help} [default: {shown}]"))

@@ -183,6 +183,8 @@ fn help_explains_every_option_with_defaults() {
         assert!(help.contains(opt), "--help lacks {opt}");
     }
     assert!(help.contains("[default: 8000]") && help.contains("[default: both]"), "{help}");
+    // Fractions as they were written, not their f32 rounding printed as an f64.
+    assert!(help.contains("[default: 0.05]") && help.contains("[default: 0.3]") && !help.contains("0.0500000"), "{help}");
 }
 
 #[test]
