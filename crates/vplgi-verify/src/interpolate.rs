@@ -4,7 +4,7 @@
 
 use crate::gather_radius::interpolating;
 use crate::inputs::{CpuClusters, CpuFrame};
-use crate::shade::{compare_on, rel_mse, Pixels};
+use crate::shade::{compare_on, rel_mse, worst_item, Pixels};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE};
 use crate::{count, result, v3, Mode, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_gpu::buffers::{read_back, storage};
@@ -27,6 +27,7 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
     let n = clusters.rows.len();
     let k = twins.gpu.kernels();
     let points = (storage(device, "sample points", &clusters.rows), n as u32);
+    // The radii travel with the samples but take no part in summing them.
     let samples = k.interpolate.sample_irradiance(device, queue, &k.shade, points, storage(device, "inverse radii", &vec![0.0f32; n]), &lighting)?;
     let gpu: Vec<[f32; 4]> = read_back(device, queue, &samples.irradiance, n)?;
     Ok((cpu, gpu.into_iter().map(|e| [e[0], e[1], e[2]]).collect()))
@@ -36,8 +37,7 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
 pub fn compare_samples(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<Vec<Disagreement>, VerifyError> {
     let clusters = CpuClusters::new(twins.cpu, frame, cfg);
     let (cpu, gpu) = both(twins, cfg, &clusters)?;
-    let (worst, at) = crate::shade::worst_pixel(&cpu, &gpu, u32::MAX, |_| true);
-    let at = at.map(|s| s.replace("pixel (", "sample point (").replace(", 0)", ")"));
+    let (worst, at) = worst_item(&cpu, &gpu, |_| true, |j| format!("sample point {j}"));
     let at = at.or_else(|| cpu.first().zip(gpu.first()).map(|(c, g)| format!("sample point 0: CPU {}, GPU {}", v3(*c), v3(*g))));
     let case = format!("{} {} sample points", Mode::of(cfg).name_in(cfg), count(cpu.len()));
     Ok(vec![

@@ -37,12 +37,17 @@ pub fn rel_mse(reference: &[[f32; 3]], test: &[[f32; 3]]) -> f64 {
 /// The pixel whose channels differ most relative to the CPU's value, with both values, among
 /// the pixels `include` accepts.
 pub fn worst_pixel(cpu: &[[f32; 3]], gpu: &[[f32; 3]], width: u32, include: impl Fn(usize) -> bool) -> (f32, Option<String>) {
+    worst_item(cpu, gpu, include, |i| format!("pixel ({}, {})", i as u32 % width, i as u32 / width))
+}
+
+/// The RGB item whose channels differ most relative to the CPU's value, among the items
+/// `include` accepts, described as `name(i)` with both values.
+pub fn worst_item(cpu: &[[f32; 3]], gpu: &[[f32; 3]], include: impl Fn(usize) -> bool, name: impl Fn(usize) -> String) -> (f32, Option<String>) {
     let mut worst = (0.0f32, None);
     for (i, (a, b)) in cpu.iter().zip(gpu).enumerate().filter(|(i, _)| include(*i)) {
         let d = (0..3).map(|c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3)).fold(0.0f32, |m, x| if x.is_nan() || m.is_nan() { f32::NAN } else { m.max(x) });
         if d > worst.0 || (d.is_nan() && !worst.0.is_nan()) {
-            let at = format!("pixel ({}, {}): CPU {}, GPU {}", i as u32 % width, i as u32 / width, crate::v3(*a), crate::v3(*b));
-            worst = (d, Some(at));
+            worst = (d, Some(format!("{}: CPU {}, GPU {}", name(i), crate::v3(*a), crate::v3(*b))));
         }
     }
     worst
@@ -93,20 +98,6 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
         None => (storage::<u32>(device, "labels", &[]), storage::<f32>(device, "weights", &[])),
     };
     let all_hits = Window { first: 0, count: frame.hits.len() as u64 };
-    let visibility = match &clusters.sp_clusters {
-        Some(sc) => Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: all_hits },
-        None => Visibility::Own { first_row: 0 },
-    };
-    let inputs = ShadeInputs {
-        sps: &sps,
-        sp_first: 0,
-        row_of: &row_of,
-        words: &words,
-        words_per_row: wpr as u32,
-        vpl_lights: &lights,
-        light_count: clusters.lights.len() as u32,
-        visibility,
-    };
     let kernels = twins.gpu.kernels();
     let out = match (&clusters.sp_clusters, &samples) {
         (Some(sc), Some(samples)) => {
@@ -130,7 +121,23 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
             let running = kernels.interpolate.run(device, queue, &gpu_samples, &at, 0..frame.sps.len() as u32)?;
             kernels.shade.finish(device, queue, twins.gpu.scene(), &sps, 0, &running, 0..n_pixels as u32, &params)?
         }
-        _ => kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?,
+        _ => {
+            let visibility = match &clusters.sp_clusters {
+                Some(sc) => Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window: all_hits },
+                None => Visibility::Own { first_row: 0 },
+            };
+            let inputs = ShadeInputs {
+                sps: &sps,
+                sp_first: 0,
+                row_of: &row_of,
+                words: &words,
+                words_per_row: wpr as u32,
+                vpl_lights: &lights,
+                light_count: clusters.lights.len() as u32,
+                visibility,
+            };
+            kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?
+        }
     };
     let gpu: Vec<[f32; 4]> = read_back(device, queue, &out, n_pixels)?;
     Ok((cpu, gpu.into_iter().map(|p| [p[0], p[1], p[2]]).collect()))
