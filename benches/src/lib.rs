@@ -211,3 +211,21 @@ impl Gpu {
         storage(&self.ctx.device, "lights", lights)
     }
 }
+
+/// Runs a command of a document generator (`results`, `variants`), failing with its stderr.
+pub fn run(cmd: &mut std::process::Command) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
+    if !out.status.success() {
+        anyhow::bail!("{cmd:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    }
+    Ok(())
+}
+
+/// When and from which commit a generated document is made: the UTC date and the short hash.
+pub fn date_and_commit() -> anyhow::Result<(String, String)> {
+    let out = |cmd: &str, args: &[&str]| -> anyhow::Result<String> {
+        Ok(String::from_utf8_lossy(&std::process::Command::new(cmd).args(args).output()?.stdout).trim().to_string())
+    };
+    Ok((out("date", &["-u", "+%Y-%m-%d %H:%M UTC"])?, out("git", &["rev-parse", "--short", "HEAD"])?))
+}

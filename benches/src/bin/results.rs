@@ -9,12 +9,13 @@
 //! and cached under `target/results/scenes/`. About 30 minutes of CPU frames and references and
 //! 25 of GPU frames on lavapipe; `--cpu-only` skips the GPU.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Parser;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use vplgi_benches::run;
 use vplgi_frame::Report;
 
 #[derive(Parser)]
@@ -52,14 +53,6 @@ struct SceneSpec {
 }
 
 const CONFIGS: [(&str, u32, u32); 3] = [("light", 750, 1000), ("intermediate", 2000, 8000), ("high", 4000, 30000)];
-
-fn run(cmd: &mut Command) -> Result<()> {
-    let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
-    if !out.status.success() {
-        bail!("{cmd:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    }
-    Ok(())
-}
 
 /// A JSON file read as `T` (the typed `Report` of a `vplgi render`, or a plain `Value`).
 fn json_of<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
@@ -161,7 +154,8 @@ fn main() -> Result<()> {
         }
         rows.push(json!({"scene": sc.name, "paper": sc.paper, "width": sc.width, "height": sc.height, "vpls": sc.vpls, "frames": frames}));
     }
-    let report = json!({"quick": q, "date": String::from_utf8_lossy(&Command::new("date").args(["-u", "+%Y-%m-%d %H:%M UTC"]).output()?.stdout).trim(), "commit": String::from_utf8_lossy(&Command::new("git").args(["rev-parse", "--short", "HEAD"]).output()?.stdout).trim(), "scenes": rows});
+    let (date, commit) = vplgi_benches::date_and_commit()?;
+    let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("results.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
     println!("wrote {} and {}", o.out.display(), docs.join("results.json").display());

@@ -8,12 +8,13 @@
 //! core paper's frame time at each count), the lowest error each variant reached in a frame no
 //! slower than the budget. About five minutes on 2 cores.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Parser;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::Command;
+use vplgi_benches::run;
 
 #[derive(Parser)]
 #[command(about = "Compares the shading-point variants at equal time on the generated scenes; writes docs/VARIANTS.md")]
@@ -39,14 +40,6 @@ const VARIANTS: &str =
 /// A frame may be this much slower than a budget and still count as within it: repeated runs of
 /// one configuration vary by about as much on this machine.
 const TIME_SLACK: f64 = 1.05;
-
-fn run(cmd: &mut Command) -> Result<()> {
-    let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
-    if !out.status.success() {
-        bail!("{cmd:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    }
-    Ok(())
-}
 
 fn main() -> Result<()> {
     let o = Opts::parse();
@@ -102,8 +95,7 @@ fn main() -> Result<()> {
             .collect();
         rows.push(json!({"scene": name, "width": w, "height": h, "vpls": vpls, "frames": frames}));
     }
-    let date = String::from_utf8_lossy(&Command::new("date").args(["-u", "+%Y-%m-%d %H:%M UTC"]).output()?.stdout).trim().to_string();
-    let commit = String::from_utf8_lossy(&Command::new("git").args(["rev-parse", "--short", "HEAD"]).output()?.stdout).trim().to_string();
+    let (date, commit) = vplgi_benches::date_and_commit()?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("variants.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
