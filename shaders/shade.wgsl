@@ -28,6 +28,7 @@ struct Params {
     sp_first: u32,        // first sample held by the bound `sps` chunk
     light_first: u32,     // this dispatch's VPL lights: light_first .. light_end
     light_end: u32,
+    direct: u32,          // shade_finish: 1 adds emission and direct light, 0 the VPLs' only
 }
 
 // Visibility rows per shading point: F in mode 1, 1 in mode 0; a pipeline per value, so that the
@@ -248,7 +249,11 @@ fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         let sp = sps[i - params.sp_first];
         if (sp.triangle != MISS) {
             let lights = running[local * params.spp + s].xyz;
-            sum = sum + (sp.emitted + direct(sp, i) + lights * (sp.albedo / PI));
+            var own = vec3<f32>(0.0);
+            if (params.direct != 0u) {
+                own = sp.emitted + direct(sp, i);
+            }
+            sum = sum + (own + lights * (sp.albedo / PI));
         }
     }
     out[local] = vec4<f32>(sum / f32(params.spp), 0.0);

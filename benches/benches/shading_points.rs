@@ -19,7 +19,7 @@ fn shading_points(c: &mut Criterion) {
             let n = cfg.width as u64 * cfg.height as u64 * cfg.spp as u64;
             // The points stay on the device, as in the chained pipeline.
             let run = || {
-                k.dispatch_range(&g.ctx.device, &g.ctx.queue, &g.scene, &cfg.camera_params(), 0..n as u32).expect("shading_points");
+                k.dispatch_range(&g.ctx.device, &g.ctx.queue, &g.scene, &cfg.camera_params(g.scene.camera), 0..n as u32).expect("shading_points");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));

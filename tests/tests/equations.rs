@@ -184,7 +184,7 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
                 light_count: 1,
                 visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 3, window: vplgi_gpu::buffers::Window { first: 0, count: rs.len() as u64 } },
             };
-            let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max };
+            let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
             let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..rs.len() as u32, &params).expect("shade");
             read_back::<[f32; 4]>(device, queue, &out, rs.len()).expect("read back")
         });

@@ -57,7 +57,7 @@ fn whole_frames_match_the_cpu_in_every_mode() {
         }
         // Pixels whose primary rays agree on the triangle in both backends.
         let c_sp = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
-        let g_sp = spk.run(&ctx.device, &ctx.queue, &gs, &cfg.camera_params(), None).unwrap();
+        let g_sp = spk.run(&ctx.device, &ctx.queue, &gs, &cfg.camera_params(scene.camera), None).unwrap();
         let same: Vec<bool> = c_sp.iter().zip(&g_sp).map(|(a, b)| a.triangle == b.triangle).collect();
         let (mut num, mut den, mut n_same) = (0.0f64, 0usize, 0usize);
         let mut max_rel = 0.0f32;

@@ -48,7 +48,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
     let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Own { matrix: &m, row_of: &row_of, first_row: 0 };
-    let cpu_own = shade(&cs, &sps, 0, 0..n_pixels, &lights, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
+    let cpu_own = shade(&cs, &sps, 0, 0..n_pixels, &lights, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true });
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
     let inputs = ShadeInputs {
@@ -61,7 +61,8 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         light_count: lights.len() as u32,
         visibility: Visibility::Own { first_row: 0 },
     };
-    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
+    let out =
+        kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true }).unwrap();
     let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
     // (b) Both clustered, fuzzy weighted F = 6.
@@ -103,7 +104,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
     let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Fuzzy { matrix: &mc, row_of: &row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
-    let cpu_fuzzy = shade(&cs, &sps, 0, 0..n_pixels, &lights_c, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max });
+    let cpu_fuzzy = shade(&cs, &sps, 0, 0..n_pixels, &lights_c, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true });
     let words_c = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(mc.words()));
     let light_buf_c = storage(&ctx.device, "lights", &to_gpu_lights(&lights_c));
     let labels = storage(&ctx.device, "labels", &sc.labels);
@@ -123,7 +124,8 @@ fn shade_matches_the_cpu_on_identical_inputs() {
             window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 },
         },
     };
-    let out = kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max }).unwrap();
+    let out =
+        kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true }).unwrap();
     let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
     for (name, cpu, gpu) in [("own rows", &cpu_own, &gpu_own), ("fuzzy clusters", &cpu_fuzzy, &gpu_fuzzy)] {
@@ -189,7 +191,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
             light_count: n,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
         };
-        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY };
+        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
         let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..1, &params).expect("shade");
         read_back::<[f32; 4]>(device, queue, &out, 1).expect("read back")[0]
     });

@@ -25,7 +25,7 @@ fn shading_points_match_the_cpu() {
     let kernel = ShadingPointsKernel::new(&ctx.device).unwrap();
     for (w, h, spp) in [(96, 80, 1), (40, 40, 3)] {
         let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, 9);
-        let gpu = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp, seed: 9 }, None).unwrap();
+        let gpu = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 }, None).unwrap();
         assert_eq!(cpu.len(), gpu.len());
         let mut same = 0;
         let mut edge_ties = 0;
@@ -63,7 +63,8 @@ fn shading_points_match_the_cpu() {
         assert!(same as f64 / cpu.len() as f64 >= 0.995, "only {same} samples hit the same triangle");
         Disagreement::at_most(&case, "position error / scene extent", pos_err as f64, SHADING_POINTS_POSITION_REL).check();
         assert!(n_err <= 1e-4 && albedo_err <= 1e-5);
-        let chunked = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp, seed: 9 }, Some(64 * 1000)).unwrap();
+        let chunked =
+            kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 }, Some(64 * 1000)).unwrap();
         assert_eq!(chunked, gpu, "chunked dispatches must give the same shading points");
     }
 }
@@ -81,8 +82,10 @@ fn camera_rays_find_no_cracks_between_boxes() {
     let scene = vplgi_scene::generate::cornell_fine(triangles);
     let (w, h) = (512, 512);
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
-    let gpu =
-        ShadingPointsKernel::new(&ctx.device).unwrap().run(&ctx.device, &ctx.queue, &gs, &CameraParams { width: w, height: h, spp: 1, seed: 1 }, None).unwrap();
+    let gpu = ShadingPointsKernel::new(&ctx.device)
+        .unwrap()
+        .run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 1 }, None)
+        .unwrap();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, 1, 1);
@@ -144,7 +147,10 @@ fn textures_match_the_cpu_and_are_paged() {
     let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, 1, 5);
     let render = |c: &vplgi_gpu::GpuContext| {
         let gs = GpuScene::new(&c.device, &scene).unwrap();
-        ShadingPointsKernel::new(&c.device).unwrap().run(&c.device, &c.queue, &gs, &CameraParams { width: w, height: h, spp: 1, seed: 5 }, None).unwrap()
+        ShadingPointsKernel::new(&c.device)
+            .unwrap()
+            .run(&c.device, &c.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 5 }, None)
+            .unwrap()
     };
     let gpu = render(&ctx);
     let paged = render(&small);
@@ -190,7 +196,7 @@ proptest::proptest! {
     fn shading_points_match_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), width in 32u32..64, height in 32u32..64, spp in 1u32..=3, seed in proptest::prelude::any::<u32>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("shading_points_match_the_cpu_on_random_scenes") else { return Ok(()) };
         println!("{}", scene.name);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shading_points::compare(t, &CameraParams { width, height, spp, seed })).expect("GPU");
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shading_points::compare(t, &CameraParams { camera: scene.camera, width, height, spp, seed })).expect("GPU");
         vplgi_tests::hold(&checks)?;
     }
 }

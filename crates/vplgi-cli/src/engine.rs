@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use std::time::Instant;
 use vplgi_frame::{Adapter, Frame, FrameConfig, Progress};
-use vplgi_scene::Scene;
+use vplgi_scene::{Camera, Scene};
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
 pub enum BackendArg {
@@ -17,9 +17,12 @@ pub enum BackendArg {
     Auto,
 }
 
+/// Renders a frame from a camera (the scene's when `None`).
+type RenderFn<'a> = &'a dyn Fn(&FrameConfig, Option<Camera>, &dyn Progress) -> Result<Frame>;
+
 /// A scene ready to render on one backend.
 pub struct Engine<'a> {
-    render: &'a dyn Fn(&FrameConfig, &dyn Progress) -> Result<Frame>,
+    render: RenderFn<'a>,
     /// `cpu` or `gpu`.
     pub name: &'static str,
     pub adapter: Option<Adapter>,
@@ -30,8 +33,14 @@ pub struct Engine<'a> {
 }
 
 impl Engine<'_> {
+    /// A frame from the scene's camera.
     pub fn render(&self, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame> {
-        (self.render)(cfg, progress)
+        (self.render)(cfg, None, progress)
+    }
+
+    /// A frame from `camera` (a frame of a camera path).
+    pub fn render_from(&self, cfg: &FrameConfig, camera: Camera, progress: &dyn Progress) -> Result<Frame> {
+        (self.render)(cfg, Some(camera), progress)
     }
 }
 
@@ -54,7 +63,7 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
             let device = vplgi_embree::Device::new(None)?;
             let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
-            let render = |cfg: &FrameConfig, p: &dyn Progress| Ok(vplgi_frame::render(&cs, cfg, p)?);
+            let render = |cfg: &FrameConfig, c: Option<Camera>, p: &dyn Progress| Ok(vplgi_frame::render_from(&cs, cfg, c.unwrap_or(scene.camera), p)?);
             work(&Engine { render: &render, name: "cpu", adapter: None, gpu: None, setup_ms })
         }
         Some(ctx) => {
@@ -63,7 +72,7 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
             let clock = Instant::now();
             let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
-            let render = |cfg: &FrameConfig, p: &dyn Progress| Ok(vplgi_frame::render(&gb, cfg, p)?);
+            let render = |cfg: &FrameConfig, c: Option<Camera>, p: &dyn Progress| Ok(vplgi_frame::render_from(&gb, cfg, c.unwrap_or(scene.camera), p)?);
             let adapter = Adapter {
                 name: ctx.describe(),
                 device_type: format!("{:?}", ctx.info.device_type),

@@ -9,7 +9,9 @@ use clap::Args;
 use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
-use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
+use vplgi_types::{
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource,
+};
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
 /// names are [`FrameConfig`]'s, so the options overlay a configuration by name.
@@ -119,6 +121,11 @@ pub struct FrameArgs {
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gather_rays: Option<u32>,
+    /// Which light the image holds: all of it, or only the indirect light of the VPLs (what
+    /// clustering changes; a sequence's flicker is measured on it).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lighting: Option<Lighting>,
     /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
     #[arg(long = "g-clamp", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

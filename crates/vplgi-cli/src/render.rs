@@ -1,4 +1,5 @@
-//! `vplgi render`: one frame on either backend, written as EXR, PNG and report.json.
+//! `vplgi render`: one frame on either backend, written as EXR, PNG and report.json; or, with
+//! `--frames N`, a sequence along the scene's camera path, each frame written as it is done.
 
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, RENDER};
@@ -34,6 +35,14 @@ pub struct RenderArgs {
     /// Exposure applied before tonemapping the PNG.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
+    /// Render a sequence of N frames along the scene's camera animation (glTF translation and
+    /// rotation channels of the camera node; `vplgi scene generate NAME --camera-walk K` makes
+    /// one), at evenly spaced times from its first key to its last. Frames are written as they
+    /// are done (frame-0000.exr and .png, ...), with sequence.json: per-frame times and the
+    /// sequence's flicker, the mean relative change between consecutive frames (compare it with
+    /// the same sequence rendered --cluster none, and measure on --lighting indirect).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/render")]
     out: PathBuf,
@@ -62,6 +71,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let light_sampler = vplgi_scene::lights::LightSampler::new(&scene);
     if !light_sampler.has_lights() {
         eprintln!("warning: {source} has no light (no emissive triangle, no punctual light): the image will be black");
+    }
+    if let Some(n) = args.frames {
+        if args.profile {
+            bail!("--profile times one frame: leave out --frames");
+        }
+        return render_sequence(&args, &cfg, &scene, &source, n);
     }
     let mut profile = None;
     let (frame, backend, adapter, setup_ms) = with_engine(args.backend, &scene, &source, |engine| {
@@ -138,5 +153,87 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
     }
     println!("wrote {}\n      {}\n      {}", exr.display(), png.display(), json.display());
+    Ok(())
+}
+
+/// One frame of a sequence, as sequence.json lists it.
+#[derive(serde::Serialize)]
+struct SequenceFrame {
+    frame: u32,
+    exr: PathBuf,
+    png: PathBuf,
+    camera_position: [f32; 3],
+    camera_forward: [f32; 3],
+    total_ms: f64,
+    vpl_clusters: u32,
+    sp_clusters: u32,
+    /// Relative change from the frame before (`vplgi_image::relative_change`); none for the first.
+    change: Option<f64>,
+}
+
+/// `--frames N`: the camera path sampled at N times, each frame rendered, written and dropped
+/// (only the previous image is kept, for the change between frames), then sequence.json.
+fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vplgi_scene::Scene, source: &str, n: u32) -> Result<()> {
+    let Some(path) = &scene.camera_path else {
+        bail!(
+            "{source} has no camera animation, which --frames follows: animate the camera node (translation / rotation channels), or generate a scene with one: vplgi scene generate conference --camera-walk 5"
+        );
+    };
+    let cameras = path.frames(n).map_err(|e| anyhow::anyhow!("{source}: camera path: {e}"))?;
+    let (span0, span1) = path.span();
+    let mut frames = Vec::with_capacity(n as usize);
+    let mut previous: Option<vplgi_image::Image> = None;
+    let clock = Instant::now();
+    let (backend, adapter) = with_engine(args.backend, scene, source, |engine| {
+        let bars = Bars::new();
+        for (i, camera) in cameras.iter().enumerate() {
+            let frame = engine.render_from(cfg, *camera, &bars)?;
+            let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
+            let exr = args.out.join(format!("frame-{i:04}.exr"));
+            let png = args.out.join(format!("frame-{i:04}.png"));
+            vplgi_image::write_exr(&exr, &image)?;
+            vplgi_image::write_png(&png, &image, args.exposure)?;
+            let change = previous.as_ref().map(|p| vplgi_image::relative_change(p, &image)).transpose()?;
+            let total_ms = frame.timings.total();
+            eprintln!(
+                "frame {}/{n}: {total_ms:.0} ms{}",
+                i + 1,
+                change.map_or(String::new(), |c| format!(", {:.2} % changed from the frame before", 100.0 * c))
+            );
+            frames.push(SequenceFrame {
+                frame: i as u32,
+                exr,
+                png,
+                camera_position: camera.position.to_array(),
+                camera_forward: camera.forward.to_array(),
+                total_ms,
+                vpl_clusters: frame.stats.vpl_clusters,
+                sp_clusters: frame.stats.sp_clusters,
+                change,
+            });
+            previous = Some(image);
+        }
+        Ok((engine.name, engine.adapter.clone()))
+    })?;
+    let changes: Vec<f64> = frames.iter().filter_map(|f| f.change).collect();
+    let flicker = (!changes.is_empty()).then(|| changes.iter().sum::<f64>() / changes.len() as f64);
+    let json = args.out.join("sequence.json");
+    let report = serde_json::json!({
+        "vplgi_version": env!("CARGO_PKG_VERSION"),
+        "backend": backend,
+        "adapter": adapter,
+        "scene": source,
+        "params": cfg,
+        "path_seconds": [span0, span1],
+        "frames": frames,
+        "flicker": flicker,
+        "seconds": clock.elapsed().as_secs_f64(),
+    });
+    write_json(&json, &report)?;
+    match flicker {
+        Some(f) => println!("{n} frames of {} ({}x{}), flicker (mean relative change between frames) {:.2} %", scene.name, cfg.width, cfg.height, 100.0 * f),
+        None => println!("1 frame of {} ({}x{})", scene.name, cfg.width, cfg.height),
+    }
+    println!("wrote {} .. {}\n      {}", frames[0].png.display(), frames[frames.len() - 1].png.display(), json.display());
     Ok(())
 }

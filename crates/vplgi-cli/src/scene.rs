@@ -65,6 +65,11 @@ struct GenerateArgs {
     /// Output file [default: out/scenes/NAME.glb].
     #[arg(long, value_name = "FILE.glb")]
     out: Option<PathBuf>,
+    /// Also animate the camera node: a walk of N keyframes one second apart (forward by 12 % of
+    /// the scene's diagonal, swaying and turning a little), which `vplgi render --frames` renders
+    /// as a sequence.
+    #[arg(long, value_name = "N")]
+    camera_walk: Option<u32>,
 }
 
 pub fn run(args: SceneArgs) -> Result<()> {
@@ -117,7 +122,10 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 
 fn run_generate(g: GenerateArgs) -> Result<()> {
     let default = GENERATORS.iter().find(|x| x.0 == g.name).map_or(300_000, |x| x.1);
-    let scene = generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut scene = generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(keys) = g.camera_walk {
+        scene.camera_path = Some(vplgi_scene::generate::camera_walk(&scene, keys).map_err(|e| anyhow::anyhow!("--camera-walk: {e}"))?);
+    }
     let out = g.out.unwrap_or_else(|| PathBuf::from(format!("out/scenes/{}.glb", g.name)));
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -126,6 +134,11 @@ fn run_generate(g: GenerateArgs) -> Result<()> {
     write_file(&out, &bytes)?;
     let emissive = scene.material_ids.iter().filter(|&&m| scene.materials[m as usize].emission.max_element() > 0.0).count();
     println!("{}: {} triangles ({} emissive), {:.1} MB", scene.name, scene.triangle_count(), emissive, bytes.len() as f64 / 1e6);
-    println!("wrote {}\nrender it: vplgi render {}", out.display(), out.display());
+    match g.camera_walk {
+        Some(keys) => {
+            println!("wrote {} (camera walk of {keys} keyframes)\nrender it: vplgi render {} --frames {}", out.display(), out.display(), 4 * (keys - 1) + 1)
+        }
+        None => println!("wrote {}\nrender it: vplgi render {}", out.display(), out.display()),
+    }
     Ok(())
 }

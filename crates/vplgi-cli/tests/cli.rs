@@ -671,3 +671,79 @@ fn clustered_references_are_whole_images() {
     let sidecar: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("reference.json")).unwrap()).unwrap();
     assert_eq!(sidecar["params"]["cluster"], "both");
 }
+
+/// `--frames N` follows the camera path of `scene generate --camera-walk`: one EXR and PNG per
+/// frame, sequence.json with each frame's change from the one before and their mean (the
+/// flicker). The GPU renders the same frames. Scenes without a path, and zero frames, are refused.
+#[test]
+fn camera_walks_render_as_frame_sequences() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("walk.glb");
+    let o = vplgi(&["scene", "generate", "conference", "--triangles", "4000", "--camera-walk", "3", "--out", glb.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("--frames"), "says how to render the walk");
+    let small = ["--width", "32", "--height", "24", "--vpls", "400", "--k-sp", "100", "--k-vpl", "40", "--lighting", "indirect"];
+    let sequence = |backend: &str, frames: &str| {
+        let out = dir.path().join(backend);
+        let mut args = vec!["render", glb.to_str().unwrap(), "--backend", backend, "--frames", frames, "--out", out.to_str().unwrap()];
+        args.extend_from_slice(&small);
+        (vplgi(&args), out)
+    };
+    let (o, cpu) = sequence("cpu", "4");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let seq: serde_json::Value = serde_json::from_slice(&std::fs::read(cpu.join("sequence.json")).unwrap()).unwrap();
+    let frames = seq["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 4);
+    let images: Vec<vplgi_image::Image> = (0..4).map(|i| vplgi_image::read_exr(&cpu.join(format!("frame-{i:04}.exr"))).unwrap()).collect();
+    assert!((0..4).all(|i| cpu.join(format!("frame-{i:04}.png")).exists()));
+    assert!(frames[0]["change"].is_null());
+    let mut sum = 0.0;
+    for i in 1..4 {
+        let change = vplgi_image::relative_change(&images[i - 1], &images[i]).unwrap();
+        // (serde_json reads floats back to within an ulp.)
+        assert!((frames[i]["change"].as_f64().unwrap() - change).abs() <= 1e-12 * change, "frame {i}");
+        assert!(change > 0.0, "the camera moves: frame {i} differs from the one before");
+        sum += change;
+    }
+    assert!((seq["flicker"].as_f64().unwrap() - sum / 3.0).abs() < 1e-12);
+    assert_ne!(frames[0]["camera_position"], frames[3]["camera_position"]);
+
+    let (o, gpu) = sequence("gpu", "4");
+    if o.status.success() {
+        for i in [0, 3] {
+            let g = vplgi_image::read_exr(&gpu.join(format!("frame-{i:04}.exr"))).unwrap();
+            let m = vplgi_image::compare(&images[i], &g).unwrap().metrics;
+            assert!(m.flip < 0.05, "frame {i}: GPU against CPU {m:?}");
+        }
+    } else {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("no GPU adapter") && std::env::var("CI").map_or(true, |v| v != "true"), "gpu sequence failed: {err}");
+        eprintln!("\n*** SKIPPED the GPU sequence: {err} ***\n");
+    }
+
+    let o = vplgi(&["render", "--frames", "2", "--out", dir.path().join("box").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no camera animation"), "{}", String::from_utf8_lossy(&o.stderr));
+    let (o, _) = sequence("cpu", "0");
+    assert!(!o.status.success());
+    let o = vplgi(&["scene", "generate", "conference", "--triangles", "4000", "--camera-walk", "1", "--out", glb.to_str().unwrap()]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("at least 2"));
+}
+
+/// `--lighting indirect` leaves out emission and direct light: the image holds less light than
+/// the whole frame, but not none, and the light itself (emission) is dark.
+#[test]
+fn lighting_indirect_keeps_only_the_vpls_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let all = dir.path().join("all");
+    let indirect = dir.path().join("indirect");
+    render(&all, &[]);
+    render(&indirect, &["--lighting", "indirect"]);
+    let a = vplgi_image::read_exr(&all.join("image.exr")).unwrap();
+    let i = vplgi_image::read_exr(&indirect.join("image.exr")).unwrap();
+    let total = |img: &vplgi_image::Image| img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
+    let (ta, ti) = (total(&a), total(&i));
+    assert!(ti > 0.0 && ti < 0.8 * ta, "indirect {ti} of {ta}");
+    let brightest = |img: &vplgi_image::Image| img.pixels.iter().map(|p| p[0] + p[1] + p[2]).fold(0.0f32, f32::max);
+    assert!(brightest(&i) < 0.5 * brightest(&a), "the emitter is not in the indirect image");
+}

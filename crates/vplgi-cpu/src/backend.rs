@@ -20,7 +20,7 @@ use vplgi_types::clustering::ClusterParams;
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::{BiasParams, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
+use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
 /// surface points.
@@ -44,6 +44,10 @@ impl Backend for CpuScene<'_> {
 
     fn scene_extent(&self) -> f32 {
         self.extent
+    }
+
+    fn camera(&self) -> Camera {
+        self.scene.camera
     }
 
     fn trace_vpls(&self, p: &TraceParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, VplCounts), FrameError> {

@@ -278,7 +278,8 @@ pub fn shade_point(cs: &CpuScene, sp: &ShadingPoint, i: usize, lights: &LightArr
     if sp.triangle == MISS {
         return Vec3::ZERO;
     }
-    Vec3::from(sp.emitted) + direct(cs, sp, i as u32, params.seed, params.direct_samples) + indirect(sp, i, lights, vis, params.g_max)
+    let own = if params.direct { Vec3::from(sp.emitted) + direct(cs, sp, i as u32, params.seed, params.direct_samples) } else { Vec3::ZERO };
+    own + indirect(sp, i, lights, vis, params.g_max)
 }
 
 /// Shades pixels `pixels` (a range of pixel indices), averaging their `params.spp` shading points

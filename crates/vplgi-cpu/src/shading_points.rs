@@ -19,14 +19,13 @@ pub fn film_position(index: u32, width: u32, spp: u32, seed: u32) -> (f32, f32) 
 }
 
 pub fn shading_points(cs: &CpuScene, width: u32, height: u32, spp: u32, seed: u32) -> Vec<ShadingPoint> {
-    shading_points_of(cs, &CameraParams { width, height, spp, seed }, 0..width * height * spp)
+    shading_points_of(cs, &CameraParams { camera: cs.scene.camera, width, height, spp, seed }, 0..width * height * spp)
 }
 
 /// The shading points of samples `samples` only (a tile of the image); each is the same as in
 /// the whole frame.
 pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops::Range<u32>) -> Vec<ShadingPoint> {
-    let CameraParams { width, height, spp, seed } = *params;
-    let camera = cs.scene.camera;
+    let CameraParams { camera, width, height, spp, seed } = *params;
     samples
         .into_par_iter()
         .map(|i| {

@@ -8,7 +8,7 @@ use vplgi_types::clustering::ClusterParams;
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
+use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -93,6 +93,9 @@ pub trait Backend {
 
     /// The scene's bounding-box diagonal (what the geometry-term clamp is relative to).
     fn scene_extent(&self) -> f32;
+
+    /// The scene's own camera (frames without a camera of their own are seen from it).
+    fn camera(&self) -> Camera;
 
     /// Refuses, before any work, a frame this backend cannot hold.
     fn check_frame(&self, _cfg: &FrameConfig) -> Result<(), Self::Error> {

@@ -5,15 +5,20 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, VplClustering, VplSource};
+use vplgi_types::{Camera, ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
 pub const ROW_CHUNK_BITS: u64 = 64 << 23;
 
-/// Renders one frame.
+/// Renders one frame from the scene's camera.
 pub fn render<B: Backend>(b: &B, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_rows(b, cfg, 0..cfg.height, progress)
+    render_from(b, cfg, b.camera(), progress)
+}
+
+/// Renders one frame from `camera` (a frame of a camera path).
+pub fn render_from<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, progress: &dyn Progress) -> Result<Frame, B::Error> {
+    render_view(b, cfg, camera, 0..cfg.height, progress)
 }
 
 /// Times `work` as part of `stage`, waiting for the backend to finish it.
@@ -30,6 +35,10 @@ fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl Fn
 /// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
 /// tiles; clustered frames cannot be (their clusters depend on the whole image).
 pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+    render_view(b, cfg, b.camera(), rows, progress)
+}
+
+fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
     cfg.validate().map_err(FrameError::InvalidConfig)?;
     if rows.start >= rows.end || rows.end > cfg.height {
         return Err(FrameError::InvalidConfig(format!("rows {}..{} of a {}-row image", rows.start, rows.end, cfg.height)).into());
@@ -53,7 +62,7 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
     // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay
     // global: the RNG streams use them, so a tile's pixels equal the whole frame's.
     progress.start(Stage::ShadingPoints.name(), 1);
-    let camera = cfg.camera_params();
+    let camera = cfg.camera_params(camera);
     let per_chunk = (b.max_samples_per_chunk() / spp).max(1) * spp;
     let (first_sample, end_sample) = (rows.start * cfg.width * spp, rows.end * cfg.width * spp);
     let mut chunks = timed(b, &mut t, Stage::ShadingPoints, || {
@@ -167,7 +176,9 @@ pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progr
             })?;
             let cols = b.light_points(&lights, n_lights)?;
             let bias = cfg.bias_params(extent, level);
-            let level_shade = ShadeParams { seed: bias.seed, ..shade };
+            // A bias point's emission and direct light reach the camera after a bounce: they
+            // are indirect light, kept whatever `--lighting` says.
+            let level_shade = ShadeParams { seed: bias.seed, direct: true, ..shade };
             let mut any = false;
             for chunk in chunks.iter_mut() {
                 let range = chunk.first..chunk.first + chunk.count;

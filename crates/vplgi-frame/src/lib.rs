@@ -2,7 +2,7 @@
 //!
 //! * [`Backend`]: one method per stage (and per piece of glue between stages). The CPU reference
 //!   implements it on host vectors, the GPU twin on device buffers.
-//! * [`render`] / [`render_rows`]: the frame, written once: chunking, hit compaction, the
+//! * [`render`] / [`render_from`] / [`render_rows`]: the frame, written once: chunking, hit compaction, the
 //!   geometry-term clamp, the choice of stage variants from [`FrameConfig`]'s enums, timings
 //!   and statistics live here and nowhere else.
 //! * [`Frame`], [`FrameStats`], [`Stage`], [`StageTimings`]: what a frame returns, the same type
@@ -15,7 +15,7 @@ mod frame;
 mod report;
 
 pub use backend::{Backend, ClusterCounts, LightSet, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
-pub use driver::{render, render_rows, ROW_CHUNK_BITS};
+pub use driver::{render, render_from, render_rows, ROW_CHUNK_BITS};
 pub use frame::{Frame, FrameError, FrameStats, NoProgress, Progress, Stage, StageTimings};
 pub use report::{Adapter, Clusters, GClamp, KernelTime, Outputs, Report, SceneInfo, Setup};
 pub use vplgi_types::FrameConfig;

@@ -28,7 +28,7 @@ use vplgi_types::clustering::ClusterParams;
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::{BiasParams, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
+use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
 struct GlueKernels {
@@ -183,6 +183,10 @@ impl Backend for GpuBackend<'_> {
 
     fn scene_extent(&self) -> f32 {
         self.extent
+    }
+
+    fn camera(&self) -> Camera {
+        self.scene.camera
     }
 
     /// The per-sample hit flags, offsets and rows (4 B per sample) must fit one storage binding,

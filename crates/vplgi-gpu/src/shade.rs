@@ -30,6 +30,8 @@ pub(crate) struct Params {
     pub(crate) sp_first: u32,
     pub(crate) light_first: u32,
     pub(crate) light_end: u32,
+    /// 1: shade_finish adds emission and direct light (`ShadeParams::direct`).
+    pub(crate) direct: u32,
 }
 
 /// Loop iterations one invocation may run. lavapipe (llvmpipe) ends every loop of an invocation
@@ -153,6 +155,7 @@ impl ShadeKernel {
             sp_first: inputs.sp_first,
             light_first: 0,
             light_end: 0,
+            direct: 0,
         };
         validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
@@ -187,7 +190,7 @@ impl ShadeKernel {
         pixels: std::ops::Range<u32>,
         shade: &ShadeParams,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let ShadeParams { spp, seed, direct_samples, g_max } = *shade;
+        let ShadeParams { spp, seed, direct_samples, g_max, direct } = *shade;
         let count = pixels.end - pixels.start;
         let params = Params {
             spp,
@@ -204,6 +207,7 @@ impl ShadeKernel {
             sp_first,
             light_first: 0,
             light_end: 0,
+            direct: direct as u32,
         };
         validated(device, "shade", || {
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);

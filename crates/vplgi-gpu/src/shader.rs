@@ -524,7 +524,7 @@ mod tests {
             [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative }
             [crate::seeding::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
-            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end }
+            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }

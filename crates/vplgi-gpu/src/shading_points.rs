@@ -43,9 +43,8 @@ impl ShadingPointsKernel {
         camera: &CameraParams,
         samples: std::ops::Range<u32>,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let CameraParams { width, height, spp, seed } = *camera;
+        let CameraParams { camera: cam, width, height, spp, seed } = *camera;
         let (first, count) = (samples.start, samples.end - samples.start);
-        let cam = scene.camera;
         let right = cam.forward.cross(cam.up).normalize();
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
         let params = Params {

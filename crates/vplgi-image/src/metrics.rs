@@ -88,9 +88,50 @@ fn ldr_flip(reference: &Image, test: &Image) -> Vec<f32> {
     nv_flip::flip(to_flip(reference), to_flip(test), nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec()
 }
 
+/// How much an image changed from the frame before: the summed absolute change of every pixel
+/// and channel over the previous frame's sum (a relative L1 change; 0.1 is "10 % of the light
+/// moved"). A sequence's flicker is its mean over consecutive frames; camera motion changes images
+/// too, so it is read against the same measure of a converged sequence along the same path.
+pub fn relative_change(previous: &Image, next: &Image) -> Result<f64, ImageError> {
+    if (previous.width, previous.height) != (next.width, next.height) {
+        return Err(ImageError::SizeMismatch { reference: (previous.width, previous.height), test: (next.width, next.height) });
+    }
+    previous.check_len("previous frame")?;
+    next.check_len("next frame")?;
+    let (mut change, mut total) = (0.0f64, 0.0f64);
+    for (a, b) in previous.pixels.iter().zip(&next.pixels) {
+        for c in 0..3 {
+            change += (f64::from(b[c]) - f64::from(a[c])).abs();
+            total += f64::from(a[c]);
+        }
+    }
+    Ok(if total > 0.0 {
+        change / total
+    } else if change == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn relative_change_is_the_l1_change_over_the_previous_sum() {
+        let img = pattern(16, 8);
+        assert_eq!(relative_change(&img, &img).unwrap(), 0.0);
+        let brighter = Image { pixels: img.pixels.iter().map(|p| p.map(|c| 1.25 * c)).collect(), ..img.clone() };
+        assert!((relative_change(&img, &brighter).unwrap() - 0.25).abs() < 1e-6);
+        // Light moving between pixels counts once where it left and once where it arrived.
+        let a = Image { width: 2, height: 1, pixels: vec![[1.0; 3], [0.0; 3]] };
+        let b = Image { width: 2, height: 1, pixels: vec![[0.0; 3], [1.0; 3]] };
+        assert_eq!(relative_change(&a, &b).unwrap(), 2.0);
+        let black = filled(2, 1, [0.0; 3]);
+        assert_eq!(relative_change(&black, &black).unwrap(), 0.0);
+        assert!(relative_change(&img, &filled(4, 4, [0.0; 3])).is_err());
+    }
 
     fn filled(width: u32, height: u32, rgb: [f32; 3]) -> Image {
         Image { width, height, pixels: vec![rgb; (width * height) as usize] }

@@ -9,11 +9,13 @@
 //! * `living-room`: large smooth walls and floor, two sofas and a low table, lit mostly through a
 //!   bright window-like panel in one wall (about 300 k triangles, like the paper's 313 k room).
 //!
+//! [`camera_walk`] adds a camera path to any of them (`--camera-walk`), for frame sequences.
+//!
 //! Budgets are met by subdividing the large surfaces; furniture detail is fixed, so a small
 //! budget still gives the whole scene (tests use a few thousand triangles).
 
-use crate::{Camera, Material, Scene};
-use glam::{Vec2, Vec3};
+use crate::{Camera, CameraPath, Material, Scene, Track};
+use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// The generators, by name: (name, default triangle budget, what it is).
 pub const GENERATORS: [(&str, usize, &str); 3] = [
@@ -32,6 +34,36 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
     };
     scene.validate()?;
     Ok(scene)
+}
+
+/// A walk from the scene's camera: `keys` keyframes one second apart (at least 2), moving
+/// forward (level with the floor) by 12 % of the scene's diagonal while swaying sideways by
+/// up to 2 % and turning left and right by up to 8 degrees, one full sway over the walk. The
+/// generators' cameras have that much free room ahead of them.
+pub fn camera_walk(scene: &Scene, keys: u32) -> Result<CameraPath, String> {
+    if keys < 2 {
+        return Err(format!("a camera walk needs at least 2 keyframes, not {keys}"));
+    }
+    let c = scene.camera;
+    let diagonal = scene.extent();
+    let ahead = Vec3::new(c.forward.x, 0.0, c.forward.z).try_normalize().unwrap_or(Vec3::NEG_Z);
+    let side = ahead.cross(Vec3::Y);
+    let base = c.rotation();
+    let (mut times, mut positions, mut rotations) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..keys {
+        let s = i as f32 / (keys - 1) as f32;
+        let sway = (std::f32::consts::TAU * s).sin();
+        times.push(i as f32);
+        positions.push(c.position + ahead * (0.12 * diagonal * s) + side * (0.02 * diagonal * sway));
+        rotations.push((Quat::from_rotation_y(8f32.to_radians() * sway) * base).normalize());
+    }
+    Ok(CameraPath {
+        parent: Mat4::IDENTITY,
+        translation: Track::new(times.clone(), positions, false)?,
+        rotation: Track::new(times, rotations, false)?,
+        scale: Vec3::ONE,
+        yfov: c.yfov,
+    })
 }
 
 /// The Cornell box with each non-emissive triangle split into n² (n chosen for the budget). An

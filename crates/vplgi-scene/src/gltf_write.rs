@@ -16,20 +16,25 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
     let mut bin: Vec<u8> = Vec::new();
     let mut views = Vec::new();
     let mut accessors = Vec::new();
-    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| -> usize {
+    // Vertex and index views name their target; animation keys have none.
+    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: Option<u32>| -> usize {
         bin.resize(bin.len().next_multiple_of(4), 0);
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
+        let mut view = json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()});
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        views.push(view);
         bin.extend_from_slice(bytes);
         views.len() - 1
     };
     let floats = |v: &mut dyn Iterator<Item = f32>| -> Vec<u8> { v.flat_map(f32::to_le_bytes).collect() };
     let n = scene.positions.len();
     let (lo, hi) = scene.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)));
-    let pos_view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), 34962);
+    let pos_view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(34962));
     accessors.push(json!({"bufferView": pos_view, "componentType": 5126, "count": n, "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
-    let nrm_view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|p| p.to_array())), 34962);
+    let nrm_view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|p| p.to_array())), Some(34962));
     accessors.push(json!({"bufferView": nrm_view, "componentType": 5126, "count": n, "type": "VEC3"}));
-    let uv_view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|p| p.to_array())), 34962);
+    let uv_view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|p| p.to_array())), Some(34962));
     accessors.push(json!({"bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2"}));
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
@@ -38,7 +43,7 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         if idx.is_empty() {
             continue;
         }
-        let view = push_view(&mut bin, &idx, 34963);
+        let view = push_view(&mut bin, &idx, Some(34963));
         accessors.push(json!({"bufferView": view, "componentType": 5125, "count": idx.len() / 4, "type": "SCALAR"}));
         primitives.push(json!({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": accessors.len() - 1, "material": m}));
     }
@@ -63,10 +68,35 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         .collect();
     // The camera node: glTF cameras look down their local -z with +y up.
     let c = scene.camera;
-    let z = -c.forward.normalize();
-    let x = c.up.cross(z).normalize();
-    let y = z.cross(x);
-    let rotation = Quat::from_mat3(&Mat3::from_cols(x, y, z)).normalize();
+    let rotation = c.rotation();
+    // Its animation, if any: one sampler per animated property, keys one accessor each.
+    let mut animations = Vec::new();
+    if let Some(path) = &scene.camera_path {
+        if path.parent != glam::Mat4::IDENTITY || path.scale != Vec3::ONE {
+            return Err(format!("{}: the glTF writer writes camera paths of an unparented, unscaled camera node only", scene.name));
+        }
+        let mut samplers = Vec::new();
+        let mut channels = Vec::new();
+        let mut track = |bin: &mut Vec<u8>, times: &[f32], values: Vec<f32>, kind: &str, step: bool, property: &str| {
+            let (lo, hi) = (times[0], times[times.len() - 1]);
+            let view = push_view(bin, &floats(&mut times.iter().copied()), None);
+            accessors.push(json!({"bufferView": view, "componentType": 5126, "count": times.len(), "type": "SCALAR", "min": [lo], "max": [hi]}));
+            let view = push_view(bin, &floats(&mut values.into_iter()), None);
+            accessors.push(json!({"bufferView": view, "componentType": 5126, "count": times.len(), "type": kind}));
+            let interpolation = if step { "STEP" } else { "LINEAR" };
+            samplers.push(json!({"input": accessors.len() - 2, "output": accessors.len() - 1, "interpolation": interpolation}));
+            channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": 1, "path": property}}));
+        };
+        // A constant track is the node's own translation or rotation: no channel.
+        let (t, r) = (&path.translation, &path.rotation);
+        if t.span().is_some() {
+            track(&mut bin, t.times(), t.values().iter().flat_map(|v| v.to_array()).collect(), "VEC3", t.is_step(), "translation");
+        }
+        if r.span().is_some() {
+            track(&mut bin, r.times(), r.values().iter().flat_map(|q| q.to_array()).collect(), "VEC4", r.is_step(), "rotation");
+        }
+        animations.push(json!({"name": "camera path", "samplers": samplers, "channels": channels}));
+    }
     let mut nodes = vec![
         json!({"name": scene.name, "mesh": 0}),
         json!({"name": "camera", "camera": 0, "translation": c.position.to_array(), "rotation": rotation.to_array()}),
@@ -103,6 +133,9 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}],
     });
+    if !animations.is_empty() {
+        doc["animations"] = json!(animations);
+    }
     if !lights.is_empty() {
         used.push("KHR_lights_punctual");
         doc["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
@@ -163,5 +196,27 @@ mod tests {
             assert!((back.camera.forward - s.camera.forward).length() < 1e-5, "{}: camera {:?} vs {:?}", s.name, back.camera, s.camera);
             assert!((back.camera.yfov - s.camera.yfov).abs() < 1e-6);
         }
+    }
+
+    /// A generated camera walk is written as an animation and read back as the same path: the
+    /// cameras of 9 frames over its 5 keys agree, and the walk moves and turns.
+    #[test]
+    fn a_camera_walk_survives_a_glb_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = crate::generate::generate("conference", 2_000).unwrap();
+        let walk = crate::generate::camera_walk(&s, 5).unwrap();
+        s.camera_path = Some(walk.clone());
+        let path = dir.path().join("walk.glb");
+        std::fs::write(&path, glb(&s).unwrap()).unwrap();
+        let back = Scene::load(&path).unwrap().camera_path.expect("a camera path");
+        assert_eq!(back.span(), (0.0, 4.0));
+        let (a, b) = (walk.frames(9).unwrap(), back.frames(9).unwrap());
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x.position - y.position).length() < 1e-5 && (x.forward - y.forward).length() < 1e-5, "{x:?} vs {y:?}");
+        }
+        assert_eq!(a[0].position, s.camera.position, "the walk starts at the scene's camera");
+        assert!((a[8].position - a[0].position).length() > 0.1 * s.extent(), "it walks");
+        assert!(a[2].forward.dot(a[0].forward) < 0.995, "it turns");
+        assert!(crate::generate::camera_walk(&s, 1).unwrap_err().contains("at least 2"));
     }
 }

@@ -15,6 +15,8 @@ pub mod gltf_write;
 pub mod lights;
 pub mod mitsuba;
 
+pub use vplgi_types::camera::{Camera, CameraPath, Track};
+
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -36,6 +38,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Vec<PunctualLight>,
     pub camera: Camera,
+    /// The camera node's animation, if the file has one (`render --frames`); `camera` is its
+    /// pose in the file, not necessarily the path's first.
+    pub camera_path: Option<CameraPath>,
 }
 
 /// A Lambertian material, optionally emissive.
@@ -141,46 +146,6 @@ impl PunctualLight {
                 t * t
             }
         }
-    }
-}
-
-/// A pinhole camera.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Camera {
-    pub position: Vec3,
-    /// Unit viewing direction.
-    pub forward: Vec3,
-    /// Unit up vector, orthogonal to `forward`.
-    pub up: Vec3,
-    /// Vertical field of view in radians.
-    pub yfov: f32,
-}
-
-impl Default for Camera {
-    fn default() -> Self {
-        Camera { position: Vec3::new(0.0, 0.0, 5.0), forward: -Vec3::Z, up: Vec3::Y, yfov: 0.7 }
-    }
-}
-
-impl Camera {
-    /// The primary ray direction through film position (`sx`, `sy`) in pixels, where (0, 0) is
-    /// the top-left corner of the image.
-    pub fn ray_direction(&self, sx: f32, sy: f32, width: u32, height: u32) -> Vec3 {
-        let aspect = width as f32 / height as f32;
-        let tan_half = (0.5 * self.yfov).tan();
-        let right = self.forward.cross(self.up).normalize();
-        let px = (2.0 * sx / width as f32 - 1.0) * tan_half * aspect;
-        let py = (1.0 - 2.0 * sy / height as f32) * tan_half;
-        (self.forward + right * px + self.up * py).normalize()
-    }
-
-    /// A camera that frames the box `[min, max]`, looking along -Z from in front of it.
-    pub fn framing(min: Vec3, max: Vec3) -> Camera {
-        let center = 0.5 * (min + max);
-        let radius = (0.5 * (max - min).length()).max(1e-3);
-        let yfov = 45f32.to_radians();
-        let distance = radius / (0.5 * yfov).sin();
-        Camera { position: center + Vec3::Z * distance, forward: -Vec3::Z, up: Vec3::Y, yfov }
     }
 }
 

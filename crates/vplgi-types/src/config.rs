@@ -134,6 +134,19 @@ pub enum ShadeMode {
     Interpolate,
 }
 
+/// Which light a frame's image holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Lighting {
+    /// Emission, direct light and indirect light.
+    #[default]
+    All,
+    /// The VPLs' light only (with bias compensation, its levels too): what clustering changes,
+    /// and what a sequence's flicker is measured on.
+    Indirect,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -249,6 +262,9 @@ pub struct FrameConfig {
     /// Gather rays per sample point for R_j of `ShadeMode::Interpolate`.
     #[serde(default = "default_gather_rays")]
     pub gather_rays: u32,
+    /// Which light the image holds. Files written before the option existed read as all.
+    #[serde(default)]
+    pub lighting: Lighting,
 }
 
 fn default_gather_rays() -> u32 {
@@ -303,6 +319,7 @@ impl FrameConfig {
             seeding: Seeding::Stride,
             shade: ShadeMode::Fuzzy,
             gather_rays: default_gather_rays(),
+            lighting: Lighting::All,
         }
     }
 
@@ -399,8 +416,8 @@ impl FrameConfig {
     }
 
     /// The parameters of `shading_points`.
-    pub fn camera_params(&self) -> crate::CameraParams {
-        crate::CameraParams { width: self.width, height: self.height, spp: self.spp, seed: self.seed }
+    pub fn camera_params(&self, camera: crate::Camera) -> crate::CameraParams {
+        crate::CameraParams { camera, width: self.width, height: self.height, spp: self.spp, seed: self.seed }
     }
 
     /// The clamp's bound on the geometry term for a scene of bounding-box diagonal `extent`:
@@ -416,7 +433,13 @@ impl FrameConfig {
 
     /// The parameters of `shade` for a scene of bounding-box diagonal `extent`.
     pub fn shade_params(&self, extent: f32) -> crate::ShadeParams {
-        crate::ShadeParams { spp: self.spp, seed: self.seed, direct_samples: self.direct_samples, g_max: self.g_max(extent) }
+        crate::ShadeParams {
+            spp: self.spp,
+            seed: self.seed,
+            direct_samples: self.direct_samples,
+            g_max: self.g_max(extent),
+            direct: self.lighting == Lighting::All,
+        }
     }
 
     /// The parameters of `bias_points` at compensation level `level` (1 ..= `bounces`).

@@ -4,6 +4,7 @@
 //!   reference and the GPU twin read alike.
 //! * [`rng`]: the counter-based hash RNG keyed by (seed, stream, index). It is written so that
 //!   the same integer operations can be transcribed to WGSL and give bit-identical streams.
+//! * [`camera`]: the pinhole camera and camera paths (keyframed glTF camera animation).
 //! * [`sampling`]: the few warps used to turn uniform numbers into directions and points.
 //! * [`config`]: [`FrameConfig`], the parameters of one frame, with the paper's presets.
 //! * [`clustering`]: the host-side choices of Alg. 1 and 2 every backend shares.
@@ -15,6 +16,7 @@
 //! * [`interpolation`]: `--shade interpolate`'s weights and radii (Wang et al.).
 //! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
 
+pub mod camera;
 pub mod clustering;
 pub mod config;
 pub mod device;
@@ -28,7 +30,8 @@ pub mod rsm;
 pub mod sampling;
 pub mod seeding;
 
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
+pub use camera::{Camera, CameraPath};
+pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

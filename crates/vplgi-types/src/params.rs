@@ -13,8 +13,10 @@ pub struct TraceParams {
 }
 
 /// `shading_points`: the camera samples of a `width` x `height` image, `spp` per pixel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraParams {
+    /// Where the image is seen from (the scene's camera, or a path's camera for this frame).
+    pub camera: crate::Camera,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -31,6 +33,8 @@ pub struct ShadeParams {
     pub direct_samples: u32,
     /// The clamped geometry term's bound 1 / d_min² (infinity: no clamp).
     pub g_max: f32,
+    /// Whether emission and direct light are added (false: the VPLs' light only).
+    pub direct: bool,
 }
 
 /// `bias_points`: one segment of a bias-compensation path per shading point, which puts back the

@@ -94,7 +94,7 @@ pub fn compare(twins: &Twins, parents: &[ShadingPoint], (width, spp): (u32, u32)
 /// frame's clamp.
 pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::BiasPoints);
-    let camera = cfg.camera_params();
+    let camera = cfg.camera_params(twins.scene.camera);
     let mut parents = vplgi_cpu::shading_points::shading_points(twins.cpu, camera.width, camera.height, camera.spp, camera.seed);
     for level in 1..=cfg.bounces.min(2) {
         let params = cfg.bias_params(twins.cpu.extent, level);

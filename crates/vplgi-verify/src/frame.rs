@@ -20,7 +20,7 @@ struct Shared {
 
 impl Shared {
     fn new(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<Shared, VerifyError> {
-        let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params())?;
+        let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params(twins.scene.camera))?;
         let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, twins.scene.camera.position, (cfg.width, cfg.spp));
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
             let checks = match cfg.vpl_source {

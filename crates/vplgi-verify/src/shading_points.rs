@@ -107,7 +107,7 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
 /// The frame's camera samples.
 pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::ShadingPoints);
-    r.checks = compare(twins, &cfg.camera_params())?;
+    r.checks = compare(twins, &cfg.camera_params(twins.scene.camera))?;
     r.notes.push(format!(
         "{} samples; a ray through an edge shared by two triangles may return either (same point, another triangle): counted as agreement, and reported. \
          Positions are judged with each difference times the cosine between the camera ray and the surface: a ray grazing a surface slides along it by \

@@ -85,6 +85,15 @@ fn check_range(what: &str, view: &gltf::buffer::View, offset: usize, count: usiz
 }
 
 pub(super) const VEC3_F32: &[(Dimensions, DataType)] = &[(Dimensions::Vec3, DataType::F32)];
+pub(super) const SCALAR_F32: &[(Dimensions, DataType)] = &[(Dimensions::Scalar, DataType::F32)];
+/// Rotation keyframes: floats or normalised integers (glTF's animation sampler rule).
+pub(super) const ROTATION_KINDS: &[(Dimensions, DataType)] = &[
+    (Dimensions::Vec4, DataType::F32),
+    (Dimensions::Vec4, DataType::I8),
+    (Dimensions::Vec4, DataType::U8),
+    (Dimensions::Vec4, DataType::I16),
+    (Dimensions::Vec4, DataType::U16),
+];
 pub(super) const UV_KINDS: &[(Dimensions, DataType)] =
     &[(Dimensions::Vec2, DataType::F32), (Dimensions::Vec2, DataType::U8), (Dimensions::Vec2, DataType::U16)];
 pub(super) const INDEX_KINDS: &[(Dimensions, DataType)] =

@@ -1,11 +1,11 @@
 //! Flattening a glTF document's default scene into a world-space [`Scene`].
 
-use super::checks::{check_accessor, INDEX_KINDS, UV_KINDS, VEC3_F32};
+use super::checks::{check_accessor, INDEX_KINDS, ROTATION_KINDS, SCALAR_F32, UV_KINDS, VEC3_F32};
 use super::checks::{check_uri, short_uri};
 use super::invalid;
 use super::texture::linear_texture;
-use crate::{Camera, Material, PunctualLight, Scene, SceneError};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use crate::{Camera, CameraPath, Material, PunctualLight, Scene, SceneError, Track};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use gltf::mesh::Mode;
 use std::collections::HashSet;
 use std::path::Path;
@@ -24,6 +24,8 @@ pub(super) struct Loader<'a> {
     /// Scene texture index per glTF image, decoded on first use.
     texture_ids: Vec<Option<u32>>,
     camera: Option<Camera>,
+    /// The node of `camera` and its parent's world transform (for the camera's animation).
+    camera_node: Option<(usize, Mat4)>,
     /// Descriptions of skipped primitives, for the "no triangles" message.
     skipped: Vec<String>,
     warned: HashSet<String>,
@@ -41,6 +43,7 @@ impl<'a> Loader<'a> {
             default_material: None,
             texture_ids: vec![None; document.images().len()],
             camera: None,
+            camera_node: None,
             skipped: Vec::new(),
             warned: HashSet::new(),
         }
@@ -88,7 +91,9 @@ impl<'a> Loader<'a> {
                 self.add_light(&light, &world);
             }
             if let Some(camera) = node.camera() {
-                self.read_camera(&camera, &world);
+                if self.read_camera(&camera, &world) {
+                    self.camera_node = Some((node.index(), parent));
+                }
             }
             let children: Vec<gltf::Node> = node.children().collect();
             stack.extend(children.into_iter().rev().map(|c| (c, world)));
@@ -320,31 +325,103 @@ impl<'a> Loader<'a> {
         }
     }
 
-    /// Keeps the first perspective camera met in traversal order.
-    fn read_camera(&mut self, camera: &gltf::Camera, world: &Mat4) {
+    /// Keeps the first perspective camera met in traversal order; true if this is it.
+    fn read_camera(&mut self, camera: &gltf::Camera, world: &Mat4) -> bool {
         if self.camera.is_some() {
-            return;
+            return false;
         }
+        match self.perspective_yfov(camera).map(|yfov| Camera::from_world(world, yfov)) {
+            Some(Some(c)) => {
+                self.camera = Some(c);
+                true
+            }
+            Some(None) => {
+                self.warn(format!("camera {} has a degenerate transform or field of view; ignored", camera.index()));
+                false
+            }
+            None => false,
+        }
+    }
+
+    fn perspective_yfov(&mut self, camera: &gltf::Camera) -> Option<f32> {
         // `projection()` unwraps the object named by `type`; the JSON validation does not
         // check that it is the one present.
         use gltf::json::{camera::Type, validation::Checked};
         let json = self.document.as_json().cameras.get(camera.index());
         let perspective = json.filter(|c| c.type_ == Checked::Valid(Type::Perspective)).and_then(|c| c.perspective.as_ref());
-        let Some(perspective) = perspective else {
+        if perspective.is_none() {
             self.warn("orthographic cameras are not supported; looking for a perspective one".into());
-            return;
-        };
-        let yfov = perspective.yfov;
-        let forward = world.transform_vector3(-Vec3::Z).try_normalize();
-        let up = world.transform_vector3(Vec3::Y);
-        let frame = forward.and_then(|f| Some((f, (up - f * up.dot(f)).try_normalize()?)));
-        match frame {
-            Some((forward, up)) if yfov > 0.0 && yfov < std::f32::consts::PI => {
-                let position = world.transform_point3(Vec3::ZERO);
-                self.camera = Some(Camera { position, forward, up, yfov });
-            }
-            _ => self.warn(format!("camera {} has a degenerate transform or field of view; ignored", camera.index())),
         }
+        perspective.map(|p| p.yfov)
+    }
+
+    /// The camera node's translation and rotation channels, from every animation of the file
+    /// (a later channel of the same property replaces an earlier one, with a warning). Scale
+    /// channels and cubic-spline keys are refused: the first would skew the view, the second
+    /// is not implemented.
+    fn read_camera_path(&mut self) -> Result<Option<CameraPath>, SceneError> {
+        let Some((index, parent)) = self.camera_node else {
+            return Ok(None);
+        };
+        let document = self.document;
+        let buffers = self.buffers;
+        let node = document.nodes().nth(index).expect("the camera node exists");
+        let (t, r, scale) = node.transform().decomposed();
+        let (mut translation, mut rotation) = (None, None);
+        for animation in document.animations() {
+            for (c, channel) in animation.channels().enumerate() {
+                if channel.target().node().index() != index {
+                    continue;
+                }
+                let at = format!("animation {} channel {c} (camera node {index})", animation.index());
+                use gltf::animation::{Interpolation, Property};
+                let step = match channel.sampler().interpolation() {
+                    Interpolation::Linear => false,
+                    Interpolation::Step => true,
+                    Interpolation::CubicSpline => return Err(self.error(format!("{at}: cubic-spline keyframes are not supported (use LINEAR or STEP)"))),
+                };
+                let property = channel.target().property();
+                if property == Property::Scale {
+                    return Err(self.error(format!("{at}: an animated camera scale is not supported (only translation and rotation)")));
+                }
+                if property == Property::MorphTargetWeights {
+                    continue;
+                }
+                check_accessor(&channel.sampler().input(), SCALAR_F32).map_err(|m| self.error(format!("{at}: key times: {m}")))?;
+                let kinds = if property == Property::Rotation { ROTATION_KINDS } else { VEC3_F32 };
+                check_accessor(&channel.sampler().output(), kinds).map_err(|m| self.error(format!("{at}: key values: {m}")))?;
+                let reader = channel.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
+                let times: Vec<f32> = reader.read_inputs().ok_or_else(|| self.error(format!("{at}: key times are unreadable")))?.collect();
+                use gltf::animation::util::ReadOutputs;
+                let bad = |m: String| self.error(format!("{at}: {m}"));
+                let replaced = match reader.read_outputs() {
+                    Some(ReadOutputs::Translations(v)) => translation.replace(Track::new(times, v.map(Vec3::from).collect(), step).map_err(bad)?).is_some(),
+                    Some(ReadOutputs::Rotations(v)) => {
+                        rotation.replace(Track::new(times, v.into_f32().map(Quat::from_array).collect(), step).map_err(bad)?).is_some()
+                    }
+                    _ => return Err(self.error(format!("{at}: key values are unreadable"))),
+                };
+                if replaced {
+                    self.warn(format!("camera node {index} has more than one {property:?} channel; the last one is used"));
+                }
+            }
+        }
+        if translation.is_none() && rotation.is_none() {
+            return Ok(None);
+        }
+        let path = CameraPath {
+            parent,
+            translation: translation.unwrap_or_else(|| Track::constant(Vec3::from(t))),
+            rotation: rotation.unwrap_or_else(|| Track::constant(Quat::from_array(r))),
+            scale: Vec3::from(scale),
+            yfov: self.camera.map_or(0.0, |c| c.yfov),
+        };
+        // Every frame must be seeable: check the keys themselves.
+        let (t0, t1) = path.span();
+        if path.at(t0).is_none() || path.at(t1).is_none() {
+            return Err(self.error(format!("camera node {index}: the animated transform is degenerate")));
+        }
+        Ok(Some(path))
     }
 
     pub(super) fn finish(mut self) -> Result<Scene, SceneError> {
@@ -352,6 +429,7 @@ impl<'a> Loader<'a> {
             let why = if self.skipped.is_empty() { String::new() } else { format!(" (skipped: {})", self.skipped.join(", ")) };
             return Err(self.error(format!("no triangles: the scene has nothing renderable{why}")));
         }
+        self.scene.camera_path = self.read_camera_path()?;
         self.scene.camera = match self.camera {
             Some(camera) => camera,
             None => {

@@ -423,6 +423,93 @@ fn reads_the_first_perspective_camera_in_world_space() {
     assert_eq!(c.yfov, 0.8);
 }
 
+/// The quad with a camera node (under a parent lifted by 1 in y) whose translation goes from
+/// z = 5 to z = 3 over seconds 1 to 3 and whose rotation turns a quarter about +y over 0 to 2.
+fn animated_camera_doc(interpolation: &str) -> Doc {
+    let mut doc = quad_doc();
+    doc.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }));
+    let camera = doc.node(json!({ "camera": 0, "translation": [0.0, 0.0, 5.0] }));
+    let parent = doc.node(json!({ "children": [camera], "translation": [0.0, 1.0, 0.0] }));
+    doc.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(parent));
+    let t_times = doc.accessor(&f32_bytes(&[1.0, 3.0]), FLOAT, "SCALAR", 2);
+    doc.json["accessors"][t_times]["min"] = json!([1.0]);
+    doc.json["accessors"][t_times]["max"] = json!([3.0]);
+    let t_values = doc.vec3(&[[0.0, 0.0, 5.0], [0.0, 0.0, 3.0]]);
+    let r_times = doc.accessor(&f32_bytes(&[0.0, 2.0]), FLOAT, "SCALAR", 2);
+    doc.json["accessors"][r_times]["min"] = json!([0.0]);
+    doc.json["accessors"][r_times]["max"] = json!([2.0]);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let r_values = doc.accessor(&f32_bytes(&[0.0, 0.0, 0.0, 1.0, 0.0, h, 0.0, h]), FLOAT, "VEC4", 2);
+    doc.push(
+        "animations",
+        json!({
+            "samplers": [
+                { "input": t_times, "output": t_values, "interpolation": interpolation },
+                { "input": r_times, "output": r_values, "interpolation": interpolation },
+            ],
+            "channels": [
+                { "sampler": 0, "target": { "node": camera, "path": "translation" } },
+                { "sampler": 1, "target": { "node": camera, "path": "rotation" } },
+            ],
+        }),
+    );
+    doc
+}
+
+/// A camera node's translation and rotation channels become the scene's camera path: sampled
+/// over the union of the channels' spans (0 to 3 s), translation held before its first key,
+/// rotation slerped, the parent's transform applied.
+#[test]
+fn reads_the_camera_animation() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = load_ok(&animated_camera_doc("LINEAR").write_glb(dir.path(), "walk"));
+    let path = s.camera_path.expect("the camera path");
+    assert_eq!(path.span(), (0.0, 3.0));
+    let cams = path.frames(4).unwrap();
+    let z: Vec<f32> = cams.iter().map(|c| c.position.z).collect();
+    assert_eq!(z, vec![5.0, 5.0, 4.0, 3.0]);
+    assert!(cams.iter().all(|c| c.position.y == 1.0 && c.yfov == 0.8));
+    // Halfway through the quarter turn (t = 1): an eighth turn, looking between -z and -x.
+    let eighth = Vec3::new(-1.0, 0.0, -1.0).normalize();
+    assert!(close(cams[0].forward, -Vec3::Z) && close(cams[1].forward, eighth) && close(cams[2].forward, -Vec3::X), "{cams:?}");
+    let stepped = load_ok(&animated_camera_doc("STEP").write_glb(dir.path(), "steps")).camera_path.unwrap();
+    assert!(close(stepped.frames(4).unwrap()[1].forward, -Vec3::Z), "STEP holds the first key until the second");
+    assert!(load_ok(&quad_doc().write_glb(dir.path(), "still")).camera_path.is_none());
+}
+
+/// Animations a camera path cannot follow are refused, naming the channel and the problem.
+#[test]
+fn bad_camera_animations_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, edit: &dyn Fn(&mut Doc)| {
+        let mut doc = animated_camera_doc("LINEAR");
+        edit(&mut doc);
+        doc.write_glb(dir.path(), name)
+    };
+    let cases: Vec<(PathBuf, &str)> = vec![
+        (
+            write("mismatched", &|d| {
+                let three = d.vec3(&[[0.0; 3]; 3]);
+                d.json["animations"][0]["samplers"][0]["output"] = json!(three);
+            }),
+            "2 key times but 3 values",
+        ),
+        (write("cubic", &|d| d.json["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")), "cubic-spline"),
+        (write("scaled", &|d| d.json["animations"][0]["channels"][0]["target"]["path"] = json!("scale")), "animated camera scale"),
+        (
+            write("backwards", &|d| {
+                let times = d.accessor(&f32_bytes(&[3.0, 1.0]), FLOAT, "SCALAR", 2);
+                d.json["animations"][0]["samplers"][0]["input"] = json!(times);
+            }),
+            "not increasing",
+        ),
+    ];
+    for (path, expected) in cases {
+        let err = load(&path).map(|_| ()).expect_err(expected).to_string();
+        assert!(err.contains(expected) && err.contains(&path.display().to_string()) && err.contains("animation 0 channel"), "{err}");
+    }
+}
+
 #[test]
 fn without_a_camera_the_scene_is_framed() {
     let dir = tempfile::tempdir().unwrap();
