@@ -18,8 +18,8 @@ struct Params {
     window: u32,            // points in the bound window (gather)
     alpha: f32,             // alpha of Eq. 2 (Wang et al.) per unit length
     representative: u32,    // REPRESENTATIVE_NEAREST or REPRESENTATIVE_MIN_ERROR
-    pad0: u32,
-    pad1: u32,
+    metric: u32,            // METRIC_EQ7 or METRIC_WARD, where read as data (cluster_temporal.wgsl)
+    pad: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;

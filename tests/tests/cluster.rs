@@ -85,6 +85,26 @@ proptest! {
         println!("{} points, {k} clusters", ps.len());
         vplgi_tests::hold(&[d])?;
     }
+
+    /// `--temporal on`'s pieces on random point sets, any K, F and metric: each cluster's
+    /// threshold from the same clustering (bit-identical), the admission of every point by the
+    /// same previous centres with halved thresholds (the assignment row), and the whole warm
+    /// clustering (the fuzzy row), by `vplgi verify`'s comparison.
+    #[test]
+    fn cluster_warm_start_matches_the_cpu_on_random_points((ps, ns) in vplgi_tests::inputs::surface_points(), k_div in 2usize..60, f in 1u32..=8, fuzzy in fuzzy_mode(), metric in metric_choice(), seed in any::<u32>()) {
+        let Some(gpu) = vplgi_tests::shared_gpu("cluster_warm_start_matches_the_cpu_on_random_points") else { return Ok(()) };
+        let k = (ps.len() / k_div).max(1) as u32;
+        let f = if fuzzy == FuzzyMode::Hard { 1 } else { f };
+        let metric = metric_for(metric, &ps);
+        let representative = match metric {
+            Metric::Ward { alpha } => Representative::MinError { alpha },
+            Metric::Eq7 { .. } => Representative::Nearest,
+        };
+        let params = ClusterParams { k, gamma: 2, iterations: 3, f, fuzzy, metric, representative, seed };
+        let checks = vplgi_verify::cluster::compare_temporal(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster, (&ps, &ns), &params, None).expect("GPU");
+        println!("{} points, K = {k}, F = {f} {fuzzy:?}, {metric:?}", ps.len());
+        vplgi_tests::hold(&checks)?;
+    }
 }
 
 /// Assignment given identical centroids and grid on the Cornell box's shading points: ≥ 99.99 %

@@ -33,7 +33,7 @@ proptest! {
             let mut checks = vec![check];
             if !ps.is_empty() {
                 let kernel = &t.gpu.kernels().cluster;
-                checks.extend(vplgi_verify::cluster::compare_clustering(t.device(), t.queue(), kernel, (&ps, &ns), &cfg.sp_cluster_params(t.cpu.extent), Some(&seeds))?);
+                checks.extend(vplgi_verify::cluster::compare_clustering(t.device(), t.queue(), kernel, (&ps, &ns), &cfg.sp_cluster_params(t.cpu.extent), vplgi_types::clustering::ClusterStart::Seeds(&seeds))?);
             }
             Ok(checks)
         }).expect("GPU");

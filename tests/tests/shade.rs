@@ -229,6 +229,8 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
         weights: vec![1.0; n as usize],
         widened: 0,
         incompatible: 0,
+        kept: 0,
+        fresh: 0,
     };
     let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), LightShape::Disk);
     let scene = cornell_box();

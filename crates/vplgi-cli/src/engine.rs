@@ -4,8 +4,8 @@
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 use std::time::Instant;
-use vplgi_frame::{Adapter, Frame, FrameConfig, Progress};
-use vplgi_scene::{Camera, Scene};
+use vplgi_frame::{Adapter, Frame, FrameConfig, Progress, View};
+use vplgi_scene::Scene;
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
 pub enum BackendArg {
@@ -17,8 +17,8 @@ pub enum BackendArg {
     Auto,
 }
 
-/// Renders a frame from a camera (the scene's when `None`).
-type RenderFn<'a> = &'a dyn Fn(&FrameConfig, Option<Camera>, &dyn Progress) -> Result<Frame>;
+/// Renders a frame of a sequence, or from the scene's camera when `None`.
+type RenderFn<'a> = &'a dyn Fn(&FrameConfig, Option<&View>, &dyn Progress) -> Result<Frame>;
 
 /// A scene ready to render on one backend.
 pub struct Engine<'a> {
@@ -38,9 +38,9 @@ impl Engine<'_> {
         (self.render)(cfg, None, progress)
     }
 
-    /// A frame from `camera` (a frame of a camera path).
-    pub fn render_from(&self, cfg: &FrameConfig, camera: Camera, progress: &dyn Progress) -> Result<Frame> {
-        (self.render)(cfg, Some(camera), progress)
+    /// A frame of a sequence.
+    pub fn render_from(&self, cfg: &FrameConfig, view: &View, progress: &dyn Progress) -> Result<Frame> {
+        (self.render)(cfg, Some(view), progress)
     }
 }
 
@@ -63,7 +63,10 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
             let device = vplgi_embree::Device::new(None)?;
             let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
-            let render = |cfg: &FrameConfig, c: Option<Camera>, p: &dyn Progress| Ok(vplgi_frame::render_from(&cs, cfg, c.unwrap_or(scene.camera), p)?);
+            let render = |cfg: &FrameConfig, v: Option<&View>, p: &dyn Progress| match v {
+                Some(v) => Ok(vplgi_frame::render_from(&cs, cfg, v, p)?),
+                None => Ok(vplgi_frame::render(&cs, cfg, p)?),
+            };
             work(&Engine { render: &render, name: "cpu", adapter: None, gpu: None, setup_ms })
         }
         Some(ctx) => {
@@ -72,7 +75,10 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
             let clock = Instant::now();
             let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
-            let render = |cfg: &FrameConfig, c: Option<Camera>, p: &dyn Progress| Ok(vplgi_frame::render_from(&gb, cfg, c.unwrap_or(scene.camera), p)?);
+            let render = |cfg: &FrameConfig, v: Option<&View>, p: &dyn Progress| match v {
+                Some(v) => Ok(vplgi_frame::render_from(&gb, cfg, v, p)?),
+                None => Ok(vplgi_frame::render(&gb, cfg, p)?),
+            };
             let adapter = Adapter {
                 name: ctx.describe(),
                 device_type: format!("{:?}", ctx.info.device_type),

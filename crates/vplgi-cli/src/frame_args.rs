@@ -10,7 +10,7 @@ use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
 use vplgi_types::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource,
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
@@ -126,6 +126,13 @@ pub struct FrameArgs {
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lighting: Option<Lighting>,
+    /// In a sequence (render --frames): start each frame's shading-point clustering from the
+    /// previous frame's clusters (Wang et al. 2009). A cluster keeps the points within its
+    /// members' largest error; clusters nobody fits are dropped, new ones are seeded where no
+    /// cluster fits, and the iterations start from both. Needs --cluster sp or both.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temporal: Option<Temporal>,
     /// Geometry-term clamp: d_min as a fraction of the scene's bounding-box diagonal (0 = no clamp).
     #[arg(long = "g-clamp", allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -167,6 +167,9 @@ struct SequenceFrame {
     total_ms: f64,
     vpl_clusters: u32,
     sp_clusters: u32,
+    /// With --temporal on: of those, the previous frame's clusters kept and the new ones.
+    sp_kept: u32,
+    sp_fresh: u32,
     /// Relative change from the frame before (`vplgi_image::relative_change`); none for the first.
     change: Option<f64>,
 }
@@ -183,11 +186,15 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     let (span0, span1) = path.span();
     let mut frames = Vec::with_capacity(n as usize);
     let mut previous: Option<vplgi_image::Image> = None;
+    let mut centres = Vec::new();
     let clock = Instant::now();
     let (backend, adapter) = with_engine(args.backend, scene, source, |engine| {
         let bars = Bars::new();
         for (i, camera) in cameras.iter().enumerate() {
-            let frame = engine.render_from(cfg, *camera, &bars)?;
+            // The first frame has no clusters to carry over.
+            let view = vplgi_frame::View { camera: *camera, previous: (i > 0).then_some(&centres[..]) };
+            let frame = engine.render_from(cfg, &view, &bars)?;
+            centres = frame.centres;
             let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
             let exr = args.out.join(format!("frame-{i:04}.exr"));
             let png = args.out.join(format!("frame-{i:04}.png"));
@@ -209,6 +216,8 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
                 total_ms,
                 vpl_clusters: frame.stats.vpl_clusters,
                 sp_clusters: frame.stats.sp_clusters,
+                sp_kept: frame.stats.sp_kept,
+                sp_fresh: frame.stats.sp_fresh,
                 change,
             });
             previous = Some(image);

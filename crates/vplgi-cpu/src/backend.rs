@@ -16,10 +16,11 @@ use crate::CpuScene;
 use glam::Vec3;
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
-use vplgi_types::clustering::ClusterParams;
+use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
+use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as
@@ -93,12 +94,18 @@ impl Backend for CpuScene<'_> {
         Ok(vpls.iter().map(Endpoint::of_vpl).collect())
     }
 
-    fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(Clustering, ClusterCounts), FrameError> {
+    fn cluster(&self, points: &Vec<Endpoint>, _n: u32, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(Clustering, ClusterCounts), FrameError> {
         let pos: Vec<Vec3> = points.iter().map(Endpoint::p).collect();
         let nor: Vec<Vec3> = points.iter().map(Endpoint::n).collect();
-        let c = cluster_from(&pos, &nor, params, seeds);
-        let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32 };
+        let c = cluster_from(&pos, &nor, params, start);
+        let counts = ClusterCounts { k: c.k() as u32, widened: c.widened as u32, kept: c.kept as u32, fresh: c.fresh as u32 };
         Ok((c, counts))
+    }
+
+    fn cluster_centres(&self, c: &Clustering, _k: u32, points: &Vec<Endpoint>, _n: u32, metric: Metric) -> Result<Vec<Centre>, FrameError> {
+        let pos: Vec<Vec3> = points.iter().map(Endpoint::p).collect();
+        let nor: Vec<Vec3> = points.iter().map(Endpoint::n).collect();
+        Ok(crate::cluster::temporal::centres(c, &pos, &nor, metric))
     }
 
     fn seeding(&self, hits: &CpuHits, _n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, FrameError> {

@@ -32,8 +32,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
-pub use vplgi_types::clustering::{ClusterParams, Metric, Representative};
+pub use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric, Representative};
 use vplgi_types::config::MAX_F;
+use vplgi_types::temporal::new_seeds;
 use vplgi_types::{FuzzyMode, MISS};
 
 /// The result of clustering M points into K' <= K non-empty clusters.
@@ -55,6 +56,10 @@ pub struct Clustering {
     pub widened: usize,
     /// Of those, points that found no compatible centroid anywhere (took the nearest by position).
     pub incompatible: usize,
+    /// Started warm ([`ClusterStart::Warm`]): the previous centres kept, and the new clusters
+    /// seeded on points none of them admits (0 and 0 otherwise).
+    pub kept: usize,
+    pub fresh: usize,
 }
 
 impl Clustering {
@@ -421,18 +426,23 @@ pub fn update(fix: &FixedPoint, points: &[Vec3], normals: &[Vec3], labels: &[u32
 /// Clusters the points (`positions`, unit `normals`) with Alg. 1 and assigns every point to its
 /// F nearest clusters with Alg. 2, from K seeds spread evenly over the downsampled points.
 pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> Clustering {
-    cluster_from(positions, normals, params, None)
+    cluster_from(positions, normals, params, ClusterStart::Stride)
 }
 
-/// [`cluster`] from given seeds (point indices, such as [`crate::seeding::seeding`]'s), if any:
-/// their number is K.
-pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams, seeds: Option<&[u32]>) -> Clustering {
+/// [`cluster`] from other initial centroids: given seeds (point indices, such as
+/// [`crate::seeding::seeding`]'s; their number is K), or the previous frame's clusters
+/// ([`temporal::admit`]).
+pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams, start: ClusterStart<'_>) -> Clustering {
     let m = positions.len();
     let f = match params.fuzzy {
         FuzzyMode::Hard => 1,
         _ => params.f.clamp(1, MAX_F) as usize,
     };
-    let k = seeds.map_or(params.k as usize, <[u32]>::len).min(m);
+    let k = match start {
+        ClusterStart::Seeds(given) => given.len(),
+        _ => params.k as usize,
+    }
+    .min(m);
     if m == 0 || k == 0 {
         return Clustering { f, ..Default::default() };
     }
@@ -441,17 +451,43 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     let sample = downsample(m, gamma, params.seed);
     let sp: Vec<Vec3> = sample.iter().map(|&i| positions[i as usize]).collect();
     let sn: Vec<Vec3> = sample.iter().map(|&i| normals[i as usize]).collect();
-
-    let seeds = match seeds {
-        Some(given) => given[..k].to_vec(),
-        None => seed_centroids(&sample, k, params.seed),
-    };
-    let mut cpos: Vec<Vec3> = seeds.iter().map(|&i| positions[i as usize]).collect();
-    let mut cnor: Vec<Vec3> = seeds.iter().map(|&i| normals[i as usize]).collect();
-    let (lo, hi) = bounds(positions);
-    let fix = FixedPoint::new(lo, hi);
     let geometry = Grid::for_data(bounds(positions), &sp, k);
     let metric = params.metric;
+
+    let point = |seeds: &[u32]| -> (Vec<Vec3>, Vec<Vec3>) { seeds.iter().map(|&i| (positions[i as usize], normals[i as usize])).unzip() };
+    let (mut cpos, mut cnor, warm_kept, fresh) = match start {
+        ClusterStart::Stride => {
+            let (p, n) = point(&seed_centroids(&sample, k, params.seed));
+            (p, n, 0, 0)
+        }
+        ClusterStart::Seeds(given) => {
+            let (p, n) = point(&given[..k]);
+            (p, n, 0, 0)
+        }
+        ClusterStart::Warm { previous, seeds } => {
+            let admission = temporal::admit(&geometry, positions, normals, previous, metric);
+            let stride;
+            let candidates = match seeds {
+                Some(s) => s,
+                None => {
+                    stride = seed_centroids(&sample, k, params.seed);
+                    &stride
+                }
+            };
+            let fresh = new_seeds(candidates, &admission.unfit, k.saturating_sub(admission.kept.len()), params.seed);
+            let (mut p, mut n): (Vec<Vec3>, Vec<Vec3>) = admission.kept.iter().map(|&c| (previous[c as usize].position, previous[c as usize].normal)).unzip();
+            let (fp, fnor) = point(&fresh);
+            p.extend(fp);
+            n.extend(fnor);
+            (p, n, admission.kept.len(), fresh.len())
+        }
+    };
+    let k = cpos.len();
+    if k == 0 {
+        return Clustering { f, ..Default::default() };
+    }
+    let (lo, hi) = bounds(positions);
+    let fix = FixedPoint::new(lo, hi);
     let mut labels: Option<Vec<u32>> = None;
     for _ in 0..params.iterations {
         let grid = geometry.fill(&cpos, &cnor);
@@ -516,7 +552,7 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     debug_assert!((0..m).all(|i| labels[i * f] == remap[hard[i] as usize]));
 
     let representatives = representatives((positions, normals), &labels, f, (&cpos, &cnor), params.representative);
-    Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible }
+    Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible, kept: warm_kept, fresh }
 }
 
 /// For each cluster, the member (by hard label) of smallest `rule` key to the centroid: the
@@ -548,6 +584,8 @@ fn representatives(
         .map(|(_, i)| i)
         .collect()
 }
+
+pub mod temporal;
 
 #[cfg(test)]
 mod tests;

@@ -4,10 +4,11 @@
 
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
-use vplgi_types::clustering::ClusterParams;
+use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
+use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.
@@ -25,6 +26,9 @@ pub struct ClusterCounts {
     pub k: u32,
     /// Points whose 27-cell neighbourhood held no compatible centroid.
     pub widened: u32,
+    /// Started warm: the previous centres kept and the new clusters seeded.
+    pub kept: u32,
+    pub fresh: u32,
 }
 
 /// Shading points of the camera samples `first .. first + count`.
@@ -141,9 +145,13 @@ pub trait Backend {
     /// The VPLs as surface points.
     fn vpl_points(&self, vpls: &Self::Vpls, n: u32) -> Result<Self::Points, Self::Error>;
 
-    /// Stage 3: Alg. 1 and 2 over `n` points, from `seeds` (point indices) if given, else from
-    /// K points evenly spread over the downsampled set.
-    fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+    /// Stage 3: Alg. 1 and 2 over `n` points, from the initial centroids `start` says.
+    fn cluster(&self, points: &Self::Points, n: u32, params: &ClusterParams, start: ClusterStart<'_>)
+        -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+
+    /// Stage 3 with `--temporal on`: the `k` clusters of a clustering of the `n` points as the
+    /// next frame's centres, each with its admission threshold (`vplgi_types::temporal`).
+    fn cluster_centres(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32, metric: Metric) -> Result<Vec<Centre>, Self::Error>;
 
     /// Stage 3's seeds with `--seeding adaptive`: at most K of the `n` hits of the image of
     /// `camera`, by Wang et al.'s quadtree (`vplgi_types::seeding`), as hit indices.

@@ -5,7 +5,9 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
-use vplgi_types::{Camera, ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, VplClustering, VplSource};
+use vplgi_types::clustering::ClusterStart;
+use vplgi_types::temporal::Centre;
+use vplgi_types::{Camera, ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -13,12 +15,20 @@ pub const ROW_CHUNK_BITS: u64 = 64 << 23;
 
 /// Renders one frame from the scene's camera.
 pub fn render<B: Backend>(b: &B, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_from(b, cfg, b.camera(), progress)
+    render_from(b, cfg, &View { camera: b.camera(), previous: None }, progress)
 }
 
-/// Renders one frame from `camera` (a frame of a camera path).
-pub fn render_from<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_view(b, cfg, camera, 0..cfg.height, progress)
+/// Where a frame of a sequence is seen from, and what it carries over from the frame before.
+#[derive(Clone, Copy, Debug)]
+pub struct View<'a> {
+    pub camera: Camera,
+    /// With `--temporal on`: the previous frame's [`Frame::centres`].
+    pub previous: Option<&'a [Centre]>,
+}
+
+/// Renders one frame of a sequence.
+pub fn render_from<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+    render_view(b, cfg, view, 0..cfg.height, progress)
 }
 
 /// Times `work` as part of `stage`, waiting for the backend to finish it.
@@ -35,10 +45,10 @@ fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl Fn
 /// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
 /// tiles; clustered frames cannot be (their clusters depend on the whole image).
 pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_view(b, cfg, b.camera(), rows, progress)
+    render_view(b, cfg, &View { camera: b.camera(), previous: None }, rows, progress)
 }
 
-fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
     cfg.validate().map_err(FrameError::InvalidConfig)?;
     if rows.start >= rows.end || rows.end > cfg.height {
         return Err(FrameError::InvalidConfig(format!("rows {}..{} of a {}-row image", rows.start, rows.end, cfg.height)).into());
@@ -62,7 +72,7 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range
     // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay
     // global: the RNG streams use them, so a tile's pixels equal the whole frame's.
     progress.start(Stage::ShadingPoints.name(), 1);
-    let camera = cfg.camera_params(camera);
+    let camera = cfg.camera_params(view.camera);
     let per_chunk = (b.max_samples_per_chunk() / spp).max(1) * spp;
     let (first_sample, end_sample) = (rows.start * cfg.width * spp, rows.end * cfg.width * spp);
     let mut chunks = timed(b, &mut t, Stage::ShadingPoints, || {
@@ -80,13 +90,14 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range
     // Only surface hits take part in clustering, visibility and shading. Lights are one per VPL
     // cluster or one per VPL; shading points are clustered or each their own visibility row.
     progress.start(Stage::Cluster.name(), 1);
+    let mut centres = Vec::new();
     let (hits, n_hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
         let (hits, n_hits) = b.compact_hits(&chunks, n_samples)?;
         stats.shading_point_hits = n_hits;
         let n_vpls = counts.vpls;
         let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
             let (c, k) = match cfg.vpl_cluster {
-                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params(), None)?,
+                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params(), ClusterStart::Stride)?,
                 VplClustering::Rsm => b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent))?,
             };
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
@@ -101,8 +112,17 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range
                 Seeding::Stride => None,
                 Seeding::Adaptive => Some(b.seeding(&hits, n_hits, &camera, &cfg.seed_params(extent))?),
             };
-            let (c, k) = b.cluster(points, n_hits, &cfg.sp_cluster_params(extent), seeds.as_deref())?;
-            (stats.sp_clusters, stats.sp_widened) = (k.k, k.widened);
+            let params = cfg.sp_cluster_params(extent);
+            let start = match (cfg.temporal, view.previous, seeds.as_deref()) {
+                (Temporal::On, Some(previous), seeds) => ClusterStart::Warm { previous, seeds },
+                (_, _, Some(s)) => ClusterStart::Seeds(s),
+                (_, _, None) => ClusterStart::Stride,
+            };
+            let (c, k) = b.cluster(points, n_hits, &params, start)?;
+            (stats.sp_clusters, stats.sp_widened, stats.sp_kept, stats.sp_fresh) = (k.k, k.widened, k.kept, k.fresh);
+            if cfg.temporal == Temporal::On {
+                centres = b.cluster_centres(&c, k.k, points, n_hits, params.metric)?;
+            }
             let reps = b.representatives(&c, k.k, points, n_hits)?;
             Some((c, k.k, reps))
         } else {
@@ -207,7 +227,7 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, camera: Camera, rows: Range
     let vis_ms = t.get(Stage::Visibility);
     stats.visibility_rays = rays;
     stats.visibility_mrays_per_s = rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
-    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats })
+    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats, centres })
 }
 
 /// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).

@@ -4,6 +4,7 @@ use serde::de::Error as _;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
+use vplgi_types::temporal::Centre;
 
 /// The stages of a frame, in pipeline order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -166,6 +167,12 @@ pub struct FrameStats {
     /// Surface points shaded for the bias compensation, over all levels (0 without it).
     #[serde(default)]
     pub bias_points: u64,
+    /// `--temporal on` after the first frame: the previous frame's shading-point clusters kept,
+    /// and the new ones seeded on shading points none of them admits.
+    #[serde(default)]
+    pub sp_kept: u32,
+    #[serde(default)]
+    pub sp_fresh: u32,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.
@@ -176,6 +183,8 @@ pub struct Frame {
     pub pixels: Vec<[f32; 3]>,
     pub timings: StageTimings,
     pub stats: FrameStats,
+    /// With `--temporal on`: the shading-point clusters, for the next frame (empty otherwise).
+    pub centres: Vec<Centre>,
 }
 
 /// Why a frame could not be rendered, before any backend work.

@@ -24,10 +24,11 @@ use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
-use vplgi_types::clustering::ClusterParams;
+use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
+use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
@@ -292,11 +293,15 @@ impl Backend for GpuBackend<'_> {
         Ok(pts)
     }
 
-    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams, seeds: Option<&[u32]>) -> Result<(GpuClustering, ClusterCounts), GpuError> {
-        let c = self.kernels.cluster.cluster_from(self.device, self.queue, (points, n), params, seeds)?;
+    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let c = self.kernels.cluster.cluster_from(self.device, self.queue, (points, n), params, start)?;
         let [_, widened, incompatible] = self.kernels.cluster.outcome_counts(self.device, self.queue, &c.outcome, n)?;
-        let counts = ClusterCounts { k: c.k, widened: widened + incompatible };
+        let counts = ClusterCounts { k: c.k, widened: widened + incompatible, kept: c.kept, fresh: c.fresh };
         Ok((c, counts))
+    }
+
+    fn cluster_centres(&self, c: &GpuClustering, _k: u32, points: &wgpu::Buffer, n: u32, metric: Metric) -> Result<Vec<Centre>, GpuError> {
+        self.kernels.cluster.centres(self.device, self.queue, c, (points, n), metric)
     }
 
     fn seeding(&self, hits: &GpuHits, n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, GpuError> {

@@ -21,9 +21,12 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::sync::OnceLock;
-use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, FixedPoint, GridGeometry, Metric, Representative};
+use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
 use vplgi_types::config::MAX_F;
+use vplgi_types::temporal::new_seeds;
 use vplgi_types::FuzzyMode;
+
+mod temporal;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable, Default)]
@@ -42,7 +45,9 @@ pub(crate) struct Params {
     pub(crate) window: u32,
     pub(crate) alpha: f32,
     pub(crate) representative: u32,
-    pub(crate) pad: [u32; 2],
+    /// METRIC_EQ7 or METRIC_WARD, for the passes that take it as data (cluster_temporal.wgsl).
+    pub(crate) metric: u32,
+    pub(crate) pad: u32,
 }
 
 /// A grid filled with centroids, on the device.
@@ -74,6 +79,9 @@ pub struct GpuClustering {
     /// `k` point indices.
     pub representatives: wgpu::Buffer,
     pub outcome: wgpu::Buffer,
+    /// Started warm: the previous centres kept and the new clusters seeded (0 and 0 otherwise).
+    pub kept: u32,
+    pub fresh: u32,
 }
 
 impl GpuClustering {
@@ -89,6 +97,8 @@ impl GpuClustering {
             weights: storage::<f32>(device, "weights", &[]),
             representatives: storage(device, "representatives", representatives),
             outcome: storage::<u32>(device, "outcome", &[]),
+            kept: 0,
+            fresh: 0,
         }
     }
 }
@@ -121,6 +131,8 @@ pub struct ClusterKernel {
     compact: Pass,
     rep_d2: Pass,
     rep_index: Pass,
+    admit: Pass,
+    largest_key: Pass,
     scan: ScanKernel,
 }
 
@@ -162,6 +174,7 @@ impl ClusterKernel {
             let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
             let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
             let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
+            let [admit, largest_key] = passes(device, "cluster_temporal.wgsl", ["admit", "largest_key"]);
             let kernel = ClusterKernel {
                 gather,
                 bounds,
@@ -178,6 +191,8 @@ impl ClusterKernel {
                 compact,
                 rep_d2,
                 rep_index,
+                admit,
+                largest_key,
                 scan,
             };
             // The variants every default frame uses are compiled now, with the other passes: a
@@ -406,48 +421,38 @@ impl ClusterKernel {
         m: u32,
         params: &ClusterParams,
     ) -> Result<GpuClustering, GpuError> {
-        self.cluster_from(device, queue, (points, m), params, None)
+        self.cluster_from(device, queue, (points, m), params, ClusterStart::Stride)
     }
 
-    /// [`ClusterKernel::cluster`] from given seeds (point indices), if any, like
-    /// `vplgi_cpu::cluster::cluster_from`: their number is K.
+    /// [`ClusterKernel::cluster`] from other initial centroids, like
+    /// `vplgi_cpu::cluster::cluster_from`: given seeds (their number is K) or the previous
+    /// frame's clusters (`cluster_temporal.wgsl`).
     pub fn cluster_from(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         (points, m): (&wgpu::Buffer, u32),
         params: &ClusterParams,
-        seeds: Option<&[u32]>,
+        start: ClusterStart<'_>,
     ) -> Result<GpuClustering, GpuError> {
         let f = match params.fuzzy {
             FuzzyMode::Hard => 1,
             _ => params.f.clamp(1, MAX_F),
         };
-        let k = seeds.map_or(params.k, |s| s.len() as u32).min(m);
+        let k = match start {
+            ClusterStart::Seeds(given) => given.len() as u32,
+            _ => params.k,
+        }
+        .min(m);
         if m == 0 || k == 0 {
-            let e = |name| storage_zeroed::<u32>(device, name, 1);
-            return Ok(GpuClustering {
-                centroids: storage_zeroed::<Endpoint>(device, "centroids", 1),
-                k: 0,
-                f,
-                labels: e("labels"),
-                weights: e("weights"),
-                representatives: e("representatives"),
-                outcome: e("outcome"),
-            });
+            return Ok(self.empty(device, f));
         }
         let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
         let sample = downsample(m as usize, gamma, params.seed);
-        let seeds = match seeds {
-            Some(given) => given[..k as usize].to_vec(),
-            None => seed_centroids(&sample, k as usize, params.seed),
-        };
         let s = sample.len() as u32;
         // The downsampled set is gathered once, so the iterations read it as plain points.
         let sample_points = storage_zeroed::<Endpoint>(device, "sample points", s as usize);
         self.gather(device, queue, &sample_points, (&storage(device, "sample", &sample), s), (points, m))?;
-        let centroids = storage_zeroed::<Endpoint>(device, "centroids", k as usize);
-        self.gather(device, queue, &centroids, (&storage(device, "seeds", &seeds), k), (points, m))?;
 
         let (min, max) = self.bounds(device, queue, points, m)?;
         let ext = (max - min).max(Vec3::splat(1e-12));
@@ -464,6 +469,43 @@ impl ClusterKernel {
         }
         let fix = FixedPoint::new(min, max);
         let metric = params.metric;
+        let seed_points = |seeds: &[u32]| -> Result<wgpu::Buffer, GpuError> {
+            let out = storage_zeroed::<Endpoint>(device, "centroids", seeds.len());
+            self.gather(device, queue, &out, (&storage(device, "seeds", seeds), seeds.len() as u32), (points, m))?;
+            Ok(out)
+        };
+        let (centroids, k, warm_kept, fresh) = match start {
+            ClusterStart::Stride => (seed_points(&seed_centroids(&sample, k as usize, params.seed))?, k, 0, 0),
+            ClusterStart::Seeds(given) => (seed_points(&given[..k as usize])?, k, 0, 0),
+            ClusterStart::Warm { previous, seeds } => {
+                let (kept, unfit) = self.admit(device, queue, &geometry, (points, m), previous, metric)?;
+                let stride;
+                let candidates = match seeds {
+                    Some(s) => s,
+                    None => {
+                        stride = seed_centroids(&sample, k as usize, params.seed);
+                        &stride[..]
+                    }
+                };
+                let fresh = new_seeds(candidates, &unfit, (k as usize).saturating_sub(kept.len()), params.seed);
+                // The kept centres, then the new seeds' points: the CPU's order.
+                let mut start: Vec<Endpoint> = kept.iter().map(|&c| Endpoint::new(previous[c as usize].position, previous[c as usize].normal)).collect();
+                start.resize(kept.len() + fresh.len(), Endpoint::default());
+                let centroids = storage(device, "centroids", &start);
+                if !fresh.is_empty() {
+                    let points_of_fresh = seed_points(&fresh)?;
+                    let size = std::mem::size_of::<Endpoint>() as u64;
+                    let mut e = device.create_command_encoder(&Default::default());
+                    e.copy_buffer_to_buffer(&points_of_fresh, 0, &centroids, kept.len() as u64 * size, fresh.len() as u64 * size);
+                    queue.submit([e.finish()]);
+                }
+                let (kept, fresh) = (kept.len() as u32, fresh.len() as u32);
+                (centroids, kept + fresh, kept, fresh)
+            }
+        };
+        if k == 0 {
+            return Ok(self.empty(device, f));
+        }
         for _ in 0..params.iterations {
             let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
             let a = self.assign(device, queue, &grid, (&sample_points, s), (&centroids, k), AssignRule { metric, f: 1, fuzzy: FuzzyMode::Hard })?;
@@ -529,7 +571,33 @@ impl ClusterKernel {
                 self.run_windows(device, queue, pass, &p, b, w.count as u32)?;
             }
         }
-        Ok(GpuClustering { centroids: survivors, k: kept, f, labels: a.labels, weights: a.weights, representatives: reps, outcome: a.outcome })
+        Ok(GpuClustering {
+            centroids: survivors,
+            k: kept,
+            f,
+            labels: a.labels,
+            weights: a.weights,
+            representatives: reps,
+            outcome: a.outcome,
+            kept: warm_kept,
+            fresh,
+        })
+    }
+
+    /// A clustering of nothing.
+    fn empty(&self, device: &wgpu::Device, f: u32) -> GpuClustering {
+        let e = |name| storage_zeroed::<u32>(device, name, 1);
+        GpuClustering {
+            centroids: storage_zeroed::<Endpoint>(device, "centroids", 1),
+            k: 0,
+            f,
+            labels: e("labels"),
+            weights: e("weights"),
+            representatives: e("representatives"),
+            outcome: e("outcome"),
+            kept: 0,
+            fresh: 0,
+        }
     }
 
     /// Counts of search outcomes over `n` points: [neighbourhood, widened, incompatible].

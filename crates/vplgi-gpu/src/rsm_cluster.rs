@@ -126,6 +126,8 @@ impl RsmClusterKernel {
             weights: storage(device, "rsm weights", &vec![1.0f32; n.max(1) as usize]),
             representatives: storage_zeroed::<u32>(device, "rsm representatives", 1),
             outcome: storage_zeroed::<u32>(device, "rsm outcome", n.max(1) as usize),
+            kept: 0,
+            fresh: 0,
         };
         if n == 0 || p.k == 0 || maps.is_empty() {
             return Ok((empty(), 0));
@@ -266,6 +268,8 @@ impl RsmClusterKernel {
             weights: storage(device, "rsm weights", &vec![1.0f32; n as usize]),
             representatives: kept_reps,
             outcome: storage_zeroed::<u32>(device, "rsm outcome", n as usize),
+            kept: 0,
+            fresh: 0,
         };
         Ok((clustering, kept))
     }

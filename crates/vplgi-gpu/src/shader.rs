@@ -64,6 +64,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
     ("cluster_update.wgsl", include_str!("../../../shaders/cluster_update.wgsl"), CLUSTER),
     ("cluster_compact.wgsl", include_str!("../../../shaders/cluster_compact.wgsl"), CLUSTER),
     ("cluster_representatives.wgsl", include_str!("../../../shaders/cluster_representatives.wgsl"), CLUSTER),
+    ("cluster_temporal.wgsl", include_str!("../../../shaders/cluster_temporal.wgsl"), CLUSTER),
     ("seeding.wgsl", include_str!("../../../shaders/seeding.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/metric.wgsl"]),
     ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
     ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
@@ -521,7 +522,7 @@ mod tests {
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
             [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
             [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
-            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative }
+            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative, metric }
             [crate::seeding::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
             [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct }

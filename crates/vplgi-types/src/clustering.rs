@@ -25,6 +25,19 @@ pub struct ClusterParams {
     pub seed: u32,
 }
 
+/// Where a clustering's initial centroids come from.
+#[derive(Clone, Copy, Debug)]
+pub enum ClusterStart<'a> {
+    /// K points evenly spread over the downsampled set ([`seed_centroids`]).
+    Stride,
+    /// These point indices (`--seeding adaptive`'s); their number is K.
+    Seeds(&'a [u32]),
+    /// `--temporal on` ([`crate::temporal`]): the previous frame's centres that still admit a
+    /// point, then new seeds on the points none admits, taken from `seeds` (or, if `None`, from
+    /// the stride seeds of K), up to K in all.
+    Warm { previous: &'a [crate::temporal::Centre], seeds: Option<&'a [u32]> },
+}
+
 /// The dissimilarity between a point and a centroid that the clustering minimises. Both
 /// metrics are compared through a key (smaller is nearer, ties to the lower centroid index):
 /// Eq. 7's squared distance, or Eq. 2's error itself.

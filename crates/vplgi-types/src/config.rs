@@ -134,6 +134,20 @@ pub enum ShadeMode {
     Interpolate,
 }
 
+/// Whether a frame of a sequence starts its shading-point clustering from the previous frame's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Temporal {
+    /// Every frame clusters from its own seeds.
+    #[default]
+    Off,
+    /// Wang et al. 2009: the previous frame's clusters that still admit a shading point are kept
+    /// (each admits points up to its members' largest error), new clusters are seeded where
+    /// none does, and the iterations start from both ([`crate::temporal`]).
+    On,
+}
+
 /// Which light a frame's image holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -265,6 +279,10 @@ pub struct FrameConfig {
     /// Which light the image holds. Files written before the option existed read as all.
     #[serde(default)]
     pub lighting: Lighting,
+    /// Clusters carried between the frames of a sequence. Files written before the option
+    /// existed read as off.
+    #[serde(default)]
+    pub temporal: Temporal,
 }
 
 fn default_gather_rays() -> u32 {
@@ -320,6 +338,7 @@ impl FrameConfig {
             shade: ShadeMode::Fuzzy,
             gather_rays: default_gather_rays(),
             lighting: Lighting::All,
+            temporal: Temporal::Off,
         }
     }
 
@@ -478,6 +497,12 @@ impl FrameConfig {
         if !(self.alpha > 0.0 && self.alpha.is_finite()) {
             // Eq. 2 with alpha = 0 ignores positions: a cluster could span the whole scene.
             return Err(format!("alpha must be a finite number > 0 (got {})", self.alpha));
+        }
+        if self.temporal == Temporal::On && !self.cluster.clusters_sps() {
+            return Err(format!(
+                "temporal on carries shading-point clusters between frames: use --cluster sp or both (got {})",
+                format!("{:?}", self.cluster).to_lowercase()
+            ));
         }
         if self.shade == ShadeMode::Interpolate {
             if !self.cluster.clusters_sps() {

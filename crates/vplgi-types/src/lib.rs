@@ -15,6 +15,7 @@
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
 //! * [`interpolation`]: `--shade interpolate`'s weights and radii (Wang et al.).
 //! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
+//! * [`temporal`]: clusters carried from frame to frame with admission thresholds (Wang et al.).
 
 pub mod camera;
 pub mod clustering;
@@ -29,9 +30,12 @@ pub mod rng;
 pub mod rsm;
 pub mod sampling;
 pub mod seeding;
+pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
-pub use config::{ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, VplClustering, VplSource};
+pub use config::{
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
+};
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

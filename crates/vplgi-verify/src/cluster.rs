@@ -4,15 +4,16 @@
 
 use crate::inputs::CpuFrame;
 use crate::tolerance::{
-    Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS, UPDATE_DIFFERING_CENTROIDS,
+    Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS, TEMPORAL_DIFFERING_THRESHOLDS,
+    TEMPORAL_SAME_ADMISSION, UPDATE_DIFFERING_CENTROIDS,
 };
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, cluster_from, update, ClusterParams, Grid};
 use vplgi_gpu::buffers::{read_back, storage};
-use vplgi_gpu::cluster::{AssignRule, ClusterKernel};
+use vplgi_gpu::cluster::{AssignRule, ClusterKernel, GpuClustering};
 use vplgi_gpu::seeding::GpuImageHits;
-use vplgi_types::clustering::{fuzzy_weights, FixedPoint, GridGeometry, Metric, Representative};
+use vplgi_types::clustering::{fuzzy_weights, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
 use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, Seeding, MISS};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
@@ -152,12 +153,12 @@ pub fn compare_clustering(
     kernel: &ClusterKernel,
     (ps, ns): (&[Vec3], &[Vec3]),
     params: &ClusterParams,
-    seeds: Option<&[u32]>,
+    start: ClusterStart<'_>,
 ) -> Result<Vec<Disagreement>, VerifyError> {
     let m = ps.len();
-    let cpu = cluster_from(ps, ns, params, seeds);
+    let cpu = cluster_from(ps, ns, params, start);
     let pts = storage(device, "points", &endpoints(ps, ns));
-    let g = kernel.cluster_from(device, queue, (&pts, m as u32), params, seeds)?;
+    let g = kernel.cluster_from(device, queue, (&pts, m as u32), params, start)?;
     let f = g.f as usize;
     let gl: Vec<u32> = read_back(device, queue, &g.labels, m * f)?;
     let gr: Vec<u32> = read_back(device, queue, &g.representatives, g.k as usize)?;
@@ -174,6 +175,65 @@ pub fn compare_clustering(
         Disagreement::at_least("whole clustering", "share of identical label rows", rows_same as f64 / m.max(1) as f64, FUZZY_SAME_SETS).with_worst(worst),
         Disagreement::info("whole clustering", "representatives that differ", reps_differ as f64),
     ])
+}
+
+/// `--temporal on` (the shading points' clustering started from the previous frame's clusters)
+/// on both backends, from the CPU's clustering of the same points as the previous frame: its
+/// thresholds computed by both from the CPU's labels; then, with the thresholds halved so that
+/// some points fit nowhere and some centres admit nobody, the admission of every point on the
+/// same grid, and the whole warm clustering (its label rows judged by the fuzzy row).
+pub fn compare_temporal(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernel: &ClusterKernel,
+    (ps, ns): (&[Vec3], &[Vec3]),
+    params: &ClusterParams,
+    seeds: Option<&[u32]>,
+) -> Result<Vec<Disagreement>, VerifyError> {
+    use vplgi_cpu::cluster::temporal::{admit, centres};
+    let m = ps.len();
+    let cold = cluster_from(ps, ns, params, seeds.map_or(ClusterStart::Stride, ClusterStart::Seeds));
+    let cpu_centres = centres(&cold, ps, ns, params.metric);
+    let pts = storage(device, "points", &endpoints(ps, ns));
+    let on_device = GpuClustering {
+        centroids: storage(device, "centroids", &endpoints(&cold.positions, &cold.normals)),
+        k: cold.k() as u32,
+        f: cold.f as u32,
+        labels: storage(device, "labels", &cold.labels),
+        weights: storage(device, "weights", &cold.weights),
+        representatives: storage(device, "representatives", &cold.representatives),
+        outcome: storage::<u32>(device, "outcome", &[]),
+        kept: 0,
+        fresh: 0,
+    };
+    let gpu_centres = kernel.centres(device, queue, &on_device, (&pts, m as u32), params.metric)?;
+    let differ: Vec<usize> =
+        (0..cpu_centres.len()).filter(|&j| gpu_centres.get(j).map(|c| c.threshold.to_bits()) != Some(cpu_centres[j].threshold.to_bits())).collect();
+    let worst = differ.first().map(|&j| format!("cluster {j}: CPU threshold {}, GPU {:?}", cpu_centres[j].threshold, gpu_centres.get(j).map(|c| c.threshold)));
+    let thresholds =
+        Disagreement::at_most("temporal thresholds", "thresholds that differ", differ.len() as f64, TEMPORAL_DIFFERING_THRESHOLDS as f64).with_worst(worst);
+
+    let previous: Vec<_> = cpu_centres.iter().map(|c| vplgi_types::temporal::Centre { threshold: 0.5 * c.threshold, ..*c }).collect();
+    let grid = Grid::for_data(bounds(ps), ps, params.k as usize);
+    let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
+    let cpu = admit(&grid, ps, ns, &previous, params.metric);
+    let (gpu_kept, gpu_unfit) = kernel.admit(device, queue, &geometry, (&pts, m as u32), &previous, params.metric)?;
+    let same = cpu.unfit.iter().zip(&gpu_unfit).filter(|(a, b)| a == b).count();
+    let first = (0..m).find(|&i| cpu.unfit[i] != gpu_unfit[i]).map(|i| format!("point {i}: unfit on the CPU {}, on the GPU {}", cpu.unfit[i], gpu_unfit[i]));
+    let unfit = cpu.unfit.iter().filter(|&&u| u).count();
+    let admission =
+        Disagreement::at_least("temporal admission", "share of points with the same verdict", same as f64 / m.max(1) as f64, TEMPORAL_SAME_ADMISSION)
+            .with_worst(first);
+    let kept_differ = cpu.kept.len().max(gpu_kept.len()) - cpu.kept.iter().zip(&gpu_kept).filter(|(a, b)| a == b).count();
+    let mut checks = vec![
+        thresholds,
+        admission,
+        Disagreement::info("temporal admission", "points that fit no centre (CPU)", unfit as f64),
+        Disagreement::info("temporal admission", "centres kept (CPU)", cpu.kept.len() as f64),
+        Disagreement::info("temporal admission", "kept centres that differ", kept_differ as f64),
+    ];
+    checks.extend(compare_clustering(device, queue, kernel, (ps, ns), params, ClusterStart::Warm { previous: &previous, seeds })?);
+    Ok(checks)
 }
 
 /// The adaptive seeding (`--seeding adaptive`) of a frame's hits on both backends, from the
@@ -244,8 +304,14 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
         };
         let seeded = if seeds.is_some() { ", adaptive seeds" } else { "" };
         let whole = format!("{} {name}, K = {}, {} iterations, F = {}, {}{seeded}", count(ps.len()), params.k, params.iterations, params.f, describe(&params));
-        for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params, seeds.as_deref())? {
+        let start = seeds.as_deref().map_or(ClusterStart::Stride, ClusterStart::Seeds);
+        for d in compare_clustering(device, queue, kernel, (&ps, &ns), &params, start)? {
             r.checks.push(d.with_case(&whole));
+        }
+        if name == "hit points" {
+            for d in compare_temporal(device, queue, kernel, (&ps, &ns), &params, seeds.as_deref())? {
+                r.checks.push(d.with_case(format!("{whole}, warm from the CPU's clusters with halved thresholds")));
+            }
         }
     }
     r.checks.extend(compare_rsm(twins, cfg)?);

@@ -1,7 +1,7 @@
 //! The CPU's intermediate results of a frame: what the chained GPU stages are fed.
 
 use glam::Vec3;
-use vplgi_cpu::cluster::{cluster, cluster_from, Clustering};
+use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart, Clustering};
 use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_cpu::shade::VplLight;
 use vplgi_cpu::CpuScene;
@@ -99,7 +99,7 @@ impl CpuClusters {
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
             let seeds = (cfg.seeding == Seeding::Adaptive).then(|| frame.adaptive_seeds(cfg, cs.extent));
-            cluster_from(&p, &n, &cfg.sp_cluster_params(cs.extent), seeds.as_deref())
+            cluster_from(&p, &n, &cfg.sp_cluster_params(cs.extent), seeds.as_deref().map_or(ClusterStart::Stride, ClusterStart::Seeds))
         });
         let rows = match &sp_clusters {
             Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),

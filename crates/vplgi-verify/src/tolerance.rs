@@ -31,6 +31,13 @@ pub const ASSIGN_SAME_LABELS: f64 = 0.9999;
 /// seeds in the same order. Node sums are integers and the shares the same f32 operations on
 /// both backends, so no seed may differ.
 pub const SEEDING_DIFFERING_SEEDS: u64 = 0;
+/// `--temporal on`, the admission of the same points by the same previous centres: at least this
+/// share of points with the same verdict. A verdict is the assignment's nearest centre and one
+/// comparison of its key, both in the same operations on both backends, so the assignment row.
+pub const TEMPORAL_SAME_ADMISSION: f64 = ASSIGN_SAME_LABELS;
+/// `--temporal on`, each cluster's threshold (its members' largest key) from the same clustering:
+/// the maximum of keys computed in the same operations, so bit-identical.
+pub const TEMPORAL_DIFFERING_THRESHOLDS: u64 = 0;
 /// Centroid update given the same labels: bit-identical (integer sums): no differing centroid.
 pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
 /// The RSM-space centroid update (`--vpl-cluster rsm`): float sums in the same order on both
