@@ -43,6 +43,12 @@ pub struct RenderArgs {
     /// the same sequence rendered --cluster none, and measure on --lighting indirect).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     frames: Option<u32>,
+    /// With --frames: the --out of a converged sequence along the same path (the same --frames,
+    /// size and --lighting, rendered --cluster none or as a reference). Each frame's change that
+    /// the converged sequence does not have (camera motion cancels) is added to sequence.json
+    /// as `excess_change`, and its mean as `temporal_error`: the approximation's own flicker.
+    #[arg(long, value_name = "DIR", requires = "frames")]
+    flicker_reference: Option<PathBuf>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/render")]
     out: PathBuf,
@@ -172,6 +178,9 @@ struct SequenceFrame {
     sp_fresh: u32,
     /// Relative change from the frame before (`vplgi_image::relative_change`); none for the first.
     change: Option<f64>,
+    /// With --flicker-reference: the change the converged sequence does not have
+    /// (`vplgi_image::excess_change`).
+    excess_change: Option<f64>,
 }
 
 /// `--frames N`: the camera path sampled at N times, each frame rendered, written and dropped
@@ -183,6 +192,23 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
         );
     };
     let cameras = path.frames(n).map_err(|e| anyhow::anyhow!("{source}: camera path: {e}"))?;
+    // The converged frames are read (and checked) before any work.
+    let converged: Option<Vec<vplgi_image::Image>> = args
+        .flicker_reference
+        .as_ref()
+        .map(|dir| {
+            (0..n)
+                .map(|i| {
+                    let path = dir.join(format!("frame-{i:04}.exr"));
+                    let img = vplgi_image::read_exr(&path).with_context(|| format!("--flicker-reference: {}", path.display()))?;
+                    if (img.width, img.height) != (cfg.width, cfg.height) {
+                        bail!("--flicker-reference: {} is {}x{}, the sequence {}x{}", path.display(), img.width, img.height, cfg.width, cfg.height);
+                    }
+                    Ok(img)
+                })
+                .collect::<Result<Vec<_>>>()
+        })
+        .transpose()?;
     let (span0, span1) = path.span();
     let mut frames = Vec::with_capacity(n as usize);
     let mut previous: Option<vplgi_image::Image> = None;
@@ -201,6 +227,10 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
             vplgi_image::write_exr(&exr, &image)?;
             vplgi_image::write_png(&png, &image, args.exposure)?;
             let change = previous.as_ref().map(|p| vplgi_image::relative_change(p, &image)).transpose()?;
+            let excess_change = match (&previous, &converged) {
+                (Some(p), Some(c)) => Some(vplgi_image::excess_change(p, &image, (&c[i - 1], &c[i]))?),
+                _ => None,
+            };
             let total_ms = frame.timings.total();
             eprintln!(
                 "frame {}/{n}: {total_ms:.0} ms{}",
@@ -219,13 +249,21 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
                 sp_kept: frame.stats.sp_kept,
                 sp_fresh: frame.stats.sp_fresh,
                 change,
+                excess_change,
             });
             previous = Some(image);
         }
         Ok((engine.name, engine.adapter.clone()))
     })?;
     let changes: Vec<f64> = frames.iter().filter_map(|f| f.change).collect();
-    let flicker = (!changes.is_empty()).then(|| changes.iter().sum::<f64>() / changes.len() as f64);
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let flicker = mean(&changes);
+    let excess: Vec<f64> = frames.iter().filter_map(|f| f.excess_change).collect();
+    let temporal_error = mean(&excess);
+    let converged_flicker = converged.as_ref().and_then(|c| {
+        let changes: Vec<f64> = c.windows(2).filter_map(|w| vplgi_image::relative_change(&w[0], &w[1]).ok()).collect();
+        mean(&changes)
+    });
     let json = args.out.join("sequence.json");
     let report = serde_json::json!({
         "vplgi_version": env!("CARGO_PKG_VERSION"),
@@ -236,11 +274,19 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
         "path_seconds": [span0, span1],
         "frames": frames,
         "flicker": flicker,
+        "flicker_reference": args.flicker_reference,
+        "converged_flicker": converged_flicker,
+        "temporal_error": temporal_error,
         "seconds": clock.elapsed().as_secs_f64(),
     });
     write_json(&json, &report)?;
     match flicker {
-        Some(f) => println!("{n} frames of {} ({}x{}), flicker (mean relative change between frames) {:.2} %", scene.name, cfg.width, cfg.height, 100.0 * f),
+        Some(f) => {
+            println!("{n} frames of {} ({}x{}), flicker (mean relative change between frames) {:.2} %", scene.name, cfg.width, cfg.height, 100.0 * f);
+            if let (Some(c), Some(t)) = (converged_flicker, temporal_error) {
+                println!("  converged sequence {:.2} %; change it does not have (temporal error) {:.2} %", 100.0 * c, 100.0 * t);
+            }
+        }
         None => println!("1 frame of {} ({}x{})", scene.name, cfg.width, cfg.height),
     }
     println!("wrote {} .. {}\n      {}", frames[0].png.display(), frames[frames.len() - 1].png.display(), json.display());

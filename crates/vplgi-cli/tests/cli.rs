@@ -760,6 +760,28 @@ fn camera_walks_render_as_frame_sequences() {
     let o = vplgi(&["render", "--temporal", "on", "--cluster", "vpl", "--out", dir.path().join("refused").to_str().unwrap()]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--cluster sp or both"), "{}", String::from_utf8_lossy(&o.stderr));
 
+    // --flicker-reference: the change the converged sequence does not have, per frame and on
+    // average; a reference that lacks a frame is refused before any work, naming the file.
+    let converged = dir.path().join("converged");
+    let mut args = vec!["render", glb.to_str().unwrap(), "--frames", "4", "--cluster", "none", "--out", converged.to_str().unwrap()];
+    args.extend_from_slice(&small);
+    assert!(vplgi(&args).status.success());
+    let judged = dir.path().join("judged");
+    let mut args =
+        vec!["render", glb.to_str().unwrap(), "--frames", "4", "--flicker-reference", converged.to_str().unwrap(), "--out", judged.to_str().unwrap()];
+    args.extend_from_slice(&small);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("temporal error"));
+    let seq: serde_json::Value = serde_json::from_slice(&std::fs::read(judged.join("sequence.json")).unwrap()).unwrap();
+    let read = |d: &Path, i: u32| vplgi_image::read_exr(&d.join(format!("frame-{i:04}.exr"))).unwrap();
+    let excess = vplgi_image::excess_change(&read(&judged, 1), &read(&judged, 2), (&read(&converged, 1), &read(&converged, 2))).unwrap();
+    assert!((seq["frames"][2]["excess_change"].as_f64().unwrap() - excess).abs() <= 1e-12 * excess.max(1e-30));
+    assert!(seq["temporal_error"].as_f64().unwrap() > 0.0 && seq["converged_flicker"].as_f64().unwrap() > 0.0);
+    std::fs::remove_file(converged.join("frame-0003.exr")).unwrap();
+    let o = vplgi(&args);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("frame-0003.exr"), "{}", String::from_utf8_lossy(&o.stderr));
+
     let o = vplgi(&["render", "--frames", "2", "--out", dir.path().join("box").to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no camera animation"), "{}", String::from_utf8_lossy(&o.stderr));

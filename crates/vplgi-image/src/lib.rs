@@ -15,7 +15,7 @@ use std::path::PathBuf;
 pub use atomic::write_atomically;
 pub use errormap::{error_map_rgb8, write_error_map};
 pub use io::{read_exr, resize_rgb8, tonemap_srgb8, write_exr, write_png, write_rgb8_png};
-pub use metrics::{compare, relative_change, Comparison, Metrics, REL_MSE_EPSILON};
+pub use metrics::{compare, excess_change, relative_change, Comparison, Metrics, REL_MSE_EPSILON};
 
 /// A linear HDR RGB image, row-major with row 0 at the top.
 ///

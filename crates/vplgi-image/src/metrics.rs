@@ -114,9 +114,54 @@ pub fn relative_change(previous: &Image, next: &Image) -> Result<f64, ImageError
     })
 }
 
+/// The change between two frames that a converged sequence along the same path does not have:
+/// the summed absolute difference of the two changes, over the converged previous frame's sum.
+/// Camera motion changes both sequences alike and cancels; what is left is the approximation's
+/// own change from frame to frame (its flicker), 0 for a sequence that changes exactly as the
+/// converged one does.
+pub fn excess_change(previous: &Image, next: &Image, (ref_previous, ref_next): (&Image, &Image)) -> Result<f64, ImageError> {
+    for (what, img) in [("next frame", next), ("converged previous frame", ref_previous), ("converged next frame", ref_next)] {
+        if (img.width, img.height) != (previous.width, previous.height) {
+            return Err(ImageError::SizeMismatch { reference: (previous.width, previous.height), test: (img.width, img.height) });
+        }
+        img.check_len(what)?;
+    }
+    previous.check_len("previous frame")?;
+    let (mut excess, mut total) = (0.0f64, 0.0f64);
+    for (((a, b), ra), rb) in previous.pixels.iter().zip(&next.pixels).zip(&ref_previous.pixels).zip(&ref_next.pixels) {
+        for c in 0..3 {
+            let change = f64::from(b[c]) - f64::from(a[c]);
+            let converged = f64::from(rb[c]) - f64::from(ra[c]);
+            excess += (change - converged).abs();
+            total += f64::from(ra[c]);
+        }
+    }
+    Ok(if total > 0.0 {
+        excess / total
+    } else if excess == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Motion shared with the converged sequence cancels; a change of its own remains.
+    #[test]
+    fn excess_change_is_what_the_converged_sequence_does_not_do() {
+        let a = pattern(16, 8);
+        let moved = Image { pixels: a.pixels.iter().rev().copied().collect(), ..a.clone() };
+        assert_eq!(excess_change(&a, &moved, (&a, &moved)).unwrap(), 0.0);
+        // The approximation brightens by 10 % where the converged one only moved.
+        let brighter = Image { pixels: moved.pixels.iter().map(|p| p.map(|c| 1.1 * c)).collect(), ..a.clone() };
+        assert!((excess_change(&a, &brighter, (&a, &moved)).unwrap() - 0.1).abs() < 1e-6);
+        // An approximation that stands still while the converged one moves has its motion as excess.
+        assert_eq!(excess_change(&a, &a, (&a, &moved)).unwrap(), relative_change(&a, &moved).unwrap());
+        assert!(excess_change(&a, &a, (&a, &filled(2, 2, [1.0; 3]))).is_err());
+    }
 
     #[test]
     fn relative_change_is_the_l1_change_over_the_previous_sum() {
