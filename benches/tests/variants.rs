@@ -1,5 +1,5 @@
 //! `variants --quick` runs end to end at small sizes and writes the comparison with every scene,
-//! variant and budget, numbers and charts.
+//! variant and budget, numbers and charts, and the flicker of each pipeline along a walk.
 
 use std::process::Command;
 
@@ -25,5 +25,9 @@ fn quick_variants_compare_every_scene_and_variant() {
         let frames = sc["frames"].as_array().unwrap();
         assert_eq!(frames.len(), 10, "5 variants at 2 counts");
         assert!(frames.iter().all(|f| f["flip"].as_f64().unwrap() > 0.0 && f["ms"].as_f64().unwrap() > 0.0));
+        let sequences = sc["sequences"].as_array().unwrap();
+        assert_eq!(sequences.len(), 4, "two pipelines with and without --temporal");
+        assert!(sequences.iter().all(|s| s["temporal_error"].as_f64().unwrap() > 0.0 && s["converged_flicker"].as_f64().unwrap() > 0.0));
     }
+    assert!(md.contains("Flicker along a camera walk") && md.contains("Wang et al., --temporal on"), "{md}");
 }
