@@ -1,12 +1,16 @@
 //! Stage 3, `cluster`: the frame's two clusterings (VPLs into K_VPL hard clusters, hit shading
 //! points into K_SP F-fuzzy clusters), CPU and GPU, from the same points, with the shading points
-//! by Eq. 7 (`cpu`, `gpu`) and by Eq. 2 of Wang et al. (`cpu-ward`, `gpu-ward`); and `kmeans`, the
+//! by Eq. 7 (`cpu`, `gpu`) and by Eq. 2 of Wang et al. (`cpu-ward`, `gpu-ward`); the shading
+//! points' clustering started warm from a previous frame's (`cpu-warm`, `gpu-warm`, `--temporal
+//! on`), with the centres read back for the next frame; and `kmeans`, the
 //! k-means problem `make perf-report` compares with faiss (1M uniform points, K = 8,192).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
-use vplgi_cpu::cluster::cluster;
+use vplgi_cpu::cluster::temporal::centres;
+use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart};
 use vplgi_gpu::cluster::ClusterKernel;
+use vplgi_types::temporal::Centre;
 use vplgi_types::{FrameConfig, SpMetric, SpRepresentative};
 
 fn cluster_stage(c: &mut Criterion) {
@@ -38,6 +42,23 @@ fn cluster_stage(c: &mut Criterion) {
                 run();
                 group.bench_function(BenchmarkId::new(format!("gpu{suffix}"), size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
             }
+        }
+        // `-warm`: the previous frame is this one's cold clustering with its thresholds halved,
+        // so that some points fit nowhere and seed new clusters, as after a camera move.
+        let sp = inputs.cfg.sp_cluster_params(inputs.cs.extent);
+        let (ps, ns) = (&inputs.sp_points.0, &inputs.sp_points.1);
+        let previous: Vec<Centre> =
+            centres(&cluster(ps, ns, &sp), ps, ns, sp.metric).into_iter().map(|c| Centre { threshold: 0.5 * c.threshold, ..c }).collect();
+        let warm = ClusterStart::Warm { previous: &previous, seeds: None };
+        group.bench_function(BenchmarkId::new("cpu-warm", size.name), |b| b.iter(|| centres(&cluster_from(ps, ns, &sp, warm), ps, ns, sp.metric).len()));
+        if let (Some(g), Some(k)) = (&gpu, &kernel) {
+            let (buf, n) = (g.endpoints(&inputs.sp_points), ps.len() as u32);
+            let run = || {
+                let c = k.cluster_from(&g.ctx.device, &g.ctx.queue, (&buf, n), &sp, warm).expect("warm clustering");
+                k.centres(&g.ctx.device, &g.ctx.queue, &c, (&buf, n), sp.metric).expect("centres");
+            };
+            run();
+            group.bench_function(BenchmarkId::new("gpu-warm", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
         }
     }
     // --vpl-cluster rsm at the paper's Table 1 sizes (RSM 128² with 256 and 1,024 clusters, 256²
