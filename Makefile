@@ -197,7 +197,8 @@ results: build
 
 # The core paper's and Wang et al.'s shading-point choices (seeding, metric, representative,
 # fuzzy visibility or interpolation) at equal time on the three generated scenes, one
-# `vplgi sweep --figure variants` each on the CPU: docs/VARIANTS.md. About five minutes.
+# `vplgi sweep --figure variants` each on the CPU, and flicker along a camera walk of each with
+# and without --temporal on: docs/VARIANTS.md. About ten minutes.
 variants: build
 	$(CARGO) run --release -p vplgi-benches --bin variants -- --out docs/VARIANTS.md
 

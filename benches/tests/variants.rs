@@ -25,9 +25,12 @@ fn quick_variants_compare_every_scene_and_variant() {
         let frames = sc["frames"].as_array().unwrap();
         assert_eq!(frames.len(), 10, "5 variants at 2 counts");
         assert!(frames.iter().all(|f| f["flip"].as_f64().unwrap() > 0.0 && f["ms"].as_f64().unwrap() > 0.0));
-        let sequences = sc["sequences"].as_array().unwrap();
+        let sequences = sc["walk"]["sequences"].as_array().unwrap();
         assert_eq!(sequences.len(), 4, "two pipelines with and without --temporal");
-        assert!(sequences.iter().all(|s| s["temporal_error"].as_f64().unwrap() > 0.0 && s["converged_flicker"].as_f64().unwrap() > 0.0));
+        assert!(sequences.iter().all(|s| s["own_flicker"].as_f64().unwrap() > 0.0));
+        assert!(sc["walk"]["converged_flicker"].as_f64().unwrap() > 0.0);
+        let scene = sc["scene"].as_str().unwrap();
+        assert!(dir.path().join("variants").join(format!("{scene}-flicker.svg")).is_file());
     }
-    assert!(md.contains("Flicker along a camera walk") && md.contains("Wang et al., --temporal on"), "{md}");
+    assert!(md.contains("Flicker along a camera walk") && md.contains("`ward+min-error+adaptive+interpolate +temporal`"), "{md}");
 }

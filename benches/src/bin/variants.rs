@@ -6,9 +6,9 @@
 //! own light): each variant at each shading-point cluster count, against the unclustered
 //! reference. The question is which variant is best **at equal time**: for each time budget (the
 //! core paper's frame time at each count), the lowest error each variant reached in a frame no
-//! slower than the budget. Then, along a camera walk of each scene, the flicker of the two papers'
-//! pipelines with and without `--temporal on`: each sequence's change between frames that the
-//! unclustered sequence of the same walk does not have (`--flicker-reference`). About ten
+//! slower than the budget. Then, along a camera walk of each scene, one `vplgi sweep --figure
+//! flicker`: the two papers' pipelines with and without `--temporal on`, each sequence's change
+//! between frames that the unclustered sequence of the same walk does not have. About ten
 //! minutes on 2 cores.
 
 use anyhow::{Context, Result};
@@ -40,16 +40,9 @@ struct Opts {
 const VARIANTS: &str =
     "eq7+nearest+stride+fuzzy,ward+min-error+adaptive+interpolate,ward+min-error+adaptive+fuzzy,eq7+nearest+adaptive+fuzzy,ward+min-error+stride+fuzzy";
 
-/// The sequences along each scene's walk: (name, options beyond `--cluster sp`).
-const SEQUENCES: [(&str, &[&str]); 4] = [
-    ("core paper", &[]),
-    ("core paper, --temporal on", &["--temporal", "on"]),
-    ("Wang et al.", &["--metric", "ward", "--representative", "min-error", "--seeding", "adaptive", "--shade", "interpolate"]),
-    (
-        "Wang et al., --temporal on",
-        &["--metric", "ward", "--representative", "min-error", "--seeding", "adaptive", "--shade", "interpolate", "--temporal", "on"],
-    ),
-];
+/// The pipelines whose flicker is measured along each scene's walk, each with --temporal off
+/// and on: the core paper's and Wang et al.'s.
+const PIPELINES: &str = "eq7+nearest+stride+fuzzy,ward+min-error+adaptive+interpolate";
 
 /// A frame may be this much slower than a budget and still count as within it: repeated runs of
 /// one configuration vary by about as much on this machine.
@@ -107,8 +100,8 @@ fn main() -> Result<()> {
             .iter()
             .map(|c| json!({"variant": c["variant"], "k_sp": c["k_sp"], "ms": c["timings_ms"]["total"], "flip": c["flip"], "rel_mse": c["rel_mse"]}))
             .collect();
-        let sequences = flicker(&o, &work, name, (&w, &h), vpls, q)?;
-        rows.push(json!({"scene": name, "width": w, "height": h, "vpls": vpls, "frames": frames, "sequences": sequences}));
+        let walk = flicker(&o, &work, &docs, name, (&w, &h), vpls, q)?;
+        rows.push(json!({"scene": name, "width": w, "height": h, "vpls": vpls, "frames": frames, "walk": walk}));
     }
     let (date, commit) = vplgi_benches::date_and_commit()?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
@@ -118,40 +111,43 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// The walk's sequences of `name` (a 5-key `--camera-walk`): the unclustered one, then each of
-/// [`SEQUENCES`] judged against it, at `--lighting indirect`.
-fn flicker(o: &Opts, work: &std::path::Path, name: &str, (w, h): (&str, &str), vpls: &str, q: bool) -> Result<Vec<Value>> {
-    let (triangles, frames, k) = if q { ("20000", "5", "100") } else { ("300000", "33", "2000") };
+/// One `vplgi sweep --figure flicker` along a 5-key `--camera-walk` of `name` at `--lighting
+/// indirect`: each of [`PIPELINES`] with --temporal off and on at each count, judged against the
+/// unclustered sequence of the same walk. Its chart goes to `docs`.
+fn flicker(o: &Opts, work: &std::path::Path, docs: &std::path::Path, name: &str, (w, h): (&str, &str), vpls: &str, q: bool) -> Result<Value> {
+    let (triangles, frames, counts) = if q { ("20000", "3", "100") } else { ("300000", "17", "1000,4000") };
     let glb = work.join("scenes").join(format!("{name}-{triangles}-walk.glb"));
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
     if !glb.exists() {
         vplgi(&["scene", "generate", name, "--triangles", triangles, "--camera-walk", "5", "--out", glb.to_str().unwrap_or_default()])?;
     }
-    let common = [glb.to_str().unwrap_or_default(), "--frames", frames, "--width", w, "--height", h, "--vpls", vpls, "--lighting", "indirect"];
-    let converged = work.join(name).join("walk-none");
-    eprintln!("{name}: the walk, unclustered");
-    vplgi(&[&["render"][..], &common, &["--cluster", "none", "--out", converged.to_str().unwrap_or_default()]].concat())?;
-    let mut rows = Vec::new();
-    for (i, (label, extra)) in SEQUENCES.iter().enumerate() {
-        eprintln!("{name}: the walk, {label}");
-        let out = work.join(name).join(format!("walk-{i}"));
-        let args = [
-            &["render"][..],
-            &common,
-            &["--cluster", "sp", "--k-sp", k, "--flicker-reference", converged.to_str().unwrap_or_default(), "--out", out.to_str().unwrap_or_default()],
-            extra,
-        ]
-        .concat();
-        vplgi(&args)?;
-        let seq: Value = serde_json::from_slice(&std::fs::read(out.join("sequence.json")).context("reading sequence.json")?)?;
-        let ms: Vec<f64> = seq["frames"].as_array().cloned().unwrap_or_default().iter().filter_map(|f| f["total_ms"].as_f64()).collect();
-        rows.push(json!({
-            "sequence": label, "frames": frames, "k_sp": k,
-            "flicker": seq["flicker"], "converged_flicker": seq["converged_flicker"], "temporal_error": seq["temporal_error"],
-            "ms_per_frame": ms.iter().sum::<f64>() / ms.len().max(1) as f64,
-        }));
-    }
-    Ok(rows)
+    eprintln!("{name}: flicker along the walk");
+    let dir = work.join(name).join("flicker");
+    vplgi(&[
+        "sweep",
+        glb.to_str().unwrap_or_default(),
+        "--figure",
+        "flicker",
+        "--variants",
+        PIPELINES,
+        "--frames",
+        frames,
+        "--sp-clusters",
+        counts,
+        "--width",
+        w,
+        "--height",
+        h,
+        "--vpls",
+        vpls,
+        "--lighting",
+        "indirect",
+        "--out",
+        dir.to_str().unwrap_or_default(),
+    ])?;
+    std::fs::copy(dir.join("flicker.svg"), docs.join(format!("{name}-flicker.svg"))).context("copying flicker.svg")?;
+    let sweep: Value = serde_json::from_slice(&std::fs::read(dir.join("sweep.json")).context("reading the flicker sweep.json")?)?;
+    Ok(json!({"frames": frames, "converged_flicker": sweep["converged_flicker"], "sequences": sweep["sequences"]}))
 }
 
 /// The lowest FLIP among `frames` of `variant` no slower than `budget` ms (with the slack), and
@@ -223,27 +219,28 @@ fn markdown(r: &Value) -> Result<String> {
             )?;
         }
         writeln!(s, "\n![FLIP against time and count](variants/{name}-variants-flip.svg)\n")?;
-        let sequences = sc["sequences"].as_array().cloned().unwrap_or_default();
-        if let Some(first) = sequences.first() {
+        let walk = &sc["walk"];
+        let sequences = walk["sequences"].as_array().cloned().unwrap_or_default();
+        if !sequences.is_empty() {
             writeln!(
                 s,
-                "**Flicker along a camera walk** ({} frames of `scene generate {name} --camera-walk 5`, `--lighting indirect`, `--cluster sp --k-sp {}`): the mean relative change between consecutive frames, the same for the unclustered sequence ({:.2} %), and the change the unclustered sequence does not have (camera motion cancelled: the clustering's own flicker).\n",
-                first["frames"].as_str().unwrap_or("?"),
-                first["k_sp"].as_str().unwrap_or("?"),
-                100.0 * f(&first["converged_flicker"])
+                "**Flicker along a camera walk** (`vplgi sweep --figure flicker`: {} frames of `scene generate {name} --camera-walk 5`, `--lighting indirect`, `--cluster sp`): the mean relative change between consecutive frames, the same for the unclustered sequence ({:.2} %), and the change the unclustered sequence does not have (camera motion cancelled: the clustering's own flicker).\n",
+                walk["frames"].as_str().unwrap_or("?"),
+                100.0 * f(&walk["converged_flicker"])
             )?;
-            writeln!(s, "| sequence | change between frames | change the unclustered sequence does not have | s per frame |\n|---|---:|---:|---:|")?;
+            writeln!(s, "| pipeline | K | change between frames | change the unclustered sequence does not have | s per frame |\n|---|---:|---:|---:|---:|")?;
             for x in &sequences {
                 writeln!(
                     s,
-                    "| {} | {:.2} % | {:.2} % | {:.2} |",
-                    x["sequence"].as_str().unwrap_or("?"),
+                    "| `{}` | {} | {:.2} % | {:.2} % | {:.2} |",
+                    x["series"].as_str().unwrap_or("?"),
+                    x["k_sp"],
                     100.0 * f(&x["flicker"]),
-                    100.0 * f(&x["temporal_error"]),
+                    100.0 * f(&x["own_flicker"]),
                     f(&x["ms_per_frame"]) / 1e3
                 )?;
             }
-            writeln!(s)?;
+            writeln!(s, "\n![the clustering's own flicker against time and count](variants/{name}-flicker.svg)\n")?;
         }
     }
     Ok(s)

@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use clap::ValueEnum;
 use std::time::Instant;
 use vplgi_frame::{Adapter, Frame, FrameConfig, Progress, View};
-use vplgi_scene::Scene;
+use vplgi_scene::{Camera, Scene};
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
 pub enum BackendArg {
@@ -41,6 +41,20 @@ impl Engine<'_> {
     /// A frame of a sequence.
     pub fn render_from(&self, cfg: &FrameConfig, view: &View, progress: &dyn Progress) -> Result<Frame> {
         (self.render)(cfg, Some(view), progress)
+    }
+
+    /// A sequence along `cameras`: each frame starts from the clusters of the one before (used
+    /// with `--temporal on`; the first frame has none) and is handed to `each` with its index,
+    /// then dropped, so a sequence never holds more than one frame.
+    pub fn walk(&self, cfg: &FrameConfig, cameras: &[Camera], progress: &dyn Progress, mut each: impl FnMut(usize, Frame) -> Result<()>) -> Result<()> {
+        let mut centres = Vec::new();
+        for (i, camera) in cameras.iter().enumerate() {
+            let view = View { camera: *camera, previous: (i > 0).then_some(&centres[..]) };
+            let mut frame = self.render_from(cfg, &view, progress)?;
+            centres = std::mem::take(&mut frame.centres);
+            each(i, frame)?;
+        }
+        Ok(())
     }
 }
 

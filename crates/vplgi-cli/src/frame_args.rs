@@ -207,8 +207,8 @@ pub const REFERENCE: Use = Use {
 pub const SWEEP: Use = Use {
     command: "sweep",
     preset: Preset::Default,
-    fixed: &["preset", "cluster", "k_sp", "k_vpl"],
-    why: "the sweep sets them per configuration (--figure, --sp-clusters, --vpl-clusters)",
+    fixed: &["preset", "cluster", "k_sp", "k_vpl", "temporal"],
+    why: "the sweep sets them per configuration (--figure, --sp-clusters, --vpl-clusters; --figure flicker runs --temporal off and on)",
 };
 pub const BENCH: Use = Use {
     command: "bench",

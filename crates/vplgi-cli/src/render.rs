@@ -212,15 +212,10 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     let (span0, span1) = path.span();
     let mut frames = Vec::with_capacity(n as usize);
     let mut previous: Option<vplgi_image::Image> = None;
-    let mut centres = Vec::new();
     let clock = Instant::now();
     let (backend, adapter) = with_engine(args.backend, scene, source, |engine| {
-        let bars = Bars::new();
-        for (i, camera) in cameras.iter().enumerate() {
-            // The first frame has no clusters to carry over.
-            let view = vplgi_frame::View { camera: *camera, previous: (i > 0).then_some(&centres[..]) };
-            let frame = engine.render_from(cfg, &view, &bars)?;
-            centres = frame.centres;
+        engine.walk(cfg, &cameras, &Bars::new(), |i, frame| {
+            let camera = &cameras[i];
             let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
             let exr = args.out.join(format!("frame-{i:04}.exr"));
             let png = args.out.join(format!("frame-{i:04}.png"));
@@ -252,7 +247,8 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
                 excess_change,
             });
             previous = Some(image);
-        }
+            Ok(())
+        })?;
         Ok((engine.name, engine.adapter.clone()))
     })?;
     let changes: Vec<f64> = frames.iter().filter_map(|f| f.change).collect();

@@ -4,9 +4,11 @@
 //! against MSE and against FLIP); every configuration's image and FLIP error map go into one
 //! contact sheet, and every number into sweep.json. `--figure variants` sets the core paper's
 //! choices for clustering shading points beside Wang et al.'s (metric, representative, seeding) at each
-//! shading-point cluster count, charted at equal time and at equal count.
+//! shading-point cluster count, charted at equal time and at equal count. `--figure flicker` renders
+//! each variant along the scene's camera animation with `--temporal` off and on, and charts the
+//! clustering's own flicker: the change between frames that the unclustered sequence lacks.
 
-use crate::engine::{with_engine, BackendArg};
+use crate::engine::{with_engine, BackendArg, Engine};
 use crate::frame_args::{FrameArgs, SWEEP};
 use crate::plot::{contact_sheet, heatmap, stacked_bars, variant_lines, Bar, Series, Tile};
 use crate::shared::{load_scene, write_json};
@@ -18,7 +20,8 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
-use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, SpMetric, SpRepresentative};
+use vplgi_scene::Camera;
+use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -35,6 +38,12 @@ enum Figure {
     /// (`--cluster sp`): the two papers' choices side by side.
     #[value(name = "variants")]
     Variants,
+    /// The clustering's own flicker along the scene's camera animation (--frames frames) for
+    /// each of --variants with --temporal off and on, against frame time and the shading-point
+    /// cluster count (`--cluster sp`): the change between frames that the unclustered sequence
+    /// of the same path does not have.
+    #[value(name = "flicker")]
+    Flicker,
 }
 
 /// One set of shading-point choices of `--figure variants`, over the sweep's frame options.
@@ -113,6 +122,10 @@ pub struct SweepArgs {
         default_value = "eq7+nearest+stride+fuzzy,ward+min-error+adaptive+interpolate,ward+min-error+adaptive+fuzzy,eq7+nearest+adaptive+fuzzy,ward+min-error+stride+fuzzy"
     )]
     variants: Vec<Variant>,
+    /// With --figure flicker: frames along the scene's camera animation (glTF, or `vplgi scene
+    /// generate NAME --camera-walk K`), at least 2.
+    #[arg(long, default_value_t = 9)]
+    frames: u32,
     /// Where the clustered frames run. The reference is always rendered by the CPU reference.
     #[arg(long, value_enum, default_value = "cpu")]
     backend: BackendArg,
@@ -124,7 +137,8 @@ pub struct SweepArgs {
     reference: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameArgs,
-    /// Output directory: sweep.json, fig*.png/svg, contact_sheet.png, configs/*/.
+    /// Output directory: sweep.json, fig*.png/svg, variants-*.png/svg, flicker.png/svg,
+    /// contact_sheet.png, configs/*/.
     #[arg(long, value_name = "DIR", default_value = "out/sweep")]
     out: PathBuf,
 }
@@ -136,6 +150,24 @@ struct Config {
     cfg: FrameConfig,
     /// The variant's name (`--figure variants`).
     variant: Option<String>,
+}
+
+/// One sequence of `--figure flicker`: a variant at one count, with --temporal off or on.
+struct SequenceConfig {
+    label: String,
+    /// The chart's line: the variant's name, with ` +temporal` when on.
+    series: String,
+    cfg: FrameConfig,
+}
+
+/// What a sequence measured.
+struct SequenceMeasured {
+    /// Mean relative change between consecutive frames.
+    flicker: f64,
+    /// Mean change the unclustered sequence does not have (`vplgi_image::excess_change`).
+    own_flicker: f64,
+    ms_per_frame: f64,
+    tile: Tile,
 }
 
 /// What a configuration measured.
@@ -185,6 +217,25 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
                     }));
                 }
             }
+            Figure::Flicker => {}
+        }
+    }
+    out
+}
+
+fn sequences(args: &SweepArgs, base: &FrameConfig) -> Vec<SequenceConfig> {
+    if !args.figures.contains(&Figure::Flicker) {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for v in &args.variants {
+        for temporal in [Temporal::Off, Temporal::On] {
+            let series = if temporal == Temporal::On { format!("{} +temporal", v.name) } else { v.name.clone() };
+            out.extend(args.sp_clusters.iter().map(|&k| SequenceConfig {
+                label: format!("flicker-sp{k}-{}", series.replace(" +", "+")),
+                series: series.clone(),
+                cfg: v.apply(FrameConfig { cluster: ClusterMode::Sp, k_sp: k, temporal, ..base.clone() }),
+            }));
         }
     }
     out
@@ -201,11 +252,22 @@ pub fn run(args: SweepArgs) -> Result<()> {
     }
     let base = args.frame.config(&SWEEP)?;
     let configs = configs(&args, &base);
-    for c in &configs {
-        c.cfg.validate().map_err(|e| anyhow::anyhow!("configuration {}: {e}", c.label))?;
+    let sequences = sequences(&args, &base);
+    for (label, cfg) in configs.iter().map(|c| (&c.label, &c.cfg)).chain(sequences.iter().map(|c| (&c.label, &c.cfg))) {
+        cfg.validate().map_err(|e| anyhow::anyhow!("configuration {label}: {e}"))?;
+    }
+    if !sequences.is_empty() && args.frames < 2 {
+        bail!("--frames {}: --figure flicker measures the change between frames, so it needs at least 2", args.frames);
     }
     crate::plot::ensure_font()?;
     let (scene, source) = load_scene(args.scene.as_deref())?;
+    let cameras = match (&scene.camera_path, sequences.is_empty()) {
+        (_, true) => Vec::new(),
+        (Some(path), false) => path.frames(args.frames).map_err(|e| anyhow::anyhow!("{source}: camera path: {e}"))?,
+        (None, false) => bail!(
+            "{source} has no camera animation, which --figure flicker follows: animate the camera node (translation / rotation channels), or generate a scene with one: vplgi scene generate conference --camera-walk 5"
+        ),
+    };
     let given = match &args.reference {
         Some(path) => {
             let img = vplgi_image::read_exr(path)?;
@@ -227,6 +289,8 @@ pub fn run(args: SweepArgs) -> Result<()> {
     // The reference: given, or rendered by the CPU reference (and kept beside the sweep).
     let (reference, reference_ms) = match given {
         Some(img) => (img, None),
+        // Sequences only: the single-frame reference is not needed.
+        None if configs.is_empty() => (Image { width: 0, height: 0, pixels: Vec::new() }, None),
         None => {
             eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", base.width, base.height, base.vpls);
             let reference = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
@@ -240,9 +304,26 @@ pub fn run(args: SweepArgs) -> Result<()> {
     };
     // The reference time belongs on the charts only when it was measured on the sweep's backend.
     let reference_line = if args.backend == BackendArg::Cpu { reference_ms } else { None };
+    // --figure flicker: the unclustered sequence of the same path, on the CPU like the reference.
+    let converged: Vec<Image> = if sequences.is_empty() {
+        Vec::new()
+    } else {
+        eprintln!("rendering the unclustered sequence ({} frames along the camera animation) on the CPU", cameras.len());
+        let unclustered = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
+        let mut images = Vec::with_capacity(cameras.len());
+        with_engine(BackendArg::Cpu, &scene, &source, |engine| {
+            engine.walk(&unclustered, &cameras, &crate::progress::Bars::new(), |_, f| {
+                images.push(Image { width: base.width, height: base.height, pixels: f.pixels });
+                Ok(())
+            })
+        })?;
+        images
+    };
+    let converged_flicker = mean(&converged.windows(2).map(|w| vplgi_image::relative_change(&w[0], &w[1])).collect::<Result<Vec<_>, _>>()?);
 
-    let (measured, backend_name) = with_engine(args.backend, &scene, &source, |engine| {
-        let bar = if std::io::stderr().is_terminal() { ProgressBar::new(configs.len() as u64) } else { ProgressBar::hidden() };
+    let (measured, sequence_measured, backend_name) = with_engine(args.backend, &scene, &source, |engine| {
+        let total = configs.len() + sequences.len();
+        let bar = if std::io::stderr().is_terminal() { ProgressBar::new(total as u64) } else { ProgressBar::hidden() };
         if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)") {
             bar.set_style(style.progress_chars("=> "));
         }
@@ -250,7 +331,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         for c in &configs {
             bar.set_message(c.label.clone());
             if bar.is_hidden() {
-                eprintln!("sweep: {} ({} of {})", c.label, measured.len() + 1, configs.len());
+                eprintln!("sweep: {} ({} of {total})", c.label, measured.len() + 1);
             }
             let mut runs = Vec::new();
             let mut pixels = Vec::new();
@@ -277,8 +358,17 @@ pub fn run(args: SweepArgs) -> Result<()> {
             measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
             bar.inc(1);
         }
+        let mut sequence_measured = Vec::new();
+        for c in &sequences {
+            bar.set_message(c.label.clone());
+            if bar.is_hidden() {
+                eprintln!("sweep: {} ({} of {total}, {} frames)", c.label, measured.len() + sequence_measured.len() + 1, cameras.len());
+            }
+            sequence_measured.push(measure_sequence(engine, c, &cameras, &converged, &args.out)?);
+            bar.inc(1);
+        }
         bar.finish_and_clear();
-        Ok((measured, engine.name))
+        Ok((measured, sequence_measured, engine.name))
     })?;
 
     let backend = if backend_name == "gpu" { " (GPU)" } else { "" };
@@ -323,6 +413,22 @@ pub fn run(args: SweepArgs) -> Result<()> {
             variant_lines(&stem, &title, &args.sp_clusters, "shading-point clusters", &series, name)?;
             charts.push(stem.with_extension("png"));
         }
+        if metric == "flip" && !sequences.is_empty() {
+            // Sequences are made series by series (variant, then --temporal off and on), each over every count.
+            let series: Vec<Series> = sequences
+                .chunks(args.sp_clusters.len())
+                .zip(sequence_measured.chunks(args.sp_clusters.len()))
+                .map(|(c, m)| Series {
+                    name: c[0].series.clone(),
+                    error: m.iter().map(|m| m.own_flicker).collect(),
+                    time_ms: m.iter().map(|m| m.ms_per_frame).collect(),
+                })
+                .collect();
+            let stem = args.out.join("flicker");
+            let title = format!("{}: the clustering's own flicker along {} frames, --cluster sp{backend}", scene.name, cameras.len());
+            variant_lines(&stem, &title, &args.sp_clusters, "shading-point clusters", &series, "change the unclustered sequence lacks")?;
+            charts.push(stem.with_extension("png"));
+        }
         let rows = of(Figure::Eleven);
         if !rows.is_empty() {
             let (ns, nv) = (args.sp_clusters.len(), args.vpl_clusters.len());
@@ -342,13 +448,9 @@ pub fn run(args: SweepArgs) -> Result<()> {
     }
     let tiles: Vec<Tile> = measured
         .iter()
-        .map(|m| Tile {
-            label: m.tile.label.clone(),
-            width: m.tile.width,
-            height: m.tile.height,
-            image: m.tile.image.clone(),
-            error_map: m.tile.error_map.clone(),
-        })
+        .map(|m| &m.tile)
+        .chain(sequence_measured.iter().map(|m| &m.tile))
+        .map(|t| Tile { label: t.label.clone(), width: t.width, height: t.height, image: t.image.clone(), error_map: t.error_map.clone() })
         .collect();
     let sheet = args.out.join("contact_sheet.png");
     contact_sheet(&sheet, &tiles, 3, 240)?;
@@ -366,13 +468,64 @@ pub fn run(args: SweepArgs) -> Result<()> {
             "timings_ms": m.timings, "mse": m.mse, "rel_mse": m.rel_mse, "flip": m.flip,
             "image": args.out.join("configs").join(&c.label).join("image.png"), "error_map": args.out.join("configs").join(&c.label).join("error_map.png"),
         })).collect::<Vec<_>>(),
+        "sequences": sequences.iter().zip(&sequence_measured).map(|(c, m)| json!({
+            "label": c.label, "series": c.series, "k_sp": c.cfg.k_sp, "temporal": c.cfg.temporal, "metric": c.cfg.metric,
+            "representative": c.cfg.representative, "seeding": c.cfg.seeding, "shade": c.cfg.shade, "alpha": c.cfg.alpha,
+            "frames": cameras.len(), "ms_per_frame": m.ms_per_frame, "flicker": m.flicker, "own_flicker": m.own_flicker,
+            "last_frame": args.out.join("configs").join(&c.label).join("image.png"),
+        })).collect::<Vec<_>>(),
+        "converged_flicker": converged_flicker,
     });
     write_json(&args.out.join("sweep.json"), &report)?;
-    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len(), scene.name, base.width, base.height, base.vpls);
+    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len() + sequences.len(), scene.name, base.width, base.height, base.vpls);
+    if let Some(c) = converged_flicker {
+        println!("flicker along {} frames: unclustered {:.2} %; the clustering's own, per sequence, in sweep.json and flicker.png", cameras.len(), 100.0 * c);
+    }
     println!("charts (PNG, and SVG beside each):");
     for c in &charts {
         println!("  {}", c.display());
     }
     println!("contact sheet: {}\nnumbers: {}", sheet.display(), args.out.join("sweep.json").display());
     Ok(())
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// Renders one sequence of `--figure flicker` along `cameras`, keeping only the frame before,
+/// and measures its flicker and the part of it `converged` (the unclustered sequence) lacks.
+/// Its last frame and that frame's error map go to `out/configs/LABEL/`.
+fn measure_sequence(engine: &Engine, c: &SequenceConfig, cameras: &[Camera], converged: &[Image], out: &std::path::Path) -> Result<SequenceMeasured> {
+    let (mut changes, mut excess, mut ms) = (Vec::new(), Vec::new(), Vec::new());
+    let mut previous: Option<Image> = None;
+    engine.walk(&c.cfg, cameras, &NoProgress, |i, f| {
+        let img = Image { width: c.cfg.width, height: c.cfg.height, pixels: f.pixels };
+        ms.push(f.timings.total());
+        if let Some(p) = &previous {
+            changes.push(vplgi_image::relative_change(p, &img)?);
+            excess.push(vplgi_image::excess_change(p, &img, (&converged[i - 1], &converged[i]))?);
+        }
+        previous = Some(img);
+        Ok(())
+    })?;
+    let last = previous.context("a sequence of no frames")?;
+    let cmp = compare(&converged[converged.len() - 1], &last)?;
+    let dir = out.join("configs").join(&c.label);
+    std::fs::create_dir_all(&dir)?;
+    vplgi_image::write_png(&dir.join("image.png"), &last, 1.0)?;
+    vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
+    let (flicker, own_flicker, ms_per_frame) = (mean(&changes).unwrap_or(0.0), mean(&excess).unwrap_or(0.0), mean(&ms).unwrap_or(0.0));
+    Ok(SequenceMeasured {
+        flicker,
+        own_flicker,
+        ms_per_frame,
+        tile: Tile {
+            label: format!("{}  {ms_per_frame:.0} ms/frame  own flicker {:.2} %", c.label, 100.0 * own_flicker),
+            width: last.width,
+            height: last.height,
+            image: tonemap_srgb8(&last, 1.0),
+            error_map: error_map_rgb8(&c.label, &cmp)?,
+        },
+    })
 }

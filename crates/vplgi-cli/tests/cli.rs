@@ -791,6 +791,112 @@ fn camera_walks_render_as_frame_sequences() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("at least 2"));
 }
 
+/// `sweep --figure flicker` renders each variant along the camera animation with --temporal off
+/// and on, and its numbers are those of `render --frames --flicker-reference` for the same
+/// sequence (two paths through the code, one answer).
+#[test]
+fn sweep_charts_flicker_with_and_without_temporal() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("walk.glb");
+    let o = vplgi(&["scene", "generate", "living-room", "--triangles", "4000", "--camera-walk", "3", "--out", glb.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let small = ["--width", "32", "--height", "24", "--vpls", "300", "--lighting", "indirect"];
+    let out = dir.path().join("sweep");
+    let mut args = vec![
+        "sweep",
+        glb.to_str().unwrap(),
+        "--figure",
+        "flicker",
+        "--variants",
+        "eq7+nearest+stride+fuzzy,ward+min-error+adaptive+interpolate",
+        "--frames",
+        "3",
+        "--sp-clusters",
+        "60",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(&small);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "sweep failed: {}", String::from_utf8_lossy(&o.stderr));
+    for ext in ["png", "svg"] {
+        let f = out.join(format!("flicker.{ext}"));
+        assert!(f.metadata().map(|m| m.len() > 1000).unwrap_or(false), "{} missing or empty", f.display());
+    }
+    assert!(out.join("contact_sheet.png").is_file());
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sweep.json")).unwrap()).unwrap();
+    assert!(report["configs"].as_array().unwrap().is_empty(), "no single frames were asked for");
+    let sequences = report["sequences"].as_array().unwrap();
+    let series: Vec<&str> = sequences.iter().map(|s| s["series"].as_str().unwrap()).collect();
+    assert_eq!(
+        series,
+        [
+            "eq7+nearest+stride+fuzzy",
+            "eq7+nearest+stride+fuzzy +temporal",
+            "ward+min-error+adaptive+interpolate",
+            "ward+min-error+adaptive+interpolate +temporal"
+        ]
+    );
+    assert_eq!(sequences[3]["temporal"], "on");
+    assert_eq!(sequences[2]["temporal"], "off");
+
+    // The same Wang et al. sequence with --temporal on, through render --frames.
+    let converged = dir.path().join("converged");
+    let mut args = vec!["render", glb.to_str().unwrap(), "--frames", "3", "--cluster", "none", "--out", converged.to_str().unwrap()];
+    args.extend_from_slice(&small);
+    assert!(vplgi(&args).status.success());
+    let judged = dir.path().join("judged");
+    let mut args = vec![
+        "render",
+        glb.to_str().unwrap(),
+        "--frames",
+        "3",
+        "--cluster",
+        "sp",
+        "--k-sp",
+        "60",
+        "--metric",
+        "ward",
+        "--representative",
+        "min-error",
+        "--seeding",
+        "adaptive",
+        "--shade",
+        "interpolate",
+        "--temporal",
+        "on",
+        "--flicker-reference",
+        converged.to_str().unwrap(),
+        "--out",
+        judged.to_str().unwrap(),
+    ];
+    args.extend_from_slice(&small);
+    let o = vplgi(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let seq: serde_json::Value = serde_json::from_slice(&std::fs::read(judged.join("sequence.json")).unwrap()).unwrap();
+    let close = |a: &serde_json::Value, b: &serde_json::Value| {
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!(a > 0.0 && (a - b).abs() <= 1e-9 * a, "{a} against {b}");
+    };
+    close(&sequences[3]["own_flicker"], &seq["temporal_error"]);
+    close(&sequences[3]["flicker"], &seq["flicker"]);
+    close(&report["converged_flicker"], &seq["converged_flicker"]);
+
+    // Refused before any work, with nothing written: the sweep sets --temporal itself; a scene
+    // without a camera animation; a sequence of one frame.
+    let never = dir.path().join("never");
+    for (bad, named) in [
+        (vec!["sweep", glb.to_str().unwrap(), "--figure", "flicker", "--temporal", "on"], "--temporal"),
+        (vec!["sweep", "--figure", "flicker"], "no camera animation"),
+        (vec!["sweep", glb.to_str().unwrap(), "--figure", "flicker", "--frames", "1"], "at least 2"),
+    ] {
+        let o = vplgi(&[&bad[..], &["--out", never.to_str().unwrap()]].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(named), "{bad:?}: {err}");
+        assert!(!never.exists(), "{bad:?} wrote {}", never.display());
+    }
+}
+
 /// `--lighting indirect` leaves out emission and direct light: the image holds less light than
 /// the whole frame, but not none, and the light itself (emission) is dark.
 #[test]
