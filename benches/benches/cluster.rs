@@ -10,7 +10,7 @@ use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
 use vplgi_cpu::cluster::temporal::centres;
 use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart};
 use vplgi_gpu::cluster::ClusterKernel;
-use vplgi_types::temporal::Centre;
+use vplgi_types::clustering::Centre;
 use vplgi_types::{FrameConfig, SpMetric, SpRepresentative};
 
 fn cluster_stage(c: &mut Criterion) {

@@ -16,11 +16,11 @@ use crate::CpuScene;
 use glam::Vec3;
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
 /// The hits of a frame: each hit's sample, each sample's row (or [`MISS`]) and the hits as

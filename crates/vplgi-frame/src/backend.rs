@@ -4,11 +4,11 @@
 
 use crate::frame::{FrameError, Progress};
 use std::ops::Range;
+use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
 /// What `trace_vpls` made.

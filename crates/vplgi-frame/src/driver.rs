@@ -5,8 +5,8 @@ use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
+use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
-use vplgi_types::temporal::Centre;
 use vplgi_types::{Camera, ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is

@@ -24,11 +24,11 @@ use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
 use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
+use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::temporal::Centre;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.

@@ -35,7 +35,16 @@ pub enum ClusterStart<'a> {
     /// `--temporal on` ([`crate::temporal`]): the previous frame's centres that still admit a
     /// point, then new seeds on the points none admits, taken from `seeds` (or, if `None`, from
     /// the stride seeds of K), up to K in all.
-    Warm { previous: &'a [crate::temporal::Centre], seeds: Option<&'a [u32]> },
+    Warm { previous: &'a [Centre], seeds: Option<&'a [u32]> },
+}
+
+/// A cluster carried to the next frame (`--temporal on`, [`crate::temporal`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Centre {
+    pub position: Vec3,
+    pub normal: Vec3,
+    /// The largest key of its members (by hard label) to the centre.
+    pub threshold: f32,
 }
 
 /// The dissimilarity between a point and a centroid that the clustering minimises. Both

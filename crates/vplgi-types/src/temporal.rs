@@ -10,17 +10,7 @@
 //! Errors are the clustering metric's keys (`Metric::key`): Eq. 2 itself, or Eq. 7's squared
 //! distance (a point whose normal Eq. 7 rules out fits no centre).
 
-use crate::clustering::{seed_centroids, Metric};
-use glam::Vec3;
-
-/// A cluster carried to the next frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Centre {
-    pub position: Vec3,
-    pub normal: Vec3,
-    /// The largest key of its members (by hard label) to the centre.
-    pub threshold: f32,
-}
+use crate::clustering::{seed_centroids, Centre, Metric};
 
 /// Whether the point at squared distance `d2` from `centre`, with normal dot product `cos`,
 /// fits it.
@@ -46,6 +36,7 @@ pub fn new_seeds(seeds: &[u32], unfit: &[bool], room: usize, seed: u32) -> Vec<u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn a_point_fits_within_the_threshold_of_the_metric_key() {

@@ -213,7 +213,7 @@ pub fn compare_temporal(
     let thresholds =
         Disagreement::at_most("temporal thresholds", "thresholds that differ", differ.len() as f64, TEMPORAL_DIFFERING_THRESHOLDS as f64).with_worst(worst);
 
-    let previous: Vec<_> = cpu_centres.iter().map(|c| vplgi_types::temporal::Centre { threshold: 0.5 * c.threshold, ..*c }).collect();
+    let previous: Vec<_> = cpu_centres.iter().map(|c| vplgi_types::clustering::Centre { threshold: 0.5 * c.threshold, ..*c }).collect();
     let grid = Grid::for_data(bounds(ps), ps, params.k as usize);
     let geometry = GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
     let cpu = admit(&grid, ps, ns, &previous, params.metric);

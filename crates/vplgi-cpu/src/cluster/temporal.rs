@@ -5,7 +5,8 @@
 use super::{assign, cosine, dist2, Clustering, Grid, Metric};
 use glam::Vec3;
 use rayon::prelude::*;
-use vplgi_types::temporal::{admits, Centre};
+use vplgi_types::clustering::Centre;
+use vplgi_types::temporal::admits;
 use vplgi_types::MISS;
 
 /// The previous centres against this frame's points.

@@ -9,8 +9,8 @@ use crate::shader::{METRIC_EQ7, METRIC_WARD};
 use crate::visibility::Endpoint;
 use crate::GpuError;
 use glam::Vec3;
+use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{GridGeometry, Metric};
-use vplgi_types::temporal::Centre;
 use vplgi_types::FuzzyMode;
 
 /// The metric's fields of [`Params`] for the passes that read it as data.
