@@ -152,6 +152,27 @@ impl Grid {
         Grid { starts, items, item_positions, item_normals, centroids: centroids.to_vec(), centroid_normals: normals.to_vec(), ..self.clone() }
     }
 
+    /// The indices of `points` sorted by grid cell (cells in memory order, points of a cell in
+    /// index order): searched in this order, consecutive points share their neighbourhood, so
+    /// the centroids they test stay in cache.
+    pub fn cell_order(&self, points: &[Vec3]) -> Vec<u32> {
+        let n_cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
+        let cells: Vec<u32> = points.par_iter().map(|&p| self.linear(self.coords(p)) as u32).collect();
+        let mut starts = vec![0u32; n_cells + 1];
+        for &c in &cells {
+            starts[c as usize + 1] += 1;
+        }
+        for i in 0..n_cells {
+            starts[i + 1] += starts[i];
+        }
+        let mut order = vec![0u32; points.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            order[starts[c as usize] as usize] = i as u32;
+            starts[c as usize] += 1;
+        }
+        order
+    }
+
     /// Cell coordinates of `p`, clamped into the grid (centroids always lie inside it; points of
     /// the clustered data too, as the grid spans their bounding box).
     #[inline]
@@ -371,7 +392,17 @@ pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
 /// Assigns each point to its nearest compatible centroid (Alg. 1, lines 6-11). `previous`
 /// labels (of the last iteration) only speed the search up: the labels are the same.
 pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, previous: Option<&[u32]>) -> Vec<u32> {
-    points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, metric, previous.map_or(MISS, |l| l[i])).0).collect()
+    assign_with_outcomes(grid, points, normals, metric, previous).0
+}
+
+/// [`assign`], also counting the searches that widened and the points with no compatible
+/// centroid (as [`Clustering::widened`] and [`Clustering::incompatible`]).
+fn assign_with_outcomes(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, previous: Option<&[u32]>) -> (Vec<u32>, usize, usize) {
+    let found: Vec<(u32, SearchOutcome)> =
+        points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, metric, previous.map_or(MISS, |l| l[i]))).collect();
+    let widened = found.iter().filter(|f| f.1 != SearchOutcome::Neighbourhood).count();
+    let incompatible = found.iter().filter(|f| f.1 == SearchOutcome::Incompatible).count();
+    (found.into_iter().map(|f| f.0).collect(), widened, incompatible)
 }
 
 /// Recomputes the centroids from the labels with fixed-point sums (Alg. 1, lines 12-18).
@@ -488,18 +519,32 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     }
     let (lo, hi) = bounds(positions);
     let fix = FixedPoint::new(lo, hi);
-    let mut labels: Option<Vec<u32>> = None;
+    // The iterations visit the sample in cell order (the centroid sums do not depend on order)
+    // and start each point's search from its previous label.
+    let order = geometry.cell_order(&sp);
+    let (op, on): (Vec<Vec3>, Vec<Vec3>) = order.iter().map(|&i| (sp[i as usize], sn[i as usize])).unzip();
+    let mut ordered: Option<Vec<u32>> = None;
     for _ in 0..params.iterations {
         let grid = geometry.fill(&cpos, &cnor);
-        let l = assign(&grid, &sp, &sn, metric, labels.as_deref());
-        update(&fix, &sp, &sn, &l, &mut cpos, &mut cnor);
-        labels = Some(l);
+        let l = assign(&grid, &op, &on, metric, ordered.as_deref());
+        update(&fix, &op, &on, &l, &mut cpos, &mut cnor);
+        ordered = Some(l);
     }
 
     // Final hard assignment of every point; drop the clusters nobody is nearest to. Without
-    // downsampling the last iteration's labels are every point's.
+    // downsampling the sample is every point, so it is assigned in cell order from the last
+    // iteration's labels.
     let grid = geometry.fill(&cpos, &cnor);
-    let hard = assign(&grid, positions, normals, metric, labels.as_deref().filter(|l| l.len() == m));
+    let (hard, hard_widened, hard_incompatible) = if sp.len() == m {
+        let (ordered_hard, w, i) = assign_with_outcomes(&grid, &op, &on, metric, ordered.as_deref());
+        let mut hard = vec![MISS; m];
+        for (&i, &label) in order.iter().zip(&ordered_hard) {
+            hard[i as usize] = label;
+        }
+        (hard, w, i)
+    } else {
+        assign_with_outcomes(&grid, positions, normals, metric, None)
+    };
     let mut counts = vec![0u32; k];
     for &l in &hard {
         counts[l as usize] += 1;
@@ -516,26 +561,41 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     let (cpos, cnor) = (keep(&cpos), keep(&cnor));
     let members: Vec<u32> = counts.iter().copied().filter(|&c| c > 0).collect();
 
-    // Fuzzy assignment (Alg. 2) against the surviving centroids, on a grid of the same geometry:
-    // a point's nearest centroid survived, so its first label equals its hard label.
-    let grid = geometry.fill(&cpos, &cnor);
+    let (labels, weights, widened, incompatible) = if f == 1 {
+        // One label per point: the fuzzy search would find the hard label again (its cluster
+        // survived), with weight 1 and the same outcome, so the hard pass is reused.
+        (hard.iter().map(|&l| remap[l as usize]).collect(), vec![1.0; m], hard_widened, hard_incompatible)
+    } else {
+        fuzzy_assign(&geometry.fill(&cpos, &cnor), (positions, normals), f, params)
+    };
+    debug_assert!((0..m).all(|i| labels[i * f] == remap[hard[i] as usize]));
+
+    let representatives = representatives((positions, normals), &labels, f, (&cpos, &cnor), params.representative);
+    Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible, kept: warm_kept, fresh }
+}
+
+/// Fuzzy assignment (Alg. 2) of every point to its `f` nearest clusters in `grid` (the surviving
+/// centroids, on the run's grid geometry: a point's nearest centroid survived, so its first
+/// label is its hard label). Returns labels and weights (`f` per point) and the counts of
+/// widened and incompatible searches.
+fn fuzzy_assign(grid: &Grid, (positions, normals): (&[Vec3], &[Vec3]), f: usize, params: &ClusterParams) -> (Vec<u32>, Vec<f32>, usize, usize) {
     let rows: Vec<([u32; MAX_F as usize], [f32; MAX_F as usize], SearchOutcome)> = positions
         .par_iter()
         .zip(normals)
         .map(|(&p, &n)| {
             let mut best = [(f32::INFINITY, MISS); MAX_F as usize];
-            let (count, outcome) = grid.search(p, n, metric, &mut best[..f]);
+            let (count, outcome) = grid.search(p, n, params.metric, &mut best[..f]);
             let mut labels = [MISS; MAX_F as usize];
             let mut weights = [0f32; MAX_F as usize];
             for j in 0..count {
                 labels[j] = best[j].1;
             }
-            fuzzy_weights(&best[..count], params.fuzzy, metric, grid.cell, &mut weights[..count]);
+            fuzzy_weights(&best[..count], params.fuzzy, params.metric, grid.cell, &mut weights[..count]);
             (labels, weights, outcome)
         })
         .collect();
-    let mut labels = Vec::with_capacity(m * f);
-    let mut weights = Vec::with_capacity(m * f);
+    let mut labels = Vec::with_capacity(positions.len() * f);
+    let mut weights = Vec::with_capacity(positions.len() * f);
     let (mut widened, mut incompatible) = (0, 0);
     for (l, w, outcome) in &rows {
         labels.extend_from_slice(&l[..f]);
@@ -549,10 +609,7 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
             }
         }
     }
-    debug_assert!((0..m).all(|i| labels[i * f] == remap[hard[i] as usize]));
-
-    let representatives = representatives((positions, normals), &labels, f, (&cpos, &cnor), params.representative);
-    Clustering { positions: cpos, normals: cnor, representatives, members, f, labels, weights, widened, incompatible, kept: warm_kept, fresh }
+    (labels, weights, widened, incompatible)
 }
 
 /// For each cluster, the member (by hard label) of smallest `rule` key to the centroid: the

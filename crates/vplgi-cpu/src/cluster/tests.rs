@@ -571,3 +571,54 @@ fn ward_with_a_small_alpha_separates_walls_by_normal() {
     assert_eq!(mixed(0.01), 0, "alpha 0.01: a cluster spans both walls");
     assert!(mixed(1000.0) > 0, "alpha 1000 should cluster by position alone");
 }
+
+/// The k-means iterations of [`cluster_from`] from stride seeds, every point searched in every
+/// iteration ([`assign`] without hints or bounds): the final centroid of each point.
+fn unbounded_kmeans(ps: &[Vec3], ns: &[Vec3], p: &ClusterParams) -> Vec<Vec3> {
+    let (m, k) = (ps.len(), (p.k as usize).min(ps.len()));
+    let gamma = (p.gamma as usize).clamp(1, (m / k).max(1));
+    let sample = downsample(m, gamma, p.seed);
+    let sp: Vec<Vec3> = sample.iter().map(|&i| ps[i as usize]).collect();
+    let sn: Vec<Vec3> = sample.iter().map(|&i| ns[i as usize]).collect();
+    let geometry = Grid::for_data(bounds(ps), &sp, k);
+    let seeds = seed_centroids(&sample, k, p.seed);
+    let mut cpos: Vec<Vec3> = seeds.iter().map(|&i| ps[i as usize]).collect();
+    let mut cnor: Vec<Vec3> = seeds.iter().map(|&i| ns[i as usize]).collect();
+    let (lo, hi) = bounds(ps);
+    let fix = FixedPoint::new(lo, hi);
+    for _ in 0..p.iterations {
+        let l = assign(&geometry.fill(&cpos, &cnor), &sp, &sn, p.metric, None);
+        update(&fix, &sp, &sn, &l, &mut cpos, &mut cnor);
+    }
+    let hard = assign(&geometry.fill(&cpos, &cnor), ps, ns, p.metric, None);
+    hard.iter().map(|&l| cpos[l as usize]).collect()
+}
+
+/// Starting each search from the previous label, and reusing the final hard assignment as the
+/// labels when F = 1, change nothing: every point ends at the centroid of the k-means that
+/// searches every point afresh in every iteration, on volumes and surfaces, with and without
+/// the normal test, downsampled or not.
+#[test]
+fn hinted_iterations_equal_searching_every_point() {
+    let mut compared = 0;
+    for seed in 0..6u32 {
+        let mut rng = Rng::new(seed, Stream::Oracle, 7);
+        let (ps, ns) = if seed % 2 == 0 {
+            let ps: Vec<Vec3> = (0..4000).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
+            let ns: Vec<Vec3> = (0..4000).map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32())).collect();
+            (ps, ns)
+        } else {
+            cube_surface(4000, seed)
+        };
+        for (nt, k, gamma, iterations) in [(-2.0, 64, 1, 12), (0.5, 200, 1, 8), (0.866, 37, 2, 10), (-2.0, 500, 1, 3)] {
+            let p = ClusterParams { k, gamma, iterations, f: 1, fuzzy: FuzzyMode::Hard, metric: eq7(nt), representative: Representative::Nearest, seed };
+            let c = cluster(&ps, &ns, &p);
+            let expected = unbounded_kmeans(&ps, &ns, &p);
+            for (i, &e) in expected.iter().enumerate() {
+                assert_eq!(c.positions[c.hard_label(i) as usize], e, "seed {seed}, nt {nt}, K {k}: point {i}");
+            }
+            compared += ps.len();
+        }
+    }
+    println!("hinted k-means: {compared} final labels identical to searching every point");
+}
