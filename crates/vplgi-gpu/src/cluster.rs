@@ -506,6 +506,18 @@ impl ClusterKernel {
         if k == 0 {
             return Ok(self.empty(device, f));
         }
+        // The iterations visit the sample in cell order, so the invocations of a workgroup search
+        // the same few cells (coherent branches and loads); the centroid sums are fixed-point
+        // integers, so the order changes nothing. The counting sort is the centroid grid's fill,
+        // run over the sample; a sample too large for one binding keeps its order.
+        let sample_points = if params.iterations > 0 && Self::windows(device, s, 1).len() == 1 {
+            let by_cell = self.fill_grid(device, queue, &geometry, &sample_points, s)?;
+            let sorted = storage_zeroed::<Endpoint>(device, "sample points by cell", s as usize);
+            self.gather(device, queue, &sorted, (&by_cell.items, s), (&sample_points, s))?;
+            sorted
+        } else {
+            sample_points
+        };
         for _ in 0..params.iterations {
             let grid = self.fill_grid(device, queue, &geometry, &centroids, k)?;
             let a = self.assign(device, queue, &grid, (&sample_points, s), (&centroids, k), AssignRule { metric, f: 1, fuzzy: FuzzyMode::Hard })?;
