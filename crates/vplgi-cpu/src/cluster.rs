@@ -132,30 +132,18 @@ impl Grid {
 
     /// Same geometry, filled with the centroids (`centroids`, `normals`).
     pub fn fill(&self, centroids: &[Vec3], normals: &[Vec3]) -> Grid {
-        let n_cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
-        let cell_of: Vec<u32> = centroids.iter().map(|&c| self.linear(self.coords(c)) as u32).collect();
-        let mut starts = vec![0u32; n_cells + 1];
-        for &c in &cell_of {
-            starts[c as usize + 1] += 1;
-        }
-        for i in 0..n_cells {
-            starts[i + 1] += starts[i];
-        }
-        let mut cursor = starts.clone();
-        let mut items = vec![0u32; centroids.len()];
-        for (k, &c) in cell_of.iter().enumerate() {
-            items[cursor[c as usize] as usize] = k as u32;
-            cursor[c as usize] += 1;
-        }
+        let (starts, items) = self.cell_order(centroids);
         let item_positions = items.iter().map(|&k| centroids[k as usize]).collect();
         let item_normals = items.iter().map(|&k| normals[k as usize]).collect();
         Grid { starts, items, item_positions, item_normals, centroids: centroids.to_vec(), centroid_normals: normals.to_vec(), ..self.clone() }
     }
 
-    /// The indices of `points` sorted by grid cell (cells in memory order, points of a cell in
-    /// index order): searched in this order, consecutive points share their neighbourhood, so
-    /// the centroids they test stay in cache.
-    pub fn cell_order(&self, points: &[Vec3]) -> Vec<u32> {
+    /// A counting sort of `points` by grid cell: where each cell's run starts (one entry per cell,
+    /// and the end), and the indices of the points in cell order (cells in memory order, points of
+    /// a cell in index order). The grid's own items are its centroids in this order; the k-means
+    /// iterations search their points in it too, so consecutive points share their neighbourhood
+    /// and the centroids they test stay in cache.
+    pub fn cell_order(&self, points: &[Vec3]) -> (Vec<u32>, Vec<u32>) {
         let n_cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
         let cells: Vec<u32> = points.par_iter().map(|&p| self.linear(self.coords(p)) as u32).collect();
         let mut starts = vec![0u32; n_cells + 1];
@@ -165,12 +153,13 @@ impl Grid {
         for i in 0..n_cells {
             starts[i + 1] += starts[i];
         }
+        let mut cursor = starts.clone();
         let mut order = vec![0u32; points.len()];
         for (i, &c) in cells.iter().enumerate() {
-            order[starts[c as usize] as usize] = i as u32;
-            starts[c as usize] += 1;
+            order[cursor[c as usize] as usize] = i as u32;
+            cursor[c as usize] += 1;
         }
-        order
+        (starts, order)
     }
 
     /// Cell coordinates of `p`, clamped into the grid (centroids always lie inside it; points of
@@ -521,7 +510,7 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     let fix = FixedPoint::new(lo, hi);
     // The iterations visit the sample in cell order (the centroid sums do not depend on order)
     // and start each point's search from its previous label.
-    let order = geometry.cell_order(&sp);
+    let (_, order) = geometry.cell_order(&sp);
     let (op, on): (Vec<Vec3>, Vec<Vec3>) = order.iter().map(|&i| (sp[i as usize], sn[i as usize])).unzip();
     let mut ordered: Option<Vec<u32>> = None;
     for _ in 0..params.iterations {

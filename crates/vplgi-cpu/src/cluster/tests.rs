@@ -573,8 +573,9 @@ fn ward_with_a_small_alpha_separates_walls_by_normal() {
 }
 
 /// The k-means iterations of [`cluster_from`] from stride seeds, every point searched in every
-/// iteration ([`assign`] without hints or bounds): the final centroid of each point.
-fn unbounded_kmeans(ps: &[Vec3], ns: &[Vec3], p: &ClusterParams) -> Vec<Vec3> {
+/// iteration ([`assign`] without hints, in the sample's own order): the final centroid of each
+/// point.
+fn kmeans_searching_every_point(ps: &[Vec3], ns: &[Vec3], p: &ClusterParams) -> Vec<Vec3> {
     let (m, k) = (ps.len(), (p.k as usize).min(ps.len()));
     let gamma = (p.gamma as usize).clamp(1, (m / k).max(1));
     let sample = downsample(m, gamma, p.seed);
@@ -613,7 +614,7 @@ fn hinted_iterations_equal_searching_every_point() {
         for (nt, k, gamma, iterations) in [(-2.0, 64, 1, 12), (0.5, 200, 1, 8), (0.866, 37, 2, 10), (-2.0, 500, 1, 3)] {
             let p = ClusterParams { k, gamma, iterations, f: 1, fuzzy: FuzzyMode::Hard, metric: eq7(nt), representative: Representative::Nearest, seed };
             let c = cluster(&ps, &ns, &p);
-            let expected = unbounded_kmeans(&ps, &ns, &p);
+            let expected = kmeans_searching_every_point(&ps, &ns, &p);
             for (i, &e) in expected.iter().enumerate() {
                 assert_eq!(c.positions[c.hard_label(i) as usize], e, "seed {seed}, nt {nt}, K {k}: point {i}");
             }
