@@ -8,7 +8,7 @@ struct Params {
     first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
     hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
     hit_count: u32,  // hits in that window
-    disk: u32,       // cluster_lights: 1 for disk lights
+    disk: u32,       // cluster_lights: 1 for disks lit by Eq. 2, 2 for exact disks
     pad1: u32,
     pad2: u32,
 }
@@ -154,10 +154,12 @@ fn cluster_lights_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
     let b = light_sums[2u * k + 1u];
     let r = vpls[reps[k]];
     var radius2 = 0.0;
-    if (params.disk == 1u && a.w > 0.0) {
+    if (params.disk >= 1u && a.w > 0.0) {
         radius2 = 2.0 * b.w / a.w;
     }
-    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, 0.0), vec4<f32>(a.xyz, 0.0));
+    // VplLight::exact, in the normal's w.
+    let exact = select(0u, 1u, params.disk == 2u && radius2 > 0.0);
+    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, bitcast<f32>(exact)), vec4<f32>(a.xyz, 0.0));
 }
 
 // disk::member_weight

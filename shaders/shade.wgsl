@@ -73,9 +73,98 @@ fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight, g_max: f32) -> 
     let cos_p = dot(np, d) * inv_d;
     let cos_x = -dot(l.normal.xyz, d) * inv_d;
     let r2 = l.position.w;
+    if (bitcast<u32>(l.normal.w) == 1u) {
+        return exact_geometry_term(p, np, l.position.xyz, l.normal.xyz, r2);
+    }
     let g = cos_p * cos_x / (d2 + r2);
     let capped = select(min(g, g_max), g, r2 > 0.0);
     return select(0.0, capped, d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0);
+}
+
+// disk::exact_geometry_term: the exact form factor to the disk / R² (the arithmetic in the CPU
+// twin's order; the derivation is there).
+fn exact_geometry_term(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, normal: vec3<f32>, radius2: f32) -> f32 {
+    let rel = p - centre;
+    let h = dot(normal, rel);
+    if (!(h > 0.0) || !(radius2 > 0.0)) {
+        return 0.0;
+    }
+    let rho_vec = rel - normal * h;
+    let rel2 = dot(rel, rel);
+    let n_z = dot(n, normal);
+    let n_rho = dot(n, rho_vec);
+    let m = length(n - normal * n_z);
+    let r = sqrt(radius2);
+    let n_rel = dot(n, rel);
+    if (n_rel >= r * m) {
+        return 0.0;
+    }
+    let q = rel2 - radius2;
+    let a = rel2 + radius2;
+    if (n_rel <= -r * m) {
+        // All of the disk above the horizon.
+        let s = sqrt(q * q + 4.0 * radius2 * h * h);
+        var g_z = (s - q) / (2.0 * s * radius2);
+        if (q > 0.0) {
+            g_z = 2.0 * h * h / (s * (s + q));
+        }
+        let g_rho = 2.0 * h / (s * (a + s));
+        return max(-g_z * n_z - g_rho * n_rho, 0.0);
+    }
+    // The horizon cuts the disk: the arc above it and the chord along it.
+    let rho = length(rho_vec);
+    var u = disk_perpendicular(normal);
+    if (rho > 0.0) {
+        u = rho_vec / rho;
+    }
+    let v = cross(normal, u);
+    let n_u = dot(n, u);
+    let n_v = dot(n, v);
+    let b = 2.0 * r * rho;
+    let s = sqrt(max((a - b) * (a + b), 0.0));
+    let t = clamp(n_rel / (r * m), -1.0, 1.0);
+    let w = sqrt(max(1.0 - t * t, 0.0));
+    let cos1 = (n_u * t + n_v * w) / m;
+    let sin1 = (n_v * t - n_u * w) / m;
+    let cos2 = (n_u * t - n_v * w) / m;
+    let sin2 = (n_v * t + n_u * w) / m;
+    let span = 2.0 * acos(t);
+    let ab = b / (a + s);
+    let dd_over_b = disk_d_over_b(cos2, sin2, a, b, s, ab) - disk_d_over_b(cos1, sin1, a, b, s, ab);
+    let i_one = (span + b * dd_over_b) / s;
+    let i_cos = (a * dd_over_b + ab * span) / s;
+    let base = a - b * cos1;
+    let x = b * (cos1 - cos2) / base;
+    let one_x = 1.0 + x;
+    var ln1p_over_x = 1.0;
+    if (one_x != 1.0) {
+        ln1p_over_x = log(one_x) / (one_x - 1.0);
+    }
+    let i_sin = (cos1 - cos2) / base * ln1p_over_x;
+    let arc = r * ((h * n_u - rho * n_z) * i_cos + h * n_v * i_sin + r * n_z * i_one);
+    let end = centre + (u * cos2 + v * sin2) * r - p;
+    let start = centre + (u * cos1 + v * sin1) * r - p;
+    let chord = atan2(dot(n, cross(end, start)), dot(end, start));
+    return max(-(arc + chord) / (2.0 * PI * radius2), 0.0);
+}
+
+// disk::exact_geometry_term's D(φ) / b.
+fn disk_d_over_b(c: f32, sn: f32, a: f32, b: f32, s: f32, ab: f32) -> f32 {
+    let y = sn * (1.0 - ab * c);
+    let x = s + b * ab * c * c - b * c;
+    if (b > 1e-6 * a) {
+        return atan2(b * y, x) / b;
+    }
+    return y / x;
+}
+
+// disk::perpendicular
+fn disk_perpendicular(normal: vec3<f32>) -> vec3<f32> {
+    var other = vec3<f32>(0.0, 1.0, 0.0);
+    if (abs(normal.x) < 0.9) {
+        other = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    return normalize(cross(normal, other));
 }
 
 // shade::direct

@@ -19,9 +19,11 @@ fn shade(c: &mut Criterion) {
         let cfg = &i.cfg;
         let sc = &i.sp_clusters;
         let src = VisibilitySource::Fuzzy { matrix: &i.matrix, row_of: &i.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
-        // The same clusters as disk lights (--light-shape disk): "cpu-disk" and "gpu-disk".
+        // The same clusters as disk lights, by Eq. 2 (--light-shape disk: "cpu-disk", "gpu-disk")
+        // and by the exact form factor (disk-exact: "cpu-disk-exact", "gpu-disk-exact").
         let disks = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::Disk);
-        for (suffix, lights) in [("", &i.lights), ("-disk", &disks)] {
+        let exact = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::DiskExact);
+        for (suffix, lights) in [("", &i.lights), ("-disk", &disks), ("-disk-exact", &exact)] {
             group.bench_function(BenchmarkId::new(format!("cpu{suffix}"), size.name), |b| {
                 b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, 0, 0..i.pixels(), lights, &src, &cfg.shade_params(i.cs.extent)))
             });

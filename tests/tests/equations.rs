@@ -197,6 +197,105 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     }
 }
 
+/// ∫_disk cos θ_p cos θ_z / (π d²) dA for the disk of radius `r` at `centre` facing `normal`, seen
+/// from `p` with normal `np`, the part below p's horizon left out: the midpoint rule in polar
+/// coordinates, in double precision (the independent side of the exact disk's test).
+fn disk_form_factor_by_quadrature(p: [f64; 3], np: [f64; 3], centre: [f64; 3], normal: [f64; 3], r: f64) -> f64 {
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let unit = |a: [f64; 3]| {
+        let l = dot(a, a).sqrt();
+        [a[0] / l, a[1] / l, a[2] / l]
+    };
+    let e1 = unit(cross(normal, if normal[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] }));
+    let e2 = cross(normal, e1);
+    let (nr, nphi) = (1000, 2000);
+    let mut sum = 0.0;
+    for i in 0..nr {
+        let rho = (i as f64 + 0.5) / nr as f64 * r;
+        for j in 0..nphi {
+            let phi = (j as f64 + 0.5) / nphi as f64 * 2.0 * std::f64::consts::PI;
+            let (c, s) = (rho * phi.cos(), rho * phi.sin());
+            let d = [0, 1, 2].map(|a| centre[a] + c * e1[a] + s * e2[a] - p[a]);
+            let d2 = dot(d, d);
+            let (cos_p, cos_z) = (dot(np, d) / d2.sqrt(), -dot(normal, d) / d2.sqrt());
+            if cos_p > 0.0 && cos_z > 0.0 {
+                sum += cos_p * cos_z / (std::f64::consts::PI * d2) * rho;
+            }
+        }
+    }
+    sum * (r / nr as f64) * (2.0 * std::f64::consts::PI / nphi as f64)
+}
+
+/// A disk light lit by its exact form factor (`--light-shape disk-exact`) on both backends:
+/// the irradiance Φ / A times the form factor, the form factor by quadrature over the disk. The
+/// receivers lie on its axis, off it, on a wall beside the disk and on walls whose horizon cuts
+/// the disk (as in a room's corners), and tilted.
+#[test]
+fn exact_disk_lights_give_the_form_factor_on_both_backends() {
+    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends") else { return };
+    let (radius, rho) = (0.6f32, 0.5f32);
+    let flux = Vec3::new(2.0, 1.0, 0.5);
+    let light = VplLight { radius2: radius * radius, exact: 1, ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux) };
+    let receivers: [([f32; 3], [f32; 3]); 7] = [
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([0.5, 0.2, 0.3], [0.0, 1.0, 0.0]),
+        ([0.7, 0.8, 0.0], [-1.0, 0.0, 0.0]),
+        ([0.3, 0.9, 0.1], [-1.0, 0.0, 0.0]),
+        ([-0.2, 0.85, -0.45], [0.0, 0.0, 1.0]),
+        ([-0.2, 0.5, 0.4], [0.577_350_3, 0.577_350_3, -0.577_350_3]),
+        ([0.1, 0.05, -0.2], [0.282_216_3, 0.940_720_9, -0.188_144_2]),
+    ];
+    let sps: Vec<ShadingPoint> = receivers
+        .iter()
+        .enumerate()
+        .map(|(i, &(p, n))| ShadingPoint { position: p, normal: n, albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .collect();
+    let area = PI * radius * radius;
+    let expected: Vec<Vec3> = receivers
+        .iter()
+        .map(|&(p, n)| {
+            let f = |a: [f32; 3]| a.map(f64::from);
+            let form_factor = disk_form_factor_by_quadrature(f(p), f(n), [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], radius as f64) as f32;
+            (rho / PI) * flux / area * form_factor
+        })
+        .collect();
+    let mut matrix = BitMatrix::new(1, 1);
+    matrix.set(0, 0, true);
+    let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], (0..sps.len() as u32).map(|_| 0).collect::<Vec<u32>>());
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, rho, 1.0);
+    scene.lights.clear();
+    let lights = LightArrays::new(&[light]);
+    let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: 1 };
+    let cpu: Vec<Vec3> = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, f32::INFINITY)).collect();
+    let gpu_pixels = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let (device, queue) = (t.device(), t.queue());
+        let (sb, rb) = (storage(device, "sps", &sps), storage(device, "row_of", &row_of));
+        let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+        let (lb, wb, lights) = (storage(device, "labels", &labels), storage(device, "weights", &weights), storage(device, "lights", &[light]));
+        let inputs = ShadeInputs {
+            sps: &sb,
+            sp_first: 0,
+            row_of: &rb,
+            words: &words,
+            words_per_row: words_per_row(1) as u32,
+            vpl_lights: &lights,
+            light_count: 1,
+            visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 1, window: vplgi_gpu::buffers::Window { first: 0, count: sps.len() as u64 } },
+        };
+        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
+        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..sps.len() as u32, &params).expect("shade");
+        read_back::<[f32; 4]>(device, queue, &out, sps.len()).expect("read back")
+    });
+    for (i, e) in expected.iter().enumerate() {
+        let g = Vec3::new(gpu_pixels[i][0], gpu_pixels[i][1], gpu_pixels[i][2]);
+        println!("receiver {:?}: quadrature {e}, CPU {}, GPU {g}", receivers[i], cpu[i]);
+        assert!(e.max_element() > 0.0, "receiver {i} sees none of the disk: a useless case");
+        assert!((cpu[i] - *e).abs().max_element() <= 2e-4 * e.max_element(), "CPU: receiver {:?}: {} vs {e}", receivers[i], cpu[i]);
+        assert!((g - *e).abs().max_element() <= 2e-4 * e.max_element(), "GPU: receiver {:?}: {g} vs {e}", receivers[i]);
+    }
+}
+
 /// Alg. 1's update: a centroid is the mean of its members' positions (and its normal their
 /// normalised mean). Two separated blobs of 50 points, K = 2: after the iterations each centroid
 /// is its blob's mean, computed here in f64, on both backends (whose sums are fixed-point: within

@@ -232,20 +232,23 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
         kept: 0,
         fresh: 0,
     };
-    let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), LightShape::Disk);
     let scene = cornell_box();
-    let got = vplgi_tests::with_twins(gpu, &scene, |t| {
-        let device = t.device();
-        let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
-        let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
-        let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape: LightShape::Disk }).expect("lights");
-        read_back::<VplLight>(device, t.queue(), &b, 3).expect("read back")
-    });
-    for (c, g) in cpu.iter().zip(&got) {
-        println!("CPU flux {:?} R² {}, GPU flux {:?} R² {}", c.flux, c.radius2, g.flux, g.radius2);
+    for shape in [LightShape::Disk, LightShape::DiskExact] {
+        let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), shape);
+        let got = vplgi_tests::with_twins(gpu, &scene, |t| {
+            let device = t.device();
+            let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
+            let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
+            let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape }).expect("lights");
+            read_back::<VplLight>(device, t.queue(), &b, 3).expect("read back")
+        });
+        for (c, g) in cpu.iter().zip(&got) {
+            println!("{shape:?}: CPU flux {:?} R² {} exact {}, GPU flux {:?} R² {} exact {}", c.flux, c.radius2, c.exact, g.flux, g.radius2, g.exact);
+        }
+        assert!(cpu[0].radius2 > 0.0);
+        assert_eq!(cpu[0].exact, (shape == LightShape::DiskExact) as u32);
+        assert_eq!(cpu, got);
     }
-    assert!(cpu[0].radius2 > 0.0);
-    assert_eq!(cpu, got);
 }
 
 fn mode() -> impl proptest::strategy::Strategy<Value = vplgi_verify::Mode> {
@@ -266,7 +269,7 @@ proptest::proptest! {
         (width, height, spp) in (4u32..32, 4u32..32, 1u32..=2),
         (vpls, k_vpl, k_sp, f) in (1u32..600, 1u32..120, 1u32..300, 1u32..=8),
         (g_clamp_rel, direct_samples, seed) in (0f32..0.2, 1u32..4, proptest::prelude::any::<u32>()),
-        light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk]),
+        light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk, LightShape::DiskExact]),
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_on_random_scenes") else { return Ok(()) };
         let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, light_shape, ..vplgi_types::FrameConfig::verify() });

@@ -145,8 +145,9 @@ pub struct FrameArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_compensation: Option<bool>,
     /// What a VPL cluster's light is: a point with the clamp (the core paper), or a disk sized by
-    /// the members' spread and lit through the point-to-disk form factor with no clamp (Prutkin
-    /// et al. 2012, Eq. 2). Applies where VPLs are clustered (--cluster vpl or both).
+    /// the members' spread and lit with no clamp, through the point-to-disk form factor of
+    /// Prutkin et al. 2012 (Eq. 2) or through the exact form factor. Applies where VPLs are
+    /// clustered (--cluster vpl or both).
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_shape: Option<LightShape>,

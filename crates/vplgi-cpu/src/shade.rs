@@ -37,6 +37,9 @@ pub struct LightArrays {
     normal: [Vec<f32>; 3],
     flux: [Vec<f32>; 3],
     radius2: Vec<f32>,
+    /// Whether any light is a disk lit by its exact form factor (`VplLight::exact`), which
+    /// [`sum_lights`] evaluates light by light instead of in vectorised blocks.
+    exact: Option<Vec<bool>>,
 }
 
 impl LightArrays {
@@ -48,6 +51,7 @@ impl LightArrays {
             normal: three(|l| l.normal.into()),
             flux: three(|l| l.flux.into()),
             radius2: lights.iter().map(|l| l.radius2).collect(),
+            exact: lights.iter().any(|l| l.exact != 0).then(|| lights.iter().map(|l| l.exact != 0).collect()),
         }
     }
 
@@ -208,6 +212,9 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
             let g = if g < cap { g } else { cap };
             *gk = if d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0 { g } else { 0.0 };
         }
+        if let Some(exact) = &l.exact {
+            exact_disk_terms(p, n, l, exact, base, &mut g[..len]);
+        }
         vis(word, &mut v);
         for (gk, vk) in g[..len].iter_mut().zip(&v[..len]) {
             *gk = *gk / PI * vk;
@@ -220,6 +227,18 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
         }
     }
     sum
+}
+
+/// G of the exact disks among the lights `base..base + g.len()` (`vplgi_types::disk::
+/// exact_geometry_term`), written over the entries the vectorised loop computed for them.
+fn exact_disk_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[bool], base: usize, g: &mut [f32]) {
+    let at = |a: &[Vec<f32>; 3], c: usize| Vec3::new(a[0][c], a[1][c], a[2][c]);
+    for (k, gk) in g.iter_mut().enumerate() {
+        let c = base + k;
+        if exact[c] {
+            *gk = disk::exact_geometry_term(p, n, at(&l.position, c), at(&l.normal, c), l.radius2[c]);
+        }
+    }
 }
 
 /// Direct light at shading point `index`: `samples` shadow rays to points on area lights, plus one
@@ -311,8 +330,8 @@ pub fn shade(
 }
 
 /// Lights for indirect shading: one per VPL cluster (at its representative, with the summed
-/// flux of its members; with `LightShape::Disk`, a disk of the members' spread around the
-/// representative's normal, `vplgi_types::disk::radius2`), or one point per VPL.
+/// flux of its members; with `LightShape::Disk` or `DiskExact`, a disk of the members' spread
+/// around the representative's normal, `vplgi_types::disk::radius2`), or one point per VPL.
 pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> Vec<VplLight> {
     match clusters {
         None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect(),
@@ -323,7 +342,7 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
             for (i, v) in vpls.iter().enumerate() {
                 let k = c.hard_label(i) as usize;
                 flux[k] += Vec3::from(v.flux);
-                if shape == LightShape::Disk {
+                if shape.is_disk() {
                     members[k].push(i);
                 }
             }
@@ -334,9 +353,10 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
                 .map(|((&r, flux), members)| {
                     let v = &vpls[r as usize];
                     let mut light = VplLight::new(v.position.into(), v.normal.into(), flux);
-                    if shape == LightShape::Disk {
+                    if shape.is_disk() {
                         let of = |&i: &usize| (Vec3::from(vpls[i].position), Vec3::from(vpls[i].flux));
                         light.radius2 = disk::radius2(members.iter().map(of), v.normal.into());
+                        light.exact = (shape == LightShape::DiskExact && light.radius2 > 0.0) as u32;
                     }
                     light
                 })

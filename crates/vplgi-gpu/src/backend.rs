@@ -73,7 +73,8 @@ pub(crate) struct GlueParams {
     pub(crate) first: u32,
     pub(crate) hit_first: u32,
     pub(crate) hit_count: u32,
-    /// cluster_lights: 1 for disk lights (`LightShape::Disk`).
+    /// cluster_lights: 0 for points, 1 for disks lit by Eq. 2 (`LightShape::Disk`), 2 for disks
+    /// lit by their exact form factor (`LightShape::DiskExact`).
     pub(crate) disk: u32,
     pub(crate) pad: [u32; 2],
 }
@@ -334,10 +335,14 @@ impl Backend for GpuBackend<'_> {
                     (9, lights.as_entire_buffer_binding()),
                     (10, sums.as_entire_buffer_binding()),
                 ];
-                let disk = (shape == LightShape::Disk) as u32;
+                let disk = match shape {
+                    LightShape::Point => 0,
+                    LightShape::Disk => 1,
+                    LightShape::DiskExact => 2,
+                };
                 // Each thread reads the VPLs in ranges of VPLS_PER_DISPATCH, continuing its sums
                 // (lavapipe's loop limiter, see shade::LOOP_BUDGET); a disk needs a second pass.
-                for pass in 0..=disk {
+                for pass in 0..=disk.min(1) {
                     let mut first = 0;
                     while first < n {
                         let end = n.min(first + VPLS_PER_DISPATCH);

@@ -52,6 +52,19 @@ pub enum LightShape {
     /// point-to-disk form factor (Eq. 2 of Prutkin et al. 2012) with no clamp; a cluster of one
     /// VPL has no extent and stays a clamped point (`vplgi_types::disk`).
     Disk,
+    /// The same disk lit by its exact form factor, in closed form: the integral Eq. 2
+    /// approximates, with both cosines taken over the whole disk and the part below a receiver's
+    /// horizon left out. It costs more per light (most where the horizon cuts the disk) and
+    /// loses far less of the clusters' light than Eq. 2 does (`vplgi_types::disk`).
+    #[serde(rename = "disk-exact")]
+    DiskExact,
+}
+
+impl LightShape {
+    /// Whether a cluster becomes a disk (of the members' spread) rather than a point.
+    pub fn is_disk(self) -> bool {
+        self != LightShape::Point
+    }
 }
 
 /// Where the VPLs come from.
@@ -537,7 +550,7 @@ impl FrameConfig {
             }
             self.rsm_weights.validate()?;
         }
-        if self.light_shape == LightShape::Disk && self.cluster.clusters_vpls() && self.bias_compensation {
+        if self.light_shape.is_disk() && self.cluster.clusters_vpls() && self.bias_compensation {
             return Err("bias compensation puts back what the clamp takes from point lights, and disk lights have no clamp: use one or the other".into());
         }
         Ok(())

@@ -96,7 +96,7 @@ impl Endpoint {
 
 /// A light for indirect shading: one VPL, or one VPL cluster at its representative with its
 /// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (three `vec4<f32>`; the
-/// position's w is `radius2`, the others 0).
+/// position's w is `radius2`, the normal's w the bits of `exact`, the flux's w 0).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VplLight {
@@ -104,7 +104,9 @@ pub struct VplLight {
     /// R² of the disk the light stands for (`crate::disk`); 0 for a point light.
     pub radius2: f32,
     pub normal: [f32; 3],
-    pub _pad1: f32,
+    /// 1 when a disk (`radius2` > 0) is lit by its exact form factor
+    /// (`crate::disk::exact_geometry_term`), 0 when by Eq. 2 or as a point.
+    pub exact: u32,
     pub flux: [f32; 3],
     pub _pad2: f32,
 }
