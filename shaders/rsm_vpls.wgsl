@@ -20,6 +20,7 @@ struct Params {
 
 const RSM_AREA: u32 = 0u;
 const RSM_POINT: u32 = 1u;
+const RSM_DIRECTIONAL: u32 = 3u;
 
 // rsm::map_of: the last map whose first texel is at or before t.
 fn map_of(t: u32) -> u32 {
@@ -76,6 +77,11 @@ fn rsm_texel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     } else if (m.kind == RSM_POINT) {
         dir = uniform_sphere(u, v);
         power = m.power / texels;
+    } else if (m.kind == RSM_DIRECTIONAL) {
+        let side = 2.0 * inv;
+        origin = m.origin + m.e1 * (2.0 * u - 1.0) + m.e2 * (2.0 * v - 1.0);
+        dir = m.axis;
+        power = m.power * (side * side * dot(m.e1, m.e1));
     } else {
         let x = 2.0 * u - 1.0;
         let y = 2.0 * v - 1.0;

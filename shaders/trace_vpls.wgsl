@@ -85,6 +85,12 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             if (l.position.w == 0.0) {
                 dir = uniform_sphere(u3, u4);
                 power = l.intensity.xyz * (4.0 * PI) / pmf;
+            } else if (l.position.w == 2.0) {
+                // Directional: SunFrame's disk, E pi R^2.
+                let radius = l.direction.w;
+                origin = sun_origin(l.position.xyz, l.direction.xyz, radius, u3, u4);
+                dir = l.direction.xyz;
+                power = l.intensity.xyz * (PI * radius * radius) / pmf;
             } else {
                 let cos_outer = l.intensity.w;
                 dir = uniform_cone(l.direction.xyz, cos_outer, u3, u4);

@@ -223,6 +223,13 @@ fn visible(p: vec3<f32>, np: vec3<f32>, q: vec3<f32>, nq: vec3<f32>, eps: f32) -
     return bvh_trace(a, b - a, SEGMENT_TNEAR, SEGMENT_TFAR, true).triangle == NO_HIT;
 }
 
+// CpuScene::visible_toward: along unit direction `dir` to infinity (a directional light).
+fn visible_toward(p: vec3<f32>, np: vec3<f32>, dir: vec3<f32>, eps: f32) -> bool {
+    let a = offset_toward(p, np, p + dir, eps);
+    let inf = bitcast<f32>(0x7f800000u);
+    return bvh_trace(a, dir, 0.0, inf, true).triangle == NO_HIT;
+}
+
 // CpuScene::visible_from_surface: to a point light, stopping eps short of it.
 fn visible_from_surface(p: vec3<f32>, np: vec3<f32>, light: vec3<f32>, eps: f32) -> bool {
     let a = offset_toward(p, np, light, eps);

@@ -68,3 +68,12 @@ fn punctual_falloff_cos(l: Punctual, cos_axis: f32) -> f32 {
     let t = clamp((cos_axis - cos_outer) * scale, 0.0, 1.0);
     return t * t;
 }
+
+// lights::sun_origin: a uniform point on the disk of radius `radius` around `centre`
+// perpendicular to the unit `axis`.
+fn sun_origin(centre: vec3<f32>, axis: vec3<f32>, radius: f32, u1: f32, u2: f32) -> vec3<f32> {
+    let r = radius * sqrt(u1);
+    let phi = 2.0 * PI * u2;
+    let basis = orthonormal_basis(axis);
+    return centre + basis[0] * (r * cos(phi)) + basis[1] * (r * sin(phi));
+}

@@ -89,7 +89,7 @@ struct LightGroup {
 }
 
 struct Punctual {
-    position: vec4<f32>,  // w = 0 point, 1 spot
+    position: vec4<f32>,  // w = 0 point, 1 spot, 2 directional (vplgi_types::device::Punctual)
     direction: vec4<f32>, // w = cos_inner
     intensity: vec4<f32>, // w = cos_outer
 }

@@ -22,6 +22,35 @@ pub fn cornell_box_with_spot() -> Scene {
     scene
 }
 
+/// A plane of half size 1 and albedo 0.6 with a cube of side 0.5 standing on it, lit by a directional
+/// light (the sun) from 40 degrees off the vertical with irradiance (3, 2.5, 2): parallel rays
+/// with a shadow, the cube's walls lit or not, and light bounced between cube and plane.
+pub fn sunlit_plane_with_box() -> Scene {
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 1.0, 0.6, 1.0);
+    scene.lights = vec![PunctualLight::Directional { direction: sun_direction(), irradiance: Vec3::new(3.0, 2.5, 2.0) }];
+    let m = material(&mut scene, Vec3::new(0.7, 0.4, 0.3), Vec3::ZERO);
+    let (c, half) = (Vec3::new(-0.05, 0.25, -0.05), Vec3::new(0.25, 0.25, 0.25));
+    let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
+    for (o, u, v, out) in [
+        (c - hx - hz + hy, 2.0 * hx, 2.0 * hz, Vec3::Y),
+        (c - hx - hy - hz, 2.0 * hx, 2.0 * hy, -Vec3::Z),
+        (c - hx - hy + hz, 2.0 * hx, 2.0 * hy, Vec3::Z),
+        (c - hx - hy - hz, 2.0 * hy, 2.0 * hz, -Vec3::X),
+        (c + hx - hy - hz, 2.0 * hy, 2.0 * hz, Vec3::X),
+    ] {
+        grid_quad(&mut scene, o, (u, v), 2, out, m);
+    }
+    scene.name = "sunlit plane with a box".into();
+    scene.validate().expect("a valid scene");
+    scene
+}
+
+/// [`sunlit_plane_with_box`]'s sun: 40 degrees from straight down, towards -x and +z.
+pub fn sun_direction() -> Vec3 {
+    let a = 40f32.to_radians();
+    Vec3::new(-a.sin() * 0.8, -a.cos(), a.sin() * 0.6).normalize()
+}
+
 /// The Cornell box's shading points (surfaces meeting at edges, both orientations of thin walls)
 /// at `width` x `height`, one per pixel: positions and normals of the hits.
 pub fn cornell_points(width: u32, height: u32, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {

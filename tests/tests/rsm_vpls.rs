@@ -4,12 +4,17 @@
 
 use vplgi_scene::cornell::cornell_box;
 
-/// The Cornell box's area light, the box with a spot added, and a plane under a point light: one
-/// map per light kind, at the paper's Cornell-box size (128²).
+/// The Cornell box's area light, the box with a spot added, a plane under a point light and a
+/// sunlit plane with a box: one map per light kind, at the paper's Cornell-box size (128²).
 #[test]
 fn rsm_vpls_matches_the_cpu() {
     let Some(gpu) = vplgi_tests::shared_gpu("rsm_vpls_matches_the_cpu") else { return };
-    for scene in [cornell_box(), vplgi_tests::inputs::cornell_box_with_spot(), vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0)] {
+    for scene in [
+        cornell_box(),
+        vplgi_tests::inputs::cornell_box_with_spot(),
+        vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0),
+        vplgi_tests::inputs::sunlit_plane_with_box(),
+    ] {
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128)).expect("GPU");
         for c in &checks {

@@ -251,6 +251,29 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
     }
 }
 
+/// Direct light from the sun (a directional light: E cos θ along a shadow ray to infinity) and
+/// the VPLs it leaves, on the CPU's inputs in every mode: the SPEC's shading row.
+#[test]
+fn shade_matches_the_cpu_under_a_directional_light() {
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_under_a_directional_light") else { return };
+    let scene = vplgi_tests::inputs::sunlit_plane_with_box();
+    for mode in vplgi_verify::Mode::ALL {
+        let cfg = mode.apply(&vplgi_types::FrameConfig {
+            width: 32,
+            height: 32,
+            vpls: 300,
+            k_vpl: 40,
+            k_sp: 120,
+            iterations: 4,
+            ..vplgi_types::FrameConfig::verify()
+        });
+        let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
+        for c in &checks {
+            c.check();
+        }
+    }
+}
+
 fn mode() -> impl proptest::strategy::Strategy<Value = vplgi_verify::Mode> {
     proptest::sample::select(vplgi_verify::Mode::ALL.to_vec())
 }

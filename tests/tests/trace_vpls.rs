@@ -11,7 +11,8 @@ use vplgi_types::TraceParams;
 
 /// VPL tracing: the same count, particles and VPLs; positions within 1e-4 of the scene size,
 /// normals and fluxes within 1e-4 relative; at most 0.1 % of paths may diverge (SPEC), counted.
-/// Area light (Cornell box, 3 bounces), point light (plane, 1 bounce), spot light (Cornell box).
+/// Area light (Cornell box, 3 bounces), point light (plane, 1 bounce), spot light (Cornell box),
+/// directional light (a plane with a box, 2 bounces).
 #[test]
 fn trace_vpls_matches_the_cpu() {
     use std::collections::BTreeMap;
@@ -28,6 +29,7 @@ fn trace_vpls_matches_the_cpu() {
         ("cornell box, area light", cornell_box(), 3000u32, 3u32),
         ("plane, point light", vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0), 2000, 1),
         ("cornell box + spot light", spot_box, 3000, 3),
+        ("plane with a box, directional light", vplgi_tests::inputs::sunlit_plane_with_box(), 3000, 2),
     ];
     for (name, scene, count, bounces) in cases {
         let device = vplgi_embree::Device::new(None).unwrap();

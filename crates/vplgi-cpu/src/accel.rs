@@ -83,6 +83,14 @@ impl<'a> CpuScene<'a> {
         !self.rt.occluded(o, d, SEGMENT_TNEAR, SEGMENT_TFAR)
     }
 
+    /// Visibility from a surface point along unit direction `dir` to infinity (a directional
+    /// light).
+    #[inline]
+    pub fn visible_toward(&self, p: Vec3, np: Vec3, dir: Vec3) -> bool {
+        let a = self.offset_toward(p, np, p + dir);
+        !self.rt.occluded(a, dir, 0.0, f32::INFINITY)
+    }
+
     /// Visibility between a surface point and a point in free space (a punctual light). The
     /// segment stops eps short of the light, so a light mounted on a surface is not blocked by it.
     #[inline]

@@ -276,16 +276,26 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
     }
     sum += area / samples.max(1) as f32;
     for l in cs.lights.punctual() {
-        let (PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. }) = l;
-        let d = *position - p;
-        let d2 = d.length_squared();
-        let cos_p = n.dot(d);
-        if d2 <= 0.0 || cos_p <= 0.0 {
-            continue;
-        }
-        let falloff = l.falloff(-d / d2.sqrt());
-        if falloff > 0.0 && cs.visible_from_surface(p, n, *position) {
-            sum += *intensity * (falloff * cos_p / (d2 * d2.sqrt()));
+        match *l {
+            PunctualLight::Directional { direction, irradiance } => {
+                // E cos θ, along a ray to infinity.
+                let cos_d = -n.dot(direction);
+                if cos_d > 0.0 && cs.visible_toward(p, n, -direction) {
+                    sum += irradiance * cos_d;
+                }
+            }
+            PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. } => {
+                let d = position - p;
+                let d2 = d.length_squared();
+                let cos_p = n.dot(d);
+                if d2 <= 0.0 || cos_p <= 0.0 {
+                    continue;
+                }
+                let falloff = l.falloff(-d / d2.sqrt());
+                if falloff > 0.0 && cs.visible_from_surface(p, n, position) {
+                    sum += intensity * (falloff * cos_p / (d2 * d2.sqrt()));
+                }
+            }
         }
     }
     sum * brdf

@@ -51,6 +51,11 @@ impl GpuLights {
                 PunctualLight::Spot { position: p, direction: d, intensity: i, cos_inner, cos_outer } => {
                     Punctual { position: [p.x, p.y, p.z, 1.0], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
                 }
+                PunctualLight::Directional { direction: d, irradiance: e } => {
+                    // The centre of the disk its particles start from, and the disk's radius.
+                    let c = sampler.sun.disk_centre(d);
+                    Punctual { position: [c.x, c.y, c.z, 2.0], direction: [d.x, d.y, d.z, sampler.sun.radius], intensity: [e.x, e.y, e.z, 0.0] }
+                }
             })
             .collect();
         let counts = [emitters.len() as u32, punctual.len() as u32, sampler.groups().len() as u32, 0];

@@ -116,6 +116,15 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
                 lights.push(light_json(intensity, spot));
                 continue;
             }
+            PunctualLight::Directional { direction, irradiance } => {
+                // The node's -Z is the direction the light travels in.
+                let z = -direction.normalize();
+                let x = if z.x.abs() < 0.9 { Vec3::X } else { Vec3::Y }.cross(z).normalize();
+                let rot = Quat::from_mat3(&Mat3::from_cols(x, z.cross(x), z)).normalize();
+                nodes.push(json!({"name": "sun", "rotation": rot.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
+                lights.push(light_json(irradiance, json!({"type": "directional"})));
+                continue;
+            }
         };
         nodes.push(json!({"name": "light", "translation": position.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
         lights.push(light_json(intensity, extra));
@@ -163,6 +172,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut scenes: Vec<Scene> = crate::generate::GENERATORS.iter().map(|(name, _, _)| crate::generate::generate(name, 15_000).unwrap()).collect();
         scenes.push(crate::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0));
+        let mut sunlit = crate::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
+        sunlit.name = "sunlit".into();
+        let sun = Vec3::new(-0.3, -0.8, 0.52).normalize();
+        sunlit.lights.push(PunctualLight::Directional { direction: sun, irradiance: Vec3::new(3.0, 2.0, 1.0) });
+        scenes.push(sunlit);
         for s in scenes {
             let path = dir.path().join(format!("{}.glb", s.name));
             std::fs::write(&path, glb(&s).unwrap()).unwrap();
@@ -192,6 +206,13 @@ mod tests {
                 assert!((a.emission - b.emission).abs().max_element() <= 1e-5 * b.emission.max_element().max(1.0), "{} vs {}", a.emission, b.emission);
             }
             assert_eq!(back.lights.len(), s.lights.len());
+            for (a, b) in back.lights.iter().zip(&s.lights) {
+                if let (PunctualLight::Directional { direction: da, irradiance: ea }, PunctualLight::Directional { direction: db, irradiance: eb }) = (a, b) {
+                    assert!((*da - *db).length() < 1e-5 && (*ea - *eb).abs().max_element() < 1e-5, "{}: sun {a:?} vs {b:?}", s.name);
+                } else {
+                    assert_eq!(a.position().is_some(), b.position().is_some(), "{}: light kinds", s.name);
+                }
+            }
             assert!((back.camera.position - s.camera.position).length() < 1e-5);
             assert!((back.camera.forward - s.camera.forward).length() < 1e-5, "{}: camera {:?} vs {:?}", s.name, back.camera, s.camera);
             assert!((back.camera.yfov - s.camera.yfov).abs() < 1e-6);

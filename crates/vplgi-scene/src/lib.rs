@@ -108,7 +108,8 @@ impl Texture {
 }
 
 /// `KHR_lights_punctual` lights. `intensity` is radiant intensity (W/sr per channel), i.e. the
-/// glTF colour times intensity, read as radiometric units.
+/// glTF colour times intensity, read as radiometric units; a directional light's glTF intensity
+/// (lux) is read the same way as irradiance (W/m² per channel on a surface facing it).
 #[derive(Clone, Debug, PartialEq)]
 pub enum PunctualLight {
     Point {
@@ -124,6 +125,14 @@ pub enum PunctualLight {
         cos_inner: f32,
         cos_outer: f32,
     },
+    /// Light from one direction everywhere (the sun, at infinity). Its particles and its shadow
+    /// map start on a disk or square just outside the scene's bounding sphere
+    /// (`lights::SunFrame`).
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        irradiance: Vec3,
+    },
 }
 
 impl PunctualLight {
@@ -131,7 +140,7 @@ impl PunctualLight {
     /// ramp between them. Point lights return 1.
     pub fn falloff(&self, dir_from_light: Vec3) -> f32 {
         match *self {
-            PunctualLight::Point { .. } => 1.0,
+            PunctualLight::Point { .. } | PunctualLight::Directional { .. } => 1.0,
             PunctualLight::Spot { direction, .. } => self.falloff_cos(direction.dot(dir_from_light)),
         }
     }
@@ -139,12 +148,20 @@ impl PunctualLight {
     /// [`falloff`](Self::falloff) of a direction whose cosine to the spot's axis is `cos_axis`.
     pub fn falloff_cos(&self, cos_axis: f32) -> f32 {
         match *self {
-            PunctualLight::Point { .. } => 1.0,
+            PunctualLight::Point { .. } | PunctualLight::Directional { .. } => 1.0,
             PunctualLight::Spot { cos_inner, cos_outer, .. } => {
                 let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
                 let t = ((cos_axis - cos_outer) * scale).clamp(0.0, 1.0);
                 t * t
             }
+        }
+    }
+
+    /// Where the light is; `None` for a directional light, which is at infinity.
+    pub fn position(&self) -> Option<Vec3> {
+        match *self {
+            PunctualLight::Point { position, .. } | PunctualLight::Spot { position, .. } => Some(position),
+            PunctualLight::Directional { .. } => None,
         }
     }
 }
@@ -193,10 +210,7 @@ impl Scene {
                 max = max.max(p);
             }
         }
-        for l in &self.lights {
-            let p = match l {
-                PunctualLight::Point { position, .. } | PunctualLight::Spot { position, .. } => *position,
-            };
+        for p in self.lights.iter().filter_map(PunctualLight::position) {
             min = min.min(p);
             max = max.max(p);
         }
@@ -245,6 +259,10 @@ impl Scene {
                     v3(*intensity, &mut eat);
                     eat(cos_inner.to_bits());
                     eat(cos_outer.to_bits());
+                }
+                PunctualLight::Directional { direction, irradiance } => {
+                    v3(*direction, &mut eat);
+                    v3(*irradiance, &mut eat);
                 }
             }
         }
@@ -333,9 +351,22 @@ impl Scene {
             }
         }
         for (i, l) in self.lights.iter().enumerate() {
-            let (PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. }) = l;
-            if !position.is_finite() || !intensity.is_finite() || intensity.min_element() < 0.0 {
-                return Err(format!("light {i} has a non-finite position or a non-finite or negative intensity"));
+            match *l {
+                PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. } => {
+                    if !position.is_finite() || !intensity.is_finite() || intensity.min_element() < 0.0 {
+                        return Err(format!("light {i} has a non-finite position or a non-finite or negative intensity"));
+                    }
+                }
+                PunctualLight::Directional { direction, irradiance } => {
+                    if !direction.is_normalized() || !irradiance.is_finite() || irradiance.min_element() < 0.0 {
+                        return Err(format!("directional light {i} has no direction or a non-finite or negative irradiance"));
+                    }
+                    if self.indices.is_empty() {
+                        return Err(format!(
+                            "directional light {i} in a scene without geometry: its light starts on the scene's bounding sphere, and there is none"
+                        ));
+                    }
+                }
             }
         }
         for (i, m) in self.materials.iter().enumerate() {

@@ -120,6 +120,47 @@ pub struct LightSampler {
     /// share of the total power (`vplgi_types::rsm`).
     rsm: Vec<RsmLight>,
     rsm_shares: Vec<f32>,
+    /// Where directional lights start.
+    pub sun: SunFrame,
+}
+
+/// Where a directional light's particles and shadow-map rays start: a disk (or, for the map, the
+/// square around it) of the radius of the scene's bounding sphere, perpendicular to the light and
+/// touching the sphere on the side the light comes from, so every ray that can reach the scene
+/// crosses it and none starts inside it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SunFrame {
+    /// The bounding sphere's centre.
+    pub centre: Vec3,
+    pub radius: f32,
+}
+
+impl SunFrame {
+    /// The bounding sphere of the scene's box, widened by 1e-3 so that rounding never puts a
+    /// surface outside it.
+    pub fn of(scene: &Scene) -> SunFrame {
+        let (min, max) = scene.bounds();
+        SunFrame { centre: (min + max) * 0.5, radius: (max - min).length() * 0.5 * 1.001 }
+    }
+
+    /// The centre of the disk a light travelling along unit `direction` starts from.
+    pub fn disk_centre(&self, direction: Vec3) -> Vec3 {
+        self.centre - direction * self.radius
+    }
+
+    /// Power through the disk from irradiance `irradiance`: E π R².
+    pub fn power(&self, irradiance: Vec3) -> Vec3 {
+        irradiance * (PI * self.radius * self.radius)
+    }
+}
+
+/// A uniform point on the disk of radius `radius` around `centre` perpendicular to the unit
+/// `axis` (pdf 1 / (π R²)): where a directional light's particle starts.
+pub fn sun_origin(centre: Vec3, axis: Vec3, radius: f32, u1: f32, u2: f32) -> Vec3 {
+    let r = radius * u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    let (t, b) = sampling::orthonormal_basis(axis);
+    centre + t * (r * phi.cos()) + b * (r * phi.sin())
 }
 
 /// The importances of every light group at one shading point, and their sum: computed once per
@@ -166,11 +207,13 @@ fn light_groups(scene: &Scene, emitters: &[u32], areas: &[f32], powers: &[f32], 
 
 /// Power of a punctual light: 4 pi I for a point light; for a spot, I times the solid-angle
 /// integral of the glTF falloff, 2 pi [(1 - cos_inner) + (cos_inner - cos_outer) / 3]
-/// (the quadratic ramp integrates to a third of the ring).
-pub fn punctual_power(l: &PunctualLight) -> Vec3 {
+/// (the quadratic ramp integrates to a third of the ring); for a directional light, what crosses
+/// the disk it starts from (`sun`).
+pub fn punctual_power(l: &PunctualLight, sun: &SunFrame) -> Vec3 {
     match *l {
         PunctualLight::Point { intensity, .. } => intensity * (4.0 * PI),
         PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)),
+        PunctualLight::Directional { irradiance, .. } => sun.power(irradiance),
     }
 }
 
@@ -195,7 +238,8 @@ impl LightSampler {
         let area_powers: Vec<f32> = powers.iter().map(|&p| scalar(p)).collect();
         let area = Distribution::new(&area_powers);
         let groups = light_groups(scene, &emitters, &areas, &area_powers, &area);
-        powers.extend(scene.lights.iter().map(punctual_power));
+        let sun = SunFrame::of(scene);
+        powers.extend(scene.lights.iter().map(|l| punctual_power(l, &sun)));
         let all = Distribution::new(&powers.iter().map(|&p| scalar(p)).collect::<Vec<_>>());
         let total_power = powers.iter().fold(Vec3::ZERO, |a, &p| a + p);
         let mut rsm: Vec<RsmLight> = emitters
@@ -208,10 +252,11 @@ impl LightSampler {
         rsm.extend(scene.lights.iter().map(|l| match *l {
             PunctualLight::Point { position, intensity } => rsm::point(position, intensity),
             PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => rsm::spot(position, direction, intensity, cos_inner, cos_outer),
+            PunctualLight::Directional { direction, irradiance } => rsm::directional(sun.disk_centre(direction), direction, sun.radius, irradiance),
         }));
         let total = scalar(total_power);
         let rsm_shares = powers.iter().map(|&p| if total > 0.0 { scalar(p) / total } else { 0.0 }).collect();
-        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power, rsm, rsm_shares }
+        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power, rsm, rsm_shares, sun }
     }
 
     /// The reflective shadow maps of every light for a budget of about `size²` texels, sized by
@@ -277,6 +322,12 @@ impl LightSampler {
                     let falloff = light.falloff_cos(sampling::uniform_cone_cos(cos_outer, u[3]));
                     Some(Emission { origin: position, dir, power: intensity * (falloff * inv_pdf / pmf), surface_normal: Vec3::ZERO })
                 }
+                PunctualLight::Directional { direction, irradiance } => Some(Emission {
+                    origin: sun_origin(self.sun.disk_centre(direction), direction, self.sun.radius, u[3], u[4]),
+                    dir: direction,
+                    power: self.sun.power(irradiance) / pmf,
+                    surface_normal: Vec3::ZERO,
+                }),
             }
         }
     }
@@ -371,7 +422,7 @@ mod tests {
             acc += light.falloff(Vec3::new(s as f32, 0.0, c as f32)) as f64;
         }
         let numeric = 2.0 * std::f64::consts::PI * acc * 2.0 / n as f64;
-        let analytic = punctual_power(&light).x as f64;
+        let analytic = punctual_power(&light, &SunFrame::default()).x as f64;
         assert!((numeric - analytic).abs() < 1e-3 * analytic, "{numeric} vs {analytic}");
     }
 

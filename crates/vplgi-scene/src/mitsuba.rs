@@ -196,6 +196,14 @@ pub fn export(scene: &Scene, defaults: RenderDefaults) -> MitsubaScene {
                      differs from glTF's (quadratic in the cosine), so images differ in its penumbra"
                 ));
             }
+            PunctualLight::Directional { direction, irradiance } => {
+                let _ = writeln!(
+                    xml,
+                    "  <emitter type=\"directional\">\n    <vector name=\"direction\" value=\"{}\"/>\n    <rgb name=\"irradiance\" value=\"{}\"/>\n  </emitter>",
+                    vec3(direction),
+                    rgb(irradiance)
+                );
+            }
         }
     }
     let _ = writeln!(xml, "</scene>");
@@ -395,6 +403,8 @@ mod tests {
             cos_inner: 0.9,
             cos_outer: 0.8,
         });
+        let sun = Vec3::new(0.3, -0.9, 0.1).normalize();
+        scene.lights.push(PunctualLight::Directional { direction: sun, irradiance: Vec3::new(2.0, 1.5, 1.0) });
         // One textured material: a 3 x 2 texture whose texels all differ.
         let texels: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32 * 0.1, 0.5, 1.0 - i as f32 * 0.1)).collect();
         scene.textures.push(Texture { width: 3, height: 2, texels: texels.clone() });
@@ -419,7 +429,10 @@ mod tests {
         }
         // The lights.
         let emitters: Vec<roxmltree::Node> = doc.root_element().children().filter(|n| n.has_tag_name("emitter")).collect();
-        assert_eq!(emitters.len(), 2);
+        assert_eq!(emitters.len(), 3);
+        assert_eq!(emitters[2].attribute("type"), Some("directional"));
+        assert!((v3(named(emitters[2], "vector", "direction").attribute("value").unwrap()) - sun).length() < 1e-6);
+        assert_eq!(v3(named(emitters[2], "rgb", "irradiance").attribute("value").unwrap()), Vec3::new(2.0, 1.5, 1.0));
         assert_eq!(emitters[0].attribute("type"), Some("point"));
         assert_eq!(v3(named(emitters[0], "point", "position").attribute("value").unwrap()), Vec3::new(0.0, 1.5, 0.0));
         assert_eq!(v3(named(emitters[0], "rgb", "intensity").attribute("value").unwrap()), Vec3::splat(10.0));

@@ -88,7 +88,9 @@ pub struct LightGroup {
     pub range: [u32; 4],
 }
 
-/// `Punctual` in `lights.wgsl`.
+/// `Punctual` in `lights.wgsl`. Point: position, w 0. Spot: position, w 1; direction, w
+/// cos_inner; intensity, w cos_outer. Directional: the centre of the disk its particles start
+/// from, w 2; the direction it travels in, w the disk's radius; irradiance.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Punctual {

@@ -12,7 +12,10 @@
 //! * **point light**: direction by the equal-area sphere map, power 4π I / size²;
 //! * **spot light**: a perspective map over the square that holds the outer cone
 //!   (tan θ_outer on each side), power I · falloff · (2 tan θ_outer / size)² cos³ θ, the
-//!   intensity times the texel's solid angle; texels outside the outer cone send nothing.
+//!   intensity times the texel's solid angle; texels outside the outer cone send nothing;
+//! * **directional light**: an orthographic map over the square of side 2R perpendicular to the
+//!   light that holds the scene's bounding sphere (`vplgi_scene::lights::SunFrame`), every texel
+//!   a parallel ray carrying E (2R / size)².
 //!
 //! Maps are sized by power ([`sized`]): a light with share s of the total gets about
 //! `size · √s` texels per side, at least one.
@@ -29,28 +32,34 @@ pub const RSM_AREA: u32 = 0;
 pub const RSM_POINT: u32 = 1;
 /// [`RsmLight::kind`]: a spot light.
 pub const RSM_SPOT: u32 = 2;
+/// [`RsmLight::kind`]: a directional light.
+pub const RSM_DIRECTIONAL: u32 = 3;
 
 /// One light's map. The same bytes as `RsmLight` in `rsm_vpls.wgsl` (five `vec4`s).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RsmLight {
-    /// Area: the triangle's first vertex; point and spot: the light's position.
+    /// Area: the triangle's first vertex; point and spot: the light's position; directional: the
+    /// centre of the square its rays start from.
     pub origin: [f32; 3],
     pub kind: u32,
-    /// Area: the edge to the second vertex; spot: the map's right axis times tan θ_outer.
+    /// Area: the edge to the second vertex; spot: the map's right axis times tan θ_outer;
+    /// directional: the square's right axis times its half side.
     pub e1: [f32; 3],
     /// Texels per side (0 until [`sized`]).
     pub size: u32,
-    /// Area: the edge to the third vertex; spot: the map's up axis times tan θ_outer.
+    /// Area: the edge to the third vertex; spot: the map's up axis times tan θ_outer;
+    /// directional: the square's up axis times its half side.
     pub e2: [f32; 3],
     /// Global index of the map's first texel.
     pub first: u32,
-    /// Area: the unit geometric normal; spot: the unit direction it points to.
+    /// Area: the unit geometric normal; spot: the unit direction it points to; directional: the
+    /// unit direction the light travels in.
     pub axis: [f32; 3],
     /// Spot: cosine of the inner cone angle.
     pub cos_inner: f32,
-    /// Area: emitted power π A L_e; point: 4π I; spot: the intensity I. Per texel: see
-    /// [`texel_ray`].
+    /// Area: emitted power π A L_e; point: 4π I; spot: the intensity I; directional: the
+    /// irradiance E. Per texel: see [`texel_ray`].
     pub power: [f32; 3],
     /// Spot: cosine of the outer cone angle.
     pub cos_outer: f32,
@@ -132,6 +141,13 @@ pub fn texel_ray(map: &RsmLight, t: u32) -> Option<TexelRay> {
             Some(TexelRay { origin: p, dir: sampling::cosine_hemisphere(axis, u, v), power: power / texels, surface_normal: axis })
         }
         RSM_POINT => Some(TexelRay { origin, dir: sampling::uniform_sphere(u, v), power: power / texels, surface_normal: Vec3::ZERO }),
+        RSM_DIRECTIONAL => {
+            let (x, y) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+            let (e1, e2) = (Vec3::from(map.e1), Vec3::from(map.e2));
+            // The texel's area: (2R / n)², R = |e1|.
+            let side = 2.0 * inv;
+            Some(TexelRay { origin: origin + e1 * x + e2 * y, dir: axis, power: power * (side * side * e1.length_squared()), surface_normal: Vec3::ZERO })
+        }
         _ => {
             let (x, y) = (2.0 * u - 1.0, 2.0 * v - 1.0);
             let (e1, e2) = (Vec3::from(map.e1), Vec3::from(map.e2));
@@ -166,6 +182,21 @@ pub fn spot(position: Vec3, direction: Vec3, intensity: Vec3, cos_inner: f32, co
         cos_inner,
         cos_outer,
         power: intensity.to_array(),
+        ..Default::default()
+    }
+}
+
+/// The map of a directional light travelling along unit `direction`: the square of half side
+/// `half_side` around `centre`, perpendicular to it, with irradiance `irradiance`.
+pub fn directional(centre: Vec3, direction: Vec3, half_side: f32, irradiance: Vec3) -> RsmLight {
+    let (right, up) = sampling::orthonormal_basis(direction);
+    RsmLight {
+        origin: centre.to_array(),
+        kind: RSM_DIRECTIONAL,
+        e1: (right * half_side).to_array(),
+        e2: (up * half_side).to_array(),
+        axis: direction.to_array(),
+        power: irradiance.to_array(),
         ..Default::default()
     }
 }

@@ -321,7 +321,14 @@ impl<'a> Loader<'a> {
                 let cos_inner = inner_cone_angle.cos().max(cos_outer);
                 self.scene.lights.push(PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer });
             }
-            Kind::Directional => self.warn("directional lights are not supported; skipped".into()),
+            Kind::Directional => {
+                // Directional lights shine along the node's -Z too.
+                let Some(direction) = world.transform_vector3(-Vec3::Z).try_normalize() else {
+                    self.warn(format!("directional light {} has a degenerate orientation; skipped", light.index()));
+                    return;
+                };
+                self.scene.lights.push(PunctualLight::Directional { direction, irradiance: intensity });
+            }
         }
     }
 

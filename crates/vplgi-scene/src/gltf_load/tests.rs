@@ -363,7 +363,7 @@ fn emissive_strength_multiplies_the_emissive_factor() {
 }
 
 #[test]
-fn point_and_spot_lights_follow_their_nodes() {
+fn point_spot_and_directional_lights_follow_their_nodes() {
     let mut doc = quad_doc();
     doc.use_extension("KHR_lights_punctual");
     doc.json["extensions"] = json!({ "KHR_lights_punctual": { "lights": [
@@ -376,13 +376,13 @@ fn point_and_spot_lights_follow_their_nodes() {
     let point = doc.node(json!({ "extensions": light(0), "translation": [1.0, 2.0, 3.0] }));
     // A quarter turn about -x points the spot's -z axis straight down.
     let spot = doc.node(json!({ "extensions": light(1), "translation": [0.0, 2.0, 0.0], "rotation": [-h, 0.0, 0.0, h] }));
-    let sun = doc.node(json!({ "extensions": light(2) }));
+    // The same quarter turn points the sun straight down.
+    let sun = doc.node(json!({ "extensions": light(2), "rotation": [-h, 0.0, 0.0, h] }));
     let parent = doc.node(json!({ "children": [point, spot, sun], "translation": [0.0, 1.0, 0.0] }));
     doc.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(parent));
     let dir = tempfile::tempdir().unwrap();
     let s = load_ok(&doc.write_embedded(dir.path(), "lights"));
-    // The directional light is skipped.
-    assert_eq!(s.lights.len(), 2);
+    assert_eq!(s.lights.len(), 3);
     match &s.lights[0] {
         PunctualLight::Point { position, intensity } => {
             assert!(close(*position, Vec3::new(1.0, 3.0, 3.0)));
@@ -399,6 +399,26 @@ fn point_and_spot_lights_follow_their_nodes() {
         }
         other => panic!("expected a spot light, got {other:?}"),
     }
+    // Directional: glTF intensity (lux) read as irradiance, travelling along the node's -z.
+    match &s.lights[2] {
+        PunctualLight::Directional { direction, irradiance } => {
+            assert!(close(*direction, -Vec3::Y), "{direction}");
+            assert_eq!(*irradiance, Vec3::splat(3.0));
+        }
+        other => panic!("expected a directional light, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_directional_light_needs_geometry_to_bound() {
+    // A file without triangles is refused before this (nothing renderable); a scene built in
+    // code is checked by validate: the sun's light starts on the scene's bounding sphere.
+    let mut s = Scene::default();
+    s.lights.push(PunctualLight::Directional { direction: -Vec3::Y, irradiance: Vec3::ONE });
+    let e = s.validate().unwrap_err();
+    assert!(e.contains("directional light 0") && e.contains("without geometry"), "{e}");
+    s.lights[0] = PunctualLight::Directional { direction: Vec3::new(0.0, -2.0, 0.0), irradiance: Vec3::ONE };
+    assert!(s.validate().unwrap_err().contains("no direction"));
 }
 
 #[test]
