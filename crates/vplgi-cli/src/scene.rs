@@ -19,7 +19,8 @@ pub struct SceneArgs {
 enum SceneCommand {
     /// Generate a scene (deterministic) and write it as binary glTF: cornell-fine (the Cornell
     /// box tessellated, ~1.9 M triangles), conference (tables and chairs on thin legs, ~300 k),
-    /// living-room (large smooth walls, sofas, a window-like light, ~300 k).
+    /// living-room (large smooth walls, sofas, a window-like light, ~300 k), sunlit-living-room
+    /// (the same room with an open window and the sun, a directional light, shining in).
     Generate(GenerateArgs),
     /// Write a scene for another renderer, to cross-check vplgi's references against it:
     /// `--format mitsuba` writes DIR/scene.xml (Mitsuba 3, `path` integrator) with one PLY mesh per
@@ -56,7 +57,7 @@ struct ExportArgs {
 #[derive(Args)]
 struct GenerateArgs {
     /// Which scene.
-    #[arg(value_parser = ["cornell-fine", "conference", "living-room"])]
+    #[arg(value_parser = ["cornell-fine", "conference", "living-room", "sunlit-living-room"])]
     name: String,
     /// About how many triangles [default: the paper's size: 1,900,000 for cornell-fine, 300,000
     /// for the rooms]. Large surfaces are split to meet it; furniture detail is fixed.

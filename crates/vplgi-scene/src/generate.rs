@@ -7,21 +7,25 @@
 //!   ceiling panels, so that the light under the furniture is indirect and its shadows matter
 //!   (about 300 k triangles, like the paper's 331 k conference room);
 //! * `living-room`: large smooth walls and floor, two sofas and a low table, lit mostly through a
-//!   bright window-like panel in one wall (about 300 k triangles, like the paper's 313 k room).
+//!   bright window-like panel in one wall (about 300 k triangles, like the paper's 313 k room);
+//! * `sunlit-living-room`: the same room with an open window in that wall and the sun (a
+//!   directional light) shining through it onto the floor: the sun-lit room of Prutkin et al.'s
+//!   comparisons, whose indirect light all comes from one bright patch.
 //!
 //! [`camera_walk`] adds a camera path to any of them (`--camera-walk`), for frame sequences.
 //!
 //! Budgets are met by subdividing the large surfaces; furniture detail is fixed, so a small
 //! budget still gives the whole scene (tests use a few thousand triangles).
 
-use crate::{Camera, CameraPath, Material, Scene, Track};
+use crate::{Camera, CameraPath, Material, PunctualLight, Scene, Track};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// The generators, by name: (name, default triangle budget, what it is).
-pub const GENERATORS: [(&str, usize, &str); 3] = [
+pub const GENERATORS: [(&str, usize, &str); 4] = [
     ("cornell-fine", 1_900_000, "the Cornell box tessellated to the paper's 1.9 M triangles"),
     ("conference", 300_000, "a meeting room with rows of tables and chairs on thin legs, ceiling panels"),
     ("living-room", 300_000, "large smooth walls, two sofas and a table, lit through a window-like panel"),
+    ("sunlit-living-room", 300_000, "the living room with an open window and the sun shining through it"),
 ];
 
 /// The scene `name` with about `triangles` triangles (at least the furniture's own count).
@@ -30,6 +34,7 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
         "cornell-fine" => cornell_fine(triangles),
         "conference" => conference(triangles),
         "living-room" => living_room(triangles),
+        "sunlit-living-room" => sunlit_living_room(triangles),
         _ => return Err(format!("unknown scene {name:?}; the generators are {}", GENERATORS.map(|g| g.0).join(", "))),
     };
     scene.validate()?;
@@ -216,6 +221,13 @@ impl Builder {
     /// The inside of the room from `lo` to `hi` (all six faces facing in), each face split so
     /// that the room takes about `triangles` triangles.
     fn room(&mut self, lo: Vec3, hi: Vec3, triangles: usize, floor: u32, walls: u32, ceiling: u32) {
+        self.room_with_window(lo, hi, triangles, floor, walls, ceiling, None);
+    }
+
+    /// [`Builder::room`], the left wall (x = lo.x) with an open window over the (y, z) rectangle
+    /// `window` when given: the wall is then four grids around the opening.
+    #[allow(clippy::too_many_arguments)]
+    fn room_with_window(&mut self, lo: Vec3, hi: Vec3, triangles: usize, floor: u32, walls: u32, ceiling: u32, window: Option<(Vec2, Vec2)>) {
         let d = hi - lo;
         let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
         // Square cells of one size everywhere: cells = triangles / 2.
@@ -226,7 +238,19 @@ impl Builder {
         self.grid(lo + y, x, z, n(d.x), n(d.z), ceiling); // ceiling faces -y
         self.grid(lo, x, y, n(d.x), n(d.y), walls); // back wall faces +z
         self.grid(lo + z, y, x, n(d.y), n(d.x), walls); // front wall faces -z
-        self.grid(lo, y, z, n(d.y), n(d.z), walls); // left wall faces +x
+        match window {
+            None => self.grid(lo, y, z, n(d.y), n(d.z), walls), // left wall faces +x
+            Some((w_lo, w_hi)) => {
+                // Below, above, and either side of the opening, each facing +x.
+                let at = |yy: f32, zz: f32| Vec3::new(lo.x, yy, zz);
+                let (dy_lo, dy_hi, dz_lo, dz_hi) = (w_lo.x - lo.y, hi.y - w_hi.x, w_lo.y - lo.z, hi.z - w_hi.y);
+                let wy = w_hi.x - w_lo.x;
+                self.grid(at(lo.y, lo.z), Vec3::Y * dy_lo, z, n(dy_lo), n(d.z), walls);
+                self.grid(at(w_hi.x, lo.z), Vec3::Y * dy_hi, z, n(dy_hi), n(d.z), walls);
+                self.grid(at(w_lo.x, lo.z), Vec3::Y * wy, Vec3::Z * dz_lo, n(wy), n(dz_lo), walls);
+                self.grid(at(w_lo.x, w_hi.y), Vec3::Y * wy, Vec3::Z * dz_hi, n(wy), n(dz_hi), walls);
+            }
+        }
         self.grid(lo + x, z, y, n(d.z), n(d.y), walls); // right wall faces -x
     }
 }
@@ -283,14 +307,33 @@ pub fn conference(triangles: usize) -> Scene {
 /// A living room 7 x 2.8 x 6: two sofas (base, seat cushions, back, arms) facing a low table, a
 /// bright window-like panel in the left wall and a dim lamp panel on the ceiling.
 pub fn living_room(triangles: usize) -> Scene {
-    let mut b = Builder::new("living-room");
+    furnished_living_room("living-room", triangles, false)
+}
+
+/// The direction [`sunlit_living_room`]'s sun travels in: into the room through the left wall's
+/// window, 31 degrees down from the horizontal and a little towards the back wall, so its patch
+/// lies on the floor in front of the camera.
+pub const LIVING_ROOM_SUN: Vec3 = Vec3::new(0.776, -0.517, -0.362);
+
+/// [`living_room`] with the window open (a hole in the left wall, no emissive panel) and the sun
+/// shining through it along [`LIVING_ROOM_SUN`] with irradiance (20, 19, 17), about a quarter of
+/// what the panel emitted, so its bright patch on the floor lights the room indirectly. The sun's
+/// particles and shadow-map texels cover the room's bounding sphere, and only about 4 % of them
+/// come in through the window: the rest land on the outside of the walls and roof, where they
+/// light nothing the camera sees (give it more `--vpls` or a larger `--rsm-size`).
+pub fn sunlit_living_room(triangles: usize) -> Scene {
+    furnished_living_room("sunlit-living-room", triangles, true)
+}
+
+fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
+    let mut b = Builder::new(name);
     let floor = b.material("wooden floor", Vec3::new(0.45, 0.32, 0.2), Vec3::ZERO);
     let walls = b.material("walls", Vec3::new(0.8, 0.78, 0.72), Vec3::ZERO);
     let ceiling = b.material("ceiling", Vec3::splat(0.85), Vec3::ZERO);
     let fabric = b.material("sofa", Vec3::new(0.6, 0.2, 0.15), Vec3::ZERO);
     let cushion = b.material("cushions", Vec3::new(0.7, 0.6, 0.45), Vec3::ZERO);
     let wood = b.material("table", Vec3::new(0.3, 0.2, 0.12), Vec3::ZERO);
-    let window = b.material("window", Vec3::splat(0.9), Vec3::new(20.0, 19.0, 17.0));
+    let window = (!sun).then(|| b.material("window", Vec3::splat(0.9), Vec3::new(20.0, 19.0, 17.0)));
     let lamp = b.material("lamp", Vec3::splat(0.9), Vec3::new(4.0, 3.5, 2.8));
     // Sofas: against the back wall (facing +z) and the right wall (facing -x).
     let sofa = |b: &mut Builder, lo: Vec3, hi: Vec3, along_x: bool| {
@@ -320,11 +363,16 @@ pub fn living_room(triangles: usize) -> Scene {
     for (x, z) in [(-0.62, -1.22), (0.62, -1.22), (-0.62, -0.58), (0.62, -0.58)] {
         b.cylinder(Vec3::new(x, 0.0, z), 0.03, 0.38, 16, wood);
     }
-    // The window: in the left wall (x = -3.5), front side facing into the room (+x).
-    b.grid(Vec3::new(-3.49, 0.8, -1.5), Vec3::Y * 1.4, Vec3::Z * 2.4, 1, 1, window);
+    // The window: in the left wall (x = -3.5), front side facing into the room (+x); or, sunlit,
+    // an opening there.
+    let opening = (Vec2::new(0.8, -1.5), Vec2::new(2.2, 0.9));
+    match window {
+        Some(window) => b.grid(Vec3::new(-3.49, opening.0.x, opening.0.y), Vec3::Y * 1.4, Vec3::Z * 2.4, 1, 1, window),
+        None => b.s.lights.push(PunctualLight::Directional { direction: LIVING_ROOM_SUN.normalize(), irradiance: Vec3::new(20.0, 19.0, 17.0) }),
+    }
     b.grid(Vec3::new(-0.3, 2.79, -0.3), Vec3::X * 0.6, Vec3::Z * 0.6, 1, 1, lamp);
     let used = b.s.triangle_count();
-    b.room(Vec3::new(-3.5, 0.0, -3.0), Vec3::new(3.5, 2.8, 3.0), triangles.saturating_sub(used), floor, walls, ceiling);
+    b.room_with_window(Vec3::new(-3.5, 0.0, -3.0), Vec3::new(3.5, 2.8, 3.0), triangles.saturating_sub(used), floor, walls, ceiling, sun.then_some(opening));
     b.s.camera = Camera { position: Vec3::new(1.5, 1.5, 2.8), forward: Vec3::new(-0.45, -0.3, -1.0).normalize(), up: Vec3::Y, yfov: 60f32.to_radians() };
     // Keep `up` orthogonal to `forward`.
     let f = b.s.camera.forward;
@@ -358,7 +406,7 @@ mod tests {
     /// (one-sided area lights and the shading both depend on it).
     #[test]
     fn room_surfaces_face_inwards() {
-        for name in ["conference", "living-room"] {
+        for name in ["conference", "living-room", "sunlit-living-room"] {
             let s = generate(name, 3_000).unwrap();
             let (lo, hi) = s.bounds();
             let centre = (lo + hi) * 0.5;
