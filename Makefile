@@ -10,7 +10,7 @@ CARGO ?= cargo
 DEMO_OUT ?= out/demo
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants validate test-slurm clean
+.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants rsm validate test-slurm clean
 
 all: build
 
@@ -47,7 +47,7 @@ demo: build
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
-CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants perf_report
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report
 # The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
 # (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
 GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify
@@ -201,6 +201,13 @@ results: build
 # and without --temporal on: docs/VARIANTS.md. About ten minutes.
 variants: build
 	$(CARGO) run --release -p vplgi-benches --bin variants -- --out docs/VARIANTS.md
+
+# Prutkin et al.'s shadow-map clusters lit as clamped points, as disks through their Eq. 2 and
+# as disks through the exact form factor, against converged references of the Cornell box and
+# the sun-lit living room (error and light kept), and the clustering's time at the paper's
+# Table 1 sizes on the CPU and on lavapipe: docs/RSM.md. About 15 minutes.
+rsm: build
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin rsm -- --out docs/RSM.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
 # under target/ with numpy (nothing system-wide): each of the four scenes exported with

@@ -1,0 +1,325 @@
+//! `make rsm`: Prutkin et al. 2012's reflective-shadow-map clusters as lights, measured; written to
+//! `docs/RSM.md` (numbers in `docs/rsm/rsm.json`, pictures in `docs/rsm/`).
+//!
+//! **Quality at equal cluster counts.** On the built-in Cornell box and the generated sun-lit
+//! living room, one bounce, `--lighting indirect` (the light clustering changes): the VPLs of one
+//! shadow map per light, clustered in shadow-map space (`--vpl-cluster rsm`) into K clusters lit
+//! as clamped points, as disks through Eq. 2, and as disks through the exact form factor, beside
+//! the unclustered shadow-map VPLs; each against a converged, unbiased reference of the same
+//! scene (`vplgi reference`, path VPLs with bias compensation): relMSE, FLIP, and the light kept
+//! (mean ratio per channel; below 1 is energy lost). The shading points are not clustered
+//! (`--cluster vpl`), so only the VPL clustering differs.
+//!
+//! **Clustering time at the paper's Table 1 sizes** (128² map with 256 clusters, 128² with
+//! 1,024, 256² with 1,024) on the Cornell box, CPU and GPU (Mesa lavapipe on the same cores),
+//! the median `rsm_cluster` stage time of three frames, beside the paper's GTX 560 Ti.
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use vplgi_benches::{median, run};
+
+#[derive(Parser)]
+#[command(about = "Measures reflective-shadow-map clusters as points and disks against converged references; writes docs/RSM.md")]
+struct Opts {
+    /// The report; numbers and pictures go to rsm/ beside it.
+    #[arg(long, default_value = "docs/RSM.md")]
+    out: PathBuf,
+    /// The vplgi binary.
+    #[arg(long, default_value = "target/release/vplgi")]
+    vplgi: PathBuf,
+    /// Small images, few seeds and small maps: a check that it runs, not the measurement.
+    #[arg(long)]
+    quick: bool,
+    /// Where scenes, references and frames go [default: target/rsm, or target/rsm-quick].
+    #[arg(long)]
+    work: Option<PathBuf>,
+}
+
+/// The light shapes compared, in table order.
+const SHAPES: [&str; 3] = ["point", "disk", "disk-exact"];
+
+/// The paper's Table 1: (map side, clusters, ms on a GTX 560 Ti, clustering with importance).
+const TABLE_1: [(u32, u32, f64); 3] = [(128, 256, 0.92), (128, 1024, 3.2), (256, 1024, 9.5)];
+
+struct SceneCase {
+    name: &'static str,
+    /// A generated scene's name, or None for the built-in Cornell box.
+    generated: Option<&'static str>,
+    width: u32,
+    height: u32,
+    rsm_size: u32,
+    /// VPLs per seed of the reference.
+    vpls: u32,
+    seeds: u32,
+}
+
+fn main() -> Result<()> {
+    let o = Opts::parse();
+    let q = o.quick;
+    let cases = if q {
+        [
+            SceneCase { name: "cornell-box", generated: None, width: 32, height: 32, rsm_size: 32, vpls: 1000, seeds: 2 },
+            SceneCase { name: "sunlit-living-room", generated: Some("sunlit-living-room"), width: 32, height: 24, rsm_size: 48, vpls: 2000, seeds: 2 },
+        ]
+    } else {
+        [
+            SceneCase { name: "cornell-box", generated: None, width: 128, height: 128, rsm_size: 128, vpls: 10_000, seeds: 16 },
+            SceneCase { name: "sunlit-living-room", generated: Some("sunlit-living-room"), width: 192, height: 135, rsm_size: 256, vpls: 20_000, seeds: 8 },
+        ]
+    };
+    let counts: &[u32] = if q { &[16, 64] } else { &[64, 256, 1024] };
+    let work = o.work.clone().unwrap_or_else(|| PathBuf::from(if q { "target/rsm-quick" } else { "target/rsm" }));
+    let docs = o.out.parent().map_or_else(|| PathBuf::from("rsm"), |p| p.join("rsm"));
+    std::fs::create_dir_all(&docs)?;
+    let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
+    let mut scenes = Vec::new();
+    for c in &cases {
+        let dir = work.join(c.name);
+        let scene = match c.generated {
+            Some(g) => {
+                let glb = work.join("scenes").join(format!("{g}.glb"));
+                if !glb.exists() {
+                    eprintln!("generating {g}");
+                    vplgi(&["scene", "generate", g, "--triangles", if q { "4000" } else { "60000" }, "--out", s(&glb)])?;
+                }
+                s(&glb).to_string()
+            }
+            None => "cornell-box".to_string(),
+        };
+        let (w, h, size) = (c.width.to_string(), c.height.to_string(), c.rsm_size.to_string());
+        let frame = ["--bounces", "1", "--lighting", "indirect", "--width", &w, "--height", &h];
+        let reference = dir.join("reference");
+        if !reference.join("mean.exr").exists() {
+            eprintln!("{}: the reference ({} seeds)", c.name, c.seeds);
+            let (seeds, vpls) = (c.seeds.to_string(), c.vpls.to_string());
+            let mut args = vec!["reference", &scene, "--seeds", &seeds, "--vpls", &vpls, "--out", s(&reference)];
+            args.extend(frame);
+            vplgi(&args)?;
+        }
+        let mut frames = Vec::new();
+        let mut runs: Vec<(String, u32, Vec<&str>)> = vec![("unclustered".into(), 0, vec!["--cluster", "none"])];
+        for &k in counts {
+            for shape in SHAPES {
+                runs.push((shape.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape]));
+            }
+        }
+        for (light, k, extra) in runs {
+            let label = if k == 0 { light.clone() } else { format!("{light}-{k}") };
+            eprintln!("{}: {label}", c.name);
+            let out = dir.join(&label);
+            let k_vpl = k.max(1).to_string();
+            let mut args = vec!["render", &scene, "--vpl-source", "rsm", "--rsm-size", &size, "--k-vpl", &k_vpl, "--out", s(&out)];
+            args.extend(frame);
+            args.extend(extra);
+            vplgi(&args)?;
+            vplgi(&["compare", s(&reference.join("mean.exr")), s(&out.join("image.exr")), "--out", s(&out)])?;
+            let cmp: Value = read_json(&out.join("compare.json"))?;
+            let report: Value = read_json(&out.join("report.json"))?;
+            let ms = |key: &str| report["timings_ms"][key].as_f64().unwrap_or(f64::NAN);
+            frames.push(json!({
+                "light": light, "k": k, "rel_mse": cmp["rel_mse"], "flip": cmp["flip"], "mean_ratio": cmp["mean_ratio"],
+                "vpls": report["stats"]["vpls"], "clusters": report["stats"]["vpl_clusters"], "shade_ms": ms("shade"), "total_ms": ms("total"),
+            }));
+            // Pictures: the reference, and every light shape at the middle count with its error map.
+            if k == counts[counts.len() / 2] || k == 0 {
+                std::fs::copy(out.join("image.png"), docs.join(format!("{}-{label}.png", c.name)))?;
+                std::fs::copy(out.join("error_map.png"), docs.join(format!("{}-{label}-error.png", c.name)))?;
+            }
+        }
+        std::fs::copy(reference.join("mean.png"), docs.join(format!("{}-reference.png", c.name)))?;
+        let reference_sidecar = read_json(&reference.join("reference.json"))?;
+        scenes.push(json!({
+            "scene": c.name, "width": c.width, "height": c.height, "rsm_size": c.rsm_size, "seeds": c.seeds, "reference_vpls": c.vpls,
+            "reference_error": reference_sidecar["error"]["relative_standard_error"],
+            "reference_mean_error": mean_standard_error(&reference_sidecar["error"]["thirds_per_seed"]),
+            "frames": frames, "middle_k": counts[counts.len() / 2],
+        }));
+    }
+    eprintln!("timing the clustering at Table 1's sizes");
+    let mut timings = Vec::new();
+    for (size, k, paper_ms) in TABLE_1 {
+        let (size, k) = if q { (size / 4, k / 8) } else { (size, k) };
+        let mut row = json!({"rsm_size": size, "k": k, "paper_ms": paper_ms});
+        for backend in ["cpu", "gpu"] {
+            let mut ms = Vec::new();
+            for r in 0..3 {
+                let out = work.join("timing").join(format!("{backend}-{size}-{k}-{r}"));
+                let (size_s, k_s) = (size.to_string(), k.to_string());
+                vplgi(&[
+                    "render",
+                    "--backend",
+                    backend,
+                    "--vpl-source",
+                    "rsm",
+                    "--bounces",
+                    "1",
+                    "--rsm-size",
+                    &size_s,
+                    "--vpl-cluster",
+                    "rsm",
+                    "--cluster",
+                    "vpl",
+                    "--k-vpl",
+                    &k_s,
+                    "--width",
+                    "32",
+                    "--height",
+                    "32",
+                    "--out",
+                    s(&out),
+                ])?;
+                let report = read_json(&out.join("report.json"))?;
+                ms.push(report["timings_ms"]["cluster"].as_f64().context("no cluster timing in the report")?);
+                row["vpls"] = report["stats"]["vpls"].clone();
+            }
+            row[format!("{backend}_ms")] = json!(median(ms));
+        }
+        timings.push(row);
+    }
+    let (date, commit) = vplgi_benches::date_and_commit()?;
+    let result = json!({"date": date, "commit": commit, "quick": q, "scenes": scenes, "table_1": timings});
+    std::fs::write(docs.join("rsm.json"), serde_json::to_string_pretty(&result)?)?;
+    std::fs::write(&o.out, markdown(&result)?)?;
+    eprintln!("wrote {}", o.out.display());
+    Ok(())
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap_or_default()
+}
+
+fn read_json(p: &Path) -> Result<Value> {
+    serde_json::from_slice(&std::fs::read(p).with_context(|| format!("reading {}", p.display()))?).with_context(|| format!("parsing {}", p.display()))
+}
+
+/// The relative standard error of the reference image's mean, per channel, from its sidecar's
+/// per-seed means of each third of the rows (all pixels of a seed share its VPLs, so it is the
+/// spread of the seeds' whole-image means that counts): the noise floor of "light kept".
+fn mean_standard_error(thirds_per_seed: &Value) -> Value {
+    let seeds: Vec<[f64; 3]> = thirds_per_seed
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|thirds| {
+                    let t: Vec<Vec<f64>> = thirds
+                        .as_array()
+                        .map(|t| t.iter().map(|c| c.as_array().map(|c| c.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()).collect())
+                        .unwrap_or_default();
+                    [0, 1, 2].map(|c| t.iter().filter_map(|third| third.get(c)).sum::<f64>() / t.len().max(1) as f64)
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let n = seeds.len() as f64;
+    if n < 2.0 {
+        return json!(null);
+    }
+    json!([0, 1, 2].map(|c| {
+        let mean = seeds.iter().map(|s| s[c]).sum::<f64>() / n;
+        let var = seeds.iter().map(|s| (s[c] - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (var / n).sqrt() / mean
+    }))
+}
+
+/// The light kept, as "0.988 (0.987–0.990)": the mean of the channels' ratios and their range.
+fn kept(ratio: &Value) -> String {
+    let r: Vec<f64> = ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
+    if r.is_empty() {
+        return "?".into();
+    }
+    let (lo, hi) = r.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    format!("{:.3} ({lo:.3}–{hi:.3})", r.iter().sum::<f64>() / r.len() as f64)
+}
+
+fn markdown(r: &Value) -> Result<String> {
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut s = String::new();
+    writeln!(s, "# Reflective-shadow-map clusters as lights (Prutkin et al. 2012)\n")?;
+    writeln!(
+        s,
+        "Generated by `make rsm`{} on {}, commit {}. Numbers: [rsm/rsm.json](rsm/rsm.json). CPU times on this machine's 2 cores; GPU times on Mesa's lavapipe (software Vulkan) on the same cores, not a GPU.\n",
+        if r["quick"].as_bool() == Some(true) { " (**--quick: small sizes, not the measurement**)" } else { "" },
+        r["date"].as_str().unwrap_or("?"),
+        r["commit"].as_str().unwrap_or("?")
+    )?;
+    writeln!(
+        s,
+        "Each scene's VPLs come from one reflective shadow map per light (`--vpl-source rsm`, one bounce) and are clustered in shadow-map space with the paper's Eq. 1 (`--vpl-cluster rsm`, weights 1, 10, 0). A cluster then lights the scene as a point with the geometry-term clamp (`point`, the core paper's light), as a disk through the paper's Eq. 2 (`disk`), or as the same disk through its exact form factor (`disk-exact`); disks have no clamp. `unclustered` is every shadow-map VPL as a clamped point. Shading points are not clustered (`--cluster vpl`). Every image holds the indirect light only (`--lighting indirect`) and is compared with a converged, unbiased reference of the same scene (`vplgi reference`: path VPLs with bias compensation, its own relative standard error given below). *Light kept* is the image's mean over the reference's per channel (the mean of the three, and their range): below 1 is energy lost.\n"
+    )?;
+    for sc in r["scenes"].as_array().cloned().unwrap_or_default() {
+        let name = sc["scene"].as_str().unwrap_or("?");
+        writeln!(
+            s,
+            "## {name} ({}x{}, --rsm-size {})\n\nReference: {} seeds of {} VPLs, per-pixel relative standard error {:.2} %; standard error of its mean (what *light kept* is measured against) {} % per channel.\n",
+            sc["width"],
+            sc["height"],
+            sc["rsm_size"],
+            sc["seeds"],
+            sc["reference_vpls"],
+            100.0 * f(&sc["reference_error"]),
+            sc["reference_mean_error"].as_array().map_or("?".into(), |a| a.iter().map(|x| format!("{:.2}", 100.0 * f(x))).collect::<Vec<_>>().join(" / "))
+        )?;
+        writeln!(s, "| lights | clusters | relMSE | FLIP | light kept | shade (s) | frame (s) |\n|---|---:|---:|---:|---|---:|---:|")?;
+        let frames = sc["frames"].as_array().cloned().unwrap_or_default();
+        for x in &frames {
+            let clusters = if x["k"].as_u64() == Some(0) { format!("– ({} VPLs)", x["vpls"]) } else { x["clusters"].to_string() };
+            writeln!(
+                s,
+                "| `{}` | {clusters} | {:.2e} | {:.4} | {} | {:.2} | {:.2} |",
+                x["light"].as_str().unwrap_or("?"),
+                f(&x["rel_mse"]),
+                f(&x["flip"]),
+                kept(&x["mean_ratio"]),
+                f(&x["shade_ms"]) / 1e3,
+                f(&x["total_ms"]) / 1e3
+            )?;
+        }
+        let k = sc["middle_k"].as_u64().unwrap_or(0);
+        writeln!(s, "\nAt {k} clusters (images, then FLIP error maps against the reference):\n")?;
+        writeln!(s, "| reference | unclustered | point | disk | disk-exact |\n|---|---|---|---|---|")?;
+        writeln!(
+            s,
+            "| ![](rsm/{name}-reference.png) | ![](rsm/{name}-unclustered.png) | ![](rsm/{name}-point-{k}.png) | ![](rsm/{name}-disk-{k}.png) | ![](rsm/{name}-disk-exact-{k}.png) |"
+        )?;
+        writeln!(
+            s,
+            "| | ![](rsm/{name}-unclustered-error.png) | ![](rsm/{name}-point-{k}-error.png) | ![](rsm/{name}-disk-{k}-error.png) | ![](rsm/{name}-disk-exact-{k}-error.png) |\n"
+        )?;
+    }
+    writeln!(s, "## Clustering time at the paper's Table 1 sizes\n")?;
+    writeln!(
+        s,
+        "The Cornell box's shadow map clustered (`rsm_cluster`: Halton seeds, k-means with Eq. 1 over the 5 x 5 neighbouring cells, the sort by cluster and the update), the median stage time of three frames. vplgi seeds on the plain 2-D Halton sequence; the paper's times include its bidirectional importance map, which vplgi does not build yet.\n"
+    )?;
+    writeln!(s, "| map | clusters | VPLs | CPU (ms) | GPU, lavapipe (ms) | paper, GTX 560 Ti (ms) |\n|---|---:|---:|---:|---:|---:|")?;
+    for t in r["table_1"].as_array().cloned().unwrap_or_default() {
+        writeln!(s, "| {0}² | {1} | {2} | {3:.1} | {4:.1} | {5} |", t["rsm_size"], t["k"], t["vpls"], f(&t["cpu_ms"]), f(&t["gpu_ms"]), f(&t["paper_ms"]))?;
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_references_mean_error_is_the_spread_of_its_seeds() {
+        // Two seeds whose thirds average to 1.0 and 1.2 (red), 2 and 2 (green), 0.5 and 0.7
+        // (blue): standard deviations 0.1414, 0, 0.1414 over means 1.1, 2, 0.6, over √2.
+        let seed = |r: f64, g: f64, b: f64| json!([[r, g, b], [r, g, b], [r, g, b]]);
+        let e = mean_standard_error(&json!([seed(1.0, 2.0, 0.5), seed(1.2, 2.0, 0.7)]));
+        let e: Vec<f64> = e.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        assert!((e[0] - 0.1 / 1.1).abs() < 1e-12 && e[1] == 0.0 && (e[2] - 0.1 / 0.6).abs() < 1e-12, "{e:?}");
+        assert_eq!(mean_standard_error(&json!([seed(1.0, 1.0, 1.0)])), json!(null));
+    }
+
+    #[test]
+    fn light_kept_shows_the_mean_and_the_range() {
+        assert_eq!(kept(&json!([0.98, 1.0, 0.99])), "0.990 (0.980–1.000)");
+        assert_eq!(kept(&json!(null)), "?");
+    }
+}
