@@ -7,6 +7,7 @@
 @group(0) @binding(7) var<storage, read> labels: array<u32>;
 @group(0) @binding(9) var<storage, read_write> flags_out: array<u32>;
 @group(0) @binding(11) var<storage, read_write> survivors: array<Endpoint>;
+@group(0) @binding(12) var<storage, read_write> relabelled: array<u32>;
 
 // Members per cluster from the first label.
 @compute @workgroup_size(64)
@@ -42,4 +43,16 @@ fn compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         survivors[remap[k]] = centroids[k];
         survivor_members[remap[k]] = c;
     }
+}
+
+// With F = 1 the fuzzy assignment against the survivors would find each point's hard label again
+// (its cluster survived), so the hard labels are renumbered instead (vplgi_cpu::cluster reuses
+// the hard pass the same way).
+@compute @workgroup_size(64)
+fn relabel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    relabelled[i] = remap[labels[i]];
 }

@@ -129,6 +129,7 @@ pub struct ClusterKernel {
     count_labels: Pass,
     flags: Pass,
     compact: Pass,
+    relabel: Pass,
     rep_d2: Pass,
     rep_index: Pass,
     admit: Pass,
@@ -172,7 +173,7 @@ impl ClusterKernel {
             let [grid_count, grid_scatter] = passes(device, "cluster_grid.wgsl", ["grid_count", "grid_scatter"]);
             let assign = (0..2 * (MAX_F + 1)).map(|_| OnceLock::new()).collect();
             let [accumulate, finalize] = passes(device, "cluster_update.wgsl", ["accumulate", "finalize"]);
-            let [count_labels, flags, compact] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact"]);
+            let [count_labels, flags, compact, relabel] = passes(device, "cluster_compact.wgsl", ["count_labels", "flags", "compact", "relabel"]);
             let [rep_d2, rep_index] = passes(device, "cluster_representatives.wgsl", ["rep_d2", "rep_index"]);
             let [admit, largest_key] = passes(device, "cluster_temporal.wgsl", ["admit", "largest_key"]);
             let kernel = ClusterKernel {
@@ -189,6 +190,7 @@ impl ClusterKernel {
                 count_labels,
                 flags,
                 compact,
+                relabel,
                 rep_d2,
                 rep_index,
                 admit,
@@ -555,9 +557,21 @@ impl ClusterKernel {
             k,
         )?;
 
-        // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry.
-        let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
-        let a = self.assign(device, queue, &grid, (points, m), (&survivors, kept), AssignRule { metric, f, fuzzy: params.fuzzy })?;
+        // Fuzzy assignment (Alg. 2) against the survivors on a grid of the same geometry; with
+        // F = 1 it would find the hard labels again (with weight 1 and the same search outcomes),
+        // so those are renumbered instead, as on the CPU.
+        let a = if f == 1 {
+            let labels = storage_zeroed::<u32>(device, "labels", m as usize);
+            for w in Self::windows(device, m, 1) {
+                let p = Params { n: w.count as u32, k, f: 1, ..Default::default() };
+                let b = [(5, remap.as_entire_buffer_binding()), (7, w.of::<u32>(&hard.labels, 1)), (12, w.of::<u32>(&labels, 1))];
+                self.run_windows(device, queue, &self.relabel, &p, &b, w.count as u32)?;
+            }
+            Assignment { labels, weights: hard.weights, outcome: hard.outcome }
+        } else {
+            let grid = self.fill_grid(device, queue, &geometry, &survivors, kept)?;
+            self.assign(device, queue, &grid, (points, m), (&survivors, kept), AssignRule { metric, f, fuzzy: params.fuzzy })?
+        };
 
         // Representatives: per cluster the member of smallest key (nearest, or smallest Eq. 2
         // error), ties to the lower index.
