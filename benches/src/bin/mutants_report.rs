@@ -108,6 +108,11 @@ fn valid<'a>(rows: &'a BTreeMap<String, Row>, selection: &[String], blob: &HashM
     selection.iter().filter_map(|m| rows.get_key_value(m)).filter(|(m, r)| blob.get(file_of(m)) == Some(&r.blob)).collect()
 }
 
+/// The ledger's rows whose files are outside the selection (`blob` holds the selected files).
+fn unselected<'a>(rows: &'a BTreeMap<String, Row>, blob: &HashMap<String, String>) -> Vec<(&'a String, &'a Row)> {
+    rows.iter().filter(|(m, _)| !blob.contains_key(file_of(m))).collect()
+}
+
 fn prepare(ledger_path: &Path, dir: &Path, retest_survivors: bool) -> Result<()> {
     let selection = selected(dir)?;
     let mut files: Vec<&str> = selection.iter().map(|m| file_of(m)).collect();
@@ -174,13 +179,14 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
             *added.entry(outcome).or_default() += 1;
         }
     }
-    // Rewrite with only the rows still valid, in cargo-mutants' order, so the diff of a run shows
-    // what it learned.
+    // Rewrite with the selection's rows still valid, in cargo-mutants' order, so the diff of a run
+    // shows what it learned, then the rows of files this run did not select, untouched: a run
+    // narrowed with MUTANTS_FILES must not erase what other runs learned.
     let mut text = String::from(
         "# make mutants' ledger (see benches/src/bin/mutants_report.rs): outcome, git blob of the mutated file as tested,\n\
          # commit the run started on, mutant. Written by `make mutants`; do not edit.\n",
     );
-    for (m, r) in valid(&rows, &selection, &blob) {
+    for (m, r) in valid(&rows, &selection, &blob).into_iter().chain(unselected(&rows, &blob)) {
         writeln!(text, "{}\t{}\t{}\t{m}", r.outcome, r.blob, r.commit)?;
     }
     write(ledger_path, &text)?;
@@ -310,5 +316,23 @@ fn main() -> Result<()> {
             "usage: mutants_report prepare LEDGER REPORT_DIR [--retest-survivors] | record LEDGER REPORT_DIR | \
              report LEDGER REPORT_DIR HARMLESS_TSV OUT_MD"
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_narrowed_run_keeps_the_rows_of_files_it_did_not_select() {
+        let row = |blob: &str| Row { outcome: "caught".into(), blob: blob.into(), commit: "c".into() };
+        let rows: BTreeMap<String, Row> =
+            [("a.rs:1:1: replace x".to_string(), row("A")), ("a.rs:2:1: replace y".to_string(), row("old")), ("b.rs:1:1: replace z".to_string(), row("B"))]
+                .into();
+        let blob: HashMap<String, String> = [("a.rs".to_string(), "A".to_string())].into();
+        let selection = vec!["a.rs:1:1: replace x".to_string(), "a.rs:2:1: replace y".to_string()];
+        let kept: Vec<&String> = valid(&rows, &selection, &blob).into_iter().chain(unselected(&rows, &blob)).map(|(m, _)| m).collect();
+        // a.rs's lapsed row goes, b.rs (not selected) stays.
+        assert_eq!(kept, ["a.rs:1:1: replace x", "b.rs:1:1: replace z"]);
     }
 }
