@@ -279,7 +279,7 @@ fn markdown(r: &Value) -> Result<String> {
             )?;
         }
         let k = sc["middle_k"].as_u64().unwrap_or(0);
-        writeln!(s, "\nAt {k} clusters (images, then FLIP error maps against the reference):\n")?;
+        writeln!(s, "\nAt `--k-vpl {k}` (images, then FLIP error maps against the reference):\n")?;
         writeln!(s, "| reference | unclustered | point | disk | disk-exact |\n|---|---|---|---|---|")?;
         writeln!(
             s,
