@@ -34,6 +34,10 @@ struct Params {
 // Visibility rows per shading point: F in mode 1, 1 in mode 0; a pipeline per value, so that the
 // loops over rows have a constant trip count.
 override ROWS: u32 = 1u;
+// Whether the lights may be exact disks (VplLight::exact): a pipeline of its own, so that point
+// and Eq. 2 frames do not carry the exact form factor's code in their light loop (on lavapipe
+// that alone made `shade` several times slower).
+override EXACT_DISKS: bool = false;
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
@@ -73,7 +77,7 @@ fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight, g_max: f32) -> 
     let cos_p = dot(np, d) * inv_d;
     let cos_x = -dot(l.normal.xyz, d) * inv_d;
     let r2 = l.position.w;
-    if (bitcast<u32>(l.normal.w) == 1u) {
+    if (EXACT_DISKS && bitcast<u32>(l.normal.w) == 1u) {
         return exact_geometry_term(p, np, l.position.xyz, l.normal.xyz, r2);
     }
     let g = cos_p * cos_x / (d2 + r2);

@@ -49,6 +49,7 @@ fn interpolate_stage(c: &mut Criterion) {
                 words_per_row: words_per_row(inputs.lights.len()) as u32,
                 vpl_lights: &lights,
                 light_count: inputs.lights.len() as u32,
+                exact_disks: false,
                 g_max,
             };
             let (sps, row_of, labels) = (storage(device, "sps", &inputs.sps), storage(device, "row_of", &inputs.row_of), storage(device, "labels", &sc.labels));

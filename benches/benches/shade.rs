@@ -42,6 +42,7 @@ fn shade(c: &mut Criterion) {
                     words_per_row: words_per_row(i.cols.len()) as u32,
                     vpl_lights: &light_buf,
                     light_count: lights.len() as u32,
+                    exact_disks: lights.iter().any(|l| l.exact != 0),
                     visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
                 };
                 let run = || {

@@ -182,6 +182,7 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
                 words_per_row: words_per_row(1) as u32,
                 vpl_lights: &lights,
                 light_count: 1,
+                exact_disks: false,
                 visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 3, window: vplgi_gpu::buffers::Window { first: 0, count: rs.len() as u64 } },
             };
             let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
@@ -281,6 +282,7 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
             words_per_row: words_per_row(1) as u32,
             vpl_lights: &lights,
             light_count: 1,
+            exact_disks: true,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 1, window: vplgi_gpu::buffers::Window { first: 0, count: sps.len() as u64 } },
         };
         let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };

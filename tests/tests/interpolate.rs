@@ -86,7 +86,14 @@ fn both(
             Some(_) => {
                 let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
                 let lb = storage(device, "lights", &lights);
-                let lighting = SampleLighting { words: &words, words_per_row: words_per_row(1) as u32, vpl_lights: &lb, light_count: 1, g_max: f32::INFINITY };
+                let lighting = SampleLighting {
+                    words: &words,
+                    words_per_row: words_per_row(1) as u32,
+                    vpl_lights: &lb,
+                    light_count: 1,
+                    exact_disks: false,
+                    g_max: f32::INFINITY,
+                };
                 k.interpolate.sample_irradiance(device, queue, &k.shade, (points, n as u32), inv_radius, &lighting).expect("samples")
             }
             None => {

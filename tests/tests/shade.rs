@@ -59,6 +59,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words_per_row: words_per_row(cols.len()) as u32,
         vpl_lights: &light_buf,
         light_count: lights.len() as u32,
+        exact_disks: false,
         visibility: Visibility::Own { first_row: 0 },
     };
     let out =
@@ -117,6 +118,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words_per_row: words_per_row(cols_c.len()) as u32,
         vpl_lights: &light_buf_c,
         light_count: lights_c.len() as u32,
+        exact_disks: false,
         visibility: Visibility::Fuzzy {
             labels: &labels,
             weights: &weights,
@@ -189,6 +191,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
             words_per_row: words_per_row(n as usize) as u32,
             vpl_lights: &lg,
             light_count: n,
+            exact_disks: false,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
         };
         let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
@@ -240,7 +243,8 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
             let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
             let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
             let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape }).expect("lights");
-            read_back::<VplLight>(device, t.queue(), &b, 3).expect("read back")
+            assert_eq!(b.exact_disks, shape == LightShape::DiskExact);
+            read_back::<VplLight>(device, t.queue(), &b.buffer, 3).expect("read back")
         });
         for (c, g) in cpu.iter().zip(&got) {
             println!("{shape:?}: CPU flux {:?} R² {} exact {}, GPU flux {:?} R² {} exact {}", c.flux, c.radius2, c.exact, g.flux, g.radius2, g.exact);

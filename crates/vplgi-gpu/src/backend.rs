@@ -14,7 +14,7 @@ use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
 use crate::seeding::{GpuImageHits, SeedingKernel};
-use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight};
+use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight, VplLightSet};
 use crate::shader::pipelines;
 use crate::shading_points::ShadingPointsKernel;
 use crate::trace_vpls::{GpuVpls, TraceVplsKernel};
@@ -177,7 +177,7 @@ impl Backend for GpuBackend<'_> {
     type Samples = wgpu::Buffer;
     type Points = wgpu::Buffer;
     type Hits = GpuHits;
-    type Lights = wgpu::Buffer;
+    type Lights = VplLightSet;
     type Clustering = GpuClustering;
     type Matrix = wgpu::Buffer;
     type Scalars = wgpu::Buffer;
@@ -321,7 +321,7 @@ impl Backend for GpuBackend<'_> {
         Ok(rows)
     }
 
-    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, set: LightSet<'_, GpuClustering>) -> Result<wgpu::Buffer, GpuError> {
+    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, set: LightSet<'_, GpuClustering>) -> Result<VplLightSet, GpuError> {
         let g = &self.kernels.glue;
         let vb = vpls.buffer.as_entire_buffer_binding();
         Ok(match set {
@@ -353,22 +353,22 @@ impl Backend for GpuBackend<'_> {
                 }
                 let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone()];
                 self.glue(&g.cluster_lights_finish, GlueParams { n, k, disk, ..Default::default() }, &finish, k)?;
-                lights
+                VplLightSet { buffer: lights, exact_disks: shape == LightShape::DiskExact }
             }
             LightSet::EachVpl { max_bounce } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
                 self.glue(&g.vpl_lights, GlueParams { n, k: max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
-                lights
+                VplLightSet { buffer: lights, exact_disks: false }
             }
         })
     }
 
-    fn light_points(&self, lights: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {
+    fn light_points(&self, lights: &VplLightSet, n: u32) -> Result<wgpu::Buffer, GpuError> {
         let cols = storage_zeroed::<Endpoint>(self.device, "light endpoints", n as usize);
         self.glue(
             &self.kernels.glue.light_endpoints,
             GlueParams { n, ..Default::default() },
-            &[(5, cols.as_entire_buffer_binding()), (9, lights.as_entire_buffer_binding())],
+            &[(5, cols.as_entire_buffer_binding()), (9, lights.buffer.as_entire_buffer_binding())],
             n,
         )?;
         Ok(cols)
@@ -396,8 +396,9 @@ impl Backend for GpuBackend<'_> {
             row_of: &input.hits.row_of,
             words: input.matrix,
             words_per_row: words_per_row(input.light_count as usize) as u32,
-            vpl_lights: input.lights,
+            vpl_lights: &input.lights.buffer,
             light_count: input.light_count,
+            exact_disks: input.lights.exact_disks,
             visibility,
         };
         let running = match input.visibility {
@@ -429,13 +430,19 @@ impl Backend for GpuBackend<'_> {
         points: wgpu::Buffer,
         n: u32,
         inv_radius: wgpu::Buffer,
-        lights: &wgpu::Buffer,
+        lights: &VplLightSet,
         n_lights: u32,
         matrix: &wgpu::Buffer,
         g_max: f32,
     ) -> Result<GpuIrradianceSamples, GpuError> {
-        let lighting =
-            SampleLighting { words: matrix, words_per_row: words_per_row(n_lights as usize) as u32, vpl_lights: lights, light_count: n_lights, g_max };
+        let lighting = SampleLighting {
+            words: matrix,
+            words_per_row: words_per_row(n_lights as usize) as u32,
+            vpl_lights: &lights.buffer,
+            light_count: n_lights,
+            exact_disks: lights.exact_disks,
+            g_max,
+        };
         self.kernels.interpolate.sample_irradiance(self.device, self.queue, &self.kernels.shade, (points, n), inv_radius, &lighting)
     }
 

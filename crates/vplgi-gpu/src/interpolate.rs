@@ -41,6 +41,8 @@ pub struct SampleLighting<'a> {
     pub words_per_row: u32,
     pub vpl_lights: &'a wgpu::Buffer,
     pub light_count: u32,
+    /// [`crate::shade::ShadeInputs::exact_disks`].
+    pub exact_disks: bool,
     pub g_max: f32,
 }
 
@@ -98,6 +100,7 @@ impl InterpolateKernel {
             words_per_row: lighting.words_per_row,
             vpl_lights: lighting.vpl_lights,
             light_count: lighting.light_count,
+            exact_disks: lighting.exact_disks,
             visibility: Visibility::Own { first_row: 0 },
         };
         let irradiance = shade.light_sums(device, queue, &inputs, 0..n, 1, lighting.g_max)?;

@@ -71,7 +71,17 @@ pub struct ShadeInputs<'a> {
     pub words_per_row: u32,
     pub vpl_lights: &'a wgpu::Buffer,
     pub light_count: u32,
+    /// Whether any of the lights is a disk lit by its exact form factor (`VplLight::exact`): such
+    /// lights are only evaluated by the pipeline compiled for them.
+    pub exact_disks: bool,
     pub visibility: Visibility<'a>,
+}
+
+/// Lights for indirect shading on the device, and whether any is an exact disk (the GPU
+/// backend's `Lights`).
+pub struct VplLightSet {
+    pub buffer: wgpu::Buffer,
+    pub exact_disks: bool,
 }
 
 fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
@@ -81,27 +91,30 @@ fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a
 pub struct ShadeKernel {
     /// Emission, direct light and the per-point light sums, per pixel.
     finish: RayPipeline,
-    /// The light sums, by the number of visibility rows per point (1 ..= MAX_F), compiled on
-    /// first use.
+    /// The light sums, by the number of visibility rows per point (1 ..= MAX_F) and then with
+    /// exact disks (`EXACT_DISKS`) at index MAX_F + 1 + rows, compiled on first use.
     lights: Vec<OnceLock<wgpu::ComputePipeline>>,
 }
 
 impl ShadeKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
         validated(device, "shade pipeline", || {
-            let kernel = ShadeKernel { finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"), lights: (0..=MAX_F).map(|_| OnceLock::new()).collect() };
+            let kernel =
+                ShadeKernel { finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"), lights: (0..2 * (MAX_F + 1)).map(|_| OnceLock::new()).collect() };
             // The variants every default frame uses are compiled now, with the other kernels:
             // a pipeline first created after the device is lost is only "invalid", and the
             // frame's error would not say that the device was lost.
             for rows in [1, vplgi_types::FrameConfig::default().f] {
-                kernel.lights_pipeline(device, rows);
+                kernel.lights_pipeline(device, rows, false);
             }
             kernel
         })
     }
 
-    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32) -> &wgpu::ComputePipeline {
-        self.lights[rows as usize].get_or_init(|| pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64)]))
+    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32, exact_disks: bool) -> &wgpu::ComputePipeline {
+        let index = rows as usize + if exact_disks { MAX_F as usize + 1 } else { 0 };
+        self.lights[index]
+            .get_or_init(|| pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64), ("EXACT_DISKS", if exact_disks { 1.0 } else { 0.0 })]))
     }
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
@@ -159,7 +172,7 @@ impl ShadeKernel {
         };
         validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
-            let lights_pipeline = self.lights_pipeline(device, f);
+            let lights_pipeline = self.lights_pipeline(device, f, inputs.exact_disks);
             let invocations = (count * spp).div_ceil(SHADE_POINTS);
             let mut first = 0;
             while first < inputs.light_count {

@@ -22,8 +22,15 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
     let lights = storage(device, "lights", &clusters.lights);
     let n_lights = clusters.lights.len() as u32;
-    let lighting =
-        SampleLighting { words: &words, words_per_row: words_per_row(clusters.lights.len()) as u32, vpl_lights: &lights, light_count: n_lights, g_max };
+    let exact_disks = clusters.lights.iter().any(|l| l.exact != 0);
+    let lighting = SampleLighting {
+        words: &words,
+        words_per_row: words_per_row(clusters.lights.len()) as u32,
+        vpl_lights: &lights,
+        light_count: n_lights,
+        exact_disks,
+        g_max,
+    };
     let n = clusters.rows.len();
     let k = twins.gpu.kernels();
     let points = (storage(device, "sample points", &clusters.rows), n as u32);

@@ -93,6 +93,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     let row_of = storage(device, "row_of", &frame.row_of);
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
     let lights = storage(device, "lights", &clusters.lights);
+    let exact_disks = clusters.lights.iter().any(|l| l.exact != 0);
     let (labels, weights) = match &clusters.sp_clusters {
         Some(sc) => (storage(device, "labels", &sc.labels), storage(device, "weights", &sc.weights)),
         None => (storage::<u32>(device, "labels", &[]), storage::<f32>(device, "weights", &[])),
@@ -106,6 +107,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 words_per_row: wpr as u32,
                 vpl_lights: &lights,
                 light_count: clusters.lights.len() as u32,
+                exact_disks,
                 g_max: params.g_max,
             };
             let points = (storage(device, "sample points", &samples.points), samples.points.len() as u32);
@@ -134,6 +136,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 words_per_row: wpr as u32,
                 vpl_lights: &lights,
                 light_count: clusters.lights.len() as u32,
+                exact_disks,
                 visibility,
             };
             kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?
@@ -154,7 +157,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let gc = GpuClustering::of_labels(device, &hard, &vc.representatives);
     let vpls = GpuVpls { buffer: storage(device, "vpls", &frame.vpls), count: n, particles: 0 };
     let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
-    let gpu: Vec<VplLight> = read_back(device, queue, &buffer, k as usize)?;
+    let gpu: Vec<VplLight> = read_back(device, queue, &buffer.buffer, k as usize)?;
     let mut worst = (0.0f64, None);
     for (c, (a, b)) in clusters.lights.iter().zip(&gpu).enumerate() {
         let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 12]>(*a), bytemuck::cast::<VplLight, [f32; 12]>(*b));
