@@ -126,7 +126,7 @@ fn bad_input_fails_cleanly_naming_the_file() {
 fn rsm_options_refuse_bad_values_and_render_good_ones() {
     let dir = tempfile::tempdir().unwrap();
     let rsm = ["--vpl-source", "rsm", "--bounces", "1", "--width", "16", "--height", "16"];
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 8] = [
         (&["--vpl-source", "rsm"], "--bounces 1"),
         (&["--rsm-size", "0"], "rsm-size"),
         (&["--rsm-size", "5000"], "rsm-size"),
@@ -134,6 +134,7 @@ fn rsm_options_refuse_bad_values_and_render_good_ones() {
         (&["--vpl-cluster", "rsm", "--rsm-weights", "1,2"], "three comma-separated"),
         (&["--vpl-cluster", "rsm", "--rsm-weights", "0,0,0"], "cannot all be 0"),
         (&["--light-shape", "disk", "--bias-compensation", "true"], "bias compensation"),
+        (&["--light-shape", "disk-exact", "--bias-compensation", "true"], "bias compensation"),
     ];
     for (i, (extra, expected)) in cases.iter().enumerate() {
         let out = dir.path().join(format!("bad{i}"));
@@ -149,30 +150,32 @@ fn rsm_options_refuse_bad_values_and_render_good_ones() {
         assert!(!o.status.success() && err.contains(expected) && !err.contains("panicked"), "{extra:?}: {err}");
         assert!(!out.join("image.exr").exists(), "{extra:?}: no output after an error");
     }
-    let out = dir.path().join("good");
-    let mut args = vec![
-        "render",
-        "--backend",
-        "cpu",
-        "--cluster",
-        "vpl",
-        "--k-vpl",
-        "20",
-        "--vpl-cluster",
-        "rsm",
-        "--light-shape",
-        "disk",
-        "--rsm-size",
-        "24",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend(rsm);
-    let o = vplgi(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-    assert!(report["timings_ms"]["rsm_vpls"].as_f64().unwrap() > 0.0 && report["timings_ms"]["trace_vpls"].as_f64() == Some(0.0), "{report}");
-    assert_eq!(report["params"]["light_shape"], "disk");
+    for shape in ["disk", "disk-exact"] {
+        let out = dir.path().join(shape);
+        let mut args = vec![
+            "render",
+            "--backend",
+            "cpu",
+            "--cluster",
+            "vpl",
+            "--k-vpl",
+            "20",
+            "--vpl-cluster",
+            "rsm",
+            "--light-shape",
+            shape,
+            "--rsm-size",
+            "24",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(rsm);
+        let o = vplgi(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        assert!(report["timings_ms"]["rsm_vpls"].as_f64().unwrap() > 0.0 && report["timings_ms"]["trace_vpls"].as_f64() == Some(0.0), "{report}");
+        assert_eq!(report["params"]["light_shape"], shape);
+    }
 }
 
 #[test]
@@ -452,7 +455,7 @@ fn sweep_rejects_bad_input_before_any_work() {
 #[test]
 fn generated_scenes_render() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["conference", "living-room", "cornell-fine"] {
+    for name in ["conference", "living-room", "cornell-fine", "sunlit-living-room"] {
         let glb = dir.path().join(format!("{name}.glb"));
         let o = vplgi(&["scene", "generate", name, "--triangles", "20000", "--out", glb.to_str().unwrap()]);
         assert!(o.status.success(), "generate {name}: {}", String::from_utf8_lossy(&o.stderr));
