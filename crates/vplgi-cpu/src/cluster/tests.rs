@@ -355,6 +355,40 @@ fn widened_search_returns_the_exact_f_nearest() {
     assert!(widened > 1000, "too few searches widened ({widened}) to test the rule");
 }
 
+/// The neighbourhood's bounds in world units: cells of about 100 units, so squared gaps are far
+/// above 1 and a bound combined the wrong way (a product of the row's gaps instead of their sum,
+/// say) would exceed the true distance and skip a diagonal cell holding one of the F nearest.
+/// With Eq. 7 the answer is the paper's: the F nearest of the 27 cells around the point's own,
+/// here by brute force over the centroids in those cells.
+#[test]
+fn large_cells_keep_the_neighbourhood_bounds_exact() {
+    let mut rng = Rng::new(9, Stream::Oracle, 3);
+    let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1000.0;
+    let cs: Vec<Vec3> = (0..600).map(|_| v()).collect();
+    let cn = vec![Vec3::Z; cs.len()];
+    let ps: Vec<Vec3> = (0..2000).map(|_| v()).collect();
+    let grid = Grid::for_data(bounds(&ps), &cs, cs.len()).fill(&cs, &cn);
+    assert!(grid.cell > 50.0, "cells of {} units", grid.cell);
+    let mut checked = 0;
+    for &p in &ps {
+        let pc = grid.coords(p);
+        let block: Vec<usize> = (0..cs.len()).filter(|&k| (0..3).all(|a| (grid.coords(cs[k])[a] - pc[a]).abs() <= 1)).collect();
+        if block.is_empty() {
+            continue;
+        }
+        let (bcs, bcn): (Vec<Vec3>, Vec<Vec3>) = block.iter().map(|&k| (cs[k], cn[k])).unzip();
+        for f in 1..=4usize {
+            let mut best = [(f32::INFINITY, MISS); 4];
+            let (count, outcome) = grid.search(p, Vec3::Z, eq7(0.5), &mut best[..f]);
+            assert_eq!(outcome, SearchOutcome::Neighbourhood);
+            let expected: Vec<(f32, u32)> = brute_f_nearest(p, Vec3::Z, &bcs, &bcn, 0.5, f).into_iter().map(|(d, i)| (d, block[i as usize] as u32)).collect();
+            assert_eq!(&best[..count], &expected[..], "point {p}, F {f}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 4000, "{checked} searches checked");
+}
+
 /// The neighbour-cell bounds are lowered by 1e-4 cell, so a centroid just across a face is never
 /// skipped: a point 5e-5 cell inside its cell, a hint 1e-4 cell away in the same cell and the
 /// true nearest 8e-5 cell away across the face, on both faces of each axis.
