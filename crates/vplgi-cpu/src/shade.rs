@@ -230,12 +230,33 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
 }
 
 /// G of the exact disks among the lights `base..base + g.len()` (`vplgi_types::disk::
-/// exact_geometry_term`), written over the entries the vectorised loop computed for them.
+/// exact_geometry_term`), written over the entries the vectorised loop computed for them. The
+/// common case, all of the disk above the receiver's horizon (or none of it), is one
+/// straight-line pass over the block, the same arithmetic as `exact_geometry_term`'s; only the
+/// disks the horizon cuts go through the arc-and-chord form, one by one.
 fn exact_disk_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[bool], base: usize, g: &mut [f32]) {
     let at = |a: &[Vec<f32>; 3], c: usize| Vec3::new(a[0][c], a[1][c], a[2][c]);
-    for (k, gk) in g.iter_mut().enumerate() {
+    let mut cut = [false; 64];
+    for (k, (gk, cut)) in g.iter_mut().zip(&mut cut).enumerate() {
         let c = base + k;
+        let (centre, normal, radius2) = (at(&l.position, c), at(&l.normal, c), l.radius2[c]);
+        let rel = p - centre;
+        let h = normal.dot(rel);
+        let rho_vec = rel - normal * h;
+        let n_z = n.dot(normal);
+        let m = (n - normal * n_z).length();
+        let reach = radius2.sqrt() * m;
+        let n_rel = n.dot(rel);
+        let lit = h > 0.0 && radius2 > 0.0 && n_rel < reach;
+        let whole = disk::whole_disk_term(h, rel.length_squared(), radius2, n_z, n.dot(rho_vec));
+        *cut = exact[c] && lit && n_rel > -reach;
         if exact[c] {
+            *gk = if lit && n_rel <= -reach { whole } else { 0.0 };
+        }
+    }
+    for (k, gk) in g.iter_mut().enumerate() {
+        if cut[k] {
+            let c = base + k;
             *gk = disk::exact_geometry_term(p, n, at(&l.position, c), at(&l.normal, c), l.radius2[c]);
         }
     }

@@ -67,14 +67,11 @@ pub fn exact_geometry_term(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, radius2
     if n_rel >= r * m {
         return 0.0;
     }
+    if n_rel <= -r * m {
+        return whole_disk_term(h, rel2, radius2, n_z, n_rho);
+    }
     let q = rel2 - radius2;
     let a = rel2 + radius2;
-    if n_rel <= -r * m {
-        let s = (q * q + 4.0 * radius2 * h * h).sqrt();
-        let g_z = if q > 0.0 { 2.0 * h * h / (s * (s + q)) } else { (s - q) / (2.0 * s * radius2) };
-        let g_rho = 2.0 * h / (s * (a + s));
-        return (-g_z * n_z - g_rho * n_rho).max(0.0);
-    }
     // The clipped disk, in the frame u = ρ̂, v = normal × u, where p = (ρ, 0, h).
     let rho = rho_vec.length();
     let u = if rho > 0.0 { rho_vec / rho } else { perpendicular(normal) };
@@ -116,6 +113,20 @@ pub fn exact_geometry_term(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, radius2
     let start = centre + (u * cos1 + v * sin1) * r - p;
     let chord = n.dot(end.cross(start)).atan2(end.dot(start));
     (-(arc + chord) / (2.0 * std::f32::consts::PI * radius2)).max(0.0)
+}
+
+/// [`exact_geometry_term`] where all of the disk is above the receiver's horizon: the circle's
+/// closed form, from p's height `h` over the disk's plane, |p − c|² `rel2`, and the receiver
+/// normal's components along the disk's normal (`n_z`) and along p's offset in its plane
+/// (`n_rho`, n · ρ_vec). Straight-line code, so that a loop over many disks vectorises.
+#[inline(always)]
+pub fn whole_disk_term(h: f32, rel2: f32, radius2: f32, n_z: f32, n_rho: f32) -> f32 {
+    let q = rel2 - radius2;
+    let a = rel2 + radius2;
+    let s = (q * q + 4.0 * radius2 * h * h).sqrt();
+    let g_z = if q > 0.0 { 2.0 * h * h / (s * (s + q)) } else { (s - q) / (2.0 * s * radius2) };
+    let g_rho = 2.0 * h / (s * (a + s));
+    (-g_z * n_z - g_rho * n_rho).max(0.0)
 }
 
 /// A unit vector perpendicular to the unit `normal` (any will do: it orients the frame of a point
