@@ -70,7 +70,6 @@ pub fn exact_geometry_term(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, radius2
     if n_rel <= -r * m {
         return whole_disk_term(h, rel2, radius2, n_z, n_rho);
     }
-    let q = rel2 - radius2;
     let a = rel2 + radius2;
     // The clipped disk, in the frame u = ρ̂, v = normal × u, where p = (ρ, 0, h).
     let rho = rho_vec.length();
