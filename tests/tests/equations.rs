@@ -119,6 +119,47 @@ fn eq_8_on_a_hand_checked_point() {
     }
 }
 
+/// The indirect light of one VPL light at the shading points `sps` (no light in the scene, so
+/// the pixels hold nothing else), on the CPU (`shade::indirect`) and on the GPU (the shade
+/// kernel), with fuzzy visibility: shading point i reads the `f` labels and weights of row
+/// `row_of[i]`, whose clusters see the light where `matrix` says so. The GPU takes the
+/// exact-disk pipeline when the light is an exact disk.
+fn one_light_on_both_backends(
+    gpu: &vplgi_tests::SharedGpu,
+    sps: &[ShadingPoint],
+    light: VplLight,
+    (matrix, row_of, labels, weights, f): (&BitMatrix, &[u32], &[u32], &[f32], u32),
+    g_max: f32,
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let lights = LightArrays::new(&[light]);
+    let vis = VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f: f as usize };
+    let cpu = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
+    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
+    scene.lights.clear();
+    let n = sps.len();
+    let gpu_pixels = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let (device, queue) = (t.device(), t.queue());
+        let (sb, rb) = (storage(device, "sps", sps), storage(device, "row_of", row_of));
+        let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+        let (lb, wb, lights) = (storage(device, "labels", labels), storage(device, "weights", weights), storage(device, "lights", &[light]));
+        let inputs = ShadeInputs {
+            sps: &sb,
+            sp_first: 0,
+            row_of: &rb,
+            words: &words,
+            words_per_row: words_per_row(1) as u32,
+            vpl_lights: &lights,
+            light_count: 1,
+            exact_disks: light.exact != 0,
+            visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window: vplgi_gpu::buffers::Window { first: 0, count: n as u64 } },
+        };
+        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
+        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..n as u32, &params).expect("shade");
+        read_back::<[f32; 4]>(device, queue, &out, n).expect("read back")
+    });
+    (cpu, gpu_pixels.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect())
+}
+
 /// Eq. 6 with Eq. 9 on one shading point, both backends: one VPL of flux Φ at height h above a
 /// plane, facing down; the point at horizontal distance r sees it with G = cos θ_p cos θ_v / d²
 /// = h² / d⁴, clamped at g_max (the geometry-term clamp), and reflects Φ/π · ρ/π · G · Ṽ, where
@@ -148,9 +189,6 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     let labels: Vec<u32> = rs.iter().flat_map(|_| [0u32, 1, 2]).collect();
     let weights: Vec<f32> = rs.iter().flat_map(|_| [0.5f32, 0.3, 0.2]).collect();
     let row_of: Vec<u32> = (0..rs.len() as u32).collect();
-    // No light in the scene: the pixels hold indirect light only.
-    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, rho, 1.0);
-    scene.lights.clear();
     let radius = 0.6f32;
     let disk = VplLight { radius2: radius * radius, ..point };
     for (light, g_max) in [(point, f32::INFINITY), (point, 1.0 / (4.0 * h * h)), (disk, 1.0 / (4.0 * h * h))] {
@@ -166,31 +204,9 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
                 (rho / PI) * flux / area * form_factor * 0.7
             })
             .collect();
-        let lights = LightArrays::new(&[light]);
-        let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: 3 };
-        let cpu: Vec<Vec3> = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
-        let gpu_pixels = vplgi_tests::with_twins(gpu, &scene, |t| {
-            let (device, queue) = (t.device(), t.queue());
-            let (sb, rb) = (storage(device, "sps", &sps), storage(device, "row_of", &row_of));
-            let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-            let (lb, wb, lights) = (storage(device, "labels", &labels), storage(device, "weights", &weights), storage(device, "lights", &[light]));
-            let inputs = ShadeInputs {
-                sps: &sb,
-                sp_first: 0,
-                row_of: &rb,
-                words: &words,
-                words_per_row: words_per_row(1) as u32,
-                vpl_lights: &lights,
-                light_count: 1,
-                exact_disks: false,
-                visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 3, window: vplgi_gpu::buffers::Window { first: 0, count: rs.len() as u64 } },
-            };
-            let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
-            let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..rs.len() as u32, &params).expect("shade");
-            read_back::<[f32; 4]>(device, queue, &out, rs.len()).expect("read back")
-        });
+        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, (&matrix, &row_of, &labels, &weights, 3), g_max);
         for (i, e) in expected.iter().enumerate() {
-            let g = Vec3::new(gpu_pixels[i][0], gpu_pixels[i][1], gpu_pixels[i][2]);
+            let g = gpu_pixels[i];
             println!("R² {}, g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", light.radius2, rs[i], cpu[i]);
             assert!((cpu[i] - *e).abs().max_element() <= 1e-6 * e.max_element(), "CPU: r = {}: {} vs {e}", rs[i], cpu[i]);
             assert!((g - *e).abs().max_element() <= 1e-6 * e.max_element(), "GPU: r = {}: {g} vs {e}", rs[i]);
@@ -264,33 +280,9 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
     let mut matrix = BitMatrix::new(1, 1);
     matrix.set(0, 0, true);
     let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], (0..sps.len() as u32).map(|_| 0).collect::<Vec<u32>>());
-    let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, rho, 1.0);
-    scene.lights.clear();
-    let lights = LightArrays::new(&[light]);
-    let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: 1 };
-    let cpu: Vec<Vec3> = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, f32::INFINITY)).collect();
-    let gpu_pixels = vplgi_tests::with_twins(gpu, &scene, |t| {
-        let (device, queue) = (t.device(), t.queue());
-        let (sb, rb) = (storage(device, "sps", &sps), storage(device, "row_of", &row_of));
-        let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-        let (lb, wb, lights) = (storage(device, "labels", &labels), storage(device, "weights", &weights), storage(device, "lights", &[light]));
-        let inputs = ShadeInputs {
-            sps: &sb,
-            sp_first: 0,
-            row_of: &rb,
-            words: &words,
-            words_per_row: words_per_row(1) as u32,
-            vpl_lights: &lights,
-            light_count: 1,
-            exact_disks: true,
-            visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f: 1, window: vplgi_gpu::buffers::Window { first: 0, count: sps.len() as u64 } },
-        };
-        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
-        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..sps.len() as u32, &params).expect("shade");
-        read_back::<[f32; 4]>(device, queue, &out, sps.len()).expect("read back")
-    });
+    let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
     for (i, e) in expected.iter().enumerate() {
-        let g = Vec3::new(gpu_pixels[i][0], gpu_pixels[i][1], gpu_pixels[i][2]);
+        let g = gpu_pixels[i];
         println!("receiver {:?}: quadrature {e}, CPU {}, GPU {g}", receivers[i], cpu[i]);
         assert!(e.max_element() > 0.0, "receiver {i} sees none of the disk: a useless case");
         assert!((cpu[i] - *e).abs().max_element() <= 2e-4 * e.max_element(), "CPU: receiver {:?}: {} vs {e}", receivers[i], cpu[i]);
