@@ -29,17 +29,7 @@ pub fn sunlit_plane_with_box() -> Scene {
     let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 1.0, 0.6, 1.0);
     scene.lights = vec![PunctualLight::Directional { direction: sun_direction(), irradiance: Vec3::new(3.0, 2.5, 2.0) }];
     let m = material(&mut scene, Vec3::new(0.7, 0.4, 0.3), Vec3::ZERO);
-    let (c, half) = (Vec3::new(-0.05, 0.25, -0.05), Vec3::new(0.25, 0.25, 0.25));
-    let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
-    for (o, u, v, out) in [
-        (c - hx - hz + hy, 2.0 * hx, 2.0 * hz, Vec3::Y),
-        (c - hx - hy - hz, 2.0 * hx, 2.0 * hy, -Vec3::Z),
-        (c - hx - hy + hz, 2.0 * hx, 2.0 * hy, Vec3::Z),
-        (c - hx - hy - hz, 2.0 * hy, 2.0 * hz, -Vec3::X),
-        (c + hx - hy - hz, 2.0 * hy, 2.0 * hz, Vec3::X),
-    ] {
-        grid_quad(&mut scene, o, (u, v), 2, out, m);
-    }
+    open_box(&mut scene, Vec3::new(-0.05, 0.25, -0.05), Vec3::splat(0.25), 2, m);
     scene.name = "sunlit plane with a box".into();
     scene.validate().expect("a valid scene");
     scene
@@ -139,6 +129,21 @@ fn grid_quad(s: &mut Scene, origin: Vec3, (u, v): (Vec3, Vec3), n: u32, facing: 
     }
 }
 
+/// A box standing on the floor without its bottom: centre `c`, half extents `half`, each face an
+/// `n` x `n` grid facing out.
+fn open_box(s: &mut Scene, c: Vec3, half: Vec3, n: u32, material: u32) {
+    let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
+    for (o, u, v, out) in [
+        (c - hx - hz + hy, 2.0 * hx, 2.0 * hz, Vec3::Y),
+        (c - hx - hy - hz, 2.0 * hx, 2.0 * hy, -Vec3::Z),
+        (c - hx - hy + hz, 2.0 * hx, 2.0 * hy, Vec3::Z),
+        (c - hx - hy - hz, 2.0 * hy, 2.0 * hz, -Vec3::X),
+        (c + hx - hy - hz, 2.0 * hy, 2.0 * hz, Vec3::X),
+    ] {
+        grid_quad(s, o, (u, v), n, out, material);
+    }
+}
+
 /// What lights a random scene.
 #[derive(Clone, Copy, Debug)]
 pub enum LightKind {
@@ -233,16 +238,7 @@ pub fn room() -> impl Strategy<Value = Scene> {
         for _ in 0..boxes {
             let half = Vec3::new(0.05 + 0.2 * r(), 0.05 + 0.3 * r(), 0.05 + 0.2 * r()) * size;
             let c = Vec3::new(half.x + (size.x - 2.0 * half.x) * r(), half.y, half.z + (size.z - 2.0 * half.z) * r());
-            let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
-            for (o, u, v, out) in [
-                (c - hx - hz + hy, 2.0 * hx, 2.0 * hz, Vec3::Y),
-                (c - hx - hy - hz, 2.0 * hx, 2.0 * hy, -Vec3::Z),
-                (c - hx - hy + hz, 2.0 * hx, 2.0 * hy, Vec3::Z),
-                (c - hx - hy - hz, 2.0 * hy, 2.0 * hz, -Vec3::X),
-                (c + hx - hy - hz, 2.0 * hy, 2.0 * hz, Vec3::X),
-            ] {
-                grid_quad(&mut s, o, (u, v), 1, out, other);
-            }
+            open_box(&mut s, c, half, 1, other);
         }
         let centre = size * 0.5;
         match kind {
