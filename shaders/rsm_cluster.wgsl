@@ -1,7 +1,11 @@
 // VPL clustering in reflective-shadow-map space (vplgi-cpu/src/rsm_cluster.rs; Prutkin et al.
 // 2012, Alg. 1), one kernel per step:
 //   map_starts:  the first VPL of each map (VPLs are in texel order);
-//   seed:        cluster j of map m starts at the VPL at or after Halton texel j - first + 1;
+//   importance_max, importance_rows, importance_cumulate (with an importance map): each map's
+//                largest importance, its texels' integer weights summed by row, the rows' running
+//                totals (vplgi_types::rsm_importance::map_weights);
+//   seed:        cluster j of map m starts at the VPL at or after Halton texel j - first + 1,
+//                warped by the map's weights when there are any (rsm_importance::warp);
 //   grid_count, grid_fill (around scan.wgsl): the clusters of each cell of each map's grid;
 //   assign:      each VPL's cluster of smallest Eq. 1 within r = 2 cells (ties: lower index);
 //   radix_flags, radix_scatter (around scan.wgsl), one bit per pass: a stable sort of the VPL
@@ -21,6 +25,10 @@ struct Params {
     w_normal: f32,
     w_flux: f32,
     inv_extent: f32,
+    importance: u32,  // 1: seeds warped by the importance map
+    rows: u32,        // rows over all maps
+    pad0: u32,
+    pad1: u32,
 }
 
 // One map's share of the VPLs, clusters and grid cells.
@@ -31,7 +39,7 @@ struct MapInfo {
     k: u32,
     grid: u32,
     cell_first: u32,
-    pad0: u32,
+    row_first: u32,   // the map's first row among all maps' rows
     pad1: u32,
 }
 
@@ -60,6 +68,9 @@ struct ClusterState {
 @group(0) @binding(13) var<storage, read_write> starts: array<u32>;
 @group(0) @binding(14) var<storage, read_write> centroids: array<Endpoint>;
 @group(0) @binding(15) var<storage, read_write> kept_reps: array<u32>;
+@group(0) @binding(16) var<storage, read> importance: array<f32>;          // per texel
+@group(0) @binding(17) var<storage, read_write> map_max: array<atomic<u32>>; // bits of the largest
+@group(0) @binding(18) var<storage, read_write> rows: array<u32>;          // row sums, then totals
 
 const NEIGHBOURHOOD: i32 = 2;
 
@@ -147,6 +158,162 @@ fn halton_texel(i: u32, n: u32) -> vec2<u32> {
     return vec2<u32>((x2 * n) >> 20u, (x3 * n) / 531441u);
 }
 
+// rsm_importance::halton_fractions: point i of the 2-D Halton sequence as two 20-bit fractions.
+fn halton_fractions(i: u32) -> vec2<u32> {
+    var x3 = 0u;
+    var j = i;
+    for (var d = 0u; d < 12u; d = d + 1u) {
+        x3 = x3 * 3u + j % 3u;
+        j = j / 3u;
+    }
+    var f3 = 0u;
+    var r = x3;
+    for (var b = 0u; b < 20u; b = b + 1u) {
+        r = r * 2u;
+        f3 = f3 * 2u;
+        if (r >= 531441u) {
+            r = r - 531441u;
+            f3 = f3 + 1u;
+        }
+    }
+    return vec2<u32>(reverseBits(i) >> 12u, f3);
+}
+
+// rsm_importance::scale_fraction: floor(f n / 2^20), the 64-bit product from 16-bit limbs.
+fn scale_fraction(f: u32, n: u32) -> u32 {
+    let a0 = f & 0xffffu;
+    let a1 = f >> 16u;
+    let b0 = n & 0xffffu;
+    let b1 = n >> 16u;
+    let p00 = a0 * b0;
+    let p01 = a0 * b1;
+    let p10 = a1 * b0;
+    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
+    let lo = (p00 & 0xffffu) | (mid << 16u);
+    let hi = a1 * b1 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u);
+    return (hi << 12u) | (lo >> 20u);
+}
+
+// rsm_importance::quantum_bits and quantum_scale: the power of two that puts the map's largest
+// importance (bits `max_bits`) in [2^(bits-1), 2^bits).
+fn quantum_scale(max_bits: u32, texels: u32) -> f32 {
+    let ceil_log2 = 32u - countLeadingZeros(texels - select(0u, 1u, texels > 0u));
+    let bits = min(31u - min(ceil_log2, 31u), 24u);
+    let exponent = i32((max_bits >> 23u) & 0xffu) - 127;
+    let e = clamp(i32(bits) - 1 - exponent, -126, 127);
+    return bitcast<f32>(u32(e + 127) << 23u);
+}
+
+// rsm_importance::quantize, 0 for a texel without importance.
+fn weight(t: u32, scale: f32) -> u32 {
+    let x = importance[t];
+    if (x > 0.0) {
+        return u32(ceil(x * scale));
+    }
+    return 0u;
+}
+
+// The map holding global row r: the last whose rows start at or before it.
+fn map_of_row(r: u32) -> u32 {
+    var lo = 0u;
+    var hi = params.maps;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (info[mid].row_first <= r) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return max(lo, 1u) - 1u;
+}
+
+@compute @workgroup_size(64)
+fn importance_max(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = thread_index(gid, groups);
+    if (i >= params.n) {
+        return;
+    }
+    let x = importance[vpls[i].path];
+    if (x > 0.0) {
+        // Positive floats order as their bits.
+        atomicMax(&map_max[map_of_vpl(i)], bitcast<u32>(x));
+    }
+}
+
+@compute @workgroup_size(64)
+fn importance_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let r = thread_index(gid, groups);
+    if (r >= params.rows) {
+        return;
+    }
+    let mi = map_of_row(r);
+    let m = maps[mi];
+    let max_bits = atomicLoad(&map_max[mi]);
+    var sum = 0u;
+    if (max_bits != 0u) {
+        let scale = quantum_scale(max_bits, m.size * m.size);
+        let first = m.first + (r - info[mi].row_first) * m.size;
+        for (var x = 0u; x < m.size; x = x + 1u) {
+            sum = sum + weight(first + x, scale);
+        }
+    }
+    rows[r] = sum;
+}
+
+@compute @workgroup_size(64)
+fn importance_cumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let mi = thread_index(gid, groups);
+    if (mi >= params.maps) {
+        return;
+    }
+    let first = info[mi].row_first;
+    var acc = 0u;
+    for (var y = 0u; y < maps[mi].size; y = y + 1u) {
+        acc = acc + rows[first + y];
+        rows[first + y] = acc;
+    }
+}
+
+// rsm_importance::warp: the texel (x, y) seed point i lands on in map mi, through the rows'
+// running totals and the row's weights; (size, size) when the map has no importance.
+fn warp(i: u32, mi: u32) -> vec2<u32> {
+    let m = maps[mi];
+    let first = info[mi].row_first;
+    let n = m.size;
+    let total = rows[first + n - 1u];
+    if (total == 0u) {
+        return vec2<u32>(n, n);
+    }
+    let f = halton_fractions(i);
+    let target_row = scale_fraction(f.y, total);
+    var lo = 0u;
+    var hi = n;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (rows[first + mid] <= target_row) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let y = lo;
+    var before = 0u;
+    if (y > 0u) {
+        before = rows[first + y - 1u];
+    }
+    let target_col = scale_fraction(f.x, rows[first + y] - before);
+    let scale = quantum_scale(atomicLoad(&map_max[mi]), n * n);
+    var acc = 0u;
+    for (var x = 0u; x < n; x = x + 1u) {
+        acc = acc + weight(m.first + y * n + x, scale);
+        if (acc > target_col) {
+            return vec2<u32>(x, y);
+        }
+    }
+    return vec2<u32>(n, n);
+}
+
 @compute @workgroup_size(64)
 fn seed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let j = thread_index(gid, groups);
@@ -168,7 +335,13 @@ fn seed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let mi = max(lo, 1u) - 1u;
     let mp = info[mi];
     let m = maps[mi];
-    let h = halton_texel(j - mp.cluster_first + 1u, m.size);
+    var h = vec2<u32>(m.size, m.size);
+    if (params.importance != 0u) {
+        h = warp(j - mp.cluster_first + 1u, mi);
+    }
+    if (h.x >= m.size) {
+        h = halton_texel(j - mp.cluster_first + 1u, m.size);
+    }
     var i = vpl_at_or_after(mp.vpl_start, mp.vpl_end, m.first + h.y * m.size + h.x);
     if (i >= mp.vpl_end) {
         i = mp.vpl_start;

@@ -62,8 +62,19 @@ fn cluster_stage(c: &mut Criterion) {
         }
     }
     // --vpl-cluster rsm at the paper's Table 1 sizes (RSM 128² with 256 and 1,024 clusters, 256²
-    // with 1,024), the Cornell box's shadow-map VPLs, 10 iterations, the paper's Cornell weights.
+    // with 1,024), the Cornell box's shadow-map VPLs, 10 iterations, the paper's Cornell weights:
+    // `rsm` from Halton seeds, `rsm-importance` with the importance map of 256 G-buffer points
+    // built and warped, as the paper's Table 1 times it.
     let cs = vplgi_benches::cpu_scene();
+    let view = vplgi_types::FrameConfig::default();
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, view.width, view.height, view.spp, view.seed);
+    let gbuffer: Vec<vplgi_types::Endpoint> = vplgi_types::rsm_importance::pixel_samples(view.width, view.height, view.spp)
+        .into_iter()
+        .map(|s| &sps[s as usize])
+        .filter(|sp| !sp.is_miss())
+        .map(vplgi_types::Endpoint::of)
+        .collect();
+    let d_min = vplgi_types::rsm_importance::D_MIN_REL * cs.extent;
     let table1: [(&str, u32, u32); 3] = if vplgi_benches::smoke() {
         [("16-16", 16, 16), ("16-64", 16, 64), ("32-64", 32, 64)]
     } else {
@@ -73,16 +84,31 @@ fn cluster_stage(c: &mut Criterion) {
         let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, size, &vplgi_cpu::NoProgress).vpls;
         let maps = cs.lights.rsm_maps(size);
         let params = vplgi_types::rsm::RsmClusterParams { k, iterations: 10, weights: Default::default(), extent: cs.extent };
-        group.bench_function(BenchmarkId::new("cpu-rsm", name), |b| b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params).k()));
+        group.bench_function(BenchmarkId::new("cpu-rsm", name), |b| b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, None).k()));
+        group.bench_function(BenchmarkId::new("cpu-rsm-importance", name), |b| {
+            b.iter(|| {
+                let importance = vplgi_cpu::rsm_importance::rsm_importance(&vpls, &maps, &gbuffer, d_min);
+                vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, Some(&importance)).k()
+            })
+        });
         if let Some(g) = &gpu {
-            let kernel = vplgi_gpu::rsm_cluster::RsmClusterKernel::new(&g.ctx.device).expect("rsm_cluster pipelines");
-            let buf =
-                vplgi_gpu::trace_vpls::GpuVpls { buffer: vplgi_gpu::buffers::storage(&g.ctx.device, "vpls", &vpls), count: vpls.len() as u32, particles: 0 };
+            let (device, queue) = (&g.ctx.device, &g.ctx.queue);
+            let kernel = vplgi_gpu::rsm_cluster::RsmClusterKernel::new(device).expect("rsm_cluster pipelines");
+            let importance_kernel = vplgi_gpu::rsm_importance::RsmImportanceKernel::new(device).expect("rsm_importance pipelines");
+            let n = vpls.len() as u32;
+            let buf = vplgi_gpu::trace_vpls::GpuVpls { buffer: vplgi_gpu::buffers::storage(device, "vpls", &vpls), count: n, particles: 0 };
+            let points = vplgi_gpu::buffers::storage(device, "importance points", &gbuffer);
             let run = || {
-                kernel.run(&g.ctx.device, &g.ctx.queue, &buf, vpls.len() as u32, &maps, &params).expect("rsm_cluster");
+                kernel.run(device, queue, &buf, n, &maps, &params, None).expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
+            let run = || {
+                let importance = importance_kernel.run(device, queue, &buf, n, &maps, &points, gbuffer.len() as u32, d_min).expect("rsm_importance");
+                kernel.run(device, queue, &buf, n, &maps, &params, Some(&importance)).expect("rsm_cluster");
+            };
+            run();
+            group.bench_function(BenchmarkId::new("gpu-rsm-importance", name), |b| b.iter_custom(|iters| g.time(iters, run)));
         }
     }
     let (n, k, iterations) = kmeans_size();

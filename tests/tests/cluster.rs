@@ -191,20 +191,37 @@ proptest! {
     #![proptest_config(vplgi_tests::proptest_config(8))]
 
     /// The RSM-space clustering (`--vpl-cluster rsm`) of random scenes' shadow-map VPLs, any map
-    /// size, K, iteration count and Eq. 1 weights, whole on both backends: the SPEC's assignment
-    /// row (same clusters) and update row (centres within 1e-6 of the scene's diagonal), measured
-    /// by `vplgi verify`'s comparison.
+    /// size, K, iteration count, Eq. 1 weights and seeding, whole on both backends: with the
+    /// importance map, its row (each texel within 1e-5 of its map's largest) and then the
+    /// clustering from the CPU's map; the SPEC's assignment row (same clusters) and update row
+    /// (centres within 1e-6 of the scene's diagonal), measured by `vplgi verify`'s comparison.
     #[test]
     fn rsm_cluster_matches_the_cpu_on_random_scenes(
         scene in vplgi_tests::inputs::random_scene(),
         (rsm_size, k_vpl, iterations) in (8u32..64, 1u32..300, 0u32..8),
         (wd, wn, wphi) in (0f32..4.0, 0f32..20.0, 0f32..20.0),
+        importance in proptest::bool::ANY,
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("rsm_cluster_matches_the_cpu_on_random_scenes") else { return Ok(()) };
         let weights = vplgi_types::rsm::RsmWeights { position: wd, normal: wn, flux: wphi + 0.01 };
-        let cfg = vplgi_types::FrameConfig { rsm_size, k_vpl, iterations, rsm_weights: weights, ..vplgi_types::FrameConfig::verify() };
-        println!("{}: --rsm-size {rsm_size}, K {k_vpl}, {iterations} iterations, weights {wd},{wn},{}", scene.name, wphi + 0.01);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::cluster::compare_rsm(t, &cfg)).expect("GPU");
+        let rsm_seeding = if importance { vplgi_types::RsmSeeding::Importance } else { vplgi_types::RsmSeeding::Halton };
+        let cfg = vplgi_types::FrameConfig {
+            rsm_size,
+            k_vpl,
+            iterations,
+            rsm_weights: weights,
+            rsm_seeding,
+            vpl_source: vplgi_types::VplSource::Rsm,
+            vpl_cluster: vplgi_types::VplClustering::Rsm,
+            bounces: 1,
+            ..vplgi_types::FrameConfig::verify()
+        };
+        println!("{}: --rsm-size {rsm_size}, K {k_vpl}, {iterations} iterations, weights {wd},{wn},{}, {rsm_seeding:?} seeds", scene.name, wphi + 0.01);
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
+            let frame = vplgi_verify::inputs::CpuFrame::new(t.cpu, &cfg);
+            vplgi_verify::cluster::compare_rsm(t, &frame, &cfg)
+        })
+        .expect("GPU");
         vplgi_tests::hold(&checks)?;
     }
 }

@@ -10,7 +10,8 @@ use serde::Serialize;
 use vplgi_types::config::MAX_F;
 use vplgi_types::rsm::RsmWeights;
 use vplgi_types::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
+    VplSource,
 };
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
@@ -174,6 +175,13 @@ pub struct FrameArgs {
     #[arg(long, value_name = "WD,WN,WPHI", value_parser = parse_weights)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rsm_weights: Option<RsmWeights>,
+    /// With --vpl-cluster rsm: where the clustering's seeds come from: Halton points spread
+    /// evenly over each map, or (the paper's) the Halton points warped by the bidirectional
+    /// importance map, each texel's flux times its geometry terms toward 256 pixels of the
+    /// image, so clusters go where the camera sees their light.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rsm_seeding: Option<RsmSeeding>,
 }
 
 /// `--rsm-weights 1,10,0`.

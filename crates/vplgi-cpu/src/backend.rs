@@ -6,6 +6,7 @@ use crate::cluster::{cluster_from, Clustering};
 use crate::gather_radius::gather_radius;
 use crate::interpolate::IrradianceSamples;
 use crate::rsm_cluster::rsm_cluster;
+use crate::rsm_importance::{gbuffer_points, rsm_importance};
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
 use crate::shade::{sample_irradiance, shade, vpl_lights, VisibilitySource, VplLight};
@@ -28,7 +29,14 @@ use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, Sha
 pub struct CpuHits {
     samples: Vec<u32>,
     row_of: Vec<u32>,
-    points: Vec<Endpoint>,
+    pub(crate) points: Vec<Endpoint>,
+}
+
+impl CpuHits {
+    /// The hit of camera sample `sample`, if it hit a surface.
+    pub(crate) fn hit_of_sample(&self, sample: u32) -> Option<u32> {
+        self.samples.binary_search(&sample).ok().map(|h| h as u32)
+    }
 }
 
 impl Backend for CpuScene<'_> {
@@ -118,8 +126,20 @@ impl Backend for CpuScene<'_> {
         Ok(seeding(&image, params))
     }
 
-    fn rsm_cluster(&self, vpls: &Vec<Vpl>, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(Clustering, ClusterCounts), FrameError> {
-        let c = rsm_cluster(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), params);
+    fn rsm_importance(&self, vpls: &Vec<Vpl>, n: u32, rsm_size: u32, hits: &CpuHits, samples: &[u32], d_min: f32) -> Result<Vec<f32>, FrameError> {
+        let points = gbuffer_points(hits, samples);
+        Ok(rsm_importance(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), &points, d_min))
+    }
+
+    fn rsm_cluster(
+        &self,
+        vpls: &Vec<Vpl>,
+        n: u32,
+        rsm_size: u32,
+        params: &RsmClusterParams,
+        importance: Option<&Vec<f32>>,
+    ) -> Result<(Clustering, ClusterCounts), FrameError> {
+        let c = rsm_cluster(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), params, importance.map(|i| &i[..]));
         let k = c.k() as u32;
         Ok((c, ClusterCounts { k, ..Default::default() }))
     }

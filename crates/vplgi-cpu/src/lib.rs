@@ -16,6 +16,7 @@ pub mod cluster;
 pub mod gather_radius;
 pub mod interpolate;
 pub mod rsm_cluster;
+pub mod rsm_importance;
 pub mod rsm_vpls;
 pub mod seeding;
 pub mod shade;

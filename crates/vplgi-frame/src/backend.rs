@@ -157,9 +157,21 @@ pub trait Backend {
     /// `camera`, by Wang et al.'s quadtree (`vplgi_types::seeding`), as hit indices.
     fn seeding(&self, hits: &Self::Hits, n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, Self::Error>;
 
+    /// Stage 3's seeds with `--vpl-cluster rsm --rsm-seeding importance`: the importance of each
+    /// texel of the maps of budget `rsm_size` (`vplgi_types::rsm_importance`) for the `n` VPLs of
+    /// `rsm_vpls`, seen from the hits of camera samples `samples`, distances floored at `d_min`.
+    fn rsm_importance(&self, vpls: &Self::Vpls, n: u32, rsm_size: u32, hits: &Self::Hits, samples: &[u32], d_min: f32) -> Result<Self::Scalars, Self::Error>;
+
     /// Stage 3 with `--vpl-cluster rsm`: the `n` VPLs of `rsm_vpls` (maps of budget `rsm_size`)
-    /// clustered in reflective-shadow-map space.
-    fn rsm_cluster(&self, vpls: &Self::Vpls, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+    /// clustered in reflective-shadow-map space, seeded by `importance` if given.
+    fn rsm_cluster(
+        &self,
+        vpls: &Self::Vpls,
+        n: u32,
+        rsm_size: u32,
+        params: &RsmClusterParams,
+        importance: Option<&Self::Scalars>,
+    ) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
 
     /// Each cluster's representative member, as surface points.
     fn representatives(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32) -> Result<Self::Points, Self::Error>;

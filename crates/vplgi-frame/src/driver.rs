@@ -7,7 +7,8 @@ use std::ops::Range;
 use std::time::Instant;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
-use vplgi_types::{Camera, ClusterMode, FrameConfig, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
+use vplgi_types::rsm_importance;
+use vplgi_types::{Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
@@ -98,7 +99,16 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
         let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
             let (c, k) = match cfg.vpl_cluster {
                 VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params(), ClusterStart::Stride)?,
-                VplClustering::Rsm => b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent))?,
+                VplClustering::Rsm => {
+                    let importance = match cfg.rsm_seeding {
+                        RsmSeeding::Halton => None,
+                        RsmSeeding::Importance => {
+                            let samples = rsm_importance::pixel_samples(cfg.width, cfg.height, spp);
+                            Some(b.rsm_importance(&vpls, n_vpls, cfg.rsm_size, &hits, &samples, rsm_importance::D_MIN_REL * extent)?)
+                        }
+                    };
+                    b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), importance.as_ref())?
+                }
             };
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
             (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters { clusters: &c, k: k.k, shape: cfg.light_shape })?, k.k)

@@ -10,6 +10,7 @@ use crate::context::validated;
 use crate::gather_radius::GatherRadiusKernel;
 use crate::interpolate::{GpuIrradianceSamples, InterpolateInputs, InterpolateKernel, SampleLighting};
 use crate::rsm_cluster::RsmClusterKernel;
+use crate::rsm_importance::RsmImportanceKernel;
 use crate::rsm_vpls::RsmVplsKernel;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
@@ -48,6 +49,7 @@ pub struct GpuKernels {
     pub trace: TraceVplsKernel,
     pub rsm: RsmVplsKernel,
     pub rsm_cluster: RsmClusterKernel,
+    pub rsm_importance: RsmImportanceKernel,
     pub shading_points: ShadingPointsKernel,
     pub cluster: ClusterKernel,
     pub visibility: VisibilityKernel,
@@ -96,6 +98,7 @@ impl GpuKernels {
             trace: TraceVplsKernel::new(device)?,
             rsm: RsmVplsKernel::new(device)?,
             rsm_cluster: RsmClusterKernel::new(device)?,
+            rsm_importance: RsmImportanceKernel::new(device)?,
             shading_points: ShadingPointsKernel::new(device)?,
             cluster: ClusterKernel::new(device)?,
             visibility: VisibilityKernel::new(device)?,
@@ -310,8 +313,21 @@ impl Backend for GpuBackend<'_> {
         self.kernels.seeding.run(self.device, self.queue, &self.kernels.cluster, &image, params)
     }
 
-    fn rsm_cluster(&self, vpls: &GpuVpls, n: u32, rsm_size: u32, params: &RsmClusterParams) -> Result<(GpuClustering, ClusterCounts), GpuError> {
-        let (c, k) = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params)?;
+    fn rsm_importance(&self, vpls: &GpuVpls, n: u32, rsm_size: u32, hits: &GpuHits, samples: &[u32], d_min: f32) -> Result<wgpu::Buffer, GpuError> {
+        let k = &self.kernels.rsm_importance;
+        let points = k.gbuffer_points(self.device, self.queue, samples, &hits.offsets, &hits.points)?;
+        k.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), &points, samples.len() as u32, d_min)
+    }
+
+    fn rsm_cluster(
+        &self,
+        vpls: &GpuVpls,
+        n: u32,
+        rsm_size: u32,
+        params: &RsmClusterParams,
+        importance: Option<&wgpu::Buffer>,
+    ) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let (c, k) = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params, importance)?;
         Ok((c, ClusterCounts { k, ..Default::default() }))
     }
 

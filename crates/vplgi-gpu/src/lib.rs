@@ -21,6 +21,7 @@ pub mod interpolate;
 pub mod lights;
 pub mod rng;
 pub mod rsm_cluster;
+pub mod rsm_importance;
 pub mod rsm_vpls;
 pub mod scan;
 pub mod scene;

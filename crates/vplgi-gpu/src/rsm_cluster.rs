@@ -1,5 +1,6 @@
 //! VPL clustering in reflective-shadow-map space on the GPU (`shaders/rsm_cluster.wgsl`), the
-//! twin of `vplgi_cpu::rsm_cluster::rsm_cluster`: the same seeds, the same Eq. 1 search over the
+//! twin of `vplgi_cpu::rsm_cluster::rsm_cluster`: the same seeds (warped through the same
+//! integer weights of the importance map when given), the same Eq. 1 search over the
 //! 5 × 5 cells around each VPL, a stable radix sort of the VPLs by cluster (one bit per pass,
 //! each a scan), and each cluster's update summed over its contiguous members in the CPU's
 //! order. Two read-backs: each map's first VPL (to share K among the maps on the host) and the
@@ -27,6 +28,9 @@ pub(crate) struct Params {
     pub(crate) w_normal: f32,
     pub(crate) w_flux: f32,
     pub(crate) inv_extent: f32,
+    pub(crate) importance: u32,
+    pub(crate) rows: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 /// `MapInfo` of `rsm_cluster.wgsl`: one map's VPLs, clusters and grid cells.
@@ -39,7 +43,8 @@ pub(crate) struct MapInfo {
     pub(crate) k: u32,
     pub(crate) grid: u32,
     pub(crate) cell_first: u32,
-    pub(crate) pad: [u32; 2],
+    pub(crate) row_first: u32,
+    pub(crate) pad: u32,
 }
 
 /// `ClusterState` of `rsm_cluster.wgsl` (centre, texel x, normal, texel y, chroma, map).
@@ -56,6 +61,9 @@ pub(crate) struct ClusterState {
 
 pub struct RsmClusterKernel {
     map_starts: wgpu::ComputePipeline,
+    importance_max: wgpu::ComputePipeline,
+    importance_rows: wgpu::ComputePipeline,
+    importance_cumulate: wgpu::ComputePipeline,
     seed: wgpu::ComputePipeline,
     grid_count: wgpu::ComputePipeline,
     grid_fill: wgpu::ComputePipeline,
@@ -76,6 +84,9 @@ impl RsmClusterKernel {
         validated(device, "rsm_cluster pipelines", || {
             let names = [
                 "map_starts",
+                "importance_max",
+                "importance_rows",
+                "importance_cumulate",
                 "seed",
                 "grid_count",
                 "grid_fill",
@@ -92,6 +103,9 @@ impl RsmClusterKernel {
             let mut next = || p.next().expect("one pipeline per entry point");
             RsmClusterKernel {
                 map_starts: next(),
+                importance_max: next(),
+                importance_rows: next(),
+                importance_cumulate: next(),
                 seed: next(),
                 grid_count: next(),
                 grid_fill: next(),
@@ -108,7 +122,9 @@ impl RsmClusterKernel {
         })
     }
 
-    /// Clusters the `n` VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order).
+    /// Clusters the `n` VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order), seeded
+    /// through `importance` (`rsm_importance`, one value per texel) if given.
+    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
         device: &wgpu::Device,
@@ -117,6 +133,7 @@ impl RsmClusterKernel {
         n: u32,
         maps: &[RsmLight],
         p: &RsmClusterParams,
+        importance: Option<&wgpu::Buffer>,
     ) -> Result<(GpuClustering, u32), GpuError> {
         let empty = || GpuClustering {
             centroids: storage_zeroed::<Endpoint>(device, "rsm centroids", 1),
@@ -143,6 +160,9 @@ impl RsmClusterKernel {
             w_normal: p.weights.normal,
             w_flux: p.weights.flux,
             inv_extent: 1.0 / p.extent.max(f32::MIN_POSITIVE),
+            importance: importance.is_some() as u32,
+            rows: maps.iter().map(|m| m.size).sum(),
+            pad: [0; 2],
         };
         let map_buf = storage(device, "rsm maps", maps);
         let vb = &vpls.buffer;
@@ -155,12 +175,13 @@ impl RsmClusterKernel {
         })?;
         let starts: Vec<u32> = read_back(device, queue, &starts, m as usize + 1)?;
         let per_map = rsm::clusters_per_map(&starts.windows(2).map(|w| w[1] - w[0]).collect::<Vec<u32>>(), p.k);
-        let (mut info, mut k, mut cells) = (Vec::with_capacity(m as usize), 0u32, 0u32);
+        let (mut info, mut k, mut cells, mut rows) = (Vec::with_capacity(m as usize), 0u32, 0u32, 0u32);
         for (i, &km) in per_map.iter().enumerate() {
             let grid = ((km as f64).sqrt().ceil() as u32).max(1);
-            info.push(MapInfo { vpl_start: starts[i], vpl_end: starts[i + 1], cluster_first: k, k: km, grid, cell_first: cells, pad: [0; 2] });
+            info.push(MapInfo { vpl_start: starts[i], vpl_end: starts[i + 1], cluster_first: k, k: km, grid, cell_first: cells, row_first: rows, pad: 0 });
             k += km;
             cells += grid * grid;
+            rows += maps[i].size;
         }
         if k == 0 {
             return Ok((empty(), 0));
@@ -180,8 +201,31 @@ impl RsmClusterKernel {
         let pb = kernel_params(device, "rsm params", &params);
         let zero = |b: &wgpu::Buffer| queue.write_buffer(b, 0, &vec![0u8; b.size() as usize]);
 
+        // Each map's importance as integer weights summed by rows (Alg. 1 lines 5-7), then the
+        // seeds. Without a map, one-word stand-ins keep the seed kernel's bindings filled.
+        let map_max = storage_zeroed::<u32>(device, "rsm importance max", m as usize);
+        let row_sums = storage_zeroed::<u32>(device, "rsm importance rows", if importance.is_some() { rows as usize } else { 1 });
+        let none = storage_zeroed::<f32>(device, "rsm no importance", 1);
+        let imp = importance.unwrap_or(&none);
         validated(device, "rsm_cluster seed", || {
-            dispatch_bound(device, queue, &self.seed, &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states)], groups(k));
+            if importance.is_some() {
+                dispatch_bound(device, queue, &self.importance_max, &[(0, &pb), (2, &info), (3, vb), (16, imp), (17, &map_max)], groups(n));
+                dispatch_bound(
+                    device,
+                    queue,
+                    &self.importance_rows,
+                    &[(0, &pb), (1, &map_buf), (2, &info), (16, imp), (17, &map_max), (18, &row_sums)],
+                    groups(rows),
+                );
+                dispatch_bound(device, queue, &self.importance_cumulate, &[(0, &pb), (1, &map_buf), (2, &info), (18, &row_sums)], groups(m));
+            }
+            dispatch_bound(
+                device,
+                queue,
+                &self.seed,
+                &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states), (16, imp), (17, &map_max), (18, &row_sums)],
+                groups(k),
+            );
         })?;
         let bits = 32 - (k - 1).leading_zeros();
         let mut sorted_at = 0usize;

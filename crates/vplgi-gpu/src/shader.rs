@@ -55,6 +55,7 @@ pub const STAGES: &[(&str, &str, &[&str])] = &[
         include_str!("../../../shaders/rsm_vpls.wgsl"),
         &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
     ),
+    ("rsm_importance.wgsl", include_str!("../../../shaders/rsm_importance.wgsl"), &["common/types.wgsl"]),
     ("rsm_cluster.wgsl", include_str!("../../../shaders/rsm_cluster.wgsl"), &["common/types.wgsl"]),
     ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl", "common/scene.wgsl"]),
     ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
@@ -533,8 +534,9 @@ mod tests {
             [crate::interpolate::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
             [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
             [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
-            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent }
-            [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first }
+            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows }
+            [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first, row_first }
+            [crate::rsm_importance::Params] "rsm_importance.wgsl" "Params" { n, count, d_min2 }
             [crate::rsm_cluster::ClusterState] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
         };
         for row in table {

@@ -132,6 +132,20 @@ pub enum Seeding {
     Adaptive,
 }
 
+/// Where the RSM clustering's seeds come from (`--vpl-cluster rsm`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum RsmSeeding {
+    /// Points of the 2-D Halton sequence over each map, evenly.
+    #[default]
+    Halton,
+    /// The paper's: the Halton points warped by the bidirectional importance map, the texels'
+    /// geometry terms toward 256 G-buffer pixels times their flux, so clusters go where the
+    /// camera sees their light.
+    Importance,
+}
+
 /// Where the indirect light of clustered shading points comes from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -265,6 +279,10 @@ pub struct FrameConfig {
     /// With `VplClustering::Rsm`: the weights of Eq. 1 (position, normal, flux colour).
     #[serde(default)]
     pub rsm_weights: crate::rsm::RsmWeights,
+    /// With `VplClustering::Rsm`: where its seeds come from. Files written before the option
+    /// existed read as Halton.
+    #[serde(default)]
+    pub rsm_seeding: RsmSeeding,
     /// The metric of the shading points' clustering. Files written before the option existed
     /// read as Eq. 7.
     #[serde(default)]
@@ -344,6 +362,7 @@ impl FrameConfig {
             rsm_size: default_rsm_size(),
             vpl_cluster: VplClustering::Eq7,
             rsm_weights: crate::rsm::RsmWeights::default(),
+            rsm_seeding: RsmSeeding::Importance,
             metric: SpMetric::Eq7,
             alpha: default_alpha(),
             representative: SpRepresentative::Nearest,

@@ -13,6 +13,8 @@
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
+//! * [`rsm_importance`]: the bidirectional importance map and the warp of the RSM clustering's
+//!   seeds.
 //! * [`interpolation`]: `--shade interpolate`'s weights and radii (Wang et al.).
 //! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
 //! * [`temporal`]: clusters carried from frame to frame with admission thresholds (Wang et al.).
@@ -28,13 +30,15 @@ pub mod params;
 pub mod pod;
 pub mod rng;
 pub mod rsm;
+pub mod rsm_importance;
 pub mod sampling;
 pub mod seeding;
 pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
 pub use config::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
+    VplSource,
 };
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};

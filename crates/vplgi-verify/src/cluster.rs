@@ -4,8 +4,8 @@
 
 use crate::inputs::CpuFrame;
 use crate::tolerance::{
-    Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS, TEMPORAL_DIFFERING_THRESHOLDS,
-    TEMPORAL_SAME_ADMISSION, UPDATE_DIFFERING_CENTROIDS,
+    Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_IMPORTANCE_REL, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS,
+    TEMPORAL_DIFFERING_THRESHOLDS, TEMPORAL_SAME_ADMISSION, UPDATE_DIFFERING_CENTROIDS,
 };
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
@@ -14,7 +14,9 @@ use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel, GpuClustering};
 use vplgi_gpu::seeding::GpuImageHits;
 use vplgi_types::clustering::{fuzzy_weights, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
-use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, Seeding, MISS};
+use vplgi_types::rsm::RsmLight;
+use vplgi_types::rsm_importance;
+use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, RsmSeeding, Seeding, Vpl, MISS};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {
     ps.iter().zip(ns).map(|(&p, &n)| Endpoint::new(p, n)).collect()
@@ -314,7 +316,7 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
             }
         }
     }
-    r.checks.extend(compare_rsm(twins, cfg)?);
+    r.checks.extend(compare_rsm(twins, &frame, cfg)?);
     r.notes.push("centroids come from a CPU clustering of the same points; assignment is compared on the CPU's grid, the update on the CPU's labels".into());
     r.notes.push(
         "the RSM-space clustering (--vpl-cluster rsm) runs whole on both backends from the CPU's shadow-map VPLs of --rsm-size: labels judged by the \
@@ -325,9 +327,12 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
 }
 
 /// The RSM-space clustering of the CPU's shadow-map VPLs (`--rsm-size`) on both backends, whole:
-/// the share of VPLs with the same cluster (the assignment row) and the largest distance between
-/// the two backends' centres over the scene's diagonal (the update row, 1e-6 relative).
-pub fn compare_rsm(twins: &Twins, cfg: &FrameConfig) -> Result<Vec<Disagreement>, VerifyError> {
+/// with `--rsm-seeding importance`, first the importance map of those VPLs seen from the CPU's
+/// G-buffer points of `frame` (each texel against its map's largest value, the importance row),
+/// then the clustering seeded by the CPU's map on both: the share of VPLs with the same cluster
+/// (the assignment row) and the largest distance between the two backends' centres over the
+/// scene's diagonal (the update row, 1e-6 relative).
+pub fn compare_rsm(twins: &Twins, frame: &CpuFrame, cfg: &FrameConfig) -> Result<Vec<Disagreement>, VerifyError> {
     let (device, queue) = (twins.device(), twins.queue());
     let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls;
     if vpls.is_empty() {
@@ -335,10 +340,20 @@ pub fn compare_rsm(twins: &Twins, cfg: &FrameConfig) -> Result<Vec<Disagreement>
     }
     let maps = twins.cpu.lights.rsm_maps(cfg.rsm_size);
     let params = cfg.rsm_cluster_params(twins.cpu.extent);
-    let cpu = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params);
     let n = vpls.len() as u32;
     let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
-    let (g, kept) = twins.gpu.kernels().rsm_cluster.run(device, queue, &gv, n, &maps, &params)?;
+    let mut checks = Vec::new();
+    let importance = match cfg.rsm_seeding {
+        RsmSeeding::Halton => None,
+        RsmSeeding::Importance => {
+            let (importance, check) = compare_rsm_importance(twins, &gv, &vpls, &maps, &frame.gbuffer_points(cfg))?;
+            checks.push(check);
+            Some(importance)
+        }
+    };
+    let cpu = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, importance.as_deref());
+    let gpu_importance = importance.as_ref().map(|i| storage(device, "rsm importance", i));
+    let (g, kept) = twins.gpu.kernels().rsm_cluster.run(device, queue, &gv, n, &maps, &params, gpu_importance.as_ref())?;
     let labels: Vec<u32> = read_back(device, queue, &g.labels, vpls.len())?;
     let centres: Vec<Endpoint> = read_back(device, queue, &g.centroids, kept as usize)?;
     let same = (0..vpls.len()).filter(|&i| labels[i] == cpu.hard_label(i)).count();
@@ -352,8 +367,12 @@ pub fn compare_rsm(twins: &Twins, cfg: &FrameConfig) -> Result<Vec<Disagreement>
         }
     }
     let w = cfg.rsm_weights;
+    let seeds = match cfg.rsm_seeding {
+        RsmSeeding::Halton => "Halton seeds",
+        RsmSeeding::Importance => "seeds warped by the CPU's importance map",
+    };
     let case = format!(
-        "--rsm-size {}: {} VPLs, K = {} ({} kept on the CPU, {kept} on the GPU), weights {},{},{}",
+        "--rsm-size {}: {} VPLs, K = {} ({} kept on the CPU, {kept} on the GPU), weights {},{},{}, {seeds}",
         cfg.rsm_size,
         count(vpls.len()),
         cfg.k_vpl,
@@ -362,11 +381,47 @@ pub fn compare_rsm(twins: &Twins, cfg: &FrameConfig) -> Result<Vec<Disagreement>
         w.normal,
         w.flux
     );
-    Ok(vec![
+    checks.extend([
         Disagreement::at_least("cluster (rsm)", "share of VPLs in the same cluster", same as f64 / vpls.len() as f64, ASSIGN_SAME_LABELS)
             .with_case(&case)
             .with_worst(first_other),
         Disagreement::at_most("cluster (rsm)", "clusters kept, |CPU - GPU|", cpu.k().abs_diff(kept as usize) as f64, 0.0).with_case(&case),
         Disagreement::at_most("cluster (rsm)", "largest centre distance over the scene diagonal", worst.0, RSM_UPDATE_REL).with_case(&case).with_worst(worst.1),
-    ])
+    ]);
+    Ok(checks)
+}
+
+/// `rsm_importance` of the same VPLs seen from the same G-buffer points on both backends: the
+/// largest difference of a texel's importance over its map's largest (CPU) importance. Returns
+/// the CPU's map with the check.
+pub fn compare_rsm_importance(
+    twins: &Twins,
+    gpu_vpls: &vplgi_gpu::trace_vpls::GpuVpls,
+    vpls: &[Vpl],
+    maps: &[RsmLight],
+    points: &[Endpoint],
+) -> Result<(Vec<f32>, Disagreement), VerifyError> {
+    let (device, queue) = (twins.device(), twins.queue());
+    let d_min = rsm_importance::D_MIN_REL * twins.cpu.extent;
+    let cpu = vplgi_cpu::rsm_importance::rsm_importance(vpls, maps, points, d_min);
+    let gpu_points = storage(device, "importance points", points);
+    let kernel = &twins.gpu.kernels().rsm_importance;
+    let buffer = kernel.run(device, queue, gpu_vpls, vpls.len() as u32, maps, &gpu_points, points.len() as u32, d_min)?;
+    let gpu: Vec<f32> = read_back(device, queue, &buffer, cpu.len())?;
+    let mut worst = (0.0f64, None);
+    for m in maps {
+        let texels = m.first as usize..(m.first + m.size * m.size) as usize;
+        let max = cpu[texels.clone()].iter().fold(0.0f32, |a, &b| a.max(b)) as f64;
+        for t in texels {
+            let d = (cpu[t] as f64 - gpu[t] as f64).abs() / max.max(f64::MIN_POSITIVE);
+            if d > worst.0 || d.is_nan() {
+                worst = (d, Some(format!("texel {t}: CPU {:e}, GPU {:e}, the map's largest {max:e}", cpu[t], gpu[t])));
+            }
+        }
+    }
+    let case = format!("{} VPLs seen from {} G-buffer points (of {} pixels)", count(vpls.len()), points.len(), rsm_importance::PIXELS);
+    let check = Disagreement::at_most("cluster (rsm importance)", "largest texel difference over its map's largest importance", worst.0, RSM_IMPORTANCE_REL)
+        .with_case(case)
+        .with_worst(worst.1);
+    Ok((cpu, check))
 }

@@ -5,7 +5,8 @@ use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart, Clustering};
 use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_cpu::shade::VplLight;
 use vplgi_cpu::CpuScene;
-use vplgi_types::{Endpoint, FrameConfig, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
+use vplgi_types::rsm_importance;
+use vplgi_types::{Endpoint, FrameConfig, RsmSeeding, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
 
 /// Points as clustering takes them: positions and normals.
 pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
@@ -67,6 +68,21 @@ impl CpuFrame {
         seeding(&image, &cfg.seed_params(extent))
     }
 
+    /// The G-buffer points the RSM importance map is accumulated from (the hits among
+    /// `rsm_importance::pixel_samples`).
+    pub fn gbuffer_points(&self, cfg: &FrameConfig) -> Vec<Endpoint> {
+        let samples = rsm_importance::pixel_samples(cfg.width, cfg.height, cfg.spp);
+        samples.iter().filter(|&&s| self.row_of[s as usize] != MISS).map(|&s| Endpoint::of(&self.sps[s as usize])).collect()
+    }
+
+    /// The importance map of the frame's RSM clustering, if it is seeded by one.
+    pub fn rsm_importance(&self, cs: &CpuScene, cfg: &FrameConfig) -> Option<Vec<f32>> {
+        (cfg.vpl_cluster == VplClustering::Rsm && cfg.rsm_seeding == RsmSeeding::Importance).then(|| {
+            let maps = cs.lights.rsm_maps(cfg.rsm_size);
+            vplgi_cpu::rsm_importance::rsm_importance(&self.vpls, &maps, &self.gbuffer_points(cfg), rsm_importance::D_MIN_REL * cs.extent)
+        })
+    }
+
     /// The VPLs as clustering input.
     pub fn vpl_points(&self) -> PointSet {
         self.vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip()
@@ -92,7 +108,10 @@ impl CpuClusters {
                 let (p, n) = frame.vpl_points();
                 cluster(&p, &n, &cfg.vpl_cluster_params())
             }
-            VplClustering::Rsm => vplgi_cpu::rsm_cluster::rsm_cluster(&frame.vpls, &cs.lights.rsm_maps(cfg.rsm_size), &cfg.rsm_cluster_params(cs.extent)),
+            VplClustering::Rsm => {
+                let importance = frame.rsm_importance(cs, cfg);
+                vplgi_cpu::rsm_cluster::rsm_cluster(&frame.vpls, &cs.lights.rsm_maps(cfg.rsm_size), &cfg.rsm_cluster_params(cs.extent), importance.as_deref())
+            }
         });
         let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
         let cols = lights.iter().map(VplLight::endpoint).collect();

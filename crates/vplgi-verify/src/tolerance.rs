@@ -43,6 +43,12 @@ pub const UPDATE_DIFFERING_CENTROIDS: u64 = 0;
 /// The RSM-space centroid update (`--vpl-cluster rsm`): float sums in the same order on both
 /// backends, so the SPEC's "else 1e-6 relative", relative to the scene's diagonal.
 pub const RSM_UPDATE_REL: f64 = 1e-6;
+/// The RSM importance map (`rsm_importance`) of the same VPLs seen from the same G-buffer
+/// points: each texel within this of its map's largest importance. Sums of 256 geometry terms
+/// in the same order on both backends, but each term has a division and a square root, which
+/// WGSL may round differently (2.5 ulp); the seeds depend on the map only relative to its
+/// largest value. The clustering is then judged fed the CPU's map.
+pub const RSM_IMPORTANCE_REL: f64 = 1e-5;
 /// Fuzzy assignment: at least this share of points with identical F-index sets (either metric).
 pub const FUZZY_SAME_SETS: f64 = 0.999;
 /// Fuzzy assignment: weights within this, absolute, and summing to 1 within this.
