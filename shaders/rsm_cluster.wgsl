@@ -1,11 +1,13 @@
 // VPL clustering in reflective-shadow-map space (vplgi-cpu/src/rsm_cluster.rs; Prutkin et al.
 // 2012, Alg. 1), one kernel per step:
 //   map_starts:  the first VPL of each map (VPLs are in texel order);
-//   importance_max, importance_rows, importance_cumulate (with an importance map): each map's
-//                largest importance, its texels' integer weights summed by row, the rows' running
-//                totals (vplgi_types::rsm_importance::map_weights);
+//   importance_max, importance_rows, importance_cumulate, importance_cap (with an importance
+//                map): each map's largest importance, its texels' integer weights summed by row,
+//                the rows' running totals, the cap of one seed's share, recomputed CAP_PASSES
+//                times (vplgi_types::rsm_importance::map_weights);
 //   seed:        cluster j of map m starts at the VPL at or after Halton texel j - first + 1,
-//                warped by the map's weights when there are any (rsm_importance::warp);
+//                warped by the map's weights when there are any (rsm_importance::warp), unless
+//                its slot holds a cluster of the previous frame (--temporal on);
 //   grid_count, grid_fill (around scan.wgsl): the clusters of each cell of each map's grid;
 //   assign:      each VPL's cluster of smallest Eq. 1 within r = 2 cells (ties: lower index);
 //   radix_flags, radix_scatter (around scan.wgsl), one bit per pass: a stable sort of the VPL
@@ -71,6 +73,8 @@ struct ClusterState {
 @group(0) @binding(16) var<storage, read> importance: array<f32>;          // per texel
 @group(0) @binding(17) var<storage, read_write> map_max: array<atomic<u32>>; // bits of the largest
 @group(0) @binding(18) var<storage, read_write> rows: array<u32>;          // row sums, then totals
+@group(0) @binding(19) var<storage, read> live: array<u32>;                // 1: a previous cluster's slot
+@group(0) @binding(20) var<storage, read_write> map_cap: array<u32>;       // largest texel weight
 
 const NEIGHBOURHOOD: i32 = 2;
 
@@ -204,11 +208,11 @@ fn quantum_scale(max_bits: u32, texels: u32) -> f32 {
     return bitcast<f32>(u32(e + 127) << 23u);
 }
 
-// rsm_importance::quantize, 0 for a texel without importance.
-fn weight(t: u32, scale: f32) -> u32 {
+// rsm_importance::quantize, 0 for a texel without importance, capped at `cap`.
+fn weight(t: u32, scale: f32, cap: u32) -> u32 {
     let x = importance[t];
     if (x > 0.0) {
-        return u32(ceil(x * scale));
+        return min(u32(ceil(x * scale)), cap);
     }
     return 0u;
 }
@@ -253,9 +257,10 @@ fn importance_rows(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     var sum = 0u;
     if (max_bits != 0u) {
         let scale = quantum_scale(max_bits, m.size * m.size);
+        let cap = map_cap[mi];
         let first = m.first + (r - info[mi].row_first) * m.size;
         for (var x = 0u; x < m.size; x = x + 1u) {
-            sum = sum + weight(first + x, scale);
+            sum = sum + weight(first + x, scale, cap);
         }
     }
     rows[r] = sum;
@@ -273,6 +278,19 @@ fn importance_cumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(n
         acc = acc + rows[first + y];
         rows[first + y] = acc;
     }
+}
+
+// rsm_importance::weight_cap of each map's current total for its k seeds (one pass of
+// rsm_importance::map_weights's loop).
+@compute @workgroup_size(64)
+fn importance_cap(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let mi = thread_index(gid, groups);
+    if (mi >= params.maps) {
+        return;
+    }
+    let total = rows[info[mi].row_first + maps[mi].size - 1u];
+    let k = max(info[mi].k, 1u);
+    map_cap[mi] = max(total / k + select(0u, 1u, total % k != 0u), 1u);
 }
 
 // rsm_importance::warp: the texel (x, y) seed point i lands on in map mi, through the rows'
@@ -304,9 +322,10 @@ fn warp(i: u32, mi: u32) -> vec2<u32> {
     }
     let target_col = scale_fraction(f.x, rows[first + y] - before);
     let scale = quantum_scale(atomicLoad(&map_max[mi]), n * n);
+    let cap = map_cap[mi];
     var acc = 0u;
     for (var x = 0u; x < n; x = x + 1u) {
-        acc = acc + weight(m.first + y * n + x, scale);
+        acc = acc + weight(m.first + y * n + x, scale, cap);
         if (acc > target_col) {
             return vec2<u32>(x, y);
         }
@@ -317,7 +336,7 @@ fn warp(i: u32, mi: u32) -> vec2<u32> {
 @compute @workgroup_size(64)
 fn seed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let j = thread_index(gid, groups);
-    if (j >= params.k) {
+    if (j >= params.k || live[j] != 0u) {
         return;
     }
     // The map of cluster j: the last whose clusters start at or before j (maps without

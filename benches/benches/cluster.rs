@@ -9,6 +9,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
 use vplgi_cpu::cluster::temporal::centres;
 use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart};
+use vplgi_frame::RsmStart;
 use vplgi_gpu::cluster::ClusterKernel;
 use vplgi_types::clustering::Centre;
 use vplgi_types::{FrameConfig, SpMetric, SpRepresentative};
@@ -91,6 +92,11 @@ fn cluster_stage(c: &mut Criterion) {
                 vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, Some(&importance)).k()
             })
         });
+        // `-warm` (--temporal on): from the previous frame's clusters, here this frame's own.
+        let previous = vplgi_cpu::rsm_cluster::rsm_cluster_from(&vpls, &maps, &params, None, None).centres;
+        group.bench_function(BenchmarkId::new("cpu-rsm-warm", name), |b| {
+            b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster_from(&vpls, &maps, &params, None, Some(&previous)).centres.len())
+        });
         if let Some(g) = &gpu {
             let (device, queue) = (&g.ctx.device, &g.ctx.queue);
             let kernel = vplgi_gpu::rsm_cluster::RsmClusterKernel::new(device).expect("rsm_cluster pipelines");
@@ -99,16 +105,24 @@ fn cluster_stage(c: &mut Criterion) {
             let buf = vplgi_gpu::trace_vpls::GpuVpls { buffer: vplgi_gpu::buffers::storage(device, "vpls", &vpls), count: n, particles: 0 };
             let points = vplgi_gpu::buffers::storage(device, "importance points", &gbuffer);
             let run = || {
-                kernel.run(device, queue, &buf, n, &maps, &params, None).expect("rsm_cluster");
+                kernel.run(device, queue, &buf, n, &maps, &params, RsmStart { importance: None, previous: None, carry: false }).expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
             let run = || {
                 let importance = importance_kernel.run(device, queue, &buf, n, &maps, &points, gbuffer.len() as u32, d_min).expect("rsm_importance");
-                kernel.run(device, queue, &buf, n, &maps, &params, Some(&importance)).expect("rsm_cluster");
+                kernel
+                    .run(device, queue, &buf, n, &maps, &params, RsmStart { importance: Some(&importance), previous: None, carry: false })
+                    .expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm-importance", name), |b| b.iter_custom(|iters| g.time(iters, run)));
+            let run = || {
+                let start = RsmStart { importance: None, previous: Some(&previous), carry: true };
+                kernel.run(device, queue, &buf, n, &maps, &params, start).expect("rsm_cluster");
+            };
+            run();
+            group.bench_function(BenchmarkId::new("gpu-rsm-warm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
         }
     }
     let (n, k, iterations) = kmeans_size();

@@ -20,9 +20,13 @@ pub enum BackendArg {
 /// Renders a frame of a sequence, or from the scene's camera when `None`.
 type RenderFn<'a> = &'a dyn Fn(&FrameConfig, Option<&View>, &dyn Progress) -> Result<Frame>;
 
+/// Renders a frame of a sequence of another scene on the same device (built and uploaded anew).
+type RelitFn<'a> = &'a dyn Fn(&Scene, &FrameConfig, &View, &dyn Progress) -> Result<Frame>;
+
 /// A scene ready to render on one backend.
 pub struct Engine<'a> {
     render: RenderFn<'a>,
+    relit: RelitFn<'a>,
     /// `cpu` or `gpu`.
     pub name: &'static str,
     pub adapter: Option<Adapter>,
@@ -45,13 +49,25 @@ impl Engine<'_> {
 
     /// A sequence along `cameras`: each frame starts from the clusters of the one before (used
     /// with `--temporal on`; the first frame has none) and is handed to `each` with its index,
-    /// then dropped, so a sequence never holds more than one frame.
-    pub fn walk(&self, cfg: &FrameConfig, cameras: &[Camera], progress: &dyn Progress, mut each: impl FnMut(usize, Frame) -> Result<()>) -> Result<()> {
-        let mut centres = Vec::new();
+    /// then dropped, so a sequence never holds more than one frame. With `lit`, frame i is of
+    /// scene `lit(i)` (its lights moved), built on the device for that frame.
+    pub fn walk(
+        &self,
+        cfg: &FrameConfig,
+        cameras: &[Camera],
+        lit: Option<&dyn Fn(usize) -> Scene>,
+        progress: &dyn Progress,
+        mut each: impl FnMut(usize, Frame) -> Result<()>,
+    ) -> Result<()> {
+        let (mut centres, mut rsm_centres) = (Vec::new(), Vec::new());
         for (i, camera) in cameras.iter().enumerate() {
-            let view = View { camera: *camera, previous: (i > 0).then_some(&centres[..]) };
-            let mut frame = self.render_from(cfg, &view, progress)?;
+            let view = View { camera: *camera, previous: (i > 0).then_some(&centres[..]), previous_rsm: (i > 0).then_some(&rsm_centres[..]) };
+            let mut frame = match lit {
+                Some(scene_of) => (self.relit)(&scene_of(i), cfg, &view, progress)?,
+                None => self.render_from(cfg, &view, progress)?,
+            };
             centres = std::mem::take(&mut frame.centres);
+            rsm_centres = std::mem::take(&mut frame.rsm_centres);
             each(i, frame)?;
         }
         Ok(())
@@ -81,7 +97,11 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
                 Some(v) => Ok(vplgi_frame::render_from(&cs, cfg, v, p)?),
                 None => Ok(vplgi_frame::render(&cs, cfg, p)?),
             };
-            work(&Engine { render: &render, name: "cpu", adapter: None, gpu: None, setup_ms })
+            let relit = |scene: &Scene, cfg: &FrameConfig, v: &View, p: &dyn Progress| {
+                let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+                Ok(vplgi_frame::render_from(&cs, cfg, v, p)?)
+            };
+            work(&Engine { render: &render, relit: &relit, name: "cpu", adapter: None, gpu: None, setup_ms })
         }
         Some(ctx) => {
             eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
@@ -93,12 +113,16 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
                 Some(v) => Ok(vplgi_frame::render_from(&gb, cfg, v, p)?),
                 None => Ok(vplgi_frame::render(&gb, cfg, p)?),
             };
+            let relit = |scene: &Scene, cfg: &FrameConfig, v: &View, p: &dyn Progress| {
+                let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
+                Ok(vplgi_frame::render_from(&gb, cfg, v, p)?)
+            };
             let adapter = Adapter {
                 name: ctx.describe(),
                 device_type: format!("{:?}", ctx.info.device_type),
                 features: ctx.notable_features().into_iter().map(String::from).collect(),
             };
-            work(&Engine { render: &render, name: "gpu", adapter: Some(adapter), gpu: Some(ctx), setup_ms })
+            work(&Engine { render: &render, relit: &relit, name: "gpu", adapter: Some(adapter), gpu: Some(ctx), setup_ms })
         }
     }
 }

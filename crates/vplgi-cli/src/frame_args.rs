@@ -127,10 +127,13 @@ pub struct FrameArgs {
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lighting: Option<Lighting>,
-    /// In a sequence (render --frames): start each frame's shading-point clustering from the
-    /// previous frame's clusters (Wang et al. 2009). A cluster keeps the points within its
+    /// In a sequence (render --frames): start each frame's clustering from the previous frame's
+    /// clusters. Shading points (Wang et al. 2009): a cluster keeps the points within its
     /// members' largest error; clusters nobody fits are dropped, new ones are seeded where no
-    /// cluster fits, and the iterations start from both. Needs --cluster sp or both.
+    /// cluster fits, and the iterations start from both. With --vpl-cluster rsm (Prutkin et al.
+    /// 2012): the previous frame's live VPL clusters start the new clustering and only those that
+    /// emptied are seeded again. Needs clusters to carry: --cluster sp or both, or --vpl-cluster
+    /// rsm with --cluster vpl or both.
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub temporal: Option<Temporal>,

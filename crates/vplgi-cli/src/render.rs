@@ -49,6 +49,15 @@ pub struct RenderArgs {
     /// as `excess_change`, and its mean as `temporal_error`: the approximation's own flicker.
     #[arg(long, value_name = "DIR", requires = "frames")]
     flicker_reference: Option<PathBuf>,
+    /// With --frames: move the lights along the sequence. The scene's punctual lights (point,
+    /// spot, directional: the sun) turn about the vertical axis through the centre of the scene's
+    /// bounds, evenly from 0 degrees at the first frame to DEGREES at the last; the scene is
+    /// built anew for each frame (emissive surfaces stay). A scene without a camera animation is
+    /// then seen from its camera throughout. `vplgi scene generate sunlit-living-room` has a sun
+    /// to move; with --temporal on and --vpl-cluster rsm, each frame's clusters start from the
+    /// previous frame's (the sun's patch of light moves, the clusters follow).
+    #[arg(long, value_name = "DEGREES", requires = "frames", allow_negative_numbers = true)]
+    light_orbit: Option<f32>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out/render")]
     out: PathBuf,
@@ -176,6 +185,12 @@ struct SequenceFrame {
     /// With --temporal on: of those, the previous frame's clusters kept and the new ones.
     sp_kept: u32,
     sp_fresh: u32,
+    /// With --temporal on and --vpl-cluster rsm: the previous frame's VPL clusters kept, and the
+    /// slots seeded anew.
+    vpl_kept: u32,
+    vpl_fresh: u32,
+    /// With --light-orbit: how far the lights have turned, degrees.
+    light_degrees: Option<f32>,
     /// Relative change from the frame before (`vplgi_image::relative_change`); none for the first.
     change: Option<f64>,
     /// With --flicker-reference: the change the converged sequence does not have
@@ -186,12 +201,25 @@ struct SequenceFrame {
 /// `--frames N`: the camera path sampled at N times, each frame rendered, written and dropped
 /// (only the previous image is kept, for the change between frames), then sequence.json.
 fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vplgi_scene::Scene, source: &str, n: u32) -> Result<()> {
-    let Some(path) = &scene.camera_path else {
-        bail!(
-            "{source} has no camera animation, which --frames follows: animate the camera node (translation / rotation channels), or generate a scene with one: vplgi scene generate conference --camera-walk 5"
-        );
+    let orbit = args.light_orbit;
+    if let Some(d) = orbit {
+        if !d.is_finite() {
+            bail!("--light-orbit must be a finite number of degrees (got {d})");
+        }
+        if scene.lights.is_empty() {
+            bail!("{source} has no punctual light for --light-orbit to move (its emissive surfaces stay where they are): try vplgi scene generate sunlit-living-room");
+        }
+    }
+    let cameras = match (&scene.camera_path, orbit) {
+        (Some(path), _) => path.frames(n).map_err(|e| anyhow::anyhow!("{source}: camera path: {e}"))?,
+        (None, Some(_)) => vec![scene.camera; n as usize],
+        (None, None) => bail!(
+            "{source} has no camera animation, which --frames follows: animate the camera node (translation / rotation channels), or generate a scene with one: vplgi scene generate conference --camera-walk 5; or move the lights with --light-orbit DEGREES"
+        ),
     };
-    let cameras = path.frames(n).map_err(|e| anyhow::anyhow!("{source}: camera path: {e}"))?;
+    let degrees = |i: usize| orbit.map(|d| if n > 1 { d * i as f32 / (n - 1) as f32 } else { 0.0 });
+    let lit_scene = |i: usize| scene.with_lights_turned(degrees(i).unwrap_or(0.0));
+    let lit: Option<&dyn Fn(usize) -> vplgi_scene::Scene> = orbit.map(|_| &lit_scene as &dyn Fn(usize) -> vplgi_scene::Scene);
     // The converged frames are read (and checked) before any work.
     let converged: Option<Vec<vplgi_image::Image>> = args
         .flicker_reference
@@ -209,12 +237,12 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
                 .collect::<Result<Vec<_>>>()
         })
         .transpose()?;
-    let (span0, span1) = path.span();
+    let span = scene.camera_path.as_ref().map(|p| p.span());
     let mut frames = Vec::with_capacity(n as usize);
     let mut previous: Option<vplgi_image::Image> = None;
     let clock = Instant::now();
     let (backend, adapter) = with_engine(args.backend, scene, source, |engine| {
-        engine.walk(cfg, &cameras, &Bars::new(), |i, frame| {
+        engine.walk(cfg, &cameras, lit, &Bars::new(), |i, frame| {
             let camera = &cameras[i];
             let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
             let exr = args.out.join(format!("frame-{i:04}.exr"));
@@ -243,6 +271,9 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
                 sp_clusters: frame.stats.sp_clusters,
                 sp_kept: frame.stats.sp_kept,
                 sp_fresh: frame.stats.sp_fresh,
+                vpl_kept: frame.stats.vpl_kept,
+                vpl_fresh: frame.stats.vpl_fresh,
+                light_degrees: degrees(i),
                 change,
                 excess_change,
             });
@@ -267,7 +298,8 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
         "adapter": adapter,
         "scene": source,
         "params": cfg,
-        "path_seconds": [span0, span1],
+        "path_seconds": span.map(|(a, b)| [a, b]),
+        "light_orbit_degrees": orbit,
         "frames": frames,
         "flicker": flicker,
         "flicker_reference": args.flicker_reference,

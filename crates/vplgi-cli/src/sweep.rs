@@ -312,7 +312,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         let unclustered = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
         let mut images = Vec::with_capacity(cameras.len());
         with_engine(BackendArg::Cpu, &scene, &source, |engine| {
-            engine.walk(&unclustered, &cameras, &crate::progress::Bars::new(), |_, f| {
+            engine.walk(&unclustered, &cameras, None, &crate::progress::Bars::new(), |_, f| {
                 images.push(Image { width: base.width, height: base.height, pixels: f.pixels });
                 Ok(())
             })
@@ -499,7 +499,7 @@ fn mean(v: &[f64]) -> Option<f64> {
 fn measure_sequence(engine: &Engine, c: &SequenceConfig, cameras: &[Camera], converged: &[Image], out: &std::path::Path) -> Result<SequenceMeasured> {
     let (mut changes, mut excess, mut ms) = (Vec::new(), Vec::new(), Vec::new());
     let mut previous: Option<Image> = None;
-    engine.walk(&c.cfg, cameras, &NoProgress, |i, f| {
+    engine.walk(&c.cfg, cameras, None, &NoProgress, |i, f| {
         let img = Image { width: c.cfg.width, height: c.cfg.height, pixels: f.pixels };
         ms.push(f.timings.total());
         if let Some(p) = &previous {

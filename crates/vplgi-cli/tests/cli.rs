@@ -917,3 +917,81 @@ fn lighting_indirect_keeps_only_the_vpls_light() {
     let brightest = |img: &vplgi_image::Image| img.pixels.iter().map(|p| p[0] + p[1] + p[2]).fold(0.0f32, f32::max);
     assert!(brightest(&i) < 0.5 * brightest(&a), "the emitter is not in the indirect image");
 }
+
+/// `--light-orbit` moves the sun of the generated sun-lit room along a sequence seen from the
+/// scene's camera: the frames differ, sequence.json lists the angles, and with `--temporal on`
+/// and `--vpl-cluster rsm` every frame after the first starts from the previous frame's live VPL
+/// clusters (kept) and seeds the rest (fresh); the first frame equals the one without
+/// `--temporal`. The GPU renders the same frames. A scene without a punctual light is refused.
+#[test]
+fn light_orbits_render_as_frame_sequences_with_warm_rsm_clusters() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("sun.glb");
+    let o = vplgi(&["scene", "generate", "sunlit-living-room", "--out", glb.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sequence = |backend: &str, temporal: &str| {
+        let out = dir.path().join(format!("{backend}-{temporal}"));
+        let args = [
+            "render",
+            glb.to_str().unwrap(),
+            "--backend",
+            backend,
+            "--frames",
+            "3",
+            "--light-orbit",
+            "30",
+            "--temporal",
+            temporal,
+            "--vpl-source",
+            "rsm",
+            "--bounces",
+            "1",
+            "--vpl-cluster",
+            "rsm",
+            "--cluster",
+            "vpl",
+            "--rsm-size",
+            "32",
+            "--k-vpl",
+            "40",
+            "--lighting",
+            "indirect",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        (vplgi(&args), out)
+    };
+    let (o, cold) = sequence("cpu", "off");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (o, warm) = sequence("cpu", "on");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let seq: serde_json::Value = serde_json::from_slice(&std::fs::read(warm.join("sequence.json")).unwrap()).unwrap();
+    let f = seq["frames"].as_array().unwrap();
+    let degrees: Vec<f64> = f.iter().map(|x| x["light_degrees"].as_f64().unwrap()).collect();
+    assert_eq!(degrees, [0.0, 15.0, 30.0]);
+    assert_eq!(std::fs::read(warm.join("frame-0000.exr")).unwrap(), std::fs::read(cold.join("frame-0000.exr")).unwrap(), "the first frame starts cold");
+    // K = 40 shared among the lights' maps, each at least one: about 40 slots.
+    assert_eq!(f[0]["vpl_kept"].as_u64(), Some(0));
+    for frame in f {
+        let (kept, fresh, k) = (frame["vpl_kept"].as_u64().unwrap(), frame["vpl_fresh"].as_u64().unwrap(), frame["vpl_clusters"].as_u64().unwrap());
+        assert!((kept >= 20 || frame == &f[0]) && (38..=44).contains(&(kept + fresh)) && k <= kept + fresh, "kept {kept}, seeded {fresh}, clusters {k}");
+    }
+    let (a, b) = (vplgi_image::read_exr(&warm.join("frame-0000.exr")).unwrap(), vplgi_image::read_exr(&warm.join("frame-0002.exr")).unwrap());
+    assert!(vplgi_image::relative_change(&a, &b).unwrap() > 0.05, "the sun's light moved");
+
+    let (o, gpu) = sequence("gpu", "on");
+    if o.status.success() {
+        let g = vplgi_image::read_exr(&gpu.join("frame-0002.exr")).unwrap();
+        let m = vplgi_image::compare(&b, &g).unwrap().metrics;
+        assert!(m.flip < 0.05, "warm frame 2: GPU against CPU {m:?}");
+    } else {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("no GPU adapter") && std::env::var("CI").map_or(true, |v| v != "true"), "gpu light orbit failed: {err}");
+    }
+    let o = vplgi(&["render", "--frames", "2", "--light-orbit", "10", "--out", dir.path().join("refused").to_str().unwrap()]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("no punctual light"), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -5,7 +5,7 @@ use crate::bias_points::bias_points;
 use crate::cluster::{cluster_from, Clustering};
 use crate::gather_radius::gather_radius;
 use crate::interpolate::IrradianceSamples;
-use crate::rsm_cluster::rsm_cluster;
+use crate::rsm_cluster::rsm_cluster_from;
 use crate::rsm_importance::{gbuffer_points, rsm_importance};
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
@@ -16,11 +16,11 @@ use crate::visibility::{visibility, BitMatrix, Endpoint};
 use crate::CpuScene;
 use glam::Vec3;
 use std::ops::Range;
-use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_frame::{Backend, ClusterCounts, FrameError, LightSet, Progress, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, ShadingPoint, TraceParams, Vpl, MISS};
 
@@ -137,11 +137,11 @@ impl Backend for CpuScene<'_> {
         n: u32,
         rsm_size: u32,
         params: &RsmClusterParams,
-        importance: Option<&Vec<f32>>,
-    ) -> Result<(Clustering, ClusterCounts), FrameError> {
-        let c = rsm_cluster(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), params, importance.map(|i| &i[..]));
-        let k = c.k() as u32;
-        Ok((c, ClusterCounts { k, ..Default::default() }))
+        start: RsmStart<'_, Vec<f32>>,
+    ) -> Result<(Clustering, ClusterCounts, Vec<RsmCentre>), FrameError> {
+        let r = rsm_cluster_from(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), params, start.importance.map(|i| &i[..]), start.previous);
+        let counts = ClusterCounts { k: r.clustering.k() as u32, kept: r.kept, fresh: r.fresh, ..Default::default() };
+        Ok((r.clustering, counts, if start.carry { r.centres } else { Vec::new() }))
     }
 
     fn representatives(&self, c: &Clustering, _k: u32, points: &Vec<Endpoint>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {

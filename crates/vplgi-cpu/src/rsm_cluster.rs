@@ -21,15 +21,21 @@
 //!   channels), the flux their sum, the map position their mean texel. A cluster left empty keeps
 //!   its last state and takes part in no light.
 //!
-//! The iterations are `iterations` rounds of assignment and update, then a last assignment; empty
-//! clusters are dropped and the rest renumbered in order. A cluster's representative (where its
+//! The iterations are `iterations` rounds of assignment and update, then a last assignment (and
+//! its update: the states a next frame starts from); empty clusters are dropped and the rest
+//! renumbered in order.
+//!
+//! **Warm start** (`--temporal on`, the paper's temporal coherence, Alg. 1 lines 8-12): the
+//! previous frame's live clusters of each map take its first slots as they were
+//! (`rsm::warm_slots`), and only the other slots are seeded, so clusters that emptied are
+//! re-seeded by the importance map of the current frame. A cluster's representative (where its
 //! light sits and its shadow rays end) is its member nearest the centre, ties to the lower index.
 
 use crate::cluster::Clustering;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 pub use vplgi_types::rsm::RsmClusterParams;
-use vplgi_types::rsm::{self, RsmLight, RsmWeights, NEIGHBOURHOOD};
+use vplgi_types::rsm::{self, RsmCentre, RsmLight, RsmWeights, NEIGHBOURHOOD};
 use vplgi_types::rsm_importance;
 use vplgi_types::{Vpl, MISS};
 
@@ -41,6 +47,25 @@ struct State {
     chroma: Vec3,
     /// Position in the map, in texels.
     texel: Vec2,
+}
+
+impl From<RsmCentre> for State {
+    fn from(c: RsmCentre) -> State {
+        State { centre: c.centre.into(), normal: c.normal.into(), chroma: c.chroma.into(), texel: Vec2::new(c.texel_x, c.texel_y) }
+    }
+}
+
+impl State {
+    fn centre_of(&self, map: u32) -> RsmCentre {
+        RsmCentre {
+            centre: self.centre.to_array(),
+            texel_x: self.texel.x,
+            normal: self.normal.to_array(),
+            texel_y: self.texel.y,
+            chroma: self.chroma.to_array(),
+            map,
+        }
+    }
 }
 
 /// One map's VPLs and clusters.
@@ -153,9 +178,24 @@ fn vpl_at_or_after(vpls: &[Vpl], map: &RsmLight, t: u32) -> usize {
 /// Clusters `vpls` (from `rsm_vpls`, in texel order) of the maps `maps` in RSM space, its seeds
 /// warped by `importance` (`rsm_importance`, one value per texel of the maps) if given.
 pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, importance: Option<&[f32]>) -> Clustering {
+    rsm_cluster_from(vpls, maps, params, importance, None).clustering
+}
+
+/// A clustering and what a next frame starts from.
+pub struct RsmClusters {
+    pub clustering: Clustering,
+    /// The live clusters' states after the last update, map by map.
+    pub centres: Vec<RsmCentre>,
+    /// Slots started from `previous` clusters, and slots seeded.
+    pub kept: u32,
+    pub fresh: u32,
+}
+
+/// [`rsm_cluster`], warm-started from the `previous` frame's live clusters if given.
+pub fn rsm_cluster_from(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, importance: Option<&[f32]>, previous: Option<&[RsmCentre]>) -> RsmClusters {
     let empty = Clustering { f: 1, ..Default::default() };
     if vpls.is_empty() || params.k == 0 || maps.is_empty() {
-        return empty;
+        return RsmClusters { clustering: empty, centres: Vec::new(), kept: 0, fresh: 0 };
     }
     // The VPLs of each map: contiguous, since both are in texel order.
     let mut ranges = Vec::with_capacity(maps.len());
@@ -167,21 +207,24 @@ pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, i
     let per_map = rsm::clusters_per_map(&ranges.iter().map(|r| r.len() as u32).collect::<Vec<_>>(), params.k);
     let inv_extent = 1.0 / params.extent.max(f32::MIN_POSITIVE);
     let w = params.weights;
+    let warm = rsm::warm_slots(previous.unwrap_or(&[]), &per_map);
 
     // Each map on its own; labels local to the map.
     let results: Vec<(Vec<u32>, Vec<State>, Vec<u32>)> = maps
         .iter()
         .zip(&ranges)
         .zip(&per_map)
-        .map(|((map, range), &k)| {
+        .zip(&warm)
+        .map(|(((map, range), &k), warm)| {
             let vpls = &vpls[range.clone()];
             if k == 0 {
                 return (Vec::new(), Vec::new(), Vec::new());
             }
             let grid = ((k as f64).sqrt().ceil() as i32).max(1);
             let mut mc = MapClusters { vpls, map, grid, states: Vec::with_capacity(k as usize) };
-            let weights = importance.map(|imp| rsm_importance::map_weights(&imp[map.first as usize..(map.first + map.size * map.size) as usize], map.size));
-            for s in 1..=k {
+            let weights = importance.map(|imp| rsm_importance::map_weights(&imp[map.first as usize..(map.first + map.size * map.size) as usize], map.size, k));
+            mc.states.extend(warm.iter().map(|c| State::from(*c)));
+            for s in warm.len() as u32 + 1..=k {
                 let warped = weights.as_ref().and_then(|(q, rows)| rsm_importance::warp(s, map.size, q, rows));
                 let (x, y) = warped.unwrap_or_else(|| rsm::halton_texel(s, map.size));
                 let t = y * map.size + x;
@@ -206,7 +249,8 @@ pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, i
     let mut out = Clustering { f: 1, ..empty };
     out.labels = vec![MISS; vpls.len()];
     out.weights = vec![1.0; vpls.len()];
-    for ((labels, states, counts), range) in results.iter().zip(&ranges) {
+    let mut centres = Vec::new();
+    for (m, ((labels, states, counts), range)) in results.iter().zip(&ranges).enumerate() {
         let mut remap = vec![MISS; states.len()];
         for (j, s) in states.iter().enumerate() {
             if counts[j] > 0 {
@@ -215,6 +259,7 @@ pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, i
                 out.normals.push(s.normal);
                 out.members.push(counts[j]);
                 out.representatives.push(MISS);
+                centres.push(s.centre_of(m as u32));
             }
         }
         let mut best = vec![f32::INFINITY; out.positions.len()];
@@ -228,7 +273,8 @@ pub fn rsm_cluster(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterParams, i
             }
         }
     }
-    out
+    let kept = warm.iter().map(|w| w.len() as u32).sum::<u32>();
+    RsmClusters { clustering: out, centres, kept, fresh: per_map.iter().sum::<u32>() - kept }
 }
 
 #[cfg(test)]
@@ -348,6 +394,28 @@ mod tests {
         assert!(on_floor(&warped) >= 13, "{} of {} clusters on the floor", on_floor(&warped), warped.k());
         assert!(on_floor(&plain) <= 10, "{} of {} clusters on the floor without importance", on_floor(&plain), plain.k());
         assert_eq!(warped.members.iter().sum::<u32>(), vpls.len() as u32);
+    }
+
+    /// A converged clustering is a fixed point of the warm start: started from its own centres
+    /// with no iteration, the next frame keeps every cluster, seeds none and labels every VPL
+    /// alike. Slots the previous frame does not fill are seeded: a previous frame of 5 live
+    /// clusters in a map of 16 slots keeps 5 and seeds 11, and centres of maps that no longer
+    /// exist are ignored.
+    #[test]
+    fn warm_start_keeps_converged_clusters_and_seeds_the_rest() {
+        let (vpls, map) = two_walls(32);
+        let cold = rsm_cluster_from(&vpls, &[map], &RsmClusterParams { iterations: 40, ..params(16) }, None, None);
+        assert_eq!((cold.kept, cold.fresh), (0, 16));
+        assert_eq!(cold.centres.len(), cold.clustering.k());
+        let warm = rsm_cluster_from(&vpls, &[map], &RsmClusterParams { iterations: 0, ..params(16) }, None, Some(&cold.centres));
+        assert_eq!((warm.kept, warm.fresh), (cold.clustering.k() as u32, 16 - cold.clustering.k() as u32));
+        assert_eq!(warm.clustering.labels, cold.clustering.labels);
+        assert_eq!(warm.centres, cold.centres);
+
+        let mut few = cold.centres[..5].to_vec();
+        few.push(RsmCentre { map: 3, ..cold.centres[0] });
+        let partial = rsm_cluster_from(&vpls, &[map], &params(16), None, Some(&few));
+        assert_eq!((partial.kept, partial.fresh), (5, 11));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use std::ops::Range;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, TraceParams};
 
@@ -29,6 +29,17 @@ pub struct ClusterCounts {
     /// Started warm: the previous centres kept and the new clusters seeded.
     pub kept: u32,
     pub fresh: u32,
+}
+
+/// How `rsm_cluster` starts.
+#[derive(Clone, Copy)]
+pub struct RsmStart<'a, S> {
+    /// The importance map its seeds are warped by (`--rsm-seeding importance`).
+    pub importance: Option<&'a S>,
+    /// The previous frame's live clusters (`--temporal on`): they keep their slots.
+    pub previous: Option<&'a [RsmCentre]>,
+    /// Return the live clusters' states, for the next frame.
+    pub carry: bool,
 }
 
 /// Shading points of the camera samples `first .. first + count`.
@@ -163,15 +174,16 @@ pub trait Backend {
     fn rsm_importance(&self, vpls: &Self::Vpls, n: u32, rsm_size: u32, hits: &Self::Hits, samples: &[u32], d_min: f32) -> Result<Self::Scalars, Self::Error>;
 
     /// Stage 3 with `--vpl-cluster rsm`: the `n` VPLs of `rsm_vpls` (maps of budget `rsm_size`)
-    /// clustered in reflective-shadow-map space, seeded by `importance` if given.
+    /// clustered in reflective-shadow-map space, started as `start` says; with `start.carry`,
+    /// also the live clusters' states for the next frame (empty otherwise).
     fn rsm_cluster(
         &self,
         vpls: &Self::Vpls,
         n: u32,
         rsm_size: u32,
         params: &RsmClusterParams,
-        importance: Option<&Self::Scalars>,
-    ) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+        start: RsmStart<'_, Self::Scalars>,
+    ) -> Result<(Self::Clustering, ClusterCounts, Vec<RsmCentre>), Self::Error>;
 
     /// Each cluster's representative member, as surface points.
     fn representatives(&self, clustering: &Self::Clustering, k: u32, points: &Self::Points, n: u32) -> Result<Self::Points, Self::Error>;

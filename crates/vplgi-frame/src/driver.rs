@@ -1,12 +1,13 @@
 //! The frame, written once over [`Backend`]: which stages run in which variant, how work is cut
 //! into chunks that fit the backend, and what is timed and counted.
 
-use crate::backend::{Backend, LightSet, SampleChunk, ShadeInput, ShadeVisibility};
+use crate::backend::{Backend, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility};
 use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
 use std::ops::Range;
 use std::time::Instant;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
+use vplgi_types::rsm::RsmCentre;
 use vplgi_types::rsm_importance;
 use vplgi_types::{Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
 
@@ -16,7 +17,7 @@ pub const ROW_CHUNK_BITS: u64 = 64 << 23;
 
 /// Renders one frame from the scene's camera.
 pub fn render<B: Backend>(b: &B, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_from(b, cfg, &View { camera: b.camera(), previous: None }, progress)
+    render_from(b, cfg, &View { camera: b.camera(), previous: None, previous_rsm: None }, progress)
 }
 
 /// Where a frame of a sequence is seen from, and what it carries over from the frame before.
@@ -25,6 +26,8 @@ pub struct View<'a> {
     pub camera: Camera,
     /// With `--temporal on`: the previous frame's [`Frame::centres`].
     pub previous: Option<&'a [Centre]>,
+    /// With `--temporal on`: the previous frame's [`Frame::rsm_centres`].
+    pub previous_rsm: Option<&'a [RsmCentre]>,
 }
 
 /// Renders one frame of a sequence.
@@ -46,7 +49,7 @@ fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl Fn
 /// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
 /// tiles; clustered frames cannot be (their clusters depend on the whole image).
 pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_view(b, cfg, &View { camera: b.camera(), previous: None }, rows, progress)
+    render_view(b, cfg, &View { camera: b.camera(), previous: None, previous_rsm: None }, rows, progress)
 }
 
 fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
@@ -91,7 +94,7 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     // Only surface hits take part in clustering, visibility and shading. Lights are one per VPL
     // cluster or one per VPL; shading points are clustered or each their own visibility row.
     progress.start(Stage::Cluster.name(), 1);
-    let mut centres = Vec::new();
+    let (mut centres, mut rsm_centres) = (Vec::new(), Vec::new());
     let (hits, n_hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
         let (hits, n_hits) = b.compact_hits(&chunks, n_samples)?;
         stats.shading_point_hits = n_hits;
@@ -107,7 +110,11 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
                             Some(b.rsm_importance(&vpls, n_vpls, cfg.rsm_size, &hits, &samples, rsm_importance::D_MIN_REL * extent)?)
                         }
                     };
-                    b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), importance.as_ref())?
+                    let temporal = cfg.temporal == Temporal::On;
+                    let start = RsmStart { importance: importance.as_ref(), previous: view.previous_rsm.filter(|_| temporal), carry: temporal };
+                    let (c, k, carried) = b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), start)?;
+                    (stats.vpl_kept, stats.vpl_fresh, rsm_centres) = (k.kept, k.fresh, carried);
+                    (c, k)
                 }
             };
             (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
@@ -237,7 +244,7 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     let vis_ms = t.get(Stage::Visibility);
     stats.visibility_rays = rays;
     stats.visibility_mrays_per_s = rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
-    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats, centres })
+    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats, centres, rsm_centres })
 }
 
 /// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).

@@ -5,6 +5,7 @@ use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 use vplgi_types::clustering::Centre;
+use vplgi_types::rsm::RsmCentre;
 
 /// The stages of a frame, in pipeline order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -173,6 +174,12 @@ pub struct FrameStats {
     pub sp_kept: u32,
     #[serde(default)]
     pub sp_fresh: u32,
+    /// `--temporal on` with `--vpl-cluster rsm` after the first frame: the previous frame's VPL
+    /// clusters kept, and the slots seeded anew (those that emptied or were never filled).
+    #[serde(default)]
+    pub vpl_kept: u32,
+    #[serde(default)]
+    pub vpl_fresh: u32,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.
@@ -185,6 +192,8 @@ pub struct Frame {
     pub stats: FrameStats,
     /// With `--temporal on`: the shading-point clusters, for the next frame (empty otherwise).
     pub centres: Vec<Centre>,
+    /// With `--temporal on` and `--vpl-cluster rsm`: the live VPL clusters, for the next frame.
+    pub rsm_centres: Vec<RsmCentre>,
 }
 
 /// Why a frame could not be rendered, before any backend work.

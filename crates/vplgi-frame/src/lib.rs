@@ -14,7 +14,7 @@ mod driver;
 mod frame;
 mod report;
 
-pub use backend::{Backend, ClusterCounts, LightSet, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+pub use backend::{Backend, ClusterCounts, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 pub use driver::{render, render_from, render_rows, View, ROW_CHUNK_BITS};
 pub use frame::{Frame, FrameError, FrameStats, NoProgress, Progress, Stage, StageTimings};
 pub use report::{Adapter, Clusters, GClamp, KernelTime, Outputs, Report, SceneInfo, Setup};

@@ -23,12 +23,12 @@ use crate::visibility::{words_per_row, Endpoint, VisibilityKernel};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
-use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::rsm::RsmClusterParams;
+use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
@@ -325,10 +325,10 @@ impl Backend for GpuBackend<'_> {
         n: u32,
         rsm_size: u32,
         params: &RsmClusterParams,
-        importance: Option<&wgpu::Buffer>,
-    ) -> Result<(GpuClustering, ClusterCounts), GpuError> {
-        let (c, k) = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params, importance)?;
-        Ok((c, ClusterCounts { k, ..Default::default() }))
+        start: RsmStart<'_, wgpu::Buffer>,
+    ) -> Result<(GpuClustering, ClusterCounts, Vec<RsmCentre>), GpuError> {
+        let r = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params, start)?;
+        Ok((r.clustering, ClusterCounts { k: r.k, kept: r.kept, fresh: r.fresh, ..Default::default() }, r.centres))
     }
 
     fn representatives(&self, c: &GpuClustering, k: u32, points: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {

@@ -14,7 +14,9 @@ use crate::shader::pipelines;
 use crate::trace_vpls::GpuVpls;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use vplgi_types::rsm::{self, RsmClusterParams, RsmLight};
+use vplgi_frame::RsmStart;
+use vplgi_types::rsm::{self, RsmCentre, RsmClusterParams, RsmLight};
+use vplgi_types::rsm_importance;
 use vplgi_types::Endpoint;
 
 #[repr(C)]
@@ -47,16 +49,16 @@ pub(crate) struct MapInfo {
     pub(crate) pad: u32,
 }
 
-/// `ClusterState` of `rsm_cluster.wgsl` (centre, texel x, normal, texel y, chroma, map).
-#[repr(C)]
-#[derive(Clone, Copy, Default, Pod, Zeroable)]
-pub(crate) struct ClusterState {
-    pub(crate) centre: [f32; 3],
-    pub(crate) texel_x: f32,
-    pub(crate) normal: [f32; 3],
-    pub(crate) texel_y: f32,
-    pub(crate) chroma: [f32; 3],
-    pub(crate) map: u32,
+/// A clustering on the device and what a next frame starts from.
+pub struct GpuRsmClusters {
+    pub clustering: GpuClustering,
+    /// Clusters kept (non-empty).
+    pub k: u32,
+    /// With `start.carry`: the live clusters' states after the last update (empty otherwise).
+    pub centres: Vec<RsmCentre>,
+    /// Slots started from the previous frame's clusters, and slots seeded.
+    pub kept: u32,
+    pub fresh: u32,
 }
 
 pub struct RsmClusterKernel {
@@ -64,6 +66,7 @@ pub struct RsmClusterKernel {
     importance_max: wgpu::ComputePipeline,
     importance_rows: wgpu::ComputePipeline,
     importance_cumulate: wgpu::ComputePipeline,
+    importance_cap: wgpu::ComputePipeline,
     seed: wgpu::ComputePipeline,
     grid_count: wgpu::ComputePipeline,
     grid_fill: wgpu::ComputePipeline,
@@ -87,6 +90,7 @@ impl RsmClusterKernel {
                 "importance_max",
                 "importance_rows",
                 "importance_cumulate",
+                "importance_cap",
                 "seed",
                 "grid_count",
                 "grid_fill",
@@ -106,6 +110,7 @@ impl RsmClusterKernel {
                 importance_max: next(),
                 importance_rows: next(),
                 importance_cumulate: next(),
+                importance_cap: next(),
                 seed: next(),
                 grid_count: next(),
                 grid_fill: next(),
@@ -123,7 +128,8 @@ impl RsmClusterKernel {
     }
 
     /// Clusters the `n` VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order), seeded
-    /// through `importance` (`rsm_importance`, one value per texel) if given.
+    /// through `start.importance` (`rsm_importance`, one value per texel) if given, the previous
+    /// frame's live clusters `start.previous` keeping their slots.
     #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
@@ -133,8 +139,9 @@ impl RsmClusterKernel {
         n: u32,
         maps: &[RsmLight],
         p: &RsmClusterParams,
-        importance: Option<&wgpu::Buffer>,
-    ) -> Result<(GpuClustering, u32), GpuError> {
+        start: RsmStart<'_, wgpu::Buffer>,
+    ) -> Result<GpuRsmClusters, GpuError> {
+        let importance = start.importance;
         let empty = || GpuClustering {
             centroids: storage_zeroed::<Endpoint>(device, "rsm centroids", 1),
             k: 0,
@@ -146,8 +153,9 @@ impl RsmClusterKernel {
             kept: 0,
             fresh: 0,
         };
+        let none = |clustering| GpuRsmClusters { clustering, k: 0, centres: Vec::new(), kept: 0, fresh: 0 };
         if n == 0 || p.k == 0 || maps.is_empty() {
-            return Ok((empty(), 0));
+            return Ok(none(empty()));
         }
         let m = maps.len() as u32;
         let groups = |count: u32| count.div_ceil(64);
@@ -184,11 +192,23 @@ impl RsmClusterKernel {
             rows += maps[i].size;
         }
         if k == 0 {
-            return Ok((empty(), 0));
+            return Ok(none(empty()));
         }
         params.k = k;
+        // The previous frame's live clusters fill each map's first slots; the seed kernel leaves
+        // those (live = 1) and seeds the rest.
+        let warm = rsm::warm_slots(start.previous.unwrap_or(&[]), &per_map);
+        let (mut initial, mut live) = (vec![RsmCentre::default(); k as usize], vec![0u32; k as usize]);
+        for (info, slots) in info.iter().zip(&warm) {
+            for (s, c) in slots.iter().enumerate() {
+                initial[info.cluster_first as usize + s] = *c;
+                live[info.cluster_first as usize + s] = 1;
+            }
+        }
+        let kept_slots = warm.iter().map(|w| w.len() as u32).sum::<u32>();
         let info = storage(device, "rsm map info", &info);
-        let states = storage_zeroed::<ClusterState>(device, "rsm cluster states", k as usize);
+        let states = storage(device, "rsm cluster states", &initial);
+        let live = storage(device, "rsm live slots", &live);
         let counts = storage_zeroed::<u32>(device, "rsm counts", cells.max(k) as usize + 1);
         let offsets = storage_zeroed::<u32>(device, "rsm offsets", n.max(cells).max(k) as usize + 1);
         let labels = storage_zeroed::<u32>(device, "rsm labels", n as usize);
@@ -204,26 +224,29 @@ impl RsmClusterKernel {
         // Each map's importance as integer weights summed by rows (Alg. 1 lines 5-7), then the
         // seeds. Without a map, one-word stand-ins keep the seed kernel's bindings filled.
         let map_max = storage_zeroed::<u32>(device, "rsm importance max", m as usize);
+        let map_cap = storage(device, "rsm importance cap", &vec![u32::MAX; m as usize]);
         let row_sums = storage_zeroed::<u32>(device, "rsm importance rows", if importance.is_some() { rows as usize } else { 1 });
         let none = storage_zeroed::<f32>(device, "rsm no importance", 1);
         let imp = importance.unwrap_or(&none);
         validated(device, "rsm_cluster seed", || {
             if importance.is_some() {
                 dispatch_bound(device, queue, &self.importance_max, &[(0, &pb), (2, &info), (3, vb), (16, imp), (17, &map_max)], groups(n));
-                dispatch_bound(
-                    device,
-                    queue,
-                    &self.importance_rows,
-                    &[(0, &pb), (1, &map_buf), (2, &info), (16, imp), (17, &map_max), (18, &row_sums)],
-                    groups(rows),
-                );
-                dispatch_bound(device, queue, &self.importance_cumulate, &[(0, &pb), (1, &map_buf), (2, &info), (18, &row_sums)], groups(m));
+                let row_pass = || {
+                    let b = [(0, &pb), (1, &map_buf), (2, &info), (16, imp), (17, &map_max), (18, &row_sums), (20, &map_cap)];
+                    dispatch_bound(device, queue, &self.importance_rows, &b, groups(rows));
+                    dispatch_bound(device, queue, &self.importance_cumulate, &[(0, &pb), (1, &map_buf), (2, &info), (18, &row_sums)], groups(m));
+                };
+                for _ in 0..rsm_importance::CAP_PASSES {
+                    row_pass();
+                    dispatch_bound(device, queue, &self.importance_cap, &[(0, &pb), (1, &map_buf), (2, &info), (18, &row_sums), (20, &map_cap)], groups(m));
+                }
+                row_pass();
             }
             dispatch_bound(
                 device,
                 queue,
                 &self.seed,
-                &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states), (16, imp), (17, &map_max), (18, &row_sums)],
+                &[(0, &pb), (1, &map_buf), (2, &info), (3, vb), (4, &states), (16, imp), (17, &map_max), (18, &row_sums), (19, &live), (20, &map_cap)],
                 groups(k),
             );
         })?;
@@ -279,6 +302,14 @@ impl RsmClusterKernel {
             })?;
         }
 
+        // The states a next frame starts from: those of clusters with members, map by map.
+        let centres = if start.carry {
+            let states: Vec<RsmCentre> = read_back(device, queue, &states, k as usize)?;
+            let runs: Vec<[u32; 2]> = read_back(device, queue, &ranges, k as usize)?;
+            states.into_iter().zip(runs).filter(|(_, r)| r[1] > r[0]).map(|(s, _)| s).collect()
+        } else {
+            Vec::new()
+        };
         // Representatives, then the kept clusters renumbered.
         let order = &sorted[sorted_at];
         validated(device, "rsm_cluster representatives", || {
@@ -315,6 +346,6 @@ impl RsmClusterKernel {
             kept: 0,
             fresh: 0,
         };
-        Ok((clustering, kept))
+        Ok(GpuRsmClusters { clustering, k: kept, centres, kept: kept_slots, fresh: k - kept_slots })
     }
 }

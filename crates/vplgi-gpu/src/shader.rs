@@ -537,7 +537,7 @@ mod tests {
             [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows }
             [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first, row_first }
             [crate::rsm_importance::Params] "rsm_importance.wgsl" "Params" { n, count, d_min2 }
-            [crate::rsm_cluster::ClusterState] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
+            [vplgi_types::rsm::RsmCentre] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
         };
         for row in table {
             let (size, members) = wgsl_layout(row.stage, row.wgsl);

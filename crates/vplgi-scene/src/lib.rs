@@ -157,6 +157,20 @@ impl PunctualLight {
         }
     }
 
+    /// The light turned by `rotation` about `pivot`: positions move, directions turn.
+    pub fn turned(&self, rotation: glam::Quat, pivot: Vec3) -> PunctualLight {
+        let mut l = self.clone();
+        match &mut l {
+            PunctualLight::Point { position, .. } => *position = pivot + rotation * (*position - pivot),
+            PunctualLight::Spot { position, direction, .. } => {
+                *position = pivot + rotation * (*position - pivot);
+                *direction = rotation * *direction;
+            }
+            PunctualLight::Directional { direction, .. } => *direction = rotation * *direction,
+        }
+        l
+    }
+
     /// Where the light is; `None` for a directional light, which is at infinity.
     pub fn position(&self) -> Option<Vec3> {
         match *self {
@@ -200,6 +214,14 @@ impl Scene {
     }
 
     /// Axis-aligned bounds of all vertices referenced by triangles, and of the punctual lights.
+    /// The scene with its punctual lights turned by `degrees` about the vertical (y) axis through
+    /// the centre of its bounds (`vplgi render --light-orbit`).
+    pub fn with_lights_turned(&self, degrees: f32) -> Scene {
+        let (lo, hi) = self.bounds();
+        let turn = glam::Quat::from_rotation_y(degrees.to_radians());
+        Scene { lights: self.lights.iter().map(|l| l.turned(turn, 0.5 * (lo + hi))).collect(), ..self.clone() }
+    }
+
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut min = Vec3::splat(f32::INFINITY);
         let mut max = Vec3::splat(f32::NEG_INFINITY);
@@ -377,5 +399,41 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--light-orbit`: a quarter turn about the vertical axis through the bounds' centre moves a
+    /// point light around that axis, turns a sun's and a spot's directions the same way (+x to
+    /// -z, counter-clockwise seen from above) and keeps everything else.
+    #[test]
+    fn lights_turn_about_the_vertical_axis_through_the_centre() {
+        let mut scene = cornell::cornell_box();
+        let (lo, hi) = scene.bounds();
+        let c = 0.5 * (lo + hi);
+        scene.lights = vec![
+            PunctualLight::Point { position: c + Vec3::new(1.0, 0.5, 0.0), intensity: Vec3::ONE },
+            PunctualLight::Directional { direction: Vec3::new(1.0, -1.0, 0.0).normalize(), irradiance: Vec3::ONE },
+            PunctualLight::Spot { position: c, direction: Vec3::X, intensity: Vec3::ONE, cos_inner: 0.9, cos_outer: 0.8 },
+        ];
+        let turned = scene.with_lights_turned(90.0);
+        let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+        match (&turned.lights[0], &turned.lights[1], &turned.lights[2]) {
+            (
+                PunctualLight::Point { position, .. },
+                PunctualLight::Directional { direction: d, .. },
+                PunctualLight::Spot { position: sp, direction: sd, cos_outer, .. },
+            ) => {
+                assert!(close(*position, c + Vec3::new(0.0, 0.5, -1.0)), "{position}");
+                assert!(close(*d, Vec3::new(0.0, -1.0, -1.0).normalize()), "{d}");
+                assert!(close(*sp, c) && close(*sd, Vec3::NEG_Z) && *cos_outer == 0.8);
+            }
+            other => panic!("light kinds changed: {other:?}"),
+        }
+        assert_eq!(turned.indices, scene.indices);
+        assert_eq!(scene.with_lights_turned(0.0).lights, scene.lights);
     }
 }

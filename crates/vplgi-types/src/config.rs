@@ -171,7 +171,9 @@ pub enum Temporal {
     Off,
     /// Wang et al. 2009: the previous frame's clusters that still admit a shading point are kept
     /// (each admits points up to its members' largest error), new clusters are seeded where
-    /// none does, and the iterations start from both ([`crate::temporal`]).
+    /// none does, and the iterations start from both ([`crate::temporal`]). With
+    /// `VplClustering::Rsm`, Prutkin et al.'s warm start too: the previous frame's live RSM
+    /// clusters start the next frame's, and only the slots of clusters that emptied are seeded.
     On,
 }
 
@@ -530,9 +532,10 @@ impl FrameConfig {
             // Eq. 2 with alpha = 0 ignores positions: a cluster could span the whole scene.
             return Err(format!("alpha must be a finite number > 0 (got {})", self.alpha));
         }
-        if self.temporal == Temporal::On && !self.cluster.clusters_sps() {
+        let rsm_clusters = self.cluster.clusters_vpls() && self.vpl_cluster == VplClustering::Rsm;
+        if self.temporal == Temporal::On && !self.cluster.clusters_sps() && !rsm_clusters {
             return Err(format!(
-                "temporal on carries shading-point clusters between frames: use --cluster sp or both (got {})",
+                "temporal on carries shading-point clusters (--cluster sp or both) or RSM clusters (--cluster vpl or both with --vpl-cluster rsm) between frames (got --cluster {})",
                 format!("{:?}", self.cluster).to_lowercase()
             ));
         }

@@ -267,6 +267,36 @@ pub struct RsmClusterParams {
     pub extent: f32,
 }
 
+/// One RSM-space cluster's state (`rsm_cluster`): its flux-weighted centre and normal, the
+/// chroma of its flux, its position in its map (texels) and the map's index. Carried from frame
+/// to frame with `--temporal on` (the paper's warm start), and the same bytes as
+/// `ClusterState` in `rsm_cluster.wgsl` (three `vec4`s).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RsmCentre {
+    pub centre: [f32; 3],
+    pub texel_x: f32,
+    pub normal: [f32; 3],
+    pub texel_y: f32,
+    pub chroma: [f32; 3],
+    pub map: u32,
+}
+
+/// Where each map's clusters start: `previous`'s live clusters of map m (in their order) fill
+/// its first slots, at most `k[m]` of them; the other slots are seeded. Returns, per map, the
+/// states of its first slots.
+pub fn warm_slots(previous: &[RsmCentre], k: &[u32]) -> Vec<Vec<RsmCentre>> {
+    let mut slots: Vec<Vec<RsmCentre>> = vec![Vec::new(); k.len()];
+    for c in previous {
+        if let Some(s) = slots.get_mut(c.map as usize) {
+            if (s.len() as u32) < k[c.map as usize] {
+                s.push(*c);
+            }
+        }
+    }
+    slots
+}
+
 /// How far (in grid cells, Chebyshev) a VPL looks for clusters: the paper's r = 2.
 pub const NEIGHBOURHOOD: i32 = 2;
 

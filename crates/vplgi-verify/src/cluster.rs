@@ -10,11 +10,12 @@ use crate::tolerance::{
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, cluster_from, update, ClusterParams, Grid};
+use vplgi_frame::RsmStart;
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel, GpuClustering};
 use vplgi_gpu::seeding::GpuImageHits;
 use vplgi_types::clustering::{fuzzy_weights, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
-use vplgi_types::rsm::RsmLight;
+use vplgi_types::rsm::{RsmCentre, RsmClusterParams, RsmLight};
 use vplgi_types::rsm_importance;
 use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, RsmSeeding, Seeding, Vpl, MISS};
 
@@ -333,7 +334,7 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
 /// (the assignment row) and the largest distance between the two backends' centres over the
 /// scene's diagonal (the update row, 1e-6 relative).
 pub fn compare_rsm(twins: &Twins, frame: &CpuFrame, cfg: &FrameConfig) -> Result<Vec<Disagreement>, VerifyError> {
-    let (device, queue) = (twins.device(), twins.queue());
+    let device = twins.device();
     let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls;
     if vpls.is_empty() {
         return Ok(Vec::new());
@@ -351,44 +352,79 @@ pub fn compare_rsm(twins: &Twins, frame: &CpuFrame, cfg: &FrameConfig) -> Result
             Some(importance)
         }
     };
-    let cpu = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, importance.as_deref());
     let gpu_importance = importance.as_ref().map(|i| storage(device, "rsm importance", i));
-    let (g, kept) = twins.gpu.kernels().rsm_cluster.run(device, queue, &gv, n, &maps, &params, gpu_importance.as_ref())?;
-    let labels: Vec<u32> = read_back(device, queue, &g.labels, vpls.len())?;
-    let centres: Vec<Endpoint> = read_back(device, queue, &g.centroids, kept as usize)?;
-    let same = (0..vpls.len()).filter(|&i| labels[i] == cpu.hard_label(i)).count();
-    let first_other =
-        (0..vpls.len()).find(|&i| labels[i] != cpu.hard_label(i)).map(|i| format!("VPL {i}: CPU cluster {}, GPU cluster {}", cpu.hard_label(i), labels[i]));
-    let mut worst = (0.0f64, None);
-    for (j, (a, b)) in cpu.positions.iter().zip(&centres).enumerate() {
-        let d = (a.distance(Vec3::from(b.position)) / twins.cpu.extent) as f64;
-        if d > worst.0 || d.is_nan() {
-            worst = (d, Some(format!("cluster {j}: CPU {}, GPU {}", v3(a.to_array()), v3(b.position))));
-        }
-    }
     let w = cfg.rsm_weights;
     let seeds = match cfg.rsm_seeding {
         RsmSeeding::Halton => "Halton seeds",
         RsmSeeding::Importance => "seeds warped by the CPU's importance map",
     };
-    let case = format!(
-        "--rsm-size {}: {} VPLs, K = {} ({} kept on the CPU, {kept} on the GPU), weights {},{},{}, {seeds}",
-        cfg.rsm_size,
-        count(vpls.len()),
-        cfg.k_vpl,
-        cpu.k(),
-        w.position,
-        w.normal,
-        w.flux
-    );
-    checks.extend([
-        Disagreement::at_least("cluster (rsm)", "share of VPLs in the same cluster", same as f64 / vpls.len() as f64, ASSIGN_SAME_LABELS)
-            .with_case(&case)
-            .with_worst(first_other),
-        Disagreement::at_most("cluster (rsm)", "clusters kept, |CPU - GPU|", cpu.k().abs_diff(kept as usize) as f64, 0.0).with_case(&case),
-        Disagreement::at_most("cluster (rsm)", "largest centre distance over the scene diagonal", worst.0, RSM_UPDATE_REL).with_case(&case).with_worst(worst.1),
-    ]);
+    let setup = format!("--rsm-size {}: {} VPLs, K = {}, weights {},{},{}, {seeds}", cfg.rsm_size, count(vpls.len()), cfg.k_vpl, w.position, w.normal, w.flux);
+    let rsm = RsmTwins {
+        twins,
+        vpls: &vpls,
+        gpu_vpls: &gv,
+        maps: &maps,
+        params: &params,
+        importance: importance.as_deref(),
+        gpu_importance: gpu_importance.as_ref(),
+    };
+    let (cold, cold_checks) = rsm.compare("cluster (rsm)", None, &setup)?;
+    checks.extend(cold_checks);
+    // The warm start (--temporal on) from the CPU's clusters with every other one dropped, so
+    // that kept slots and re-seeded slots both occur.
+    let previous: Vec<RsmCentre> = cold.iter().step_by(2).copied().collect();
+    let warm_setup = format!("{setup}, warm from {} of the CPU's {} clusters", previous.len(), cold.len());
+    checks.extend(rsm.compare("cluster (rsm, warm)", Some(&previous), &warm_setup)?.1);
     Ok(checks)
+}
+
+/// One RSM clustering's inputs on both backends.
+struct RsmTwins<'a> {
+    twins: &'a Twins<'a>,
+    vpls: &'a [Vpl],
+    gpu_vpls: &'a vplgi_gpu::trace_vpls::GpuVpls,
+    maps: &'a [RsmLight],
+    params: &'a RsmClusterParams,
+    importance: Option<&'a [f32]>,
+    gpu_importance: Option<&'a wgpu::Buffer>,
+}
+
+impl RsmTwins<'_> {
+    /// Both backends' clustering from `previous` (cold if `None`): the CPU's live clusters, and
+    /// the checks under `stage`.
+    fn compare(&self, stage: &str, previous: Option<&[RsmCentre]>, setup: &str) -> Result<(Vec<RsmCentre>, Vec<Disagreement>), VerifyError> {
+        let (device, queue) = (self.twins.device(), self.twins.queue());
+        let cpu = vplgi_cpu::rsm_cluster::rsm_cluster_from(self.vpls, self.maps, self.params, self.importance, previous);
+        let start = RsmStart { importance: self.gpu_importance, previous, carry: true };
+        let g = self.twins.gpu.kernels().rsm_cluster.run(device, queue, self.gpu_vpls, self.vpls.len() as u32, self.maps, self.params, start)?;
+        let labels: Vec<u32> = read_back(device, queue, &g.clustering.labels, self.vpls.len())?;
+        let c = &cpu.clustering;
+        let same = (0..labels.len()).filter(|&i| labels[i] == c.hard_label(i)).count();
+        let first_other =
+            (0..labels.len()).find(|&i| labels[i] != c.hard_label(i)).map(|i| format!("VPL {i}: CPU cluster {}, GPU cluster {}", c.hard_label(i), labels[i]));
+        // Centres: the kept clusters' and the states carried to a next frame.
+        let centres: Vec<Endpoint> = read_back(device, queue, &g.clustering.centroids, g.k as usize)?;
+        let extent = self.twins.cpu.extent;
+        let mut worst = (0.0f64, None);
+        let pairs = c.positions.iter().map(|p| p.to_array()).zip(centres.iter().map(|e| e.position));
+        let carried = cpu.centres.iter().map(|s| s.centre).zip(g.centres.iter().map(|s| s.centre));
+        for (j, (a, b)) in pairs.chain(carried).enumerate() {
+            let d = (Vec3::from(a).distance(Vec3::from(b)) / extent) as f64;
+            if d > worst.0 || d.is_nan() {
+                worst = (d, Some(format!("centre {j}: CPU {}, GPU {}", v3(a), v3(b))));
+            }
+        }
+        let case = format!("{setup} ({} kept on the CPU, {} on the GPU; slots warm {} / {}, seeded {} / {})", c.k(), g.k, cpu.kept, g.kept, cpu.fresh, g.fresh);
+        let differing_counts = c.k().abs_diff(g.k as usize) + cpu.kept.abs_diff(g.kept) as usize + cpu.centres.len().abs_diff(g.centres.len());
+        let checks = vec![
+            Disagreement::at_least(stage, "share of VPLs in the same cluster", same as f64 / labels.len() as f64, ASSIGN_SAME_LABELS)
+                .with_case(&case)
+                .with_worst(first_other),
+            Disagreement::at_most(stage, "clusters kept, slots warm and states carried, |CPU - GPU| summed", differing_counts as f64, 0.0).with_case(&case),
+            Disagreement::at_most(stage, "largest centre distance over the scene diagonal", worst.0, RSM_UPDATE_REL).with_case(&case).with_worst(worst.1),
+        ];
+        Ok((cpu.centres, checks))
+    }
 }
 
 /// `rsm_importance` of the same VPLs seen from the same G-buffer points on both backends: the
