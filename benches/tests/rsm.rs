@@ -1,5 +1,6 @@
 //! `rsm --quick` runs end to end at small sizes and writes every scene's table (each light shape
-//! at each count, with pictures) and the Table 1 timings on both backends.
+//! and the Halton-seeded exact disks at each count, with pictures), the moving-sun sequences
+//! (from scratch and warm) and the Table 1 timings on both backends with both seedings.
 
 use std::process::Command;
 
@@ -20,7 +21,7 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
         let name = sc["scene"].as_str().unwrap();
         assert!(md.contains(&format!("## {name}")), "{name} missing");
         let frames = sc["frames"].as_array().unwrap();
-        assert_eq!(frames.len(), 1 + 3 * 2, "unclustered, then three shapes at two counts");
+        assert_eq!(frames.len(), 1 + 4 * 2, "unclustered, then three shapes and the Halton-seeded disks at two counts");
         for f in frames {
             assert!(f["rel_mse"].as_f64().unwrap() > 0.0 && f["flip"].as_f64().unwrap() > 0.0, "{f}");
             let kept: Vec<f64> = f["mean_ratio"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
@@ -35,6 +36,16 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
     }
     let table = json["table_1"].as_array().unwrap();
     assert_eq!(table.len(), 3);
-    assert!(table.iter().all(|t| t["cpu_ms"].as_f64().unwrap() > 0.0 && t["gpu_ms"].as_f64().unwrap() > 0.0), "{table:?}");
+    for key in ["cpu_halton_ms", "cpu_importance_ms", "gpu_halton_ms", "gpu_importance_ms"] {
+        assert!(table.iter().all(|t| t[key].as_f64().unwrap() > 0.0), "{key}: {table:?}");
+    }
+    // The sequences: a warm start keeps clusters after the first frame, a cold one none, and
+    // both are judged against the unclustered sequence.
+    let rows = json["sequence"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    assert_eq!(rows[0]["kept"].as_f64(), Some(0.0), "from scratch keeps nothing");
+    assert!(rows[1]["kept"].as_f64().unwrap() > 0.0 && rows[2]["kept"].as_f64().unwrap() > 0.0, "{rows:?}");
+    assert!(rows.iter().all(|r| r["temporal_error"].as_f64().unwrap() > 0.0 && r["flicker"].as_f64().unwrap() > 0.0), "{rows:?}");
+    assert!(md.contains("moving sun") || md.contains("A moving sun"), "{md}");
     assert!(md.contains("Table 1") && md.contains("lavapipe"), "{md}");
 }

@@ -42,6 +42,13 @@ struct Opts {
 /// The light shapes compared, in table order.
 const SHAPES: [&str; 3] = ["point", "disk", "disk-exact"];
 
+/// The exact disks from plain Halton seeds (the other rows warp them by the importance map).
+const HALTON: &str = "disk-exact, Halton seeds";
+
+/// The moving-light sequence: frames, and how far the sun turns over them (degrees).
+const SEQUENCE_FRAMES: u32 = 12;
+const SEQUENCE_DEGREES: f32 = 30.0;
+
 /// The paper's Table 1: (map side, clusters, ms on a GTX 560 Ti, clustering with importance).
 const TABLE_1: [(u32, u32, f64); 3] = [(128, 256, 0.92), (128, 1024, 3.2), (256, 1024, 9.5)];
 
@@ -106,9 +113,10 @@ fn main() -> Result<()> {
             for shape in SHAPES {
                 runs.push((shape.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape]));
             }
+            runs.push((HALTON.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", "disk-exact", "--rsm-seeding", "halton"]));
         }
         for (light, k, extra) in runs {
-            let label = if k == 0 { light.clone() } else { format!("{light}-{k}") };
+            let label = if k == 0 { light.clone() } else { format!("{}-{k}", light.replace(", Halton seeds", "-halton")) };
             eprintln!("{}: {label}", c.name);
             let out = dir.join(&label);
             let k_vpl = k.max(1).to_string();
@@ -125,7 +133,7 @@ fn main() -> Result<()> {
                 "vpls": report["stats"]["vpls"], "clusters": report["stats"]["vpl_clusters"], "shade_ms": ms("shade"), "total_ms": ms("total"),
             }));
             // Pictures: the reference, and every light shape at the middle count with its error map.
-            if k == counts[counts.len() / 2] || k == 0 {
+            if (k == counts[counts.len() / 2] && light != HALTON) || k == 0 {
                 std::fs::copy(out.join("image.png"), docs.join(format!("{}-{label}.png", c.name)))?;
                 std::fs::copy(out.join("error_map.png"), docs.join(format!("{}-{label}-error.png", c.name)))?;
             }
@@ -144,10 +152,10 @@ fn main() -> Result<()> {
     for (size, k, paper_ms) in TABLE_1 {
         let (size, k) = if q { (size / 4, k / 8) } else { (size, k) };
         let mut row = json!({"rsm_size": size, "k": k, "paper_ms": paper_ms});
-        for backend in ["cpu", "gpu"] {
+        for (backend, seeding) in [("cpu", "halton"), ("cpu", "importance"), ("gpu", "halton"), ("gpu", "importance")] {
             let mut ms = Vec::new();
             for r in 0..3 {
-                let out = work.join("timing").join(format!("{backend}-{size}-{k}-{r}"));
+                let out = work.join("timing").join(format!("{backend}-{seeding}-{size}-{k}-{r}"));
                 let (size_s, k_s) = (size.to_string(), k.to_string());
                 vplgi(&[
                     "render",
@@ -165,10 +173,12 @@ fn main() -> Result<()> {
                     "vpl",
                     "--k-vpl",
                     &k_s,
+                    "--rsm-seeding",
+                    seeding,
                     "--width",
-                    "32",
+                    "128",
                     "--height",
-                    "32",
+                    "128",
                     "--out",
                     s(&out),
                 ])?;
@@ -176,16 +186,76 @@ fn main() -> Result<()> {
                 ms.push(report["timings_ms"]["cluster"].as_f64().context("no cluster timing in the report")?);
                 row["vpls"] = report["stats"]["vpls"].clone();
             }
-            row[format!("{backend}_ms")] = json!(median(ms));
+            row[format!("{backend}_{seeding}_ms")] = json!(median(ms));
         }
         timings.push(row);
     }
+    let sequence = moving_sun(&o, &work, q)?;
     let (date, commit) = vplgi_benches::date_and_commit()?;
-    let result = json!({"date": date, "commit": commit, "quick": q, "scenes": scenes, "table_1": timings});
+    let result = json!({"date": date, "commit": commit, "quick": q, "scenes": scenes, "table_1": timings, "sequence": sequence});
     std::fs::write(docs.join("rsm.json"), serde_json::to_string_pretty(&result)?)?;
     std::fs::write(&o.out, markdown(&result)?)?;
     eprintln!("wrote {}", o.out.display());
     Ok(())
+}
+
+/// Temporal stability along a moving light: the sun-lit room's sun turned by
+/// [`SEQUENCE_DEGREES`] over [`SEQUENCE_FRAMES`] frames (`render --frames --light-orbit`), its
+/// RSM clusters as exact disks re-clustered from scratch each frame and warm-started from the
+/// previous frame's (`--temporal on`, with the default iterations and with one, the paper's),
+/// each sequence judged against the unclustered shadow-map VPLs' sequence: the change between
+/// frames that sequence does not have (`temporal_error`), the approximation's own flicker.
+fn moving_sun(o: &Opts, work: &Path, q: bool) -> Result<Value> {
+    let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
+    let glb = work.join("scenes").join("sunlit-living-room.glb");
+    let dir = work.join("sequence");
+    let (w, h, size, k, frames) = if q { ("32", "24", "48", "32", 3) } else { ("192", "135", "256", "256", SEQUENCE_FRAMES) };
+    let (frames_s, degrees) = (frames.to_string(), SEQUENCE_DEGREES.to_string());
+    let common = [
+        "render",
+        s(&glb),
+        "--frames",
+        &frames_s,
+        "--light-orbit",
+        &degrees,
+        "--vpl-source",
+        "rsm",
+        "--bounces",
+        "1",
+        "--lighting",
+        "indirect",
+        "--rsm-size",
+        size,
+        "--width",
+        w,
+        "--height",
+        h,
+    ];
+    let reference = dir.join("unclustered");
+    eprintln!("moving sun: the unclustered sequence");
+    let mut args = common.to_vec();
+    args.extend(["--cluster", "none", "--out", s(&reference)]);
+    vplgi(&args)?;
+    let mut rows = Vec::new();
+    for (label, temporal, iterations) in [("from scratch", "off", None), ("warm start", "on", None), ("warm start, 1 iteration per frame", "on", Some("1"))] {
+        eprintln!("moving sun: {label}");
+        let out = dir.join(label.replace([' ', ','], "-"));
+        let mut args = common.to_vec();
+        args.extend(["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", "disk-exact", "--k-vpl", k, "--temporal", temporal]);
+        args.extend(["--flicker-reference", s(&reference), "--out", s(&out)]);
+        if let Some(i) = iterations {
+            args.extend(["--iterations", i]);
+        }
+        vplgi(&args)?;
+        let seq = read_json(&out.join("sequence.json"))?;
+        let f = seq["frames"].as_array().cloned().unwrap_or_default();
+        let mean = |key: &str| f.iter().skip(1).filter_map(|x| x[key].as_f64()).sum::<f64>() / (f.len().max(2) - 1) as f64;
+        rows.push(json!({
+            "label": label, "flicker": seq["flicker"], "temporal_error": seq["temporal_error"], "converged_flicker": seq["converged_flicker"],
+            "clusters": mean("vpl_clusters"), "kept": mean("vpl_kept"), "fresh": mean("vpl_fresh"), "frame_ms": mean("total_ms"),
+        }));
+    }
+    Ok(json!({"frames": frames, "degrees": SEQUENCE_DEGREES, "width": w, "height": h, "rsm_size": size, "k": k, "rows": rows}))
 }
 
 fn s(p: &Path) -> &str {
@@ -246,7 +316,7 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     writeln!(
         s,
-        "Each scene's VPLs come from one reflective shadow map per light (`--vpl-source rsm`, one bounce) and are clustered in shadow-map space with the paper's Eq. 1 (`--vpl-cluster rsm`, weights 1, 10, 0). A cluster then lights the scene as a point with the geometry-term clamp (`point`, the core paper's light), as a disk through the paper's Eq. 2 (`disk`), or as the same disk through its exact form factor (`disk-exact`); disks have no clamp. `unclustered` is every shadow-map VPL as a clamped point. Shading points are not clustered (`--cluster vpl`). Every image holds the indirect light only (`--lighting indirect`) and is compared with a converged, unbiased reference of the same scene (`vplgi reference`: path VPLs with bias compensation, its own relative standard error given below). *Light kept* is the image's mean over the reference's per channel (the mean of the three, and their range): below 1 is energy lost.\n"
+        "Each scene's VPLs come from one reflective shadow map per light (`--vpl-source rsm`, one bounce) and are clustered in shadow-map space with the paper's Eq. 1 (`--vpl-cluster rsm`, weights 1, 10, 0), from seeds warped by the bidirectional importance map (`--rsm-seeding importance`, the default; the row *disk-exact, Halton seeds* starts from the plain Halton points instead). A cluster then lights the scene as a point with the geometry-term clamp (`point`, the core paper's light), as a disk through the paper's Eq. 2 (`disk`), or as the same disk through its exact form factor (`disk-exact`); disks have no clamp. `unclustered` is every shadow-map VPL as a clamped point. Shading points are not clustered (`--cluster vpl`). Every image holds the indirect light only (`--lighting indirect`) and is compared with a converged, unbiased reference of the same scene (`vplgi reference`: path VPLs with bias compensation, its own relative standard error given below). *Light kept* is the image's mean over the reference's per channel (the mean of the three, and their range): below 1 is energy lost.\n"
     )?;
     for sc in r["scenes"].as_array().cloned().unwrap_or_default() {
         let name = sc["scene"].as_str().unwrap_or("?");
@@ -288,14 +358,57 @@ fn markdown(r: &Value) -> Result<String> {
             "| | ![](rsm/{name}-unclustered-error.png) | ![](rsm/{name}-point-{k}-error.png) | ![](rsm/{name}-disk-{k}-error.png) | ![](rsm/{name}-disk-exact-{k}-error.png) |\n"
         )?;
     }
-    writeln!(s, "## Clustering time at the paper's Table 1 sizes\n")?;
+    let sq = &r["sequence"];
+    writeln!(s, "## A moving sun: flicker of cold and warm-started clusters\n")?;
     writeln!(
         s,
-        "The Cornell box's shadow map clustered (`rsm_cluster`: Halton seeds, k-means with Eq. 1 over the 5 x 5 neighbouring cells, the sort by cluster and the update), the median stage time of three frames. vplgi seeds on the plain 2-D Halton sequence; the paper's times include its bidirectional importance map, which vplgi does not build yet.\n"
+        "The sun-lit living room ({}x{}, `--rsm-size {}`, `--k-vpl {}`, exact disks) over {} frames while its sun turns {}° about the vertical (`render --frames {} --light-orbit {}`), on the CPU. *Flicker* is the mean relative change between consecutive frames; the sun's patch of light moves, so the unclustered shadow-map VPLs change too ({}). *Temporal error* is the change a sequence has that the unclustered one does not (`--flicker-reference`): the clustering's own flicker. Warm start: each frame starts from the previous frame's live clusters and seeds only the slots of those that emptied (*kept* and *seeded*, per frame after the first).\n",
+        sq["width"].as_str().unwrap_or("?"),
+        sq["height"].as_str().unwrap_or("?"),
+        sq["rsm_size"].as_str().unwrap_or("?"),
+        sq["k"].as_str().unwrap_or("?"),
+        sq["frames"],
+        sq["degrees"],
+        sq["frames"],
+        sq["degrees"],
+        sq["rows"][0]["converged_flicker"].as_f64().map_or("?".into(), |x| format!("{:.2} %", 100.0 * x)),
     )?;
-    writeln!(s, "| map | clusters | VPLs | CPU (ms) | GPU, lavapipe (ms) | paper, GTX 560 Ti (ms) |\n|---|---:|---:|---:|---:|---:|")?;
+    writeln!(s, "| clustering | flicker | temporal error | clusters | kept | seeded | frame (ms) |\n|---|---:|---:|---:|---:|---:|---:|")?;
+    for x in sq["rows"].as_array().cloned().unwrap_or_default() {
+        writeln!(
+            s,
+            "| {} | {:.2} % | {:.3} % | {:.0} | {:.0} | {:.0} | {:.0} |",
+            x["label"].as_str().unwrap_or("?"),
+            100.0 * f(&x["flicker"]),
+            100.0 * f(&x["temporal_error"]),
+            f(&x["clusters"]),
+            f(&x["kept"]),
+            f(&x["fresh"]),
+            f(&x["frame_ms"])
+        )?;
+    }
+    writeln!(s, "\n## Clustering time at the paper's Table 1 sizes\n")?;
+    writeln!(
+        s,
+        "The Cornell box's shadow map clustered (`rsm_cluster`: k-means with Eq. 1 over the 5 x 5 neighbouring cells, the sort by cluster and the update, 10 iterations), the median `cluster` stage time of three 128 x 128 frames: from plain Halton seeds, and with the paper's bidirectional importance map (256 G-buffer pixels) built and the seeds warped by it, as the paper's Table 1 times it.\n"
+    )?;
+    writeln!(
+        s,
+        "| map | clusters | VPLs | CPU, Halton (ms) | CPU, importance (ms) | GPU, lavapipe, Halton (ms) | GPU, lavapipe, importance (ms) | paper, GTX 560 Ti (ms) |\n|---|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
     for t in r["table_1"].as_array().cloned().unwrap_or_default() {
-        writeln!(s, "| {0}² | {1} | {2} | {3:.1} | {4:.1} | {5} |", t["rsm_size"], t["k"], t["vpls"], f(&t["cpu_ms"]), f(&t["gpu_ms"]), f(&t["paper_ms"]))?;
+        writeln!(
+            s,
+            "| {0}² | {1} | {2} | {3:.1} | {4:.1} | {5:.1} | {6:.1} | {7} |",
+            t["rsm_size"],
+            t["k"],
+            t["vpls"],
+            f(&t["cpu_halton_ms"]),
+            f(&t["cpu_importance_ms"]),
+            f(&t["gpu_halton_ms"]),
+            f(&t["gpu_importance_ms"]),
+            f(&t["paper_ms"])
+        )?;
     }
     Ok(s)
 }
