@@ -95,9 +95,10 @@ verify-long: setup
 # as caught.
 MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs crates/vplgi-cpu/src/seeding.rs \
-  crates/vplgi-cpu/src/gather_radius.rs crates/vplgi-cpu/src/interpolate.rs
+  crates/vplgi-cpu/src/gather_radius.rs crates/vplgi-cpu/src/interpolate.rs crates/vplgi-cpu/src/rsm_vpls.rs crates/vplgi-cpu/src/rsm_importance.rs \
+  crates/vplgi-cpu/src/rsm_cluster.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points \
-  seeding gather_radius interpolate
+  seeding gather_radius interpolate rsm_vpls
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_TREE := target/mutants-tree
