@@ -6,7 +6,7 @@ use crate::cluster::{cluster_from, Clustering};
 use crate::gather_radius::gather_radius;
 use crate::interpolate::IrradianceSamples;
 use crate::rsm_cluster::rsm_cluster_from;
-use crate::rsm_importance::{gbuffer_points, rsm_importance};
+use crate::rsm_importance::rsm_importance;
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
 use crate::shade::{sample_irradiance, shade, vpl_lights, VisibilitySource, VplLight};
@@ -29,13 +29,14 @@ use vplgi_types::{BiasParams, Camera, CameraParams, LightShape, ShadeParams, Sha
 pub struct CpuHits {
     samples: Vec<u32>,
     row_of: Vec<u32>,
-    pub(crate) points: Vec<Endpoint>,
+    points: Vec<Endpoint>,
 }
 
 impl CpuHits {
-    /// The hit of camera sample `sample`, if it hit a surface.
-    pub(crate) fn hit_of_sample(&self, sample: u32) -> Option<u32> {
-        self.samples.binary_search(&sample).ok().map(|h| h as u32)
+    /// The G-buffer points of camera samples `samples` (`rsm_importance::pixel_samples`): the
+    /// hits among them, in order; a sample that missed gives none.
+    pub fn gbuffer_points(&self, samples: &[u32]) -> Vec<Endpoint> {
+        samples.iter().filter_map(|&s| self.samples.binary_search(&s).ok().map(|h| self.points[h])).collect()
     }
 }
 
@@ -127,7 +128,7 @@ impl Backend for CpuScene<'_> {
     }
 
     fn rsm_importance(&self, vpls: &Vec<Vpl>, n: u32, rsm_size: u32, hits: &CpuHits, samples: &[u32], d_min: f32) -> Result<Vec<f32>, FrameError> {
-        let points = gbuffer_points(hits, samples);
+        let points = hits.gbuffer_points(samples);
         Ok(rsm_importance(&vpls[..n as usize], &self.lights.rsm_maps(rsm_size), &points, d_min))
     }
 
@@ -212,5 +213,20 @@ impl Backend for CpuScene<'_> {
 
     fn bias_points(&self, parent: &Vec<ShadingPoint>, samples: Range<u32>, params: &BiasParams) -> Result<Vec<ShadingPoint>, FrameError> {
         Ok(bias_points(self, parent, samples.start, params))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The G-buffer points are the listed samples' hits, in the list's order; samples that
+    /// missed give none.
+    #[test]
+    fn gbuffer_points_are_the_hits_of_the_listed_samples() {
+        let p = |x: f32| Endpoint::new(Vec3::new(x, 0.0, 0.0), Vec3::Y);
+        let hits = CpuHits { samples: vec![2, 5, 7], row_of: vec![MISS, MISS, 0, MISS, MISS, 1, MISS, 2], points: vec![p(2.0), p(5.0), p(7.0)] };
+        assert_eq!(hits.gbuffer_points(&[7, 3, 5, 0]), vec![p(7.0), p(5.0)]);
+        assert!(hits.gbuffer_points(&[1, 4]).is_empty());
     }
 }

@@ -1,18 +1,12 @@
 //! The bidirectional importance map of the RSM clustering (`rsm_importance`, Prutkin et al. 2012,
 //! Alg. 1 lines 2-4), the CPU reference: each texel's VPL weighted by the geometry terms toward
-//! [`rsm_importance::PIXELS`] G-buffer points (`vplgi_types::rsm_importance`).
+//! [`rsm_importance::PIXELS`] G-buffer points (`vplgi_types::rsm_importance`; the backend takes them
+//! from its hits, `CpuHits::gbuffer_points`).
 
-use crate::backend::CpuHits;
 use rayon::prelude::*;
 use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::rsm_importance;
 use vplgi_types::{Endpoint, Vpl};
-
-/// The G-buffer points of camera samples `samples` (`rsm_importance::pixel_samples`): the hits
-/// among them, in order; a sample that missed gives none.
-pub fn gbuffer_points(hits: &CpuHits, samples: &[u32]) -> Vec<Endpoint> {
-    samples.iter().filter_map(|&s| hits.hit_of_sample(s).map(|h| hits.points[h as usize])).collect()
-}
 
 /// The importance of every texel of `maps` (texel order; 0 where no VPL is) for the VPLs `vpls`
 /// seen from `points`, their distances floored at `d_min`.

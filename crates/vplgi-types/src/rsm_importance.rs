@@ -158,7 +158,8 @@ pub fn map_weights(importance: &[f32], n: u32, k: u32) -> (Vec<u32>, Vec<u32>) {
         return (vec![0; importance.len()], vec![0; n as usize]);
     }
     let scale = quantum_scale(max, n * n);
-    let q: Vec<u32> = importance.iter().map(|&x| if x.is_finite() && x > 0.0 { quantize(x, scale) } else { 0 }).collect();
+    // (A negative importance, which no texel has, would quantise to 0 too: the cast saturates.)
+    let q: Vec<u32> = importance.iter().map(|&x| if x.is_finite() { quantize(x, scale) } else { 0 }).collect();
     let mut cap = u32::MAX;
     for _ in 0..CAP_PASSES {
         cap = weight_cap(q.iter().map(|&w| w.min(cap)).sum(), k);
@@ -267,6 +268,28 @@ mod tests {
         assert!((297..=303).contains(&hits[0]), "{hits:?}");
         let (q0, rows0) = map_weights(&[0.0; 64], n, 1);
         assert_eq!(warp(1, n, &q0, &rows0), None);
+    }
+
+    /// A seed never lands on a texel without weight: where the target within a row is 0, the
+    /// first texel of positive weight takes it, not the empty texels before it.
+    #[test]
+    fn seeds_skip_texels_without_weight() {
+        let (q, rows) = (vec![0, 1, 1, 0], vec![1, 2]);
+        for i in 1..=64 {
+            let (x, y) = warp(i, 2, &q, &rows).expect("weights");
+            assert_eq!(q[(y * 2 + x) as usize], 1, "seed {i} at ({x}, {y})");
+        }
+    }
+
+    /// Texels whose importance is not finite get no weight (and do not set the scale): the
+    /// others keep their seeds.
+    #[test]
+    fn non_finite_importance_gets_no_seed() {
+        let importance = [f32::INFINITY, 1.0, f32::NAN, 3.0];
+        let (q, rows) = map_weights(&importance, 2, 1);
+        assert_eq!((q[0], q[2]), (0, 0));
+        assert!(q[3] > 2 * q[1] && q[1] > 0, "{q:?}");
+        assert_eq!(*rows.last().unwrap(), q[1] + q[3]);
     }
 
     /// A peak is capped at one seed's share: with 90 % of a map's importance on one texel, 16
