@@ -187,6 +187,32 @@ fn cluster_end_to_end_matches_the_cpu() {
     }
 }
 
+/// An oracle of the RSM clustering's search: a VPL with no cluster within r = 2 grid cells takes
+/// the cluster of smallest μ among all, not the first. A 32² map whose left half lies on a floor
+/// (+y) and right half on a wall (-x), importance only in the floor's leftmost 6 texel columns,
+/// K = 36 (a 6 x 6 grid): every seed is there, and the wall's VPLs beyond column 24 see no
+/// cluster near. Each takes the floor cluster nearest in its own row, so they spread over
+/// several clusters; taking the first would put them all in one.
+#[test]
+fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
+    use vplgi_types::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
+    let n = 32u32;
+    let vpls: Vec<vplgi_types::Vpl> = (0..n * n)
+        .map(|t| {
+            let (i, j) = ((t % n) as f32 / n as f32, (t / n) as f32 / n as f32);
+            let (position, normal) = if t % n < n / 2 { ([i, 0.0, j], [0.0, 1.0, 0.0]) } else { ([0.5, i - 0.5, j], [-1.0, 0.0, 0.0]) };
+            vplgi_types::Vpl { position, path: t, normal, bounce: 1, flux: [1e-3; 3], _pad: 0 }
+        })
+        .collect();
+    let map = RsmLight { size: n, ..point(Vec3::ZERO, Vec3::ONE) };
+    let importance: Vec<f32> = (0..n * n).map(|t| if t % n < 6 { 1.0 } else { 0.0 }).collect();
+    let params = RsmClusterParams { k: 36, iterations: 0, weights: RsmWeights::default(), extent: 3f32.sqrt() };
+    let c = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &[map], &params, Some(&importance));
+    let far: std::collections::BTreeSet<u32> = (0..vpls.len()).filter(|&t| t as u32 % n >= 24).map(|t| c.hard_label(t)).collect();
+    println!("the wall's far VPLs (no cluster within 2 cells) are in {} clusters", far.len());
+    assert!(far.len() >= 4, "the far VPLs share {} clusters", far.len());
+}
+
 proptest! {
     #![proptest_config(vplgi_tests::proptest_config(8))]
 
