@@ -8,12 +8,12 @@ struct Params {
     first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
     hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
     hit_count: u32,  // hits in that window
-    disk: u32,       // cluster_lights: 1 for disks lit by Eq. 2, 2 for exact disks
+    disk: u32,       // cluster_lights: 1 for disks lit by Eq. 2, 2 for exact disks, 3 for polygons
     pad1: u32,
     pad2: u32,
 }
 // cluster_lights reads VPLs first .. hit_first of a pass (a range: see GpuBackend::vpl_lights),
-// pass hit_count: 0 the sums, 1 the disk's spread.
+// pass hit_count: 0 the sums, 1 the disk's spread or the polygon's support.
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> sps: array<ShadingPoint>;
@@ -25,8 +25,11 @@ struct Params {
 @group(0) @binding(7) var<storage, read> labels: array<u32>;
 @group(0) @binding(8) var<storage, read> reps: array<u32>;
 @group(0) @binding(9) var<storage, read_write> lights: array<VplLight>;
-// cluster_lights' running sums per cluster: (flux, weight), (weighted position, spread).
+// cluster_lights' running sums per cluster: (flux, weight), (weighted position, spread), and
+// the polygon's support in directions 0-3 and 4-7.
 @group(0) @binding(10) var<storage, read_write> light_sums: array<vec4<f32>>;
+// cluster_lights_finish: the polygon lights' outlines (vplgi_types::LightOutline).
+@group(0) @binding(11) var<storage, read_write> outlines: array<vec4<f32>>;
 
 // 1 for a shading point that hit a surface (sps holds a chunk of samples from params.first).
 @compute @workgroup_size(64)
@@ -89,7 +92,9 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 // same sequential sums, cut: lavapipe stops an invocation's loops after 65,535 iterations).
 // Disk lights (vplgi_types::disk::radius2) also sum, in the same order, the members' flux
 // weights and weighted positions, then (pass 1) their weighted squared distances in the plane of
-// the representative's normal from the weighted centre: R² is twice their mean.
+// the representative's normal from the weighted centre: R² is twice their mean. Polygon lights
+// (vplgi_types::polygon::support) take instead, in pass 1, the members' largest offsets from the
+// representative in the 8 directions of its plane.
 @compute @workgroup_size(64)
 fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let k = thread_index(gid, groups);
@@ -99,8 +104,8 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     var a = vec4<f32>(0.0);
     var b = vec4<f32>(0.0);
     if (params.first > 0u) {
-        a = light_sums[2u * k];
-        b = light_sums[2u * k + 1u];
+        a = light_sums[4u * k];
+        b = light_sums[4u * k + 1u];
     }
     if (params.hit_count == 0u) {
         var flux = a.xyz;
@@ -119,10 +124,13 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         b = vec4<f32>(moment, 0.0);
     } else {
         // The sums are complete: pass 0 has read every VPL.
-        let all = light_sums[2u * k];
-        let sums = light_sums[2u * k + 1u];
+        let all = light_sums[4u * k];
+        let sums = light_sums[4u * k + 1u];
         a = all;
-        if (all.w > 0.0) {
+        if (params.disk == 3u) {
+            polygon_support(k);
+            b = sums;
+        } else if (all.w > 0.0) {
             let centre = sums.xyz / all.w;
             let n = vpls[reps[k]].normal;
             var spread = 0.0;
@@ -139,8 +147,99 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
             b = sums;
         }
     }
-    light_sums[2u * k] = a;
-    light_sums[2u * k + 1u] = b;
+    light_sums[4u * k] = a;
+    light_sums[4u * k + 1u] = b;
+}
+
+// polygon::support of cluster k's members around its representative, continuing the maxima of
+// the ranges before (light_sums[4k + 2], [4k + 3]).
+fn polygon_support(k: u32) {
+    let r = vpls[reps[k]];
+    let u = polygon_directions(r.normal);
+    var lo = vec4<f32>(0.0);
+    var hi = vec4<f32>(0.0);
+    if (params.first > 0u) {
+        lo = light_sums[4u * k + 2u];
+        hi = light_sums[4u * k + 3u];
+    }
+    for (var i = params.first; i < params.hit_first; i = i + 1u) {
+        if (labels[i] == k && member_weight(vpls[i].flux) > 0.0) {
+            let d = vpls[i].position - r.position;
+            lo = max(lo, vec4<f32>(dot(u[0], d), dot(u[1], d), dot(u[2], d), dot(u[3], d)));
+            hi = max(hi, vec4<f32>(dot(u[4], d), dot(u[5], d), dot(u[6], d), dot(u[7], d)));
+        }
+    }
+    light_sums[4u * k + 2u] = lo;
+    light_sums[4u * k + 3u] = hi;
+}
+
+// polygon::directions
+fn polygon_directions(normal: vec3<f32>) -> array<vec3<f32>, 8> {
+    let t = disk_perpendicular(normal);
+    let b = cross(normal, t);
+    let h = 0.70710677;
+    return array<vec3<f32>, 8>(t, (t + b) * h, b, (b - t) * h, -t, -(t + b) * h, -b, (t - b) * h);
+}
+
+// polygon::Outline::clipped: the part of the outline `v` (`count` vertices) with dot(q, d) <= s,
+// a vertex within eps of the line counting as on it.
+fn outline_clipped(v: array<vec2<f32>, 8>, count: u32, d: vec2<f32>, s: f32, eps: f32, out_count: ptr<function, u32>) -> array<vec2<f32>, 8> {
+    var out: array<vec2<f32>, 8>;
+    var n = 0u;
+    for (var i = 0u; i < count; i = i + 1u) {
+        let a = v[i];
+        let b = v[(i + 1u) % count];
+        let da = dot(d, a) - s;
+        let db = dot(d, b) - s;
+        let a_in = da <= eps;
+        let b_in = db <= eps;
+        if (a_in && n < 8u) {
+            out[n] = a;
+            n = n + 1u;
+        }
+        if (a_in != b_in && min(da, db) < -eps && n < 8u) {
+            out[n] = a + (b - a) * (da / (da - db));
+            n = n + 1u;
+        }
+    }
+    *out_count = n;
+    return out;
+}
+
+// polygon::Outline::new and ::area, placed in space as the light's LightOutline. Returns the area.
+fn polygon_outline(k: u32, centre: vec3<f32>, normal: vec3<f32>) -> f32 {
+    let lo = light_sums[4u * k + 2u];
+    let hi = light_sums[4u * k + 3u];
+    var v: array<vec2<f32>, 8>;
+    v[0] = vec2<f32>(lo.x, -hi.z);
+    v[1] = vec2<f32>(lo.x, lo.z);
+    v[2] = vec2<f32>(-hi.x, lo.z);
+    v[3] = vec2<f32>(-hi.x, -hi.z);
+    var count = 4u;
+    let largest = max(max(max(lo.x, lo.y), max(lo.z, lo.w)), max(max(hi.x, hi.y), max(hi.z, hi.w)));
+    let eps = POLYGON_CUT_TOLERANCE * largest;
+    let h = 0.70710677;
+    v = outline_clipped(v, count, vec2<f32>(h, h), lo.y, eps, &count);
+    v = outline_clipped(v, count, vec2<f32>(-h, h), lo.w, eps, &count);
+    v = outline_clipped(v, count, vec2<f32>(-h, -h), hi.y, eps, &count);
+    v = outline_clipped(v, count, vec2<f32>(h, -h), hi.w, eps, &count);
+    var twice = 0.0;
+    for (var i = 0u; i < count; i = i + 1u) {
+        let a = v[i];
+        let b = v[(i + 1u) % count];
+        twice = twice + (a.x * b.y - a.y * b.x);
+    }
+    let area = max(0.5 * twice, 0.0);
+    let t = disk_perpendicular(normal);
+    let b = cross(normal, t);
+    for (var i = 0u; i < POLYGON_SIDES; i = i + 1u) {
+        var out = vec4<f32>(0.0);
+        if (i < count && area > 0.0) {
+            out = vec4<f32>(centre + t * v[i].x + b * v[i].y, area);
+        }
+        outlines[k * POLYGON_SIDES + i] = out;
+    }
+    return area;
 }
 
 // The lights from the complete sums.
@@ -150,15 +249,24 @@ fn cluster_lights_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
     if (k >= params.k) {
         return;
     }
-    let a = light_sums[2u * k];
-    let b = light_sums[2u * k + 1u];
+    let a = light_sums[4u * k];
+    let b = light_sums[4u * k + 1u];
     let r = vpls[reps[k]];
     var radius2 = 0.0;
-    if (params.disk >= 1u && a.w > 0.0) {
-        radius2 = 2.0 * b.w / a.w;
-    }
     // VplLight::exact, in the normal's w.
-    let exact = select(0u, 1u, params.disk == 2u && radius2 > 0.0);
+    var exact = 0u;
+    if (params.disk == 3u) {
+        let area = polygon_outline(k, r.position, r.normal);
+        if (area > 0.0) {
+            radius2 = area / PI;
+            exact = EXACT_POLYGON;
+        }
+    } else {
+        if (params.disk >= 1u && a.w > 0.0) {
+            radius2 = 2.0 * b.w / a.w;
+        }
+        exact = select(0u, EXACT_DISK, params.disk == 2u && radius2 > 0.0);
+    }
     lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, bitcast<f32>(exact)), vec4<f32>(a.xyz, 0.0));
 }
 

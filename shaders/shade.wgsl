@@ -34,10 +34,10 @@ struct Params {
 // Visibility rows per shading point: F in mode 1, 1 in mode 0; a pipeline per value, so that the
 // loops over rows have a constant trip count.
 override ROWS: u32 = 1u;
-// Whether the lights may be exact disks (VplLight::exact): a pipeline of its own, so that point
-// and Eq. 2 frames do not carry the exact form factor's code in their light loop (on lavapipe
-// that alone made `shade` several times slower).
-override EXACT_DISKS: bool = false;
+// Whether the lights may be exact disks or polygons (VplLight::exact): a pipeline of its own, so
+// that point and Eq. 2 frames do not carry the exact form factors' code in their light loop (on
+// lavapipe that alone made `shade` several times slower).
+override EXACT_SHAPES: bool = false;
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
@@ -50,6 +50,9 @@ override EXACT_DISKS: bool = false;
 // Each shading point's sum over the lights of the ranges done so far (light order), by sample
 // index from params.first_pixel * spp.
 @group(0) @binding(14) var<storage, read_write> running: array<vec4<f32>>;
+// The polygon lights' outlines (vplgi_types::LightOutline): POLYGON_SIDES vertices per light,
+// each with the area in w, w = 0 after the last.
+@group(0) @binding(15) var<storage, read> outlines: array<vec4<f32>>;
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
 fn sample_table_area(u: f32) -> u32 {
@@ -70,15 +73,18 @@ fn sample_table_area(u: f32) -> u32 {
 
 // shade::sum_lights: Eq. 2 of Prutkin et al. for a disk (R² in position.w > 0, no clamp), the
 // clamped point geometry term otherwise (d2 + 0 = d2 exactly); 0 where either side faces away.
-fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight, g_max: f32) -> f32 {
+fn light_geometry_term(p: vec3<f32>, np: vec3<f32>, l: VplLight, c: u32, g_max: f32) -> f32 {
     let d = l.position.xyz - p;
     let d2 = dot(d, d);
     let inv_d = 1.0 / sqrt(d2);
     let cos_p = dot(np, d) * inv_d;
     let cos_x = -dot(l.normal.xyz, d) * inv_d;
     let r2 = l.position.w;
-    if (EXACT_DISKS && bitcast<u32>(l.normal.w) == 1u) {
+    if (EXACT_SHAPES && bitcast<u32>(l.normal.w) == EXACT_DISK) {
         return exact_geometry_term(p, np, l.position.xyz, l.normal.xyz, r2);
+    }
+    if (EXACT_SHAPES && bitcast<u32>(l.normal.w) == EXACT_POLYGON) {
+        return polygon_geometry_term(p, np, l.normal.xyz, c * POLYGON_SIDES);
     }
     let g = cos_p * cos_x / (d2 + r2);
     let capped = select(min(g, g_max), g, r2 > 0.0);
@@ -162,13 +168,67 @@ fn disk_d_over_b(c: f32, sn: f32, a: f32, b: f32, s: f32, ab: f32) -> f32 {
     return y / x;
 }
 
-// disk::perpendicular
-fn disk_perpendicular(normal: vec3<f32>) -> vec3<f32> {
-    var other = vec3<f32>(0.0, 1.0, 0.0);
-    if (abs(normal.x) < 0.9) {
-        other = vec3<f32>(1.0, 0.0, 0.0);
+// polygon::geometry_term: the exact form factor to the polygon whose outline starts at
+// outlines[base], / its area, each edge clipped to p's horizon as it is read and the chord
+// added where the horizon cuts (the derivation is there).
+fn polygon_geometry_term(p: vec3<f32>, n: vec3<f32>, normal: vec3<f32>, base: u32) -> f32 {
+    let first = outlines[base];
+    let area = first.w;
+    if (!(dot(normal, p - first.xyz) > 0.0) || !(area > 0.0)) {
+        return 0.0;
     }
-    return normalize(cross(normal, other));
+    var sum = 0.0;
+    var exit = vec3<f32>(0.0);
+    var entry = vec3<f32>(0.0);
+    var cut = 0u;
+    var a = first.xyz;
+    for (var i = 1u; i <= POLYGON_SIDES; i = i + 1u) {
+        var b = first.xyz;
+        var last = true;
+        if (i < POLYGON_SIDES) {
+            let v = outlines[base + i];
+            if (v.w > 0.0) {
+                b = v.xyz;
+                last = false;
+            }
+        }
+        let ra = a - p;
+        let rb = b - p;
+        let ha = dot(n, ra);
+        let hb = dot(n, rb);
+        if (ha >= 0.0 && hb >= 0.0) {
+            sum = sum + polygon_edge(ra, rb, n);
+        } else if (ha >= 0.0 || hb >= 0.0) {
+            let x = ra + (rb - ra) * (ha / (ha - hb));
+            if (ha >= 0.0) {
+                sum = sum + polygon_edge(ra, x, n);
+                exit = x;
+                cut = cut | 1u;
+            } else {
+                sum = sum + polygon_edge(x, rb, n);
+                entry = x;
+                cut = cut | 2u;
+            }
+        }
+        if (last) {
+            break;
+        }
+        a = b;
+    }
+    if (cut == 3u) {
+        sum = sum + polygon_edge(exit, entry, n);
+    }
+    return max(-0.5 * sum / area, 0.0);
+}
+
+// polygon::edge
+fn polygon_edge(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
+    let c = cross(a, b);
+    let len = length(c);
+    if (len > 0.0) {
+        return atan2(len, dot(a, b)) * dot(n, c) / len;
+    }
+    return 0.0;
 }
 
 // shade::direct
@@ -319,7 +379,7 @@ fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
             let l = vpl_lights[c];
             let bit = c % 32u;
             for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
-                let g = light_geometry_term(pos[q], nrm[q], l, g_max);
+                let g = light_geometry_term(pos[q], nrm[q], l, c, g_max);
                 var v = 0.0;
                 for (var j = 0u; j < ROWS; j = j + 1u) {
                     v = v + select(0.0, row_w[q * MAX_F + j], ((words[q * MAX_F + j] >> bit) & 1u) == 1u);

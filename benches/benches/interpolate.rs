@@ -26,7 +26,7 @@ fn interpolate_stage(c: &mut Criterion) {
         let g_max = inputs.cfg.g_max(inputs.cs.extent);
         let inv_radius = vplgi_cpu::gather_radius::gather_radius(&inputs.cs, &inputs.rows, &inputs.cfg.gather_params());
         let sc = &inputs.sp_clusters;
-        let none = LightArrays::new(&[]);
+        let none = LightArrays::new(&Default::default());
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
             b.iter(|| {
                 let irr = sample_irradiance(&inputs.rows, &inputs.lights, &inputs.matrix, g_max);
@@ -43,13 +43,14 @@ fn interpolate_stage(c: &mut Criterion) {
         if let (Some(g), Some((k, shade))) = (&gpu, &kernels) {
             let (device, queue) = (&g.ctx.device, &g.ctx.queue);
             let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(inputs.matrix.words()));
-            let lights = storage(device, "lights", &inputs.lights);
+            let lights = storage(device, "lights", &inputs.lights.lights);
             let lighting = SampleLighting {
                 words: &words,
-                words_per_row: words_per_row(inputs.lights.len()) as u32,
+                words_per_row: words_per_row(inputs.lights.lights.len()) as u32,
                 vpl_lights: &lights,
-                light_count: inputs.lights.len() as u32,
-                exact_disks: false,
+                outlines: None,
+                light_count: inputs.lights.lights.len() as u32,
+                exact_shapes: false,
                 g_max,
             };
             let (sps, row_of, labels) = (storage(device, "sps", &inputs.sps), storage(device, "row_of", &inputs.row_of), storage(device, "labels", &sc.labels));

@@ -20,10 +20,12 @@ fn shade(c: &mut Criterion) {
         let sc = &i.sp_clusters;
         let src = VisibilitySource::Fuzzy { matrix: &i.matrix, row_of: &i.row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
         // The same clusters as disk lights, by Eq. 2 (--light-shape disk: "cpu-disk", "gpu-disk")
-        // and by the exact form factor (disk-exact: "cpu-disk-exact", "gpu-disk-exact").
+        // and by the exact form factor (disk-exact: "cpu-disk-exact", "gpu-disk-exact"), and as
+        // polygons (polygon: "cpu-polygon", "gpu-polygon").
         let disks = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::Disk);
         let exact = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::DiskExact);
-        for (suffix, lights) in [("", &i.lights), ("-disk", &disks), ("-disk-exact", &exact)] {
+        let polygons = vplgi_cpu::shade::vpl_lights(&i.vpls, Some(&i.vpl_clusters), LightShape::Polygon);
+        for (suffix, lights) in [("", &i.lights), ("-disk", &disks), ("-disk-exact", &exact), ("-polygon", &polygons)] {
             group.bench_function(BenchmarkId::new(format!("cpu{suffix}"), size.name), |b| {
                 b.iter(|| vplgi_cpu::shade::shade(&i.cs, &i.sps, 0, 0..i.pixels(), lights, &src, &cfg.shade_params(i.cs.extent)))
             });
@@ -32,7 +34,7 @@ fn shade(c: &mut Criterion) {
                 let (sps, row_of) = (storage(d, "sps", &i.sps), storage(d, "row of", &i.row_of));
                 let words = storage(d, "words", bytemuck::cast_slice::<u64, u32>(i.matrix.words()));
                 let (labels, weights) = (storage(d, "labels", &sc.labels), storage(d, "weights", &sc.weights));
-                let light_buf = g.lights(lights);
+                let (light_buf, outlines) = g.lights(lights);
                 let window = Window { first: 0, count: i.sp_points.0.len() as u64 };
                 let inputs = ShadeInputs {
                     sps: &sps,
@@ -41,8 +43,9 @@ fn shade(c: &mut Criterion) {
                     words: &words,
                     words_per_row: words_per_row(i.cols.len()) as u32,
                     vpl_lights: &light_buf,
-                    light_count: lights.len() as u32,
-                    exact_disks: lights.iter().any(|l| l.exact != 0),
+                    outlines: outlines.as_ref(),
+                    light_count: lights.lights.len() as u32,
+                    exact_shapes: lights.lights.iter().any(|l| l.exact != 0),
                     visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
                 };
                 let run = || {

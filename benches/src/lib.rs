@@ -11,7 +11,7 @@ use criterion::BenchmarkGroup;
 use glam::Vec3;
 use std::time::{Duration, Instant};
 use vplgi_cpu::cluster::{cluster, Clustering};
-use vplgi_cpu::shade::VplLight;
+use vplgi_cpu::shade::VplLights;
 use vplgi_cpu::visibility::{visibility, BitMatrix, Endpoint};
 use vplgi_cpu::{CpuScene, NoProgress};
 use vplgi_gpu::buffers::{storage, sync};
@@ -118,7 +118,7 @@ pub struct Inputs {
     pub vpl_points: (Vec<Vec3>, Vec<Vec3>),
     pub sp_clusters: Clustering,
     pub vpl_clusters: Clustering,
-    pub lights: Vec<VplLight>,
+    pub lights: VplLights,
     /// Visibility rows (the SP clusters' representatives) and columns (the lights).
     pub rows: Vec<Endpoint>,
     pub cols: Vec<Endpoint>,
@@ -141,7 +141,7 @@ impl Inputs {
         let vpl_clusters = cluster(&vpl_points.0, &vpl_points.1, &cfg.vpl_cluster_params());
         let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters), cfg.light_shape);
         let rows: Vec<Endpoint> = sp_clusters.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize]])).collect();
-        let cols: Vec<Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
+        let cols: Vec<Endpoint> = lights.lights.iter().map(|l| l.endpoint()).collect();
         let (matrix, _) = visibility(&cs, &rows, &cols, &NoProgress);
         Inputs { cfg: cfg.clone(), cs, vpls, sps, row_of, sp_points, vpl_points, sp_clusters, vpl_clusters, lights, rows, cols, matrix }
     }
@@ -206,9 +206,10 @@ impl Gpu {
         storage(&self.ctx.device, "endpoints", e)
     }
 
-    /// The CPU's lights on the device: the same records.
-    pub fn lights(&self, lights: &[VplLight]) -> wgpu::Buffer {
-        storage(&self.ctx.device, "lights", lights)
+    /// The CPU's lights on the device, and their outlines if any are polygons: the same records.
+    pub fn lights(&self, lights: &VplLights) -> (wgpu::Buffer, Option<wgpu::Buffer>) {
+        let outlines = (!lights.outlines.is_empty()).then(|| storage(&self.ctx.device, "light outlines", &lights.outlines));
+        (storage(&self.ctx.device, "lights", &lights.lights), outlines)
     }
 }
 

@@ -1,5 +1,6 @@
 //! `rsm --quick` runs end to end at small sizes and writes every scene's table (each light shape
-//! and the Halton-seeded exact disks at each count, with pictures), the moving-sun sequences
+//! and the Halton-seeded exact disks at each count, with pictures, and the energy of each shape
+//! at each count), the moving-sun sequences
 //! (from scratch and warm) and the Table 1 timings on both backends with both seedings.
 
 use std::process::Command;
@@ -21,7 +22,7 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
         let name = sc["scene"].as_str().unwrap();
         assert!(md.contains(&format!("## {name}")), "{name} missing");
         let frames = sc["frames"].as_array().unwrap();
-        assert_eq!(frames.len(), 1 + 4 * 2, "unclustered, then three shapes and the Halton-seeded disks at two counts");
+        assert_eq!(frames.len(), 2 + 5 * 2, "unclustered with and without the clamp, then four shapes and the Halton-seeded disks at two counts");
         for f in frames {
             assert!(f["rel_mse"].as_f64().unwrap() > 0.0 && f["flip"].as_f64().unwrap() > 0.0, "{f}");
             let kept: Vec<f64> = f["mean_ratio"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
@@ -30,7 +31,7 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
             assert!(kept.iter().all(|k| *k > 0.0 && *k < 3.0), "{name}: light kept {kept:?}");
         }
         assert!(sc["reference_mean_error"].as_array().unwrap().iter().all(|e| e.as_f64().unwrap() > 0.0));
-        for picture in ["reference", "unclustered", "disk-exact-64", "point-64-error"] {
+        for picture in ["reference", "unclustered", "disk-exact-64", "polygon-64", "point-64-error", "polygon-64-error"] {
             assert!(dir.path().join("rsm").join(format!("{name}-{picture}.png")).is_file(), "{name}-{picture}.png");
         }
     }
@@ -48,4 +49,5 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
     assert!(rows.iter().all(|r| r["temporal_error"].as_f64().unwrap() > 0.0 && r["flicker"].as_f64().unwrap() > 0.0), "{rows:?}");
     assert!(md.contains("moving sun") || md.contains("A moving sun"), "{md}");
     assert!(md.contains("Table 1") && md.contains("lavapipe"), "{md}");
+    assert_eq!(md.matches("| `--k-vpl` | point | disk | disk-exact | polygon |").count(), 2, "an energy table per scene: {md}");
 }

@@ -27,6 +27,17 @@ struct VplLight {
     normal: vec4<f32>,
     flux: vec4<f32>,
 }
+// Its exact form factor, VplLight::exact, is in the normal's w (EXACT_DISK, EXACT_POLYGON); a
+// polygon's outline has POLYGON_SIDES vertices.
+
+// disk::perpendicular
+fn disk_perpendicular(normal: vec3<f32>) -> vec3<f32> {
+    var other = vec3<f32>(0.0, 1.0, 0.0);
+    if (abs(normal.x) < 0.9) {
+        other = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    return normalize(cross(normal, other));
+}
 
 // One light's reflective shadow map (vplgi_types::rsm::RsmLight).
 struct RsmLight {

@@ -56,11 +56,11 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
         let d2 = h * h + r * r;
         let g = (h * h / d2) / d2;
         let expected = flux * (rho / PI) * g / PI;
-        let got = indirect(&sp, 0, &LightArrays::new(&[light]), &vis, f32::INFINITY);
+        let got = indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY);
         assert!((got - expected).abs().max_element() <= 1e-6 * expected.max_element(), "r = {r}: {got} vs {expected}");
         // With the clamp at d_min = h the geometry term at r = 0 is exactly 1/h², i.e. unclamped;
         // at d_min = 2h it is capped at 1/(4h²).
-        let capped = indirect(&sp, 0, &LightArrays::new(&[light]), &vis, 1.0 / (4.0 * h * h));
+        let capped = indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, 1.0 / (4.0 * h * h));
         let expected_capped = flux * (rho / PI) * g.min(1.0 / (4.0 * h * h)) / PI;
         assert!((capped - expected_capped).abs().max_element() <= 1e-6 * expected.max_element());
     }
@@ -68,7 +68,7 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
     let blocked = BitMatrix::new(1, 1);
     let sp = ShadingPoint { normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
     let vis = VisibilitySource::Own { matrix: &blocked, row_of: &row_of, first_row: 0 };
-    assert_eq!(indirect(&sp, 0, &LightArrays::new(&[light]), &vis, f32::INFINITY), Vec3::ZERO);
+    assert_eq!(indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY), Vec3::ZERO);
 }
 
 /// Light particles from a point light over a square: the fraction of the light's power that

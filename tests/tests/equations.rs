@@ -123,15 +123,17 @@ fn eq_8_on_a_hand_checked_point() {
 /// the pixels hold nothing else), on the CPU (`shade::indirect`) and on the GPU (the shade
 /// kernel), with fuzzy visibility: shading point i reads the `f` labels and weights of row
 /// `row_of[i]`, whose clusters see the light where `matrix` says so. The GPU takes the
-/// exact-disk pipeline when the light is an exact disk.
+/// exact-shape pipeline when the light is an exact disk or a polygon (whose `outline` it is).
 fn one_light_on_both_backends(
     gpu: &vplgi_tests::SharedGpu,
     sps: &[ShadingPoint],
     light: VplLight,
+    outline: Option<vplgi_types::LightOutline>,
     (matrix, row_of, labels, weights, f): (&BitMatrix, &[u32], &[u32], &[f32], u32),
     g_max: f32,
 ) -> (Vec<Vec3>, Vec<Vec3>) {
-    let lights = LightArrays::new(&[light]);
+    let set = vplgi_cpu::shade::VplLights { lights: vec![light], outlines: outline.into_iter().collect() };
+    let lights = LightArrays::new(&set);
     let vis = VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f: f as usize };
     let cpu = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
@@ -142,6 +144,7 @@ fn one_light_on_both_backends(
         let (sb, rb) = (storage(device, "sps", sps), storage(device, "row_of", row_of));
         let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
         let (lb, wb, lights) = (storage(device, "labels", labels), storage(device, "weights", weights), storage(device, "lights", &[light]));
+        let outline_buf = outline.map(|o| storage(device, "light outlines", &[o]));
         let inputs = ShadeInputs {
             sps: &sb,
             sp_first: 0,
@@ -149,8 +152,9 @@ fn one_light_on_both_backends(
             words: &words,
             words_per_row: words_per_row(1) as u32,
             vpl_lights: &lights,
+            outlines: outline_buf.as_ref(),
             light_count: 1,
-            exact_disks: light.exact != 0,
+            exact_shapes: light.exact != 0,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window: vplgi_gpu::buffers::Window { first: 0, count: n as u64 } },
         };
         let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
@@ -204,7 +208,7 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
                 (rho / PI) * flux / area * form_factor * 0.7
             })
             .collect();
-        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, (&matrix, &row_of, &labels, &weights, 3), g_max);
+        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, None, (&matrix, &row_of, &labels, &weights, 3), g_max);
         for (i, e) in expected.iter().enumerate() {
             let g = gpu_pixels[i];
             println!("R² {}, g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", light.radius2, rs[i], cpu[i]);
@@ -280,7 +284,7 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
     let mut matrix = BitMatrix::new(1, 1);
     matrix.set(0, 0, true);
     let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], (0..sps.len() as u32).map(|_| 0).collect::<Vec<u32>>());
-    let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
+    let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, None, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
     for (i, e) in expected.iter().enumerate() {
         let g = gpu_pixels[i];
         println!("receiver {:?}: quadrature {e}, CPU {}, GPU {g}", receivers[i], cpu[i]);
@@ -288,6 +292,92 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
         assert!((cpu[i] - *e).abs().max_element() <= 2e-4 * e.max_element(), "CPU: receiver {:?}: {} vs {e}", receivers[i], cpu[i]);
         assert!((g - *e).abs().max_element() <= 2e-4 * e.max_element(), "GPU: receiver {:?}: {g} vs {e}", receivers[i]);
     }
+}
+
+/// A polygon light (`--light-shape polygon`) on both backends: the irradiance Φ / A times the
+/// form factor, the form factor by a midpoint rule over the polygon in f64 (a point-in-polygon
+/// test per cell: nothing of the contour form). The polygon is a 1.2 x 0.8 rectangle with a
+/// corner cut, facing down from y = 1; receivers on its axis, off it, on walls whose horizon
+/// cuts it, and tilted.
+#[test]
+fn polygon_lights_give_the_form_factor_on_both_backends() {
+    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_give_the_form_factor_on_both_backends") else { return };
+    let rho = 0.5f32;
+    let flux = Vec3::new(2.0, 1.0, 0.5);
+    let (centre, normal) = (Vec3::new(0.0, 1.0, 0.0), -Vec3::Y);
+    // Supports in the light's plane frame: +-0.6 along t, +-0.4 along b, one corner cut.
+    let outline = vplgi_types::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
+    assert_eq!(outline.count, 5);
+    let area = outline.area();
+    let mut placed = vplgi_types::LightOutline::default();
+    for (slot, v) in placed.vertices.iter_mut().zip(outline.placed(centre, normal)) {
+        *slot = [v.x, v.y, v.z, area];
+    }
+    let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, flux) };
+    let receivers: [([f32; 3], [f32; 3]); 6] = [
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([0.5, 0.2, 0.3], [0.0, 1.0, 0.0]),
+        ([0.3, 0.9, 0.1], [-1.0, 0.0, 0.0]),
+        ([-0.2, 0.85, -0.25], [0.0, 0.0, 1.0]),
+        ([-0.2, 0.5, 0.4], [0.577_350_3, 0.577_350_3, -0.577_350_3]),
+        ([0.1, 0.05, -0.2], [0.282_216_3, 0.940_720_9, -0.188_144_2]),
+    ];
+    let sps: Vec<ShadingPoint> = receivers
+        .iter()
+        .enumerate()
+        .map(|(i, &(p, n))| ShadingPoint { position: p, normal: n, albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .collect();
+    let corners: Vec<glam::DVec3> = outline.placed(centre, normal).map(|v| v.as_dvec3()).collect();
+    let expected: Vec<Vec3> = receivers
+        .iter()
+        .map(|&(p, n)| {
+            let form_factor = polygon_form_factor_by_quadrature(Vec3::from(p).as_dvec3(), Vec3::from(n).as_dvec3(), &corners, normal.as_dvec3()) as f32;
+            (rho / PI) * flux / area * form_factor
+        })
+        .collect();
+    let mut matrix = BitMatrix::new(1, 1);
+    matrix.set(0, 0, true);
+    let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], vec![0u32; sps.len()]);
+    let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, Some(placed), (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
+    for (i, e) in expected.iter().enumerate() {
+        let g = gpu_pixels[i];
+        println!("receiver {:?}: quadrature {e}, CPU {}, GPU {g}", receivers[i], cpu[i]);
+        assert!(e.max_element() > 0.0, "receiver {i} sees none of the polygon: a useless case");
+        assert!((cpu[i] - *e).abs().max_element() <= 2e-4 * e.max_element(), "CPU: receiver {:?}: {} vs {e}", receivers[i], cpu[i]);
+        assert!((g - *e).abs().max_element() <= 2e-4 * e.max_element(), "GPU: receiver {:?}: {g} vs {e}", receivers[i]);
+    }
+}
+
+/// ∫ cos θ_p cos θ_z / (π d²) dA over the convex polygon `corners` (counterclockwise about
+/// `normal`, which it faces) seen from `p` with normal `np`, the part below p's horizon left
+/// out: the midpoint rule on a 2,000 x 2,000 grid over its bounding box in the plane.
+fn polygon_form_factor_by_quadrature(p: glam::DVec3, np: glam::DVec3, corners: &[glam::DVec3], normal: glam::DVec3) -> f64 {
+    let e1 = (corners[1] - corners[0]).normalize();
+    let e2 = normal.cross(e1);
+    let o = corners[0];
+    let (lo, hi) = corners.iter().fold((glam::DVec2::splat(f64::MAX), glam::DVec2::splat(f64::MIN)), |(lo, hi), c| {
+        let q = glam::DVec2::new((*c - o).dot(e1), (*c - o).dot(e2));
+        (lo.min(q), hi.max(q))
+    });
+    let inside = |x: glam::DVec3| (0..corners.len()).all(|i| normal.dot((corners[(i + 1) % corners.len()] - corners[i]).cross(x - corners[i])) >= 0.0);
+    let cells = 2000;
+    let (w, h) = ((hi.x - lo.x) / cells as f64, (hi.y - lo.y) / cells as f64);
+    let mut sum = 0.0;
+    for i in 0..cells {
+        for j in 0..cells {
+            let x = o + e1 * (lo.x + (i as f64 + 0.5) * w) + e2 * (lo.y + (j as f64 + 0.5) * h);
+            if !inside(x) {
+                continue;
+            }
+            let d = x - p;
+            let d2 = d.length_squared();
+            let (cos_p, cos_z) = (np.dot(d) / d2.sqrt(), -normal.dot(d) / d2.sqrt());
+            if cos_p > 0.0 && cos_z > 0.0 {
+                sum += cos_p * cos_z / (std::f64::consts::PI * d2);
+            }
+        }
+    }
+    sum * w * h
 }
 
 /// Alg. 1's update: a centroid is the mean of its members' positions (and its normal their

@@ -68,7 +68,7 @@ fn both(
     for j in 0..n {
         matrix.set(j, 0, true);
     }
-    let lights: Vec<VplLight> = light.into_iter().collect();
+    let lights: vplgi_cpu::shade::VplLights = light.into_iter().collect::<Vec<VplLight>>().into();
     let mut cpu_samples = samples.clone();
     if light.is_some() {
         cpu_samples.irradiance = vplgi_cpu::shade::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
@@ -85,13 +85,14 @@ fn both(
         let gs = match light {
             Some(_) => {
                 let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-                let lb = storage(device, "lights", &lights);
+                let lb = storage(device, "lights", &lights.lights);
                 let lighting = SampleLighting {
                     words: &words,
                     words_per_row: words_per_row(1) as u32,
                     vpl_lights: &lb,
+                    outlines: None,
                     light_count: 1,
-                    exact_disks: false,
+                    exact_shapes: false,
                     g_max: f32::INFINITY,
                 };
                 k.interpolate.sample_irradiance(device, queue, &k.shade, (points, n as u32), inv_radius, &lighting).expect("samples")

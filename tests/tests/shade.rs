@@ -37,14 +37,14 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, seed, 400, 3, &vplgi_cpu::NoProgress).vpls;
     let g_max = 1.0 / (0.05 * cs.extent).powi(2);
     // The CPU's and the GPU's lights are the same records.
-    let to_gpu_lights = |ls: &[VplLight]| -> Vec<VplLight> { ls.to_vec() };
+    let to_gpu_lights = |ls: &vplgi_cpu::shade::VplLights| -> Vec<VplLight> { ls.lights.clone() };
     let n_pixels = (w * h) as usize;
     let sps_buf = storage(&ctx.device, "sps", &sps);
     let row_buf = storage(&ctx.device, "row_of", &row_of);
 
     // (a) Unclustered shading points: each hit has its own row; VPLs unclustered.
     let lights = vplgi_cpu::shade::vpl_lights(&vpls, None, LightShape::Point);
-    let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.iter().map(|l| l.endpoint()).collect();
+    let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.lights.iter().map(|l| l.endpoint()).collect();
     let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
     let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Own { matrix: &m, row_of: &row_of, first_row: 0 };
@@ -58,8 +58,9 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words: &words,
         words_per_row: words_per_row(cols.len()) as u32,
         vpl_lights: &light_buf,
-        light_count: lights.len() as u32,
-        exact_disks: false,
+        outlines: None,
+        light_count: lights.lights.len() as u32,
+        exact_shapes: false,
         visibility: Visibility::Own { first_row: 0 },
     };
     let out =
@@ -84,7 +85,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         },
     );
     let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc), LightShape::Point);
-    let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.iter().map(|l| l.endpoint()).collect();
+    let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.lights.iter().map(|l| l.endpoint()).collect();
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
     let sc = cluster(
@@ -117,8 +118,9 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         words: &words_c,
         words_per_row: words_per_row(cols_c.len()) as u32,
         vpl_lights: &light_buf_c,
-        light_count: lights_c.len() as u32,
-        exact_disks: false,
+        outlines: None,
+        light_count: lights_c.lights.len() as u32,
+        exact_shapes: false,
         visibility: Visibility::Fuzzy {
             labels: &labels,
             weights: &weights,
@@ -171,7 +173,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
     }
     let (labels, weights, row_of): (Vec<u32>, Vec<f32>, Vec<u32>) = ((0..f).collect(), vec![1.0 / f as f32; f as usize], vec![0]);
     let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: f as usize };
-    let cpu = indirect(&sps[0], 0, &LightArrays::new(&lights), &vis, f32::INFINITY);
+    let cpu = indirect(&sps[0], 0, &LightArrays::new(&lights.clone().into()), &vis, f32::INFINITY);
     let gpu_pixel = vplgi_tests::with_twins(gpu, &scene, |t| {
         let (device, queue) = (t.device(), t.queue());
         let (sb, rb, lb, wb, lg) = (
@@ -190,8 +192,9 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
             words: &words,
             words_per_row: words_per_row(n as usize) as u32,
             vpl_lights: &lg,
+            outlines: None,
             light_count: n,
-            exact_disks: false,
+            exact_shapes: false,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
         };
         let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
@@ -203,9 +206,9 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
 }
 
 /// The lights of VPL clusters read every VPL past lavapipe's loop limit too: 70,000 VPLs in three
-/// clusters, as disks, on both backends from the same clustering: the same flux and R², bit for
-/// bit (each GPU thread summed only the first 65,535 VPLs, or half of them for a disk's two
-/// passes, before cluster_lights read them in ranges).
+/// clusters, as disks and as polygons, on both backends from the same clustering: the same flux
+/// and R², bit for bit, and the same outlines (each GPU thread summed only the first 65,535 VPLs,
+/// or half of them for a disk's two passes, before cluster_lights read them in ranges).
 #[test]
 fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
     use vplgi_frame::{Backend, LightSet};
@@ -236,22 +239,42 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
         fresh: 0,
     };
     let scene = cornell_box();
-    for shape in [LightShape::Disk, LightShape::DiskExact] {
+    for shape in [LightShape::Disk, LightShape::DiskExact, LightShape::Polygon] {
         let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), shape);
-        let got = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let (got, outlines) = vplgi_tests::with_twins(gpu, &scene, |t| {
             let device = t.device();
             let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
             let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
             let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape }).expect("lights");
-            assert_eq!(b.exact_disks, shape == LightShape::DiskExact);
-            read_back::<VplLight>(device, t.queue(), &b.buffer, 3).expect("read back")
+            assert_eq!(b.exact_shapes, shape != LightShape::Disk);
+            let outlines = b.outlines.as_ref().map(|o| read_back::<vplgi_types::LightOutline>(device, t.queue(), o, 3).expect("read back"));
+            (read_back::<VplLight>(device, t.queue(), &b.buffer, 3).expect("read back"), outlines)
         });
-        for (c, g) in cpu.iter().zip(&got) {
+        for (c, g) in cpu.lights.iter().zip(&got) {
             println!("{shape:?}: CPU flux {:?} R² {} exact {}, GPU flux {:?} R² {} exact {}", c.flux, c.radius2, c.exact, g.flux, g.radius2, g.exact);
         }
-        assert!(cpu[0].radius2 > 0.0);
-        assert_eq!(cpu[0].exact, (shape == LightShape::DiskExact) as u32);
-        assert_eq!(cpu, got);
+        assert!(cpu.lights[0].radius2 > 0.0);
+        let exact = match shape {
+            LightShape::DiskExact => vplgi_types::pod::EXACT_DISK,
+            LightShape::Polygon => vplgi_types::pod::EXACT_POLYGON,
+            _ => 0,
+        };
+        assert_eq!(cpu.lights[0].exact, exact);
+        if shape != LightShape::Polygon {
+            assert_eq!(cpu.lights, got);
+            continue;
+        }
+        // A polygon's support values are dot products, which the GPU may round differently (a
+        // fused multiply-add): the flux bit for bit, the outline and its area to 1e-6.
+        let outlines = outlines.expect("a polygon set has outlines");
+        for ((c, g), (co, go)) in cpu.lights.iter().zip(&got).zip(cpu.outlines.iter().zip(&outlines)) {
+            assert_eq!((c.flux, c.exact), (g.flux, g.exact));
+            assert!((c.radius2 / g.radius2 - 1.0).abs() < 1e-6, "R² {} vs {}", c.radius2, g.radius2);
+            assert_eq!(co.count(), go.count());
+            for (a, b) in co.vertices.iter().zip(&go.vertices) {
+                assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(1.0)), "outline vertex {a:?} vs {b:?}");
+            }
+        }
     }
 }
 
@@ -296,7 +319,7 @@ proptest::proptest! {
         (width, height, spp) in (4u32..32, 4u32..32, 1u32..=2),
         (vpls, k_vpl, k_sp, f) in (1u32..600, 1u32..120, 1u32..300, 1u32..=8),
         (g_clamp_rel, direct_samples, seed) in (0f32..0.2, 1u32..4, proptest::prelude::any::<u32>()),
-        light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk, LightShape::DiskExact]),
+        light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk, LightShape::DiskExact, LightShape::Polygon]),
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_on_random_scenes") else { return Ok(()) };
         let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, light_shape, ..vplgi_types::FrameConfig::verify() });
@@ -339,7 +362,7 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     let mut window = BitMatrix::new(2, 2);
     window.set(0, 0, true);
     window.set(1, 1, true);
-    let arrays = LightArrays::new(&lights);
+    let arrays = LightArrays::new(&lights.to_vec().into());
     for i in 0..2 {
         let from_whole = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &whole, row_of: &row_of, first_row: 0 }, f32::INFINITY);
         let from_window = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY);

@@ -40,7 +40,11 @@ struct Opts {
 }
 
 /// The light shapes compared, in table order.
-const SHAPES: [&str; 3] = ["point", "disk", "disk-exact"];
+const SHAPES: [&str; 4] = ["point", "disk", "disk-exact", "polygon"];
+
+/// Every shadow-map VPL as a point with no clamp: the light the VPLs themselves carry, which no
+/// clustering can add to.
+const UNCLAMPED: &str = "unclustered, no clamp";
 
 /// The exact disks from plain Halton seeds (the other rows warp them by the importance map).
 const HALTON: &str = "disk-exact, Halton seeds";
@@ -108,7 +112,8 @@ fn main() -> Result<()> {
             vplgi(&args)?;
         }
         let mut frames = Vec::new();
-        let mut runs: Vec<(String, u32, Vec<&str>)> = vec![("unclustered".into(), 0, vec!["--cluster", "none"])];
+        let mut runs: Vec<(String, u32, Vec<&str>)> =
+            vec![("unclustered".into(), 0, vec!["--cluster", "none"]), (UNCLAMPED.into(), 0, vec!["--cluster", "none", "--g-clamp", "0"])];
         for &k in counts {
             for shape in SHAPES {
                 runs.push((shape.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape]));
@@ -116,7 +121,7 @@ fn main() -> Result<()> {
             runs.push((HALTON.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", "disk-exact", "--rsm-seeding", "halton"]));
         }
         for (light, k, extra) in runs {
-            let label = if k == 0 { light.clone() } else { format!("{}-{k}", light.replace(", Halton seeds", "-halton")) };
+            let label = if k == 0 { light.replace(", ", "-").replace(' ', "-") } else { format!("{}-{k}", light.replace(", Halton seeds", "-halton")) };
             eprintln!("{}: {label}", c.name);
             let out = dir.join(&label);
             let k_vpl = k.max(1).to_string();
@@ -133,7 +138,7 @@ fn main() -> Result<()> {
                 "vpls": report["stats"]["vpls"], "clusters": report["stats"]["vpl_clusters"], "shade_ms": ms("shade"), "total_ms": ms("total"),
             }));
             // Pictures: the reference, and every light shape at the middle count with its error map.
-            if (k == counts[counts.len() / 2] && light != HALTON) || k == 0 {
+            if (k == counts[counts.len() / 2] && light != HALTON) || light == "unclustered" {
                 std::fs::copy(out.join("image.png"), docs.join(format!("{}-{label}.png", c.name)))?;
                 std::fs::copy(out.join("error_map.png"), docs.join(format!("{}-{label}-error.png", c.name)))?;
             }
@@ -305,6 +310,36 @@ fn kept(ratio: &Value) -> String {
     format!("{:.3} ({lo:.3}–{hi:.3})", r.iter().sum::<f64>() / r.len() as f64)
 }
 
+/// The mean of a frame's per-channel light kept (NaN if missing).
+fn kept_mean(ratio: &Value) -> f64 {
+    let r: Vec<f64> = ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
+    if r.is_empty() {
+        f64::NAN
+    } else {
+        r.iter().sum::<f64>() / r.len() as f64
+    }
+}
+
+/// Per cluster count, each light shape's error in light kept (kept − 1, in %), and which of the
+/// shapes without a clamp miss the reference's energy by less than the clamped points do.
+fn energy_table(frames: &[Value]) -> String {
+    let of = |light: &str, k: u64| frames.iter().find(|x| x["light"] == light && x["k"].as_u64() == Some(k)).map(|x| kept_mean(&x["mean_ratio"]) - 1.0);
+    let mut counts: Vec<u64> = frames.iter().filter_map(|x| x["k"].as_u64()).filter(|&k| k > 0).collect();
+    counts.dedup();
+    let baseline = of(UNCLAMPED, 0).map_or("?".into(), |e| format!("{:+.2} %", 100.0 * e));
+    let mut s = format!(
+        "\nEnergy: light kept − 1 at each cluster count (the unclamped shadow-map VPLs themselves: {baseline}); an area shape *loses less* than the clamped points where its |kept − 1| is smaller.\n\n| `--k-vpl` | point | disk | disk-exact | polygon | area shapes closer to the reference than points |\n|---:|---:|---:|---:|---:|---|\n"
+    );
+    for k in counts {
+        let cell = |light: &str| of(light, k).map_or("?".into(), |e| format!("{:+.2} %", 100.0 * e));
+        let point = of("point", k).map_or(f64::NAN, f64::abs);
+        let closer: Vec<&str> = ["disk", "disk-exact", "polygon"].into_iter().filter(|l| of(l, k).is_some_and(|e| e.abs() < point)).collect();
+        let closer = if closer.is_empty() { "none".to_string() } else { closer.join(", ") };
+        s.push_str(&format!("| {k} | {} | {} | {} | {} | {closer} |\n", cell("point"), cell("disk"), cell("disk-exact"), cell("polygon")));
+    }
+    s
+}
+
 fn markdown(r: &Value) -> Result<String> {
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let mut s = String::new();
@@ -316,7 +351,7 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     writeln!(
         s,
-        "Each scene's VPLs come from one reflective shadow map per light (`--vpl-source rsm`, one bounce) and are clustered in shadow-map space with the paper's Eq. 1 (`--vpl-cluster rsm`, weights 1, 10, 0), from seeds warped by the bidirectional importance map (`--rsm-seeding importance`, the default; the row *disk-exact, Halton seeds* starts from the plain Halton points instead). A cluster then lights the scene as a point with the geometry-term clamp (`point`, the core paper's light), as a disk through the paper's Eq. 2 (`disk`), or as the same disk through its exact form factor (`disk-exact`); disks have no clamp. `unclustered` is every shadow-map VPL as a clamped point. Shading points are not clustered (`--cluster vpl`). Every image holds the indirect light only (`--lighting indirect`) and is compared with a converged, unbiased reference of the same scene (`vplgi reference`: path VPLs with bias compensation, its own relative standard error given below). *Light kept* is the image's mean over the reference's per channel (the mean of the three, and their range): below 1 is energy lost.\n"
+        "Each scene's VPLs come from one reflective shadow map per light (`--vpl-source rsm`, one bounce) and are clustered in shadow-map space with the paper's Eq. 1 (`--vpl-cluster rsm`, weights 1, 10, 0), from seeds warped by the bidirectional importance map (`--rsm-seeding importance`, the default; the row *disk-exact, Halton seeds* starts from the plain Halton points instead). A cluster then lights the scene as a point with the geometry-term clamp (`point`, the core paper's light), as a disk through the paper's Eq. 2 (`disk`), as the same disk through its exact form factor (`disk-exact`), or as the convex polygon around its members (their extent in 8 directions of the representative's plane) through its exact form factor (`polygon`, the paper's other shape); disks and polygons have no clamp. `unclustered` is every shadow-map VPL as a clamped point, and *unclustered, no clamp* the same VPLs unclamped: the light they carry, which clustering cannot add to. Shading points are not clustered (`--cluster vpl`). Every image holds the indirect light only (`--lighting indirect`) and is compared with a converged, unbiased reference of the same scene (`vplgi reference`: path VPLs with bias compensation, its own relative standard error given below). *Light kept* is the image's mean over the reference's per channel (the mean of the three, and their range): below 1 is energy lost.\n"
     )?;
     for sc in r["scenes"].as_array().cloned().unwrap_or_default() {
         let name = sc["scene"].as_str().unwrap_or("?");
@@ -346,16 +381,17 @@ fn markdown(r: &Value) -> Result<String> {
                 f(&x["total_ms"]) / 1e3
             )?;
         }
+        s.push_str(&energy_table(&frames));
         let k = sc["middle_k"].as_u64().unwrap_or(0);
         writeln!(s, "\nAt `--k-vpl {k}` (images, then FLIP error maps against the reference):\n")?;
-        writeln!(s, "| reference | unclustered | point | disk | disk-exact |\n|---|---|---|---|---|")?;
+        writeln!(s, "| reference | unclustered | point | disk | disk-exact | polygon |\n|---|---|---|---|---|---|")?;
         writeln!(
             s,
-            "| ![](rsm/{name}-reference.png) | ![](rsm/{name}-unclustered.png) | ![](rsm/{name}-point-{k}.png) | ![](rsm/{name}-disk-{k}.png) | ![](rsm/{name}-disk-exact-{k}.png) |"
+            "| ![](rsm/{name}-reference.png) | ![](rsm/{name}-unclustered.png) | ![](rsm/{name}-point-{k}.png) | ![](rsm/{name}-disk-{k}.png) | ![](rsm/{name}-disk-exact-{k}.png) | ![](rsm/{name}-polygon-{k}.png) |"
         )?;
         writeln!(
             s,
-            "| | ![](rsm/{name}-unclustered-error.png) | ![](rsm/{name}-point-{k}-error.png) | ![](rsm/{name}-disk-{k}-error.png) | ![](rsm/{name}-disk-exact-{k}-error.png) |\n"
+            "| | ![](rsm/{name}-unclustered-error.png) | ![](rsm/{name}-point-{k}-error.png) | ![](rsm/{name}-disk-{k}-error.png) | ![](rsm/{name}-disk-exact-{k}-error.png) | ![](rsm/{name}-polygon-{k}-error.png) |\n"
         )?;
     }
     let sq = &r["sequence"];
@@ -426,6 +462,26 @@ mod tests {
         let e: Vec<f64> = e.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
         assert!((e[0] - 0.1 / 1.1).abs() < 1e-12 && e[1] == 0.0 && (e[2] - 0.1 / 0.6).abs() < 1e-12, "{e:?}");
         assert_eq!(mean_standard_error(&json!([seed(1.0, 1.0, 1.0)])), json!(null));
+    }
+
+    #[test]
+    fn the_energy_table_names_the_shapes_closer_than_points() {
+        let frame = |light: &str, k: u64, kept: f64| json!({"light": light, "k": k, "mean_ratio": [kept, kept, kept]});
+        let frames = [
+            frame(UNCLAMPED, 0, 0.996),
+            frame("point", 64, 1.009),
+            frame("disk", 64, 0.865),
+            frame("disk-exact", 64, 0.984),
+            frame("polygon", 64, 0.993),
+            frame("point", 256, 1.000),
+            frame("disk", 256, 0.9),
+            frame("disk-exact", 256, 0.99),
+            frame("polygon", 256, 0.997),
+        ];
+        let t = energy_table(&frames);
+        assert!(t.contains("themselves: -0.40 %"), "{t}");
+        assert!(t.contains("| 64 | +0.90 % | -13.50 % | -1.60 % | -0.70 % | polygon |"), "{t}");
+        assert!(t.contains("| 256 | +0.00 % | -10.00 % | -1.00 % | -0.30 % | none |"), "{t}");
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::rsm_cluster::rsm_cluster_from;
 use crate::rsm_importance::rsm_importance;
 use crate::rsm_vpls::rsm_vpls;
 use crate::seeding::{seeding, ImageHits};
-use crate::shade::{sample_irradiance, shade, vpl_lights, VisibilitySource, VplLight};
+use crate::shade::{sample_irradiance, shade, vpl_lights, VisibilitySource, VplLight, VplLights};
 use crate::shading_points::shading_points_of;
 use crate::trace_vpls::trace_vpls;
 use crate::visibility::{visibility, BitMatrix, Endpoint};
@@ -46,7 +46,7 @@ impl Backend for CpuScene<'_> {
     type Samples = Vec<ShadingPoint>;
     type Points = Vec<Endpoint>;
     type Hits = CpuHits;
-    type Lights = Vec<VplLight>;
+    type Lights = VplLights;
     type Clustering = Clustering;
     type Matrix = BitMatrix;
     type Scalars = Vec<f32>;
@@ -149,13 +149,13 @@ impl Backend for CpuScene<'_> {
         Ok(c.representatives.iter().map(|&r| points[r as usize]).collect())
     }
 
-    fn vpl_lights(&self, vpls: &Vec<Vpl>, n: u32, set: LightSet<'_, Clustering>) -> Result<Vec<VplLight>, FrameError> {
+    fn vpl_lights(&self, vpls: &Vec<Vpl>, n: u32, set: LightSet<'_, Clustering>) -> Result<VplLights, FrameError> {
         let vpls = &vpls[..n as usize];
         Ok(match set {
             LightSet::Clusters { clusters, shape, .. } => vpl_lights(vpls, Some(clusters), shape),
             LightSet::EachVpl { max_bounce } => {
                 let mut lights = vpl_lights(vpls, None, LightShape::Point);
-                for (l, v) in lights.iter_mut().zip(vpls) {
+                for (l, v) in lights.lights.iter_mut().zip(vpls) {
                     if v.bounce > max_bounce {
                         l.flux = [0.0; 3];
                     }
@@ -165,8 +165,8 @@ impl Backend for CpuScene<'_> {
         })
     }
 
-    fn light_points(&self, lights: &Vec<VplLight>, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
-        Ok(lights.iter().map(VplLight::endpoint).collect())
+    fn light_points(&self, lights: &VplLights, _n: u32) -> Result<Vec<Endpoint>, FrameError> {
+        Ok(lights.lights.iter().map(VplLight::endpoint).collect())
     }
 
     fn visibility(
@@ -202,7 +202,7 @@ impl Backend for CpuScene<'_> {
         points: Vec<Endpoint>,
         _n: u32,
         inv_radius: Vec<f32>,
-        lights: &Vec<VplLight>,
+        lights: &VplLights,
         _n_lights: u32,
         matrix: &BitMatrix,
         g_max: f32,

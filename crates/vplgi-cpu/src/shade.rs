@@ -24,9 +24,25 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
-use vplgi_types::{disk, sampling, Endpoint, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
+use vplgi_types::pod::{EXACT_DISK, EXACT_POLYGON};
+use vplgi_types::{disk, polygon, sampling, Endpoint, LightOutline, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 pub use vplgi_types::VplLight;
+
+/// Lights for indirect shading (the CPU backend's `Lights`): one [`VplLight`] each and, for a set
+/// with polygon lights (`LightShape::Polygon`), each light's outline in light order (an empty
+/// outline for a light that stayed a point); no outlines otherwise.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VplLights {
+    pub lights: Vec<VplLight>,
+    pub outlines: Vec<LightOutline>,
+}
+
+impl From<Vec<VplLight>> for VplLights {
+    fn from(lights: Vec<VplLight>) -> VplLights {
+        VplLights { lights, outlines: Vec::new() }
+    }
+}
 
 /// The lights of [`shade`] as arrays of components, made once per call: the per-light loop of
 /// [`indirect`] then runs over blocks of 64 lights (one visibility word) in straight-line code
@@ -37,13 +53,16 @@ pub struct LightArrays {
     normal: [Vec<f32>; 3],
     flux: [Vec<f32>; 3],
     radius2: Vec<f32>,
-    /// Whether any light is a disk lit by its exact form factor (`VplLight::exact`), which
+    /// Each light's `VplLight::exact` where any light is an exact disk or a polygon, which
     /// [`sum_lights`] evaluates light by light instead of in vectorised blocks.
-    exact: Option<Vec<bool>>,
+    exact: Option<Vec<u32>>,
+    /// The polygon lights' vertices and areas, by light (`vplgi_types::polygon`).
+    outlines: Vec<(Vec<Vec3>, f32)>,
 }
 
 impl LightArrays {
-    pub fn new(lights: &[VplLight]) -> LightArrays {
+    pub fn new(set: &VplLights) -> LightArrays {
+        let lights = &set.lights;
         let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
         let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
         LightArrays {
@@ -51,7 +70,8 @@ impl LightArrays {
             normal: three(|l| l.normal.into()),
             flux: three(|l| l.flux.into()),
             radius2: lights.iter().map(|l| l.radius2).collect(),
-            exact: lights.iter().any(|l| l.exact != 0).then(|| lights.iter().map(|l| l.exact != 0).collect()),
+            exact: lights.iter().any(|l| l.exact != 0).then(|| lights.iter().map(|l| l.exact).collect()),
+            outlines: set.outlines.iter().map(|o| (o.vertices[..o.count()].iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(), o.area())).collect(),
         }
     }
 
@@ -146,7 +166,7 @@ pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &Visibi
 /// `--shade interpolate`'s irradiance samples: the irradiance of `lights` at each of `points`,
 /// point j seeing the lights of row j of `matrix` (the sum of [`shade`], light by light in the same
 /// order).
-pub fn sample_irradiance(points: &[Endpoint], lights: &[VplLight], matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
+pub fn sample_irradiance(points: &[Endpoint], lights: &VplLights, matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
     let lights = LightArrays::new(lights);
     let rows: Vec<u32> = (0..points.len() as u32).collect();
     let vis = VisibilitySource::Own { matrix, row_of: &rows, first_row: 0 };
@@ -213,7 +233,7 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
             *gk = if d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0 { g } else { 0.0 };
         }
         if let Some(exact) = &l.exact {
-            exact_disk_terms(p, n, l, exact, base, &mut g[..len]);
+            exact_terms(p, n, l, exact, base, &mut g[..len]);
         }
         vis(word, &mut v);
         for (gk, vk) in g[..len].iter_mut().zip(&v[..len]) {
@@ -229,12 +249,13 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
     sum
 }
 
-/// G of the exact disks among the lights `base..base + g.len()` (`vplgi_types::disk::
-/// exact_geometry_term`), written over the entries the vectorised loop computed for them. The
-/// common case, all of the disk above the receiver's horizon (or none of it), is one
-/// straight-line pass over the block, the same arithmetic as `exact_geometry_term`'s; only the
-/// disks the horizon cuts go through the arc-and-chord form, one by one.
-fn exact_disk_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[bool], base: usize, g: &mut [f32]) {
+/// G of the exact disks and polygons among the lights `base..base + g.len()`
+/// (`vplgi_types::disk::exact_geometry_term`, `vplgi_types::polygon::geometry_term`), written over
+/// the entries the vectorised loop computed for them. The common case for a disk, all of it
+/// above the receiver's horizon (or none of it), is one straight-line pass over the block, the
+/// same arithmetic as `exact_geometry_term`'s; only the disks the horizon cuts go through the
+/// arc-and-chord form, and polygons through their contour sum, one by one.
+fn exact_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[u32], base: usize, g: &mut [f32]) {
     let at = |a: &[Vec<f32>; 3], c: usize| Vec3::new(a[0][c], a[1][c], a[2][c]);
     let mut cut = [false; 64];
     for (k, (gk, cut)) in g.iter_mut().zip(&mut cut).enumerate() {
@@ -249,15 +270,18 @@ fn exact_disk_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[bool], base: usi
         let n_rel = n.dot(rel);
         let lit = h > 0.0 && radius2 > 0.0 && n_rel < reach;
         let whole = disk::whole_disk_term(h, rel.length_squared(), radius2, n_z, n.dot(rho_vec));
-        *cut = exact[c] && lit && n_rel > -reach;
-        if exact[c] {
+        *cut = exact[c] == EXACT_DISK && lit && n_rel > -reach;
+        if exact[c] == EXACT_DISK {
             *gk = if lit && n_rel <= -reach { whole } else { 0.0 };
         }
     }
     for (k, gk) in g.iter_mut().enumerate() {
+        let c = base + k;
         if cut[k] {
-            let c = base + k;
             *gk = disk::exact_geometry_term(p, n, at(&l.position, c), at(&l.normal, c), l.radius2[c]);
+        } else if exact[c] == EXACT_POLYGON {
+            let (vertices, area) = &l.outlines[c];
+            *gk = polygon::geometry_term(p, n, at(&l.normal, c), vertices, *area);
         }
     }
 }
@@ -340,7 +364,7 @@ pub fn shade(
     sps: &[ShadingPoint],
     first_sample: usize,
     pixels: std::ops::Range<usize>,
-    lights: &[VplLight],
+    lights: &VplLights,
     vis: &VisibilitySource,
     params: &ShadeParams,
 ) -> Vec<[f32; 3]> {
@@ -362,10 +386,11 @@ pub fn shade(
 
 /// Lights for indirect shading: one per VPL cluster (at its representative, with the summed
 /// flux of its members; with `LightShape::Disk` or `DiskExact`, a disk of the members' spread
-/// around the representative's normal, `vplgi_types::disk::radius2`), or one point per VPL.
-pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> Vec<VplLight> {
+/// around the representative's normal, `vplgi_types::disk::radius2`; with `Polygon`, the
+/// members' outline in the representative's plane, `vplgi_types::polygon`), or one point per VPL.
+pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> VplLights {
     match clusters {
-        None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect(),
+        None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect::<Vec<_>>().into(),
         Some(c) => {
             // Sequential sums in VPL order: deterministic, and the GPU's order.
             let mut flux = vec![Vec3::ZERO; c.k()];
@@ -373,25 +398,45 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
             for (i, v) in vpls.iter().enumerate() {
                 let k = c.hard_label(i) as usize;
                 flux[k] += Vec3::from(v.flux);
-                if shape.is_disk() {
+                if shape.is_area() {
                     members[k].push(i);
                 }
             }
-            c.representatives
+            let mut outlines = Vec::new();
+            let lights = c
+                .representatives
                 .iter()
                 .zip(flux)
                 .zip(&members)
                 .map(|((&r, flux), members)| {
                     let v = &vpls[r as usize];
-                    let mut light = VplLight::new(v.position.into(), v.normal.into(), flux);
-                    if shape.is_disk() {
-                        let of = |&i: &usize| (Vec3::from(vpls[i].position), Vec3::from(vpls[i].flux));
-                        light.radius2 = disk::radius2(members.iter().map(of), v.normal.into());
-                        light.exact = (shape == LightShape::DiskExact && light.radius2 > 0.0) as u32;
+                    let (centre, normal) = (Vec3::from(v.position), Vec3::from(v.normal));
+                    let mut light = VplLight::new(centre, normal, flux);
+                    let of = |&i: &usize| (Vec3::from(vpls[i].position), Vec3::from(vpls[i].flux));
+                    match shape {
+                        LightShape::Point => {}
+                        LightShape::Disk | LightShape::DiskExact => {
+                            light.radius2 = disk::radius2(members.iter().map(of), normal);
+                            light.exact = if shape == LightShape::DiskExact && light.radius2 > 0.0 { EXACT_DISK } else { 0 };
+                        }
+                        LightShape::Polygon => {
+                            let outline = polygon::Outline::new(&polygon::support(members.iter().map(of), centre, normal));
+                            let area = outline.area();
+                            let mut placed = LightOutline::default();
+                            if area > 0.0 {
+                                light.radius2 = area / PI;
+                                light.exact = EXACT_POLYGON;
+                                for (slot, x) in placed.vertices.iter_mut().zip(outline.placed(centre, normal)) {
+                                    *slot = [x.x, x.y, x.z, area];
+                                }
+                            }
+                            outlines.push(placed);
+                        }
                     }
                     light
                 })
-                .collect()
+                .collect();
+            VplLights { lights, outlines }
         }
     }
 }

@@ -30,7 +30,7 @@ use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_types::seeding::SeedParams;
-use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightShape, ShadeParams, ShadingPoint, TraceParams};
+use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightOutline, LightShape, ShadeParams, ShadingPoint, TraceParams};
 
 /// The glue kernels of `frame.wgsl` between the stages.
 struct GlueKernels {
@@ -76,7 +76,8 @@ pub(crate) struct GlueParams {
     pub(crate) hit_first: u32,
     pub(crate) hit_count: u32,
     /// cluster_lights: 0 for points, 1 for disks lit by Eq. 2 (`LightShape::Disk`), 2 for disks
-    /// lit by their exact form factor (`LightShape::DiskExact`).
+    /// lit by their exact form factor (`LightShape::DiskExact`), 3 for polygons
+    /// (`LightShape::Polygon`).
     pub(crate) disk: u32,
     pub(crate) pad: [u32; 2],
 }
@@ -343,21 +344,26 @@ impl Backend for GpuBackend<'_> {
         Ok(match set {
             LightSet::Clusters { clusters: c, k, shape } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
-                let sums = storage_zeroed::<[f32; 4]>(self.device, "cluster light sums", 2 * k.max(1) as usize);
+                let sums = storage_zeroed::<[f32; 4]>(self.device, "cluster light sums", 4 * k.max(1) as usize);
+                let polygons = shape == LightShape::Polygon;
+                let outlines = storage_zeroed::<LightOutline>(self.device, "light outlines", if polygons { k.max(1) as usize } else { 1 });
                 let b = [
                     (6, vb),
                     (7, c.labels.as_entire_buffer_binding()),
                     (8, c.representatives.as_entire_buffer_binding()),
                     (9, lights.as_entire_buffer_binding()),
                     (10, sums.as_entire_buffer_binding()),
+                    (11, outlines.as_entire_buffer_binding()),
                 ];
                 let disk = match shape {
                     LightShape::Point => 0,
                     LightShape::Disk => 1,
                     LightShape::DiskExact => 2,
+                    LightShape::Polygon => 3,
                 };
                 // Each thread reads the VPLs in ranges of VPLS_PER_DISPATCH, continuing its sums
-                // (lavapipe's loop limiter, see shade::LOOP_BUDGET); a disk needs a second pass.
+                // (lavapipe's loop limiter, see shade::LOOP_BUDGET); a disk or a polygon needs a
+                // second pass.
                 for pass in 0..=disk.min(1) {
                     let mut first = 0;
                     while first < n {
@@ -367,14 +373,18 @@ impl Backend for GpuBackend<'_> {
                         first = end;
                     }
                 }
-                let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone()];
+                let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone(), b[5].clone()];
                 self.glue(&g.cluster_lights_finish, GlueParams { n, k, disk, ..Default::default() }, &finish, k)?;
-                VplLightSet { buffer: lights, exact_disks: shape == LightShape::DiskExact }
+                VplLightSet {
+                    buffer: lights,
+                    outlines: polygons.then_some(outlines),
+                    exact_shapes: matches!(shape, LightShape::DiskExact | LightShape::Polygon),
+                }
             }
             LightSet::EachVpl { max_bounce } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
                 self.glue(&g.vpl_lights, GlueParams { n, k: max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
-                VplLightSet { buffer: lights, exact_disks: false }
+                VplLightSet { buffer: lights, outlines: None, exact_shapes: false }
             }
         })
     }
@@ -413,8 +423,9 @@ impl Backend for GpuBackend<'_> {
             words: input.matrix,
             words_per_row: words_per_row(input.light_count as usize) as u32,
             vpl_lights: &input.lights.buffer,
+            outlines: input.lights.outlines.as_ref(),
             light_count: input.light_count,
-            exact_disks: input.lights.exact_disks,
+            exact_shapes: input.lights.exact_shapes,
             visibility,
         };
         let running = match input.visibility {
@@ -455,8 +466,9 @@ impl Backend for GpuBackend<'_> {
             words: matrix,
             words_per_row: words_per_row(n_lights as usize) as u32,
             vpl_lights: &lights.buffer,
+            outlines: lights.outlines.as_ref(),
             light_count: n_lights,
-            exact_disks: lights.exact_disks,
+            exact_shapes: lights.exact_shapes,
             g_max,
         };
         self.kernels.interpolate.sample_irradiance(self.device, self.queue, &self.kernels.shade, (points, n), inv_radius, &lighting)

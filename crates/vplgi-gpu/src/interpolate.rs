@@ -40,9 +40,11 @@ pub struct SampleLighting<'a> {
     pub words: &'a wgpu::Buffer,
     pub words_per_row: u32,
     pub vpl_lights: &'a wgpu::Buffer,
+    /// [`crate::shade::ShadeInputs::outlines`].
+    pub outlines: Option<&'a wgpu::Buffer>,
     pub light_count: u32,
-    /// [`crate::shade::ShadeInputs::exact_disks`].
-    pub exact_disks: bool,
+    /// [`crate::shade::ShadeInputs::exact_shapes`].
+    pub exact_shapes: bool,
     pub g_max: f32,
 }
 
@@ -99,8 +101,9 @@ impl InterpolateKernel {
             words: lighting.words,
             words_per_row: lighting.words_per_row,
             vpl_lights: lighting.vpl_lights,
+            outlines: lighting.outlines,
             light_count: lighting.light_count,
-            exact_disks: lighting.exact_disks,
+            exact_shapes: lighting.exact_shapes,
             visibility: Visibility::Own { first_row: 0 },
         };
         let irradiance = shade.light_sums(device, queue, &inputs, 0..n, 1, lighting.g_max)?;

@@ -70,18 +70,21 @@ pub struct ShadeInputs<'a> {
     pub words: &'a wgpu::Buffer,
     pub words_per_row: u32,
     pub vpl_lights: &'a wgpu::Buffer,
+    /// The polygon lights' outlines (`LightOutline`, one per light), if any light is a polygon.
+    pub outlines: Option<&'a wgpu::Buffer>,
     pub light_count: u32,
-    /// Whether any of the lights is a disk lit by its exact form factor (`VplLight::exact`): such
-    /// lights are only evaluated by the pipeline compiled for them.
-    pub exact_disks: bool,
+    /// Whether any of the lights is a disk or a polygon lit by its exact form factor
+    /// (`VplLight::exact`): such lights are only evaluated by the pipeline compiled for them.
+    pub exact_shapes: bool,
     pub visibility: Visibility<'a>,
 }
 
-/// Lights for indirect shading on the device, and whether any is an exact disk (the GPU
-/// backend's `Lights`).
+/// Lights for indirect shading on the device, the polygon lights' outlines, and whether any
+/// light is an exact disk or a polygon (the GPU backend's `Lights`).
 pub struct VplLightSet {
     pub buffer: wgpu::Buffer,
-    pub exact_disks: bool,
+    pub outlines: Option<wgpu::Buffer>,
+    pub exact_shapes: bool,
 }
 
 fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
@@ -92,7 +95,7 @@ pub struct ShadeKernel {
     /// Emission, direct light and the per-point light sums, per pixel.
     finish: RayPipeline,
     /// The light sums, by the number of visibility rows per point (1 ..= MAX_F) and then with
-    /// exact disks (`EXACT_DISKS`) at index MAX_F + 1 + rows, compiled on first use.
+    /// exact disks and polygons (`EXACT_SHAPES`) at index MAX_F + 1 + rows, compiled on first use.
     lights: Vec<OnceLock<wgpu::ComputePipeline>>,
 }
 
@@ -111,10 +114,11 @@ impl ShadeKernel {
         })
     }
 
-    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32, exact_disks: bool) -> &wgpu::ComputePipeline {
-        let index = rows as usize + if exact_disks { MAX_F as usize + 1 } else { 0 };
-        self.lights[index]
-            .get_or_init(|| pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64), ("EXACT_DISKS", if exact_disks { 1.0 } else { 0.0 })]))
+    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32, exact_shapes: bool) -> &wgpu::ComputePipeline {
+        let index = rows as usize + if exact_shapes { MAX_F as usize + 1 } else { 0 };
+        self.lights[index].get_or_init(|| {
+            pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64), ("EXACT_SHAPES", if exact_shapes { 1.0 } else { 0.0 })])
+        })
     }
 
     /// Shades `pixels` and returns a device buffer of one `vec4<f32>` (RGB, 0) per pixel of the
@@ -172,13 +176,15 @@ impl ShadeKernel {
         };
         validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
-            let lights_pipeline = self.lights_pipeline(device, f, inputs.exact_disks);
+            let lights_pipeline = self.lights_pipeline(device, f, inputs.exact_shapes);
             let invocations = (count * spp).div_ceil(SHADE_POINTS);
             let mut first = 0;
             while first < inputs.light_count {
                 let end = inputs.light_count.min(first + chunk);
                 let p = kernel_params(device, "shade params", &Params { light_first: first, light_end: end, ..params });
-                let mut bindings = bind(&[(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (14, &running)]);
+                let outlines = inputs.outlines.unwrap_or(&dummy);
+                let mut bindings =
+                    bind(&[(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (14, &running), (15, outlines)]);
                 bindings.push((10, labels.clone()));
                 bindings.push((11, weights.clone()));
                 in_kernel("shade lights", || dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64)));

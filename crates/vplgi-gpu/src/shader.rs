@@ -206,8 +206,12 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("METRIC_WARD", METRIC_WARD),
         ("REPRESENTATIVE_NEAREST", REPRESENTATIVE_NEAREST),
         ("REPRESENTATIVE_MIN_ERROR", REPRESENTATIVE_MIN_ERROR),
+        ("EXACT_DISK", vplgi_types::pod::EXACT_DISK),
+        ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
+        ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
     ];
     let f = vec![
+        ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
         ("PI", std::f32::consts::PI),
         ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
         ("ERROR_ONE", vplgi_types::seeding::ERROR_ONE),

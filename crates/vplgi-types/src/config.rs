@@ -58,11 +58,17 @@ pub enum LightShape {
     /// loses far less of the clusters' light than Eq. 2 does (`vplgi_types::disk`).
     #[serde(rename = "disk-exact")]
     DiskExact,
+    /// A convex polygon around the members in the representative's plane (their extent in 8
+    /// directions), lit by its exact form factor with no clamp: unlike the disk it ends where
+    /// the members end, so a cluster against a wall does not shine through it. The paper's other
+    /// shape (its Fig. 3); a cluster whose members span no area stays a clamped point
+    /// (`vplgi_types::polygon`).
+    Polygon,
 }
 
 impl LightShape {
-    /// Whether a cluster becomes a disk (of the members' spread) rather than a point.
-    pub fn is_disk(self) -> bool {
+    /// Whether a cluster becomes an area light (a disk or a polygon) rather than a point.
+    pub fn is_area(self) -> bool {
         self != LightShape::Point
     }
 }
@@ -572,8 +578,10 @@ impl FrameConfig {
             }
             self.rsm_weights.validate()?;
         }
-        if self.light_shape.is_disk() && self.cluster.clusters_vpls() && self.bias_compensation {
-            return Err("bias compensation puts back what the clamp takes from point lights, and disk lights have no clamp: use one or the other".into());
+        if self.light_shape.is_area() && self.cluster.clusters_vpls() && self.bias_compensation {
+            return Err(
+                "bias compensation puts back what the clamp takes from point lights, and disk and polygon lights have no clamp: use one or the other".into()
+            );
         }
         Ok(())
     }

@@ -12,6 +12,7 @@
 //! * [`params`]: the parameters of each stage, as every backend takes them.
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
+//! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
 //! * [`rsm_importance`]: the bidirectional importance map and the warp of the RSM clustering's
 //!   seeds.
@@ -28,6 +29,7 @@ pub mod interpolation;
 pub mod light_groups;
 pub mod params;
 pub mod pod;
+pub mod polygon;
 pub mod rng;
 pub mod rsm;
 pub mod rsm_importance;
@@ -41,5 +43,5 @@ pub use config::{
     VplSource,
 };
 pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
-pub use pod::{Endpoint, ShadingPoint, Vpl, VplLight, MISS};
+pub use pod::{Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -101,14 +101,42 @@ impl Endpoint {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VplLight {
     pub position: [f32; 3],
-    /// R² of the disk the light stands for (`crate::disk`); 0 for a point light.
+    /// R² of the disk the light stands for (`crate::disk`); for a polygon (`crate::polygon`) the
+    /// R² of a disk of its area; 0 for a point light.
     pub radius2: f32,
     pub normal: [f32; 3],
-    /// 1 when a disk (`radius2` > 0) is lit by its exact form factor
-    /// (`crate::disk::exact_geometry_term`), 0 when by Eq. 2 or as a point.
+    /// How its exact form factor is taken: [`EXACT_DISK`] for a disk (`radius2` > 0,
+    /// `crate::disk::exact_geometry_term`), [`EXACT_POLYGON`] for a polygon whose outline is the
+    /// light's [`LightOutline`] (`crate::polygon::geometry_term`), 0 for Eq. 2 or a point.
     pub exact: u32,
     pub flux: [f32; 3],
     pub _pad2: f32,
+}
+
+/// [`VplLight::exact`] of a disk lit by its exact form factor.
+pub const EXACT_DISK: u32 = 1;
+/// [`VplLight::exact`] of a polygon light.
+pub const EXACT_POLYGON: u32 = 2;
+
+/// The outline of a polygon light (`crate::polygon`), the same bytes as `LightOutline` in
+/// `types.wgsl`: its vertices in space, counterclockwise about the light's normal, each with the
+/// polygon's area in w; the vertices after the last have w = 0.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightOutline {
+    pub vertices: [[f32; 4]; crate::polygon::SIDES],
+}
+
+impl LightOutline {
+    /// The vertices in use.
+    pub fn count(&self) -> usize {
+        self.vertices.iter().take_while(|v| v[3] > 0.0).count()
+    }
+
+    /// The polygon's area (0 for no polygon).
+    pub fn area(&self) -> f32 {
+        self.vertices[0][3]
+    }
 }
 
 impl VplLight {

@@ -3,7 +3,7 @@
 use glam::Vec3;
 use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart, Clustering};
 use vplgi_cpu::seeding::{seeding, ImageHits};
-use vplgi_cpu::shade::VplLight;
+use vplgi_cpu::shade::{VplLight, VplLights};
 use vplgi_cpu::CpuScene;
 use vplgi_types::rsm_importance;
 use vplgi_types::{Endpoint, FrameConfig, RsmSeeding, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
@@ -92,7 +92,7 @@ impl CpuFrame {
 /// The CPU's stage 3 of a frame in the frame's mode: lights, the visibility rows and columns, and
 /// the shading-point clustering if there is one.
 pub struct CpuClusters {
-    pub lights: Vec<VplLight>,
+    pub lights: VplLights,
     /// The VPL clustering the lights come from, if VPLs are clustered.
     pub vpl_clusters: Option<Clustering>,
     pub cols: Vec<Endpoint>,
@@ -114,7 +114,7 @@ impl CpuClusters {
             }
         });
         let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
-        let cols = lights.iter().map(VplLight::endpoint).collect();
+        let cols = lights.lights.iter().map(VplLight::endpoint).collect();
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
             let seeds = (cfg.seeding == Seeding::Adaptive).then(|| frame.adaptive_seeds(cfg, cs.extent));

@@ -20,15 +20,17 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
     let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
     let cpu = vplgi_cpu::shade::sample_irradiance(&clusters.rows, &clusters.lights, &matrix, g_max);
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-    let lights = storage(device, "lights", &clusters.lights);
-    let n_lights = clusters.lights.len() as u32;
-    let exact_disks = clusters.lights.iter().any(|l| l.exact != 0);
+    let lights = storage(device, "lights", &clusters.lights.lights);
+    let outlines = (!clusters.lights.outlines.is_empty()).then(|| storage(device, "light outlines", &clusters.lights.outlines));
+    let n_lights = clusters.lights.lights.len() as u32;
+    let exact_shapes = clusters.lights.lights.iter().any(|l| l.exact != 0);
     let lighting = SampleLighting {
         words: &words,
-        words_per_row: words_per_row(clusters.lights.len()) as u32,
+        words_per_row: words_per_row(clusters.lights.lights.len()) as u32,
         vpl_lights: &lights,
+        outlines: outlines.as_ref(),
         light_count: n_lights,
-        exact_disks,
+        exact_shapes,
         g_max,
     };
     let n = clusters.rows.len();

@@ -14,7 +14,7 @@ use vplgi_gpu::interpolate::{InterpolateInputs, SampleLighting};
 use vplgi_gpu::shade::{ShadeInputs, Visibility};
 use vplgi_gpu::trace_vpls::GpuVpls;
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::{FrameConfig, ShadeMode, VplLight};
+use vplgi_types::{FrameConfig, LightOutline, ShadeMode, VplLight};
 
 /// An image's pixels, row-major.
 pub type Pixels = Vec<[f32; 3]>;
@@ -63,7 +63,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     let needed = [
         ("shading points", std::mem::size_of_val(&frame.sps[..]) as u64),
         ("visibility words", (clusters.rows.len() * wpr * 4) as u64),
-        ("lights", std::mem::size_of_val(&clusters.lights[..]) as u64),
+        ("lights", std::mem::size_of_val(&clusters.lights.lights[..]) as u64),
     ];
     if let Some((what, bytes)) = needed.iter().find(|(_, b)| *b > limit) {
         return Err(VerifyError::TooLarge(format!(
@@ -92,8 +92,9 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     let sps = storage(device, "sps", &frame.sps);
     let row_of = storage(device, "row_of", &frame.row_of);
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-    let lights = storage(device, "lights", &clusters.lights);
-    let exact_disks = clusters.lights.iter().any(|l| l.exact != 0);
+    let lights = storage(device, "lights", &clusters.lights.lights);
+    let outlines = (!clusters.lights.outlines.is_empty()).then(|| storage(device, "light outlines", &clusters.lights.outlines));
+    let exact_shapes = clusters.lights.lights.iter().any(|l| l.exact != 0);
     let (labels, weights) = match &clusters.sp_clusters {
         Some(sc) => (storage(device, "labels", &sc.labels), storage(device, "weights", &sc.weights)),
         None => (storage::<u32>(device, "labels", &[]), storage::<f32>(device, "weights", &[])),
@@ -106,8 +107,9 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 words: &words,
                 words_per_row: wpr as u32,
                 vpl_lights: &lights,
-                light_count: clusters.lights.len() as u32,
-                exact_disks,
+                outlines: outlines.as_ref(),
+                light_count: clusters.lights.lights.len() as u32,
+                exact_shapes,
                 g_max: params.g_max,
             };
             let points = (storage(device, "sample points", &samples.points), samples.points.len() as u32);
@@ -135,8 +137,9 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 words: &words,
                 words_per_row: wpr as u32,
                 vpl_lights: &lights,
-                light_count: clusters.lights.len() as u32,
-                exact_disks,
+                outlines: outlines.as_ref(),
+                light_count: clusters.lights.lights.len() as u32,
+                exact_shapes,
                 visibility,
             };
             kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?
@@ -159,19 +162,43 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
     let gpu: Vec<VplLight> = read_back(device, queue, &buffer.buffer, k as usize)?;
     let mut worst = (0.0f64, None);
-    for (c, (a, b)) in clusters.lights.iter().zip(&gpu).enumerate() {
+    for (c, (a, b)) in clusters.lights.lights.iter().zip(&gpu).enumerate() {
         let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 12]>(*a), bytemuck::cast::<VplLight, [f32; 12]>(*b));
         let d = fa.iter().zip(&fb).map(|(x, y)| ((x - y).abs() / x.abs().max(1e-20)) as f64).fold(0.0, f64::max);
         if d > worst.0 || d.is_nan() {
             worst = (d, Some(format!("cluster {c}: CPU flux {} R² {}, GPU flux {} R² {}", crate::v3(a.flux), a.radius2, crate::v3(b.flux), b.radius2)));
         }
     }
+    // A polygon's outline: each vertex's distance to the nearest vertex of the other's, over the
+    // polygon's size (√area), and the areas' relative difference. Not vertex by vertex: where a
+    // diagonal side of the outline just grazes a corner, rounding may cut the corner on one
+    // backend (two vertices a rounding error apart) and not on the other, the same polygon.
+    if let Some(outlines) = &buffer.outlines {
+        let gpu: Vec<LightOutline> = read_back(device, queue, outlines, k as usize)?;
+        for (c, (a, b)) in clusters.lights.outlines.iter().zip(&gpu).enumerate() {
+            let size = (a.area() as f64).sqrt().max(1e-20);
+            let d = outline_distance(a, b).max(outline_distance(b, a)) / size;
+            let d = d.max(((a.area() - b.area()) / a.area().max(1e-20)).abs() as f64);
+            if d > worst.0 || d.is_nan() {
+                worst =
+                    (d, Some(format!("cluster {c}: CPU outline of {} vertices, area {}; GPU {} vertices, area {}", a.count(), a.area(), b.count(), b.area())));
+            }
+        }
+    }
     let shape = serde_json::to_value(cfg.light_shape).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
     Ok(Some(
-        Disagreement::at_most("shade / cluster lights", "largest relative difference of a light's flux or R²", worst.0, CLUSTER_LIGHTS_REL)
+        Disagreement::at_most("shade / cluster lights", "largest relative difference of a light's flux, R² or outline", worst.0, CLUSTER_LIGHTS_REL)
             .with_case(format!("{} {shape}", Mode::of(cfg).name_in(cfg)))
             .with_worst(worst.1),
     ))
+}
+
+/// The farthest any vertex of `a` is from the nearest vertex of `b` (0 with no vertices in `a`,
+/// infinite with none in `b` only).
+fn outline_distance(a: &LightOutline, b: &LightOutline) -> f64 {
+    let v = |o: &LightOutline| o.vertices[..o.count()].iter().map(|x| glam::DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect::<Vec<_>>();
+    let (a, b) = (v(a), v(b));
+    a.iter().map(|x| b.iter().map(|y| x.distance(*y)).fold(f64::INFINITY, f64::min)).fold(0.0, f64::max)
 }
 
 /// Compares the two images of one mode.
