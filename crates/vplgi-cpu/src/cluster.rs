@@ -31,6 +31,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use std::ops::Range;
 use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
 pub use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric, Representative};
 use vplgi_types::config::MAX_F;
@@ -217,6 +218,66 @@ impl Grid {
         (0..3).map(|a| c[a].max(self.dims[a] - 1 - c[a])).max().unwrap_or(0).max(1)
     }
 
+    /// The points as runs of consecutive points in one cell (points in cell order, as
+    /// [`Grid::cell_order`] puts them, make one run per occupied cell).
+    pub fn runs(&self, points: &[Vec3]) -> Vec<Range<usize>> {
+        let cells: Vec<usize> = points.par_iter().map(|&p| self.linear(self.coords(p))).collect();
+        let mut runs = Vec::new();
+        let mut start = 0;
+        for i in 1..=points.len() {
+            if i == points.len() || cells[i] != cells[start] {
+                runs.push(start..i);
+                start = i;
+            }
+        }
+        runs
+    }
+
+    /// The nearest centroid of each of `points` (with `normals`), all in cell `c`, over the 27
+    /// cells around it: Some((index, Neighbourhood)) where that settles the search as
+    /// [`Grid::search`] would (for Eq. 7, any compatible centroid; for Eq. 2, a best error that
+    /// no centroid beyond the 27 cells can beat), None where the point needs the full search.
+    /// The keys are [`Metric::key`]'s of the same [`dist2`] and [`cosine`]; the centroids are
+    /// visited in index order and replace the best only when strictly nearer, so ties go to the
+    /// lower index as in the search. Keys are finite for finite data.
+    pub fn nearest_in_neighbourhood(&self, c: [i32; 3], points: &[Vec3], normals: &[Vec3], metric: Metric) -> Vec<Option<(u32, SearchOutcome)>> {
+        let mut items: Vec<usize> = Vec::new();
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                let (y, z) = (c[1] + dy, c[2] + dz);
+                if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
+                    continue;
+                }
+                items.extend(self.row_items((c[0] - 1).max(0), (c[0] + 1).min(self.dims[0] - 1), y, z));
+            }
+        }
+        items.sort_unstable_by_key(|&t| self.items[t]);
+        let n = points.len();
+        let axis = |v: &[Vec3], a: usize| -> Vec<f32> { v.iter().map(|x| x[a]).collect() };
+        let (px, py, pz) = (axis(points, 0), axis(points, 1), axis(points, 2));
+        let (nx, ny, nz) = (axis(normals, 0), axis(normals, 1), axis(normals, 2));
+        let mut key = vec![f32::INFINITY; n];
+        let mut label = vec![MISS; n];
+        let candidates: Vec<(Vec3, Vec3, u32)> = items.iter().map(|&t| (self.item_positions[t], self.item_normals[t], self.items[t])).collect();
+        let points = Soa { px: &px, py: &py, pz: &pz, nx: &nx, ny: &ny, nz: &nz };
+        match metric {
+            Metric::Eq7 { normal_threshold } => {
+                nearest_of_run(&candidates, &points, &mut key, &mut label, |d2, cos| if cos > normal_threshold { d2 } else { f32::INFINITY })
+            }
+            Metric::Ward { alpha } => nearest_of_run(&candidates, &points, &mut key, &mut label, |d2, cos| vplgi_types::clustering::ward_error(alpha, d2, cos)),
+        }
+        key.iter()
+            .zip(label)
+            .map(|(&k, l)| {
+                let settled = match metric {
+                    Metric::Eq7 { .. } => l != MISS,
+                    Metric::Ward { .. } => l != MISS && metric.settled(k, self.cell),
+                };
+                settled.then_some((l, SearchOutcome::Neighbourhood))
+            })
+            .collect()
+    }
+
     /// The `best.len()` nearest compatible centroids of point (`p`, `n`), nearest first (ties:
     /// lower index), written to `best` as (squared distance, index); returns how many were found
     /// and how the search ended. This one search serves both the k-means iterations (one entry)
@@ -361,12 +422,49 @@ pub enum SearchOutcome {
     Incompatible,
 }
 
+/// How many cells of size `cell` from `min` hold at least one of `points` (which lie at or
+/// above `min`). A cell's coordinate is (p − min) / cell truncated: the floor, as the points are
+/// not below `min` (and a negative or NaN quotient would become 0 either way). Marked in a
+/// bitmap where the cells in reach of the points are few enough (a few bits per point), else
+/// counted by sorting the cells' keys.
 fn occupied_cells(points: &[Vec3], min: Vec3, cell: f32) -> usize {
+    let coords = |p: Vec3| {
+        let q = (p - min) / cell;
+        [q.x as u64, q.y as u64, q.z as u64]
+    };
+    let top = points.par_iter().map(|&p| coords(p)).reduce(|| [0; 3], |a, b| [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])]);
+    let dims = top.map(|t| t as u128 + 1);
+    let cells = dims[0] * dims[1] * dims[2];
+    if cells <= (64 * points.len() as u128).max(1 << 16) {
+        // One bitmap per thread's share of the points, then their union (atomic marks in one
+        // shared bitmap would bounce its cache lines between the cores).
+        let words = cells.div_ceil(64) as usize;
+        let share = points.len().div_ceil(rayon::current_num_threads()).max(1);
+        let bits = points
+            .par_chunks(share)
+            .map(|ps| {
+                let mut bits = vec![0u64; words];
+                for &p in ps {
+                    let c = coords(p);
+                    let i = c[0] as u128 + dims[0] * (c[1] as u128 + dims[1] * c[2] as u128);
+                    bits[(i / 64) as usize] |= 1 << (i % 64);
+                }
+                bits
+            })
+            .reduce(
+                || vec![0u64; words],
+                |mut a, b| {
+                    a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
+                    a
+                },
+            );
+        return bits.iter().map(|w| w.count_ones() as usize).sum();
+    }
     let mut keys: Vec<u64> = points
         .par_iter()
         .map(|&p| {
-            let q = ((p - min) / cell).floor();
-            ((q.x as u64) << 42) | ((q.y as u64) << 21) | (q.z as u64)
+            let [x, y, z] = coords(p);
+            (x << 42) | (y << 21) | z
         })
         .collect();
     keys.par_sort_unstable();
@@ -386,22 +484,90 @@ pub fn assign(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, pr
 
 /// [`assign`], also counting the searches that widened and the points with no compatible
 /// centroid (as [`Clustering::widened`] and [`Clustering::incompatible`]).
+///
+/// Points that share a grid cell share their 27-cell neighbourhood, so consecutive points of one
+/// cell (the k-means iterations visit them in cell order) are searched together
+/// ([`Grid::nearest_in_neighbourhood`]): the neighbourhood's centroids are gathered once, and
+/// each is tested against all the run's points in a loop the compiler vectorises across points,
+/// instead of one pruned search per point. The answer is the same: the nearest over the 27
+/// cells, ties to the lower index. A point the 27 cells do not settle (no compatible centroid
+/// for Eq. 7; for Eq. 2 a best error that a centroid farther out could still beat), and every
+/// point of a run too short to share the gathering, takes the per-point search from its
+/// `previous` label.
 fn assign_with_outcomes(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, previous: Option<&[u32]>) -> (Vec<u32>, usize, usize) {
-    let found: Vec<(u32, SearchOutcome)> =
-        points.par_iter().zip(normals).enumerate().map(|(i, (&p, &n))| grid.search_near(p, n, metric, previous.map_or(MISS, |l| l[i]))).collect();
+    assign_runs(grid, points, normals, metric, previous, &grid.runs(points))
+}
+
+/// [`assign_with_outcomes`] over `runs`, the points' [`Grid::runs`] (which the k-means
+/// iterations compute once: their points keep their cells).
+fn assign_runs(grid: &Grid, points: &[Vec3], normals: &[Vec3], metric: Metric, previous: Option<&[u32]>, runs: &[Range<usize>]) -> (Vec<u32>, usize, usize) {
+    let found: Vec<(u32, SearchOutcome)> = runs
+        .par_iter()
+        .flat_map_iter(|run| {
+            let one = |i: usize| grid.search_near(points[i], normals[i], metric, previous.map_or(MISS, |l| l[i]));
+            if run.len() < BATCH_MIN {
+                return run.clone().map(one).collect::<Vec<_>>();
+            }
+            let best = grid.nearest_in_neighbourhood(grid.coords(points[run.start]), &points[run.clone()], &normals[run.clone()], metric);
+            run.clone().zip(best).map(|(i, b)| b.unwrap_or_else(|| one(i))).collect()
+        })
+        .collect();
     let widened = found.iter().filter(|f| f.1 != SearchOutcome::Neighbourhood).count();
     let incompatible = found.iter().filter(|f| f.1 == SearchOutcome::Incompatible).count();
     (found.into_iter().map(|f| f.0).collect(), widened, incompatible)
+}
+
+/// Runs of points in one cell shorter than this are searched point by point: gathering the
+/// neighbourhood costs about as much as a few pruned searches.
+const BATCH_MIN: usize = 8;
+
+/// A run's points and normals, one array per component.
+struct Soa<'a> {
+    px: &'a [f32],
+    py: &'a [f32],
+    pz: &'a [f32],
+    nx: &'a [f32],
+    ny: &'a [f32],
+    nz: &'a [f32],
+}
+
+/// For each candidate (position, normal, index) in index order, each point whose key (`key_of`
+/// its squared distance and normal cosine, computed as [`dist2`] and [`cosine`] do) is strictly
+/// below its best takes it. Straight-line code over the points, monomorphised per metric, so
+/// the loop vectorises across points.
+#[inline(always)]
+fn nearest_of_run(candidates: &[(Vec3, Vec3, u32)], p: &Soa, key: &mut [f32], label: &mut [u32], key_of: impl Fn(f32, f32) -> f32) {
+    let n = key.len();
+    let (px, py, pz, nx, ny, nz, label) = (&p.px[..n], &p.py[..n], &p.pz[..n], &p.nx[..n], &p.ny[..n], &p.nz[..n], &mut label[..n]);
+    for &(cp, cn, id) in candidates {
+        for q in 0..n {
+            let (dx, dy, dz) = (px[q] - cp.x, py[q] - cp.y, pz[q] - cp.z);
+            let mut d2 = dx * dx;
+            d2 += dy * dy;
+            d2 += dz * dz;
+            let mut cos = nx[q] * cn.x;
+            cos += ny[q] * cn.y;
+            cos += nz[q] * cn.z;
+            let k = key_of(d2, cos);
+            let best = key[q];
+            // Selects as masks, not branches, so that the loop vectorises.
+            let nearer = ((k < best) as u32).wrapping_neg();
+            key[q] = f32::from_bits((k.to_bits() & nearer) | (best.to_bits() & !nearer));
+            label[q] = (id & nearer) | (label[q] & !nearer);
+        }
+    }
 }
 
 /// Recomputes the centroids from the labels with fixed-point sums (Alg. 1, lines 12-18).
 /// Clusters without members keep their previous centroid. Returns the member counts.
 pub fn update(fix: &FixedPoint, points: &[Vec3], normals: &[Vec3], labels: &[u32], centroids: &mut [Vec3], cnormals: &mut [Vec3]) -> Vec<u32> {
     let k = centroids.len();
+    // A few chunks per thread: each chunk's sums are a K-sized table, zeroed and then reduced.
+    let chunk = 1 << 14;
     let (sums, counts) = points
-        .par_chunks(1 << 14)
-        .zip(normals.par_chunks(1 << 14))
-        .zip(labels.par_chunks(1 << 14))
+        .par_chunks(chunk)
+        .zip(normals.par_chunks(chunk))
+        .zip(labels.par_chunks(chunk))
         .map(|((ps, ns), ls)| {
             let mut sums = vec![[0u64; 6]; k];
             let mut counts = vec![0u32; k];
@@ -513,9 +679,10 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     let (_, order) = geometry.cell_order(&sp);
     let (op, on): (Vec<Vec3>, Vec<Vec3>) = order.iter().map(|&i| (sp[i as usize], sn[i as usize])).unzip();
     let mut ordered: Option<Vec<u32>> = None;
+    let runs = geometry.runs(&op);
     for _ in 0..params.iterations {
         let grid = geometry.fill(&cpos, &cnor);
-        let l = assign(&grid, &op, &on, metric, ordered.as_deref());
+        let (l, _, _) = assign_runs(&grid, &op, &on, metric, ordered.as_deref(), &runs);
         update(&fix, &op, &on, &l, &mut cpos, &mut cnor);
         ordered = Some(l);
     }
@@ -525,7 +692,7 @@ pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams
     // iteration's labels.
     let grid = geometry.fill(&cpos, &cnor);
     let (hard, hard_widened, hard_incompatible) = if sp.len() == m {
-        let (ordered_hard, w, i) = assign_with_outcomes(&grid, &op, &on, metric, ordered.as_deref());
+        let (ordered_hard, w, i) = assign_runs(&grid, &op, &on, metric, ordered.as_deref(), &runs);
         let mut hard = vec![MISS; m];
         for (&i, &label) in order.iter().zip(&ordered_hard) {
             hard[i as usize] = label;

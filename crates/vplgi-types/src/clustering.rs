@@ -217,7 +217,7 @@ impl FixedPoint {
     pub fn quantize(&self, p: Vec3, n: Vec3) -> [u32; 6] {
         let q = ((p - self.min) / self.ext * FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(FIX_ONE));
         let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
-        [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| v.round_ties_even() as u32)
+        [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| round_ties_even_nonnegative(v) as u32)
     }
 
     /// The mean position and (normalised) mean normal of `count` points whose quantised values
@@ -228,6 +228,20 @@ impl FixedPoint {
         let p = self.min + Vec3::new(m[0], m[1], m[2]) / FIX_ONE * self.ext;
         let n = Vec3::new(m[3] - FIX_ONE, m[4] - FIX_ONE, m[5] - FIX_ONE) / FIX_ONE;
         (p, n.try_normalize())
+    }
+}
+
+/// `v.round_ties_even()` for `v` ≥ 0 (or NaN), without the libm call baseline x86-64 makes of
+/// it (the centroid update rounds six values per point): below 2^23, adding 2^23 leaves no
+/// fraction bits, so the addition itself rounds to the nearest integer, ties to even, and the
+/// subtraction is exact; from 2^23 on every f32 is an integer already.
+#[inline]
+pub fn round_ties_even_nonnegative(v: f32) -> f32 {
+    const TWO_23: f32 = 8_388_608.0;
+    if v < TWO_23 {
+        (v + TWO_23) - TWO_23
+    } else {
+        v
     }
 }
 
@@ -259,5 +273,30 @@ pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, metric: Metric, cell:
     }
     for w in out.iter_mut() {
         *w /= total;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounding_without_libm_is_round_ties_even() {
+        // Ties at every magnitude, their neighbours one ulp away, and sweeps of the range the
+        // quantiser produces ([0, 2^25]), against the standard library.
+        let mut values = vec![0.0f32, 0.5, 1.5, 2.5, 8_388_607.5, 8_388_608.0, 16_777_216.0, 33_554_432.0, f32::NAN];
+        for e in 0..24 {
+            let t = (1u32 << e) as f32 + 0.5;
+            values.extend([t, f32::from_bits(t.to_bits() - 1), f32::from_bits(t.to_bits() + 1)]);
+        }
+        let mut rng = crate::Rng::new(5, crate::Stream::Oracle, 9);
+        values.extend((0..200_000).map(|_| rng.next_f32() * 33_554_432.0));
+        values.extend((0..200_000).map(|_| rng.next_f32() * 64.0));
+        for v in values {
+            assert_eq!(round_ties_even_nonnegative(v) as u32, v.round_ties_even() as u32, "{v}");
+            if !v.is_nan() {
+                assert_eq!(round_ties_even_nonnegative(v), v.round_ties_even(), "{v}");
+            }
+        }
     }
 }

@@ -657,3 +657,51 @@ fn hinted_iterations_equal_searching_every_point() {
     }
     println!("hinted k-means: {compared} final labels identical to searching every point");
 }
+
+/// The assignment searches the points of one cell together (`Grid::nearest_in_neighbourhood`)
+/// and must give what the point-by-point search gives: label and outcome, for Eq. 7 (with
+/// normals that rule centroids out, so some points widen or find nothing) and Eq. 2 (with errors
+/// that need rings beyond the 27 cells), on points in cell order (long runs) and in their own
+/// order (runs of one), and with exact ties (duplicated centroids).
+#[test]
+fn assignment_by_cell_equals_the_search_point_by_point() {
+    let mut batched = 0;
+    for (seed, metric) in [(0u32, eq7(0.866)), (1, eq7(0.3)), (2, Metric::Ward { alpha: 0.3 }), (3, Metric::Ward { alpha: 30.0 })] {
+        let (ps, ns) = cube_surface(6000, seed);
+        let (mut cs, mut cn) = cube_surface(120, seed + 90);
+        // Ties: the first ten centroids again, at higher indices.
+        cs.extend_from_within(..10);
+        cn.extend_from_within(..10);
+        let geometry = Grid::for_data(bounds(&ps), &ps, cs.len());
+        let grid = geometry.fill(&cs, &cn);
+        let (_, order) = geometry.cell_order(&ps);
+        let (op, on): (Vec<Vec3>, Vec<Vec3>) = order.iter().map(|&i| (ps[i as usize], ns[i as usize])).unzip();
+        for (points, normals) in [(&op, &on), (&ps, &ns)] {
+            let (labels, widened, incompatible) = assign_with_outcomes(&grid, points, normals, metric, None);
+            let (mut w, mut inc) = (0, 0);
+            for (i, (&p, &n)) in points.iter().zip(normals.iter()).enumerate() {
+                let (label, outcome) = grid.search_near(p, n, metric, MISS);
+                assert_eq!(labels[i], label, "seed {seed}, point {p}");
+                w += (outcome != SearchOutcome::Neighbourhood) as usize;
+                inc += (outcome == SearchOutcome::Incompatible) as usize;
+            }
+            assert_eq!((widened, incompatible), (w, inc), "seed {seed}");
+        }
+        let cells: Vec<usize> = op.iter().map(|&p| grid.linear(grid.coords(p))).collect();
+        batched += cells.chunk_by(|a, b| a == b).filter(|run| run.len() >= BATCH_MIN).map(|run| run.len()).sum::<usize>();
+    }
+    assert!(batched > 10_000, "only {batched} points were in runs long enough to be searched together");
+
+    // Exact ties across cells: centroids on a lattice (coordinates in quarters, exact in
+    // binary), numbered so that the higher index comes first in the grid's row order, and ten
+    // points at each cell centre of the lattice, equidistant from 8 centroids.
+    let lattice: Vec<Vec3> = (0..64).rev().map(|i| Vec3::new((i % 4) as f32, ((i / 4) % 4) as f32, (i / 16) as f32) * 0.25).collect();
+    let normals = vec![Vec3::Z; 64];
+    let points: Vec<Vec3> =
+        (0..27).flat_map(|i| std::iter::repeat_n(Vec3::new((i % 3) as f32 + 0.5, ((i / 3) % 3) as f32 + 0.5, (i / 9) as f32 + 0.5) * 0.25, 10)).collect();
+    let grid = Grid::for_data(bounds(&lattice), &lattice, lattice.len()).fill(&lattice, &normals);
+    let (labels, _, _) = assign_with_outcomes(&grid, &points, &vec![Vec3::Z; points.len()], eq7(0.5), None);
+    for (p, l) in points.iter().zip(labels) {
+        assert_eq!(l, grid.search_near(*p, Vec3::Z, eq7(0.5), MISS).0, "point {p}: a tie goes to the lowest index");
+    }
+}
