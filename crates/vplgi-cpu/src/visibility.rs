@@ -131,3 +131,50 @@ pub fn visibility(cs: &CpuScene, rows: &[Endpoint], cols: &[Endpoint], progress:
     progress.finish();
     (m, rays)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use vplgi_types::{Rng, Stream};
+
+    /// The stage works out facing pairs 64 columns at a time and each end's push off its surface
+    /// once; the matrix must be what the pair-by-pair definition gives: `facing` and a shadow ray
+    /// over `CpuScene::shadow_segment`. Ends in the Cornell box at random, some with normals
+    /// nearly in the plane of the pair (grazing) and some pairs on one wall (coplanar), and a
+    /// column count that is not a multiple of 64.
+    #[test]
+    fn the_matrix_is_facing_and_the_shadow_segment_pair_by_pair() {
+        let scene = vplgi_scene::cornell::cornell_box();
+        let device = vplgi_embree::Device::new(None).expect("embree");
+        let cs = CpuScene::new(&scene, &device).expect("scene");
+        let mut rng = Rng::new(3, Stream::Oracle, 6);
+        let end = |rng: &mut Rng| {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.6 + Vec3::splat(0.2);
+            let n = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
+            Endpoint::new(p, n)
+        };
+        let mut rows: Vec<Endpoint> = (0..40).map(|_| end(&mut rng)).collect();
+        let mut cols: Vec<Endpoint> = (0..150).map(|_| end(&mut rng)).collect();
+        // Coplanar ends on the floor facing up.
+        rows.extend((0..5).map(|i| Endpoint::new(Vec3::new(0.3 + 0.2 * i as f32, 0.0, 0.5), Vec3::Y)));
+        cols.extend((0..5).map(|i| Endpoint::new(Vec3::new(0.4 + 0.2 * i as f32, 0.0, 1.5), Vec3::Y)));
+        // One row sees two columns 1 above it whose normals are at right angles to the segment
+        // or tilt toward it by half the facing bound (FACING_COS): neither faces the row.
+        rows.push(Endpoint::new(Vec3::new(1.0, 0.5, 1.0), Vec3::Y));
+        cols.push(Endpoint::new(Vec3::new(1.0, 1.5, 1.0), Vec3::X));
+        cols.push(Endpoint::new(Vec3::new(1.0, 1.5, 1.0), Vec3::new(1.0, -0.5 * FACING_COS, 0.0).normalize()));
+        let (m, rays) = visibility(&cs, &rows, &cols, &crate::NoProgress);
+        let mut facing_pairs = 0;
+        for (r, a) in rows.iter().enumerate() {
+            for (c, b) in cols.iter().enumerate() {
+                let f = facing(a, b);
+                facing_pairs += f as u64;
+                let want = f && cs.visible(a.p(), a.n(), b.p(), b.n());
+                assert_eq!(m.get(r, c), want, "row {r} {a:?}, column {c} {b:?}");
+            }
+        }
+        assert_eq!(rays, facing_pairs);
+        assert!(m.count_ones() > 100 && facing_pairs > m.count_ones(), "visible {} of {facing_pairs} facing pairs", m.count_ones());
+    }
+}
