@@ -49,5 +49,11 @@ fn quick_rsm_report_covers_every_scene_shape_and_size() {
     assert!(rows.iter().all(|r| r["temporal_error"].as_f64().unwrap() > 0.0 && r["flicker"].as_f64().unwrap() > 0.0), "{rows:?}");
     assert!(md.contains("moving sun") || md.contains("A moving sun"), "{md}");
     assert!(md.contains("Table 1") && md.contains("lavapipe"), "{md}");
-    assert_eq!(md.matches("| `--k-vpl` | point | disk | disk-exact | polygon |").count(), 2, "an energy table per scene: {md}");
+    assert_eq!(
+        md.matches("| `--k-vpl` | point | disk | disk-exact | polygon |").count(),
+        3,
+        "an energy table per scene, and the Cornell box's at a finer map: {md}"
+    );
+    let finer = json["scenes"][0]["finer"]["frames"].as_array().expect("the Cornell box's finer map");
+    assert_eq!(finer.len(), 1 + 4 * 2, "the unclamped VPLs, then four shapes at two counts");
 }
