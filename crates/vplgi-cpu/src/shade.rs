@@ -421,14 +421,10 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
                         }
                         LightShape::Polygon => {
                             let outline = polygon::Outline::new(&polygon::support(members.iter().map(of), centre, normal));
-                            let area = outline.area();
-                            let mut placed = LightOutline::default();
-                            if area > 0.0 {
-                                light.radius2 = area / PI;
+                            let placed = LightOutline::placed(&outline, centre, normal);
+                            if placed.area() > 0.0 {
+                                light.radius2 = placed.area() / PI;
                                 light.exact = EXACT_POLYGON;
-                                for (slot, x) in placed.vertices.iter_mut().zip(outline.placed(centre, normal)) {
-                                    *slot = [x.x, x.y, x.z, area];
-                                }
                             }
                             outlines.push(placed);
                         }

@@ -137,6 +137,19 @@ impl LightOutline {
     pub fn area(&self) -> f32 {
         self.vertices[0][3]
     }
+
+    /// `outline` on the plane through `centre` facing `normal`, each vertex carrying its area;
+    /// no vertices at all for an outline without area (a cluster that stays a point).
+    pub fn placed(outline: &crate::polygon::Outline, centre: Vec3, normal: Vec3) -> LightOutline {
+        let mut placed = LightOutline::default();
+        let area = outline.area();
+        if area > 0.0 {
+            for (slot, v) in placed.vertices.iter_mut().zip(outline.placed(centre, normal)) {
+                *slot = [v.x, v.y, v.z, area];
+            }
+        }
+        placed
+    }
 }
 
 impl VplLight {
