@@ -48,7 +48,7 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
     let flux = Vec3::new(2.0, 1.0, 0.5);
     let light = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
     let mut matrix = BitMatrix::new(1, 1);
-    matrix.set(0, 0, true);
+    matrix.set(0, 0);
     let row_of = [0u32];
     let vis = VisibilitySource::Own { matrix: &matrix, row_of: &row_of, first_row: 0 };
     for r in [0.0f32, 0.3, 1.0, 2.5] {

@@ -66,7 +66,7 @@ fn both(
     let row_of: Vec<u32> = (0..sps.len() as u32).collect();
     let mut matrix = vplgi_cpu::visibility::BitMatrix::new(n, 1);
     for j in 0..n {
-        matrix.set(j, 0, true);
+        matrix.set(j, 0);
     }
     let lights: vplgi_cpu::shade::VplLights = light.into_iter().collect::<Vec<VplLight>>().into();
     let mut cpu_samples = samples.clone();

@@ -168,7 +168,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
     let mut matrix = BitMatrix::new(f as usize, n as usize);
     for r in 0..f as usize {
         for c in 0..n as usize {
-            matrix.set(r, c, true);
+            matrix.set(r, c);
         }
     }
     let (labels, weights, row_of): (Vec<u32>, Vec<f32>, Vec<u32>) = ((0..f).collect(), vec![1.0 / f as f32; f as usize], vec![0]);
@@ -355,13 +355,13 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     let sp = ShadingPoint { position: [0.0; 3], normal: [0.0, 1.0, 0.0], albedo: [0.5; 3], ..Default::default() };
     // Whole matrix: rows 0..7; the two points use rows 5 and 6, which see light 0 and light 1.
     let mut whole = BitMatrix::new(7, 2);
-    whole.set(5, 0, true);
-    whole.set(6, 1, true);
+    whole.set(5, 0);
+    whole.set(6, 1);
     let row_of = [5u32, 6];
     // The window holds rows 5 and 6 only.
     let mut window = BitMatrix::new(2, 2);
-    window.set(0, 0, true);
-    window.set(1, 1, true);
+    window.set(0, 0);
+    window.set(1, 1);
     let arrays = LightArrays::new(&lights.to_vec().into());
     for i in 0..2 {
         let from_whole = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &whole, row_of: &row_of, first_row: 0 }, f32::INFINITY);

@@ -32,14 +32,10 @@ impl BitMatrix {
         (self.bits[r * self.words_per_row + c / 64] >> (c % 64)) & 1 == 1
     }
 
-    pub fn set(&mut self, r: usize, c: usize, v: bool) {
-        let w = &mut self.bits[r * self.words_per_row + c / 64];
-        let mask = 1u64 << (c % 64);
-        if v {
-            *w |= mask
-        } else {
-            *w &= !mask
-        }
+    /// Sets bit (`r`, `c`): the pair sees itself. (The stage writes whole words; tests set
+    /// single pairs.)
+    pub fn set(&mut self, r: usize, c: usize) {
+        self.bits[r * self.words_per_row + c / 64] |= 1u64 << (c % 64);
     }
 
     /// The words of row `r`.
@@ -138,11 +134,47 @@ mod tests {
     use glam::Vec3;
     use vplgi_types::{Rng, Stream};
 
-    /// The stage works out facing pairs 64 columns at a time and each end's push off its surface
-    /// once; the matrix must be what the pair-by-pair definition gives: `facing` and a shadow ray
-    /// over `CpuScene::shadow_segment`. Ends in the Cornell box at random, some with normals
+    /// The stage traces a row's facing pairs in packets of 8 and writes whole words; the matrix
+    /// must be what the pair-by-pair definition gives: `facing` and a shadow ray over
+    /// `CpuScene::shadow_segment`. Ends in the Cornell box at random, some with normals
     /// nearly in the plane of the pair (grazing) and some pairs on one wall (coplanar), and a
     /// column count that is not a multiple of 64.
+    /// Bits are row-major with each row padded to whole words: a 3 x 130 matrix has 3 words per
+    /// row, and a bit lands in its own row's word and nowhere else.
+    #[test]
+    fn bits_land_in_their_row_and_word() {
+        let mut m = BitMatrix::new(3, 130);
+        assert_eq!(m.words().len(), 9);
+        let set = [(0, 0), (1, 64), (2, 129), (2, 63)];
+        for (r, c) in set {
+            m.set(r, c);
+        }
+        for r in 0..3 {
+            for c in 0..130 {
+                assert_eq!(m.get(r, c), set.contains(&(r, c)), "bit ({r}, {c})");
+            }
+        }
+        assert_eq!(m.words(), &[1, 0, 0, 0, 1, 0, 1 << 63, 0, 2]);
+        assert_eq!(m.row(2), &[1 << 63, 0, 2]);
+        assert_eq!(m.count_ones(), 4);
+    }
+
+    /// The facing bound is on the cosine, FACING_COS, at every distance: a normal tilted toward
+    /// the other end by half of it does not face, by twice it does, whether the ends are 0.01 or
+    /// 100 apart.
+    #[test]
+    fn the_facing_bound_is_on_the_cosine_at_any_distance() {
+        for distance in [0.01f32, 1.0, 100.0] {
+            let b = Endpoint::new(Vec3::new(0.0, distance, 0.0), -Vec3::Y);
+            for (scale, faces) in [(0.5, false), (2.0, true)] {
+                let c = scale * FACING_COS;
+                let a = Endpoint::new(Vec3::ZERO, Vec3::new((1.0 - c * c).sqrt(), c, 0.0));
+                assert_eq!(facing(&a, &b), faces, "cosine {c} at distance {distance}");
+                assert_eq!(facing(&b, &a), faces, "cosine {c} at distance {distance}, ends swapped");
+            }
+        }
+    }
+
     #[test]
     fn the_matrix_is_facing_and_the_shadow_segment_pair_by_pair() {
         let scene = vplgi_scene::cornell::cornell_box();
