@@ -111,6 +111,17 @@ fn main() -> Result<()> {
             args.extend(frame);
             vplgi(&args)?;
         }
+        // One `render` of the scene's shadow-map VPLs (`--rsm-size` `size`, `k` clusters, plus
+        // `extra`) compared with the reference: (compare.json, report.json).
+        let render_and_compare = |out: &Path, size: &str, k: u32, extra: &[&str]| -> Result<(Value, Value)> {
+            let k_vpl = k.max(1).to_string();
+            let mut args = vec!["render", &scene, "--vpl-source", "rsm", "--rsm-size", size, "--k-vpl", &k_vpl, "--out", s(out)];
+            args.extend(frame);
+            args.extend(extra);
+            vplgi(&args)?;
+            vplgi(&["compare", s(&reference.join("mean.exr")), s(&out.join("image.exr")), "--out", s(out)])?;
+            Ok((read_json(&out.join("compare.json"))?, read_json(&out.join("report.json"))?))
+        };
         let mut frames = Vec::new();
         let mut runs: Vec<(String, u32, Vec<&str>)> =
             vec![("unclustered".into(), 0, vec!["--cluster", "none"]), (UNCLAMPED.into(), 0, vec!["--cluster", "none", "--g-clamp", "0"])];
@@ -124,14 +135,7 @@ fn main() -> Result<()> {
             let label = if k == 0 { light.replace(", ", "-").replace(' ', "-") } else { format!("{}-{k}", light.replace(", Halton seeds", "-halton")) };
             eprintln!("{}: {label}", c.name);
             let out = dir.join(&label);
-            let k_vpl = k.max(1).to_string();
-            let mut args = vec!["render", &scene, "--vpl-source", "rsm", "--rsm-size", &size, "--k-vpl", &k_vpl, "--out", s(&out)];
-            args.extend(frame);
-            args.extend(extra);
-            vplgi(&args)?;
-            vplgi(&["compare", s(&reference.join("mean.exr")), s(&out.join("image.exr")), "--out", s(&out)])?;
-            let cmp: Value = read_json(&out.join("compare.json"))?;
-            let report: Value = read_json(&out.join("report.json"))?;
+            let (cmp, report) = render_and_compare(&out, &size, k, &extra)?;
             let ms = |key: &str| report["timings_ms"][key].as_f64().unwrap_or(f64::NAN);
             frames.push(json!({
                 "light": light, "k": k, "rel_mse": cmp["rel_mse"], "flip": cmp["flip"], "mean_ratio": cmp["mean_ratio"],
@@ -158,13 +162,7 @@ fn main() -> Result<()> {
             for (light, k, extra) in runs {
                 eprintln!("{}: {light} at {k} clusters, --rsm-size {finer_size}", c.name);
                 let out = dir.join(format!("finer-{}-{k}", light.replace(", ", "-").replace(' ', "-")));
-                let k_vpl = k.max(1).to_string();
-                let mut args = vec!["render", &scene, "--vpl-source", "rsm", "--rsm-size", &finer_size, "--k-vpl", &k_vpl, "--out", s(&out)];
-                args.extend(frame);
-                args.extend(extra);
-                vplgi(&args)?;
-                vplgi(&["compare", s(&reference.join("mean.exr")), s(&out.join("image.exr")), "--out", s(&out)])?;
-                let cmp: Value = read_json(&out.join("compare.json"))?;
+                let (cmp, _) = render_and_compare(&out, &finer_size, k, &extra)?;
                 finer.push(json!({"light": light, "k": k, "rel_mse": cmp["rel_mse"], "mean_ratio": cmp["mean_ratio"]}));
             }
         }
