@@ -205,17 +205,6 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
     return hit;
 }
 
-// Whether any triangle of a leaf (its `leaf` word) blocks o + t d, t in (tmin, tmax).
-fn leaf_blocks(leaf: u32, o: vec3<f32>, shear: RayShear, tmin: f32, tmax: f32) -> bool {
-    let slots = leaf_slots(leaf);
-    for (var k = slots.x; k < slots.y; k = k + 1u) {
-        if (intersect_tri(bvh_tri(k), o, shear, tmin, tmax).x < tmax) {
-            return true;
-        }
-    }
-    return false;
-}
-
 // CpuScene::visible: both ends pushed off their surfaces, the segment between them tested.
 fn visible(p: vec3<f32>, np: vec3<f32>, q: vec3<f32>, nq: vec3<f32>, eps: f32) -> bool {
     let a = offset_toward(p, np, q, eps);
