@@ -173,6 +173,45 @@ pub struct Scene {
 unsafe impl Send for Scene {}
 unsafe impl Sync for Scene {}
 
+/// Vectors as [x, y, z] arrays of their components.
+fn soa<const N: usize>(v: &[Vec3; N]) -> [[f32; N]; 3] {
+    [v.map(|v| v.x), v.map(|v| v.y), v.map(|v| v.z)]
+}
+
+/// The body of `occludedN`: an N-wide SoA packet (origins and directions as [x, y, z] arrays of
+/// N) and valid mask, aligned to ALIGN bytes as rtcOccludedN requires, in the layout of Embree
+/// 4's RTCRayN (unchanged in 4.4); bit k of the result is set when segment k (of the first
+/// `count`) is blocked.
+macro_rules! packet_query {
+    ($scene:expr, $org:expr, $dir:expr, $count:expr, $tnear:expr, $tfar:expr, $n:literal, $align:literal, $ray:ident, $query:ident) => {{
+        #[repr(C, align($align))]
+        struct Packet(sys::$ray);
+        #[repr(C, align($align))]
+        struct Valid([std::os::raw::c_int; $n]);
+        let count = $count.min($n);
+        let mut p = Packet(sys::$ray {
+            org_x: $org[0],
+            org_y: $org[1],
+            org_z: $org[2],
+            tnear: [$tnear; $n],
+            dir_x: $dir[0],
+            dir_y: $dir[1],
+            dir_z: $dir[2],
+            time: [0.0; $n],
+            tfar: [$tfar; $n],
+            mask: [u32::MAX; $n],
+            id: [0; $n],
+            flags: [0; $n],
+        });
+        let valid = Valid(std::array::from_fn(|k| if k < count { -1 } else { 0 }));
+        // SAFETY: the packet and the valid mask have the alignment and layout rtcOccludedN
+        // requires (above); null arguments mean default query arguments. Embree writes only the
+        // packet's tfar, to -inf where a segment is blocked.
+        unsafe { sys::$query(valid.0.as_ptr(), $scene.raw, &mut p.0, ptr::null_mut()) };
+        (0..count).fold(0u16, |bits, k| bits | (((p.0.tfar[k] < 0.0) as u16) << k))
+    }};
+}
+
 impl Scene {
     /// Builds a scene from vertex positions and triangles (indices into `positions`).
     /// Index validity is the caller's responsibility only up to this check: out-of-range indices
@@ -226,35 +265,30 @@ impl Scene {
         ray.tfar < 0.0
     }
 
+    /// `occluded` for up to 4 segments at once (`rtcOccluded4`): see [`Self::occluded8`].
+    pub fn occluded4(&self, origins: &[Vec3; 4], dirs: &[Vec3; 4], count: usize, tnear: f32, tfar: f32) -> u16 {
+        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 4, 16, RTCRay4, rtcOccluded4)
+    }
+
     /// `occluded` for up to 8 segments at once (`rtcOccluded8`, Embree's packet query): segment
     /// `k` of the first `count` is `origins[k] + t * dirs[k]` for t in (`tnear`, `tfar`); bit k
     /// of the result is set when it is blocked. For `make perf-report`'s question whether
-    /// packets of coherent shadow rays beat the one-ray loop.
-    pub fn occluded8(&self, origins: &[Vec3; 8], dirs: &[Vec3; 8], count: usize, tnear: f32, tfar: f32) -> u8 {
-        #[repr(C, align(32))]
-        struct Packet(sys::RTCRay8);
-        #[repr(C, align(32))]
-        struct Valid([std::os::raw::c_int; 8]);
-        let mut p = Packet(sys::RTCRay8 {
-            org_x: origins.map(|o| o.x),
-            org_y: origins.map(|o| o.y),
-            org_z: origins.map(|o| o.z),
-            tnear: [tnear; 8],
-            dir_x: dirs.map(|d| d.x),
-            dir_y: dirs.map(|d| d.y),
-            dir_z: dirs.map(|d| d.z),
-            time: [0.0; 8],
-            tfar: [tfar; 8],
-            mask: [u32::MAX; 8],
-            id: [0; 8],
-            flags: [0; 8],
-        });
-        let valid = Valid(std::array::from_fn(|k| if k < count.min(8) { -1 } else { 0 }));
-        // SAFETY: the packet and the valid mask are 32-byte aligned as rtcOccluded8 requires, in
-        // the SoA layout of Embree 4's RTCRay8 (unchanged in 4.4); null arguments mean default
-        // query arguments. Embree writes only the packet's tfar.
-        unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut p.0, ptr::null_mut()) };
-        (0..count.min(8)).fold(0u8, |bits, k| bits | (((p.0.tfar[k] < 0.0) as u8) << k))
+    /// packets of coherent shadow rays beat the one-ray loop, and which width does.
+    pub fn occluded8(&self, origins: &[Vec3; 8], dirs: &[Vec3; 8], count: usize, tnear: f32, tfar: f32) -> u16 {
+        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 8, 32, RTCRay8, rtcOccluded8)
+    }
+
+    /// [`Self::occluded8`] for segments that all start at `origin`, their directions given as
+    /// [x, y, z] arrays (the layout of Embree's packet, so nothing is rearranged): the shadow
+    /// rays of one shading point.
+    pub fn occluded8_from(&self, origin: Vec3, dirs: &[[f32; 8]; 3], count: usize, tnear: f32, tfar: f32) -> u16 {
+        let org = [[origin.x; 8], [origin.y; 8], [origin.z; 8]];
+        packet_query!(self, org, *dirs, count, tnear, tfar, 8, 32, RTCRay8, rtcOccluded8)
+    }
+
+    /// `occluded` for up to 16 segments at once (`rtcOccluded16`): see [`Self::occluded8`].
+    pub fn occluded16(&self, origins: &[Vec3; 16], dirs: &[Vec3; 16], count: usize, tnear: f32, tfar: f32) -> u16 {
+        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 16, 64, RTCRay16, rtcOccluded16)
     }
 
     /// Closest hit along `origin + t * dir` for t in (`tnear`, `tfar`).

@@ -171,17 +171,33 @@ fn concurrent_queries_match_serial_ones() {
     assert!(serial.iter().any(|&b| b) && serial.iter().any(|&b| !b));
 }
 
-/// The packet query agrees with the one-ray query ray by ray, lanes past `count` are ignored.
+/// The packet queries of every width agree with the one-ray query ray by ray; lanes past `count`
+/// are ignored.
 #[test]
-fn occluded8_agrees_with_occluded() {
+fn packet_queries_agree_with_occluded() {
     let device = Device::new(None).unwrap();
     // A unit quad in z = 0 blocks segments from z = 1 to z = -1 that cross it.
     let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
     let scene = Scene::new(&device, &positions, &[[0, 1, 2], [0, 2, 3]]).unwrap();
-    let origins: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(-1.75 + 0.5 * k as f32, 0.3, 1.0));
-    let dirs = [Vec3::new(0.0, 0.0, -2.0); 8];
-    let one: u8 = (0..8).fold(0, |b, k| b | ((scene.occluded(origins[k], dirs[k], 0.0, 1.0) as u8) << k));
-    assert_eq!(one, 0b0011_1100, "segments over the quad are blocked, the others not");
-    assert_eq!(scene.occluded8(&origins, &dirs, 8, 0.0, 1.0), one);
-    assert_eq!(scene.occluded8(&origins, &dirs, 4, 0.0, 1.0), one & 0b1111);
+    let origins: [Vec3; 16] = std::array::from_fn(|k| Vec3::new(-1.9 + 0.25 * k as f32, 0.3, 1.0));
+    let dirs = [Vec3::new(0.0, 0.0, -2.0); 16];
+    let one: u16 = (0..16).fold(0, |b, k| b | ((scene.occluded(origins[k], dirs[k], 0.0, 1.0) as u16) << k));
+    assert_eq!(one, 0b0000_1111_1111_0000, "segments over the quad are blocked, the others not");
+    let (o8, d8): ([Vec3; 8], [Vec3; 8]) = (std::array::from_fn(|k| origins[k + 4]), std::array::from_fn(|k| dirs[k + 4]));
+    let (o4, d4): ([Vec3; 4], [Vec3; 4]) = (std::array::from_fn(|k| origins[k + 2]), std::array::from_fn(|k| dirs[k + 2]));
+    assert_eq!(scene.occluded16(&origins, &dirs, 16, 0.0, 1.0), one);
+    assert_eq!(scene.occluded16(&origins, &dirs, 6, 0.0, 1.0), one & 0b11_1111);
+    assert_eq!(scene.occluded8(&o8, &d8, 8, 0.0, 1.0), one >> 4 & 0xff);
+    assert_eq!(scene.occluded8(&o8, &d8, 3, 0.0, 1.0), one >> 4 & 0b111);
+    // From one origin: the 8 segments from (0.3, 0.3, 1) to z = -1 at x = -3.5 .. 3.5 in steps
+    // of 1 cross z = 0 half-way, at x = -1.6 .. 1.9: the middle 4 inside the quad.
+    let ends: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(-3.5 + k as f32, 0.3, -1.0));
+    let from = Vec3::new(0.3, 0.3, 1.0);
+    let dirs_from = [ends.map(|e| e.x - from.x), ends.map(|e| e.y - from.y), ends.map(|e| e.z - from.z)];
+    let one_from: u16 = (0..8).fold(0, |b, k| b | ((scene.occluded(from, ends[k] - from, 0.0, 1.0) as u16) << k));
+    assert_eq!(one_from, 0b0011_1100);
+    assert_eq!(scene.occluded8_from(from, &dirs_from, 8, 0.0, 1.0), one_from);
+    assert_eq!(scene.occluded8_from(from, &dirs_from, 3, 0.0, 1.0), one_from & 0b111);
+    assert_eq!(scene.occluded4(&o4, &d4, 4, 0.0, 1.0), one >> 2 & 0xf);
+    assert_eq!(scene.occluded4(&o4, &d4, 3, 0.0, 1.0), one >> 2 & 0b111);
 }
