@@ -31,25 +31,48 @@ fn order_key(f: f32) -> u32 {
     return select(u | 0x80000000u, ~u, (u & 0x80000000u) != 0u);
 }
 
+// The bounds and the outcome totals are reductions: each invocation folds REDUCE_ITEMS
+// consecutive points in registers and adds its result to the global keys with one atomic each.
+// Atomics cost lavapipe a locked instruction per lane: with one invocation per point (6 atomics
+// each) the bounds of the Cornell frame's 272 k points took 26 ms a pass, and staging them in
+// workgroup atomics first saved little.
 @compute @workgroup_size(64)
 fn bounds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.n) {
+    let first = thread_index(gid, groups) * REDUCE_ITEMS;
+    let end = min(first + REDUCE_ITEMS, params.n);
+    if (first >= end) {
         return;
     }
-    let p = points[i].position.xyz;
+    var lo = vec3<u32>(0xffffffffu);
+    var hi = vec3<u32>(0u);
+    for (var i = first; i < end; i = i + 1u) {
+        let p = points[i].position.xyz;
+        let key = vec3<u32>(order_key(p.x), order_key(p.y), order_key(p.z));
+        lo = min(lo, key);
+        hi = max(hi, key);
+    }
     for (var a = 0u; a < 3u; a = a + 1u) {
-        atomicMin(&box_keys[a], order_key(p[a]));
-        atomicMax(&box_keys[3u + a], order_key(p[a]));
+        atomicMin(&box_keys[a], lo[a]);
+        atomicMax(&box_keys[3u + a], hi[a]);
     }
 }
 
 // How the searches ended: outcome_totals[0] neighbourhood, [1] widened, [2] incompatible.
 @compute @workgroup_size(64)
 fn outcome_counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
-    if (i >= params.n) {
+    let first = thread_index(gid, groups) * REDUCE_ITEMS;
+    let end = min(first + REDUCE_ITEMS, params.n);
+    if (first >= end) {
         return;
     }
-    atomicAdd(&outcome_totals[outcome[i]], 1u);
+    var totals = vec3<u32>(0u);
+    for (var i = first; i < end; i = i + 1u) {
+        let o = outcome[i];
+        totals = totals + vec3<u32>(u32(o == 0u), u32(o == 1u), u32(o == 2u));
+    }
+    for (var a = 0u; a < 3u; a = a + 1u) {
+        if (totals[a] != 0u) {
+            atomicAdd(&outcome_totals[a], totals[a]);
+        }
+    }
 }

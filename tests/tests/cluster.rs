@@ -187,6 +187,44 @@ fn cluster_end_to_end_matches_the_cpu() {
     }
 }
 
+/// The two reductions of the clustering against a plain count: the points' bounding box (the
+/// grid's geometry) and the totals of the search outcomes. Each invocation folds a run of
+/// `REDUCE_ITEMS` points, so every extreme sits at the last point of a run, the first, or the
+/// very last point; on the default device and on one whose small bindings split the points into
+/// windows.
+#[test]
+fn cluster_bounds_and_outcome_counts_are_exact() {
+    let Some(ctx) = vplgi_tests::gpu("cluster_bounds_and_outcome_counts_are_exact") else {
+        return;
+    };
+    let small = vplgi_gpu::GpuContext::with_limits(Some(64 * 1024), None).expect("a device with small bindings");
+    let run = vplgi_gpu::cluster::REDUCE_ITEMS as usize;
+    let n = 40 * run + 37;
+    let mut rng = vplgi_types::Rng::new(11, vplgi_types::Stream::Oracle, 0);
+    let mut ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0).collect();
+    // The extremes: -x at the end of a run, +x at the start of one, -y and +z at the very end
+    // and beginning, +y and -z in the middle of runs.
+    ps[run - 1].x = -5.0;
+    ps[3 * run].x = 4.0;
+    ps[n - 1].y = -3.0;
+    ps[0].z = 6.0;
+    ps[7 * run + 5].y = 2.5;
+    ps[20 * run + 31].z = -7.0;
+    let outcome: Vec<u32> = (0..n).map(|_| rng.next_u32() % 3).collect();
+    let want = [0, 1, 2].map(|o| outcome.iter().filter(|&&x| x == o).count() as u32);
+    for c in [&ctx, &small] {
+        let kernel = ClusterKernel::new(&c.device).unwrap();
+        let pts = storage(&c.device, "points", &endpoints(&ps, &vec![Vec3::Y; n]));
+        let (lo, hi) = kernel.bounds(&c.device, &c.queue, &pts, n as u32).unwrap();
+        println!("bounds: GPU {lo} .. {hi}, CPU {:?}", bounds(&ps));
+        assert_eq!((lo, hi), bounds(&ps));
+        assert_eq!((lo, hi), (Vec3::new(-5.0, -3.0, -7.0), Vec3::new(4.0, 2.5, 6.0)));
+        let counts = kernel.outcome_counts(&c.device, &c.queue, &storage(&c.device, "outcome", &outcome), n as u32).unwrap();
+        println!("outcome counts: GPU {counts:?}, CPU {want:?}");
+        assert_eq!(counts, want);
+    }
+}
+
 /// An oracle of the RSM clustering's search: a VPL with no cluster within r = 2 grid cells takes
 /// the cluster of smallest μ among all, not the first. A 32² map whose left half lies on a floor
 /// (+y) and right half on a wall (-x), importance only in the floor's leftmost 6 texel columns,

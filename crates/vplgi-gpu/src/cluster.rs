@@ -155,6 +155,10 @@ struct Pass {
 }
 
 /// The passes of the `N` entry points of one pass file, in order.
+/// Points folded by one invocation of the reductions (`bounds`, `outcome_counts` in
+/// `cluster_points.wgsl`) before its atomics.
+pub const REDUCE_ITEMS: u32 = 64;
+
 fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [Pass; N] {
     let mut pipelines = pipelines(device, file, &entries).into_iter();
     entries.map(|e| Pass { name: format!("cluster {e}"), pipeline: pipelines.next().unwrap_or_else(|| unreachable!("one pipeline per entry point")) })
@@ -282,7 +286,7 @@ impl ClusterKernel {
         let keys = storage(device, "bounds", &init);
         for w in Self::windows(device, n, 1) {
             let b = [(1, w.of::<Endpoint>(points, 1)), (9, keys.as_entire_buffer_binding())];
-            self.run_windows(device, queue, &self.bounds, &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+            self.run_windows(device, queue, &self.bounds, &Params { n: w.count as u32, ..Default::default() }, &b, (w.count as u32).div_ceil(REDUCE_ITEMS))?;
         }
         let k = read_back::<u32>(device, queue, &keys, 6)?;
         let decode = |u: u32| f32::from_bits(if u & 0x8000_0000 != 0 { u & 0x7fff_ffff } else { !u });
@@ -631,7 +635,14 @@ impl ClusterKernel {
         let counts = storage_zeroed::<u32>(device, "outcome counts", 3);
         for w in Self::windows(device, n, 1) {
             let b = [(4, counts.as_entire_buffer_binding()), (10, w.of::<u32>(outcome, 1))];
-            self.run_windows(device, queue, &self.outcome_counts, &Params { n: w.count as u32, ..Default::default() }, &b, w.count as u32)?;
+            self.run_windows(
+                device,
+                queue,
+                &self.outcome_counts,
+                &Params { n: w.count as u32, ..Default::default() },
+                &b,
+                (w.count as u32).div_ceil(REDUCE_ITEMS),
+            )?;
         }
         let c = read_back::<u32>(device, queue, &counts, 3)?;
         Ok([c[0], c[1], c[2]])

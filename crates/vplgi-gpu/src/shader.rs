@@ -209,6 +209,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("EXACT_DISK", vplgi_types::pod::EXACT_DISK),
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
         ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
+        ("REDUCE_ITEMS", crate::cluster::REDUCE_ITEMS),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
