@@ -273,6 +273,25 @@ mod tests {
         rows.push(Endpoint::new(Vec3::new(1.0, 0.5, 1.0), Vec3::Y));
         cols.push(Endpoint::new(Vec3::new(1.0, 1.5, 1.0), Vec3::X));
         cols.push(Endpoint::new(Vec3::new(1.0, 1.5, 1.0), Vec3::new(1.0, -0.5 * FACING_COS, 0.0).normalize()));
+        // Pairs at the facing bound, from 0.05 to 20 apart in several directions: a row facing up
+        // from (1, 0.5, 1) and columns whose direction from it makes a cosine of half or twice
+        // FACING_COS with the row's normal (the columns face the row squarely), then the same
+        // with the roles swapped. Only the bound decides these pairs, at every distance.
+        let at = Vec3::new(1.0, 0.5, 1.0);
+        rows.push(Endpoint::new(at, Vec3::Y));
+        for (i, distance) in [0.05f32, 0.3, 1.0, 3.0, 20.0].into_iter().enumerate() {
+            for scale in [0.5, 2.0] {
+                let (c, phi) = (scale * FACING_COS, 1.3 * i as f32 + scale);
+                let dir = Vec3::new(phi.cos() * (1.0 - c * c).sqrt(), c, phi.sin() * (1.0 - c * c).sqrt());
+                cols.push(Endpoint::new(at + dir * distance, -dir));
+                // Swapped: a row `distance` below `at` along -dir faces it squarely, and a column
+                // at `at` has a normal whose cosine with the direction back to the row is c
+                // (tilted about an axis at right angles to dir).
+                let tilt = Vec3::new(-phi.sin(), 0.0, phi.cos());
+                rows.push(Endpoint::new(at - dir * distance, dir));
+                cols.push(Endpoint::new(at, (-dir * c + tilt * (1.0 - c * c).sqrt()).normalize()));
+            }
+        }
         let (m, rays) = visibility(&cs, &rows, &cols, &crate::NoProgress);
         let mut facing_pairs = 0;
         for (r, a) in rows.iter().enumerate() {
