@@ -1,11 +1,8 @@
 //! Buffer upload and read-back.
 
+use crate::wait::wait_for_device;
 use crate::GpuError;
 use bytemuck::Pod;
-
-/// How long a read-back may wait for the device before it counts as lost (lavapipe is slow, but
-/// not this slow).
-const TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 
 /// A storage buffer holding `data`. Empty data gets one zeroed element (at least 16 bytes):
 /// bindings cannot be smaller than their element type. Shaders take counts from their
@@ -74,9 +71,7 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
     staging.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
     });
-    device
-        .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) })
-        .map_err(|e| GpuError::Lost { what: "read-back".into(), message: e.to_string() })?;
+    wait_for_device(device, "read-back")?;
     match rx.recv() {
         Ok(Ok(())) => {}
         Ok(Err(e)) => return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() }),
@@ -148,10 +143,7 @@ pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buff
 
 /// Waits until the device has finished all submitted work (stage timing boundaries).
 pub fn sync(device: &wgpu::Device) -> Result<(), GpuError> {
-    device
-        .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(TIMEOUT) })
-        .map(|_| ())
-        .map_err(|e| GpuError::Lost { what: "waiting for the device".into(), message: e.to_string() })
+    wait_for_device(device, "waiting for the device")
 }
 
 /// Windows start on multiples of this many elements: 64 elements of at least 4 bytes are 256

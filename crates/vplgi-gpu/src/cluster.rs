@@ -154,11 +154,11 @@ struct Pass {
     pipeline: wgpu::ComputePipeline,
 }
 
-/// The passes of the `N` entry points of one pass file, in order.
 /// Points folded by one invocation of the reductions (`bounds`, `outcome_counts` in
 /// `cluster_points.wgsl`) before its atomics.
 pub const REDUCE_ITEMS: u32 = 64;
 
+/// The passes of the `N` entry points of one pass file, in order.
 fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [Pass; N] {
     let mut pipelines = pipelines(device, file, &entries).into_iter();
     entries.map(|e| Pass { name: format!("cluster {e}"), pipeline: pipelines.next().unwrap_or_else(|| unreachable!("one pipeline per entry point")) })

@@ -32,6 +32,7 @@ pub mod shading_points;
 pub mod timing;
 pub mod trace_vpls;
 pub mod visibility;
+pub mod wait;
 
 pub use backend::{render, GpuBackend, GpuKernels};
 pub use context::{GpuContext, GpuError};

@@ -62,7 +62,7 @@ pub fn device_time_by_kernel<R>(device: &wgpu::Device, queue: &wgpu::Queue, work
         });
     }
     drop(tx);
-    crate::buffers::sync(device)?;
+    crate::wait::wait_for_device(device, "timestamp read-back")?;
     let mut by_kernel: Vec<KernelTime> = Vec::new();
     for (i, r) in rx {
         r.map_err(|e| GpuError::Lost { what: "timestamp read-back".into(), message: e.to_string() })?;
