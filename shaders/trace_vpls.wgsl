@@ -150,6 +150,10 @@ fn compact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     if (start < room && start + n >= room) {
         totals[1] = params.first + local + 1u;
     }
+    // The batch's VPLs, for the host's one read per batch (with totals[1]).
+    if (local == params.count - 1u) {
+        totals[2] = start + n;
+    }
 }
 
 @compute @workgroup_size(64)

@@ -3,7 +3,7 @@
 //! normalisation. The VPLs stay on the device; only two counters per batch are read back to
 //! decide whether another batch is needed.
 
-use crate::buffers::{dispatch_bound, dispatch_windows, kernel_params, read_back, read_word, storage_zeroed};
+use crate::buffers::{dispatch_bound, dispatch_windows, kernel_params, read_back, storage_zeroed};
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
@@ -67,7 +67,7 @@ impl TraceVplsKernel {
         let counts = storage_zeroed::<u32>(device, "vpl counts", batch as usize);
         let offsets = storage_zeroed::<u32>(device, "vpl offsets", batch as usize + 1);
         let totals = storage_zeroed::<u32>(device, "vpl totals", 4);
-        let (mut next, mut kept) = (0u32, 0u32);
+        let (mut next, mut kept, mut recorded) = (0u32, 0u32, 0u32);
         while kept < count && next < budget {
             let n = batch.min(budget - next);
             let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, pad: 0 };
@@ -80,7 +80,6 @@ impl TraceVplsKernel {
                 p
             })?;
             self.scan.run(device, queue, &counts, n, &offsets)?;
-            let total = read_word(device, queue, &offsets, n as u64)?;
             validated(device, "trace_vpls compact", || {
                 dispatch_bound(
                     device,
@@ -90,7 +89,11 @@ impl TraceVplsKernel {
                     n.div_ceil(64),
                 )
             })?;
-            kept += total.min(count - kept);
+            // One read per batch: the batch's VPLs (the scan's total, copied by compact) and the
+            // particle that closed the set, if one did.
+            let t = read_back::<u32>(device, queue, &totals, 3)?;
+            recorded = t[1];
+            kept += t[2].min(count - kept);
             next += n;
             // Size the next batch from the yield so far, like the CPU.
             let per_particle = (kept as f64 / next as f64).max(0.05);
@@ -99,7 +102,6 @@ impl TraceVplsKernel {
                 batch = (slots.size() as usize / std::mem::size_of::<Vpl>() / bounces as usize) as u32;
             }
         }
-        let recorded = read_back::<u32>(device, queue, &totals, 2)?[1];
         let particles = if recorded != 0 { recorded } else { next };
         let params = Params { seed, bounces, first: 0, count: particles, wanted: count, kept, eps: scene.eps, pad: 0 };
         validated(device, "trace_vpls normalize", || {
