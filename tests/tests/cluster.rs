@@ -198,7 +198,7 @@ fn cluster_bounds_and_outcome_counts_are_exact() {
         return;
     };
     let small = vplgi_gpu::GpuContext::with_limits(Some(64 * 1024), None).expect("a device with small bindings");
-    let run = vplgi_gpu::cluster::REDUCE_ITEMS as usize;
+    let run = vplgi_gpu::shader::REDUCE_ITEMS as usize;
     let n = 40 * run + 37;
     let mut rng = vplgi_types::Rng::new(11, vplgi_types::Stream::Oracle, 0);
     let mut ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0).collect();

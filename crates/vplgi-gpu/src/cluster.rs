@@ -14,7 +14,8 @@ use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storag
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::shader::{
-    pipeline_with, pipelines, METRIC_EQ7, METRIC_WARD, REPRESENTATIVE_MIN_ERROR, REPRESENTATIVE_NEAREST, WEIGHTS_INVERSE_DISTANCE, WEIGHTS_PLAIN_MEAN,
+    pipeline_with, pipelines, METRIC_EQ7, METRIC_WARD, REDUCE_ITEMS, REPRESENTATIVE_MIN_ERROR, REPRESENTATIVE_NEAREST, WEIGHTS_INVERSE_DISTANCE,
+    WEIGHTS_PLAIN_MEAN,
 };
 use crate::visibility::Endpoint;
 use crate::GpuError;
@@ -153,10 +154,6 @@ struct Pass {
     name: String,
     pipeline: wgpu::ComputePipeline,
 }
-
-/// Points folded by one invocation of the reductions (`bounds`, `outcome_counts` in
-/// `cluster_points.wgsl`) before its atomics.
-pub const REDUCE_ITEMS: u32 = 64;
 
 /// The passes of the `N` entry points of one pass file, in order.
 fn passes<const N: usize>(device: &wgpu::Device, file: &str, entries: [&str; N]) -> [Pass; N] {

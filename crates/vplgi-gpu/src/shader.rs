@@ -163,6 +163,10 @@ pub const SHADE_FUZZY: u32 = 1;
 /// Shading points one invocation of `shade_lights` sums the lights for: each light is loaded
 /// once for all of them (`shade.wgsl` says why that matters on lavapipe).
 pub const SHADE_POINTS: u32 = 4;
+/// Points folded by one invocation of the clustering's reductions (`bounds`, `outcome_counts` in
+/// `cluster_points.wgsl`) before its atomics: an atomic is a locked instruction per lane on
+/// lavapipe.
+pub const REDUCE_ITEMS: u32 = 64;
 /// Codes of `fuzzy` in the clustering passes' parameters (`common/cluster.wgsl`): how a point's F clusters are weighted.
 pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
 pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
@@ -209,7 +213,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("EXACT_DISK", vplgi_types::pod::EXACT_DISK),
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
         ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
-        ("REDUCE_ITEMS", crate::cluster::REDUCE_ITEMS),
+        ("REDUCE_ITEMS", REDUCE_ITEMS),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
