@@ -34,7 +34,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     // step; the others get 0 without a ray. Picking the next facing pair from this mask later
     // costs one column load, where testing columns one by one inside the traversal loop (as
     // before) ran that inner loop, with its loads, whenever any lane of the SIMD group started a
-    // segment: 14 % of the conference room's visibility time on lavapipe.
+    // segment: 8-14 % of the conference room's visibility time on lavapipe (two runs each).
     var facing = 0u;
     for (var c = 0u; c < last; c = c + 1u) {
         let e = cols[w * 32u + c];
