@@ -251,6 +251,52 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
     assert!(far.len() >= 4, "the far VPLs share {} clusters", far.len());
 }
 
+/// One map of `flux.len()` texels in a row (map side that count), VPL t at `positions[t]`
+/// facing +y with flux `flux[t]`, clustered with K = `k` and no iteration beyond the first update.
+fn rsm_row(positions: &[[f32; 3]], flux: &[[f32; 3]], k: u32) -> vplgi_cpu::cluster::Clustering {
+    use vplgi_types::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
+    let vpls: Vec<vplgi_types::Vpl> = (0..positions.len())
+        .map(|t| vplgi_types::Vpl { position: positions[t], path: t as u32, normal: [0.0, 1.0, 0.0], bounce: 1, flux: flux[t], _pad: 0 })
+        .collect();
+    let map = RsmLight { size: positions.len() as u32, ..point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE) };
+    let params = RsmClusterParams { k, iterations: 0, weights: RsmWeights::default(), extent: 4.0 };
+    vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &[map], &params, None)
+}
+
+/// A cluster's representative is its member nearest the centre, ties to the lower index, as on
+/// the GPU (`representatives` in rsm_cluster.wgsl). Two members of equal flux at x = 0 and 2 have
+/// their centre at x = 1 exactly, so both are at squared distance 1: the first must win.
+#[test]
+fn rsm_cluster_representative_ties_go_to_the_lower_index() {
+    let c = rsm_row(&[[0.0; 3], [2.0, 0.0, 0.0]], &[[1.0, 0.0, 0.0]; 2], 1);
+    println!("centre {:?}, representative {:?}", c.positions, c.representatives);
+    assert_eq!(c.positions, vec![Vec3::new(1.0, 0.0, 0.0)]);
+    assert_eq!(c.representatives, vec![0]);
+}
+
+/// VPLs on a black surface carry no flux (rsm_vpls keeps them: the texel did hit). A cluster of
+/// only such members has no flux-weighted centre (Prutkin et al.'s update divides by the summed
+/// flux), so it keeps its seed's position rather than 0/0.
+#[test]
+fn rsm_clusters_without_flux_keep_a_finite_centre() {
+    let c = rsm_row(&[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], &[[0.0; 3]; 3], 1);
+    println!("centre {:?}, representative {:?}", c.positions, c.representatives);
+    assert_eq!(c.k(), 1);
+    assert!(c.positions[0].is_finite(), "centre {:?}", c.positions[0]);
+    assert!([0.0, 1.0, 2.0].contains(&c.positions[0].x), "the centre {:?} is not a member's position", c.positions[0]);
+}
+
+/// Without VPLs or with K = 0 the clustering is empty but still hard: `f` is the stride of its
+/// labels, and consumers divide label counts by it.
+#[test]
+fn an_empty_rsm_clustering_has_stride_one() {
+    let none = rsm_row(&[], &[], 4);
+    let zero_k = rsm_row(&[[0.0; 3]], &[[1.0; 3]], 0);
+    for c in [none, zero_k] {
+        assert_eq!((c.k(), c.f), (0, 1));
+    }
+}
+
 proptest! {
     #![proptest_config(vplgi_tests::proptest_config(8))]
 
