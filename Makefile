@@ -77,11 +77,11 @@ verify-long: setup
 # the tests that compute the paper's equations independently, the analytic and path-traced
 # oracles, the committed references, and the CPU-vs-GPU tests). Survivors are written to
 # docs/MUTANTS.md, each with why it is harmless (ci/mutants-harmless.tsv) or marked unexplained.
-# The selection is ~1,100 mutants, many hours on 2 cores: longer than a working session. So
-# outcomes accumulate in the committed ledger ci/mutants-ledger.tsv, each with the git blob of the
-# file it mutated; a run tests only mutants without a valid outcome (a file's outcomes lapse when
-# the file changes) and records what it learned even when stopped, so runs add up across machines
-# and sessions. MUTANTS_MINUTES=N stops a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests
+# The selection is thousands of mutants, many hours on 2 cores: longer than a working session. So
+# outcomes accumulate in the committed ledger ci/mutants-ledger.tsv, each keyed by a hash of the
+# text of the function it mutated; a run tests only mutants without a valid outcome (a function's
+# outcomes lapse when its text changes, not when other code in its file does) and records what it
+# learned even when stopped, so runs add up across machines and sessions. MUTANTS_MINUTES=N stops a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests
 # the recorded survivors again (after adding tests). Commit the ledger and docs/MUTANTS.md after.
 # The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
 # target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
@@ -113,7 +113,7 @@ mutants: setup
 	@git worktree prune; if [ -d $(MUTANTS_TREE) ]; then git -C $(MUTANTS_TREE) checkout -q -f --detach $$(git rev-parse HEAD) \
 	  && git -C $(MUTANTS_TREE) clean -q -f -d; else git worktree add -q --detach $(MUTANTS_TREE) HEAD; fi; mkdir -p target/mutants-report
 	@echo "make mutants: testing HEAD ($$(git rev-parse --short HEAD)) in $(MUTANTS_TREE)"
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list > $(MUTANTS_OUT)/all-mutants.txt
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list --json > $(MUTANTS_OUT)/all-mutants.json
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors)
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail
 	@cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(TEST_ENV) timeout -s INT $(MUTANTS_MINUTES)m cargo mutants $(MUTANTS_SELECT) \

@@ -2,25 +2,28 @@
 //! so outcomes accumulate in a committed ledger (`ci/mutants-ledger.tsv`) and each run tests only
 //! the mutants the ledger has no outcome for.
 //!
-//! A ledger row holds the outcome, the git blob of the mutated file as tested, the commit the run
-//! started on, and the mutant as cargo-mutants names it ("crates/x/src/f.rs:12:5: replace a with b
-//! in g"). A row counts only while its file's content is still that blob: editing a file sends all
-//! its mutants back to be tested. (Tests added since do not: a caught mutant stays caught as tests
-//! grow, and `MUTANTS_RETEST=1` tests the survivors again after new tests.)
+//! A ledger row holds the outcome, the commit the run started on, and the mutant's key: its file,
+//! a hash of the text of the function it mutates, its place relative to that function's first line,
+//! and what cargo-mutants says it does ("crates/x/src/f.rs 1f0c…a2 +3:5: replace a with b in g"). A
+//! row counts only while that function's text is unchanged: editing a function sends its mutants
+//! back to be tested, while an edit elsewhere in the file (a test module, another function, lines
+//! added above) leaves them counted. (Tests added since do not lapse rows either: a caught mutant
+//! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors again after new tests.)
 //!
 //! Usage:
 //!   mutants_report prepare LEDGER REPORT_DIR [--retest-survivors]
-//!       Records the selected files' blobs and writes the ledger's still-valid mutants into
-//!       REPORT_DIR/mutants.out/previously_caught.txt, which `cargo mutants --iterate` skips.
+//!       Keys the selection (REPORT_DIR/all-mutants.json, `cargo mutants --list --json`) by the
+//!       current sources into REPORT_DIR/keys.tsv, and writes the mutants the ledger already has an
+//!       outcome for into REPORT_DIR/mutants.out/previously_caught.txt, which `cargo mutants
+//!       --iterate` skips.
 //!   mutants_report record LEDGER REPORT_DIR
 //!       Adds the outcomes of the run in REPORT_DIR/mutants.out to the ledger.
 //!   mutants_report report LEDGER REPORT_DIR HARMLESS_TSV OUT_MD
 //!       Writes docs/MUTANTS.md: per file, how many mutants and what became of them, then every
 //!       survivor with why it is harmless (from the table) or marked unexplained.
-//!
-//! REPORT_DIR/all-mutants.txt is `cargo mutants --list` of the selection.
 
 use anyhow::{bail, Context, Result};
+use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -29,9 +32,9 @@ use std::process::Command;
 /// The outcomes a ledger row can hold, with the words the report uses.
 const OUTCOMES: [(&str, &str); 4] = [("caught", "caught"), ("missed", "survived"), ("timeout", "timed out"), ("unviable", "did not build")];
 
-/// The file a mutant lives in: the text before its first colon.
+/// The file a mutant lives in: the text before its first colon (of a name) or space (of a key).
 fn file_of(mutant: &str) -> &str {
-    mutant.split(':').next().unwrap_or("?")
+    mutant.split([':', ' ']).next().unwrap_or("?")
 }
 
 fn read(path: &Path) -> Result<String> {
@@ -57,19 +60,91 @@ fn git(args: &[&str]) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
-/// The selection, in cargo-mutants' order.
-fn selected(dir: &Path) -> Result<Vec<String>> {
-    let path = dir.join("all-mutants.txt");
-    Ok(lines(&read(&path)?).map(str::to_string).collect())
+/// A mutant as `cargo mutants --list --json` describes it (the fields used here).
+#[derive(Deserialize)]
+struct Listed {
+    name: String,
+    file: String,
+    function: Option<Function>,
+    span: Span,
+}
+
+#[derive(Deserialize)]
+struct Function {
+    span: Span,
+}
+
+#[derive(Deserialize)]
+struct Span {
+    start: Position,
+    end: Position,
+}
+
+#[derive(Deserialize)]
+struct Position {
+    line: usize,
+    column: usize,
+}
+
+/// FNV-1a, 64 bits: stable across Rust versions and platforms, unlike `DefaultHasher`.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// The ledger key of mutant `m` of the file whose text is `source`: the file, the hash of the lines
+/// of the mutated function (of the whole file for a mutant outside any function), the mutant's line
+/// relative to the function's first and its column, and what it does.
+fn key(m: &Listed, source: &str) -> Result<String> {
+    let what = m.name.splitn(4, ':').nth(3).map(str::trim_start).with_context(|| format!("{}: expected file:line:column: description", m.name))?;
+    let text: Vec<&str> = source.lines().collect();
+    let (first, last) = m.function.as_ref().map_or((1, text.len()), |f| (f.span.start.line, f.span.end.line));
+    let body = text
+        .get(first.saturating_sub(1)..last.min(text.len()))
+        .with_context(|| format!("{}: its function's lines {first}-{last} are not in {}", m.name, m.file))?;
+    let line = m.span.start.line.checked_sub(first).with_context(|| format!("{}: starts before its function", m.name))?;
+    Ok(format!("{} {:016x} +{line}:{}: {what}", m.file, fnv1a(body.join("\n").as_bytes()), m.span.start.column))
+}
+
+/// The selection (REPORT_DIR/all-mutants.json) in cargo-mutants' order, as (name, key) pairs keyed by
+/// the sources under the current directory.
+fn key_selection(dir: &Path) -> Result<Vec<(String, String)>> {
+    let path = dir.join("all-mutants.json");
+    let listed: Vec<Listed> =
+        serde_json::from_str(&read(&path)?).with_context(|| format!("{}: not a `cargo mutants --list --json` listing", path.display()))?;
+    let mut sources = HashMap::new();
+    let mut out = Vec::with_capacity(listed.len());
+    for m in &listed {
+        if !sources.contains_key(&m.file) {
+            sources.insert(m.file.clone(), read(Path::new(&m.file))?);
+        }
+        out.push((m.name.clone(), key(m, &sources[&m.file])?));
+    }
+    Ok(out)
+}
+
+/// The keyed selection prepare saved (REPORT_DIR/keys.tsv: commit, then name<TAB>key per mutant).
+fn selection(dir: &Path) -> Result<(Vec<(String, String)>, String)> {
+    let path = dir.join("keys.tsv");
+    let text = read(&path)?;
+    let mut commit = String::new();
+    let mut keyed = Vec::new();
+    for l in lines(&text) {
+        let (a, b) = l.split_once('\t').with_context(|| format!("{}: expected name<TAB>key", path.display()))?;
+        if a == "commit" {
+            commit = b.to_string();
+        } else {
+            keyed.push((a.to_string(), b.to_string()));
+        }
+    }
+    Ok((keyed, commit))
 }
 
 struct Row {
     outcome: String,
-    blob: String,
     commit: String,
 }
 
-/// mutant -> row.
+/// key -> row.
 fn ledger(path: &Path) -> Result<BTreeMap<String, Row>> {
     let mut rows = BTreeMap::new();
     let Ok(text) = std::fs::read_to_string(path) else { return Ok(rows) };
@@ -77,56 +152,36 @@ fn ledger(path: &Path) -> Result<BTreeMap<String, Row>> {
         if l.trim().is_empty() || l.starts_with('#') {
             continue;
         }
-        let f: Vec<&str> = l.splitn(4, '\t').collect();
-        let [outcome, blob, commit, mutant] = f[..] else { bail!("{}:{}: expected outcome<TAB>blob<TAB>commit<TAB>mutant", path.display(), i + 1) };
+        let f: Vec<&str> = l.splitn(3, '\t').collect();
+        let [outcome, commit, key] = f[..] else { bail!("{}:{}: expected outcome<TAB>commit<TAB>key", path.display(), i + 1) };
         if !OUTCOMES.iter().any(|(o, _)| *o == outcome) {
             bail!("{}:{}: unknown outcome {outcome:?}", path.display(), i + 1);
         }
-        rows.insert(mutant.to_string(), Row { outcome: outcome.into(), blob: blob.into(), commit: commit.into() });
+        rows.insert(key.to_string(), Row { outcome: outcome.into(), commit: commit.into() });
     }
     Ok(rows)
 }
 
-/// The blobs of the selected files as prepare recorded them (file -> blob), and the commit.
-fn blobs(dir: &Path) -> Result<(HashMap<String, String>, String)> {
-    let text = read(&dir.join("blobs.tsv"))?;
-    let mut commit = String::new();
-    let mut map = HashMap::new();
-    for l in lines(&text) {
-        let (k, v) = l.split_once('\t').context("blobs.tsv: expected file<TAB>blob")?;
-        if k == "commit" {
-            commit = v.to_string();
-        } else {
-            map.insert(k.to_string(), v.to_string());
-        }
-    }
-    Ok((map, commit))
+/// The selected mutants the ledger has a row for, as (current name, row).
+fn valid<'a>(rows: &'a BTreeMap<String, Row>, keyed: &'a [(String, String)]) -> Vec<(&'a String, &'a Row)> {
+    keyed.iter().filter_map(|(name, key)| rows.get(key).map(|r| (name, r))).collect()
 }
 
-/// The ledger's rows still valid for the current content of their files.
-fn valid<'a>(rows: &'a BTreeMap<String, Row>, selection: &[String], blob: &HashMap<String, String>) -> Vec<(&'a String, &'a Row)> {
-    selection.iter().filter_map(|m| rows.get_key_value(m)).filter(|(m, r)| blob.get(file_of(m)) == Some(&r.blob)).collect()
-}
-
-/// The ledger's rows whose files are outside the selection (`blob` holds the selected files).
-fn unselected<'a>(rows: &'a BTreeMap<String, Row>, blob: &HashMap<String, String>) -> Vec<(&'a String, &'a Row)> {
-    rows.iter().filter(|(m, _)| !blob.contains_key(file_of(m))).collect()
+/// The ledger's rows whose files are outside the selection.
+fn unselected<'a>(rows: &'a BTreeMap<String, Row>, keyed: &[(String, String)]) -> Vec<(&'a String, &'a Row)> {
+    let files: std::collections::HashSet<&str> = keyed.iter().map(|(_, k)| file_of(k)).collect();
+    rows.iter().filter(|(k, _)| !files.contains(file_of(k))).collect()
 }
 
 fn prepare(ledger_path: &Path, dir: &Path, retest_survivors: bool) -> Result<()> {
-    let selection = selected(dir)?;
-    let mut files: Vec<&str> = selection.iter().map(|m| file_of(m)).collect();
-    files.dedup();
+    let keyed = key_selection(dir)?;
     let mut tsv = format!("commit\t{}\n", git(&["rev-parse", "HEAD"])?);
-    let mut blob = HashMap::new();
-    for f in files {
-        let b = git(&["hash-object", f])?;
-        writeln!(tsv, "{f}\t{b}")?;
-        blob.insert(f.to_string(), b);
+    for (name, key) in &keyed {
+        writeln!(tsv, "{name}\t{key}")?;
     }
-    write(&dir.join("blobs.tsv"), &tsv)?;
+    write(&dir.join("keys.tsv"), &tsv)?;
     let rows = ledger(ledger_path)?;
-    let keep = valid(&rows, &selection, &blob);
+    let keep = valid(&rows, &keyed);
     let skip: Vec<&str> =
         keep.iter().filter(|(_, r)| !(retest_survivors && matches!(r.outcome.as_str(), "missed" | "timeout"))).map(|(m, _)| m.as_str()).collect();
     let out = dir.join("mutants.out");
@@ -140,11 +195,11 @@ fn prepare(ledger_path: &Path, dir: &Path, retest_survivors: bool) -> Result<()>
     list.push('\n');
     write(&out.join("previously_caught.txt"), &list)?;
     println!(
-        "make mutants: {} of {} selected mutants have an outcome in {} for their files' current content; {} to run",
+        "make mutants: {} of {} selected mutants have an outcome in {} for their functions' current text; {} to run",
         keep.len(),
-        selection.len(),
+        keyed.len(),
         ledger_path.display(),
-        selection.len() - skip.len()
+        keyed.len() - skip.len()
     );
     Ok(())
 }
@@ -167,15 +222,15 @@ fn check_logs(run: &Path) -> Result<()> {
 fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
     let run = dir.join("mutants.out");
     check_logs(&run)?;
-    let selection = selected(dir)?;
-    let (blob, commit) = blobs(dir)?;
+    let (keyed, commit) = selection(dir)?;
+    let key_of: HashMap<&str, &str> = keyed.iter().map(|(n, k)| (n.as_str(), k.as_str())).collect();
     let mut rows = ledger(ledger_path)?;
     let mut added = BTreeMap::<&str, usize>::new();
     for (outcome, _) in OUTCOMES {
         let Ok(text) = std::fs::read_to_string(run.join(format!("{outcome}.txt"))) else { continue };
         for m in lines(&text) {
-            let b = blob.get(file_of(m)).with_context(|| format!("{m}: not in the selection prepare saw"))?;
-            rows.insert(m.to_string(), Row { outcome: outcome.into(), blob: b.clone(), commit: commit.clone() });
+            let key = key_of.get(m).with_context(|| format!("{m}: not in the selection prepare saw"))?;
+            rows.insert(key.to_string(), Row { outcome: outcome.into(), commit: commit.clone() });
             *added.entry(outcome).or_default() += 1;
         }
     }
@@ -183,11 +238,12 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
     // shows what it learned, then the rows of files this run did not select, untouched: a run
     // narrowed with MUTANTS_FILES must not erase what other runs learned.
     let mut text = String::from(
-        "# make mutants' ledger (see benches/src/bin/mutants_report.rs): outcome, git blob of the mutated file as tested,\n\
-         # commit the run started on, mutant. Written by `make mutants`; do not edit.\n",
+        "# make mutants' ledger (see benches/src/bin/mutants_report.rs): outcome, commit the run started on, and the\n\
+         # mutant's key (file, hash of its function's text, line in that function:column: what it does). Do not edit.\n",
     );
-    for (m, r) in valid(&rows, &selection, &blob).into_iter().chain(unselected(&rows, &blob)) {
-        writeln!(text, "{}\t{}\t{}\t{m}", r.outcome, r.blob, r.commit)?;
+    let key_rows: Vec<(&String, &Row)> = keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed)).collect();
+    for (k, r) in key_rows {
+        writeln!(text, "{}\t{}\t{k}", r.outcome, r.commit)?;
     }
     write(ledger_path, &text)?;
     println!("make mutants: this run added {added:?} to {}", ledger_path.display());
@@ -209,11 +265,11 @@ fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
 }
 
 fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()> {
-    let selection = selected(dir)?;
-    let (blob, _) = blobs(dir)?;
+    let (keyed, _) = selection(dir)?;
+    let selection: Vec<&String> = keyed.iter().map(|(n, _)| n).collect();
     let rows = ledger(ledger_path)?;
     let reasons = harmless(table)?;
-    let done = valid(&rows, &selection, &blob);
+    let done = valid(&rows, &keyed);
     // file -> outcome -> mutants, with every selected file present.
     let mut by_file: BTreeMap<&str, BTreeMap<&str, Vec<&str>>> = BTreeMap::new();
     let mut selected_in: BTreeMap<&str, usize> = BTreeMap::new();
@@ -239,7 +295,7 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
          Makefile). A mutant that no test notices has *survived*: either a test is missing or the change cannot be \
          observed. Every survivor below is explained or marked **unexplained**.\n\n\
          A full run takes longer than a working session, so outcomes accumulate in `ci/mutants-ledger.tsv` across \
-         runs (here from commit(s) {}); each outcome counts only while its file is unchanged since it was tested.\n",
+         runs (here from commit(s) {}); each outcome counts only while the function it mutates is unchanged since it was tested.\n",
         git(&["log", "-1", "--format=%cd", "--date=format:%Y-%m-%d"])?,
         short(&git(&["rev-parse", "HEAD"])?),
         if commits.is_empty() { "none yet".to_string() } else { commits.iter().map(|c| format!("`{}`", short(c))).collect::<Vec<_>>().join(", ") }
@@ -323,16 +379,47 @@ fn main() -> Result<()> {
 mod tests {
     use super::*;
 
+    fn listed(name: &str, fn_lines: (usize, usize), line: usize) -> Listed {
+        let pos = |line| Position { line, column: 5 };
+        Listed {
+            name: name.into(),
+            file: "a.rs".into(),
+            function: Some(Function { span: Span { start: pos(fn_lines.0), end: pos(fn_lines.1) } }),
+            span: Span { start: pos(line), end: pos(line) },
+        }
+    }
+
+    /// The point of keying by function: lines added above a function leave its mutants' keys as
+    /// they were, an edit inside it changes them.
+    #[test]
+    fn keys_follow_the_function_not_the_line() -> Result<()> {
+        let before = "fn f() {\n    a + b\n}\nfn g() {\n    c\n}\n";
+        let shifted = format!("// a new line\n{before}");
+        let edited = before.replace("a + b", "a - b");
+        let g = |src: &str, first: usize| key(&listed(&format!("a.rs:{}:5: replace c in g", first + 1), (first, first + 2), first + 1), src);
+        let f = |src: &str, first: usize| key(&listed(&format!("a.rs:{}:5: replace + with - in f", first + 1), (first, first + 2), first + 1), src);
+        assert_eq!(g(before, 4)?, g(&shifted, 5)?);
+        assert_eq!(f(before, 1)?, f(&shifted, 2)?);
+        assert_eq!(g(before, 4)?, g(&edited, 4)?);
+        assert_ne!(f(before, 1)?, f(&edited, 1)?);
+        assert!(f(before, 1)?.starts_with("a.rs ") && f(before, 1)?.ends_with(" +1:5: replace + with - in f"), "{}", f(before, 1)?);
+        Ok(())
+    }
+
     #[test]
     fn a_narrowed_run_keeps_the_rows_of_files_it_did_not_select() {
-        let row = |blob: &str| Row { outcome: "caught".into(), blob: blob.into(), commit: "c".into() };
+        let row = || Row { outcome: "caught".into(), commit: "c".into() };
         let rows: BTreeMap<String, Row> =
-            [("a.rs:1:1: replace x".to_string(), row("A")), ("a.rs:2:1: replace y".to_string(), row("old")), ("b.rs:1:1: replace z".to_string(), row("B"))]
+            [("a.rs 01 +1:1: replace x".to_string(), row()), ("a.rs 02 +1:1: replace y".to_string(), row()), ("b.rs 03 +1:1: replace z".to_string(), row())]
                 .into();
-        let blob: HashMap<String, String> = [("a.rs".to_string(), "A".to_string())].into();
-        let selection = vec!["a.rs:1:1: replace x".to_string(), "a.rs:2:1: replace y".to_string()];
-        let kept: Vec<&String> = valid(&rows, &selection, &blob).into_iter().chain(unselected(&rows, &blob)).map(|(m, _)| m).collect();
-        // a.rs's lapsed row goes, b.rs (not selected) stays.
-        assert_eq!(kept, ["a.rs:1:1: replace x", "b.rs:1:1: replace z"]);
+        // a.rs's second function has changed (hash 04 now): its row lapses; b.rs (not selected) stays.
+        let keyed = vec![
+            ("a.rs:1:1: replace x".to_string(), "a.rs 01 +1:1: replace x".to_string()),
+            ("a.rs:9:1: replace y".to_string(), "a.rs 04 +1:1: replace y".to_string()),
+        ];
+        let kept: Vec<&String> = valid(&rows, &keyed).into_iter().map(|(m, _)| m).collect();
+        assert_eq!(kept, ["a.rs:1:1: replace x"]);
+        let other: Vec<&String> = unselected(&rows, &keyed).into_iter().map(|(k, _)| k).collect();
+        assert_eq!(other, ["b.rs 03 +1:1: replace z"]);
     }
 }
