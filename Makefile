@@ -81,8 +81,9 @@ verify-long: setup
 # outcomes accumulate in the committed ledger ci/mutants-ledger.tsv, each keyed by a hash of the
 # text of the function it mutated; a run tests only mutants without a valid outcome (a function's
 # outcomes lapse when its text changes, not when other code in its file does) and records what it
-# learned even when stopped, so runs add up across machines and sessions. MUTANTS_MINUTES=N stops a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests
-# the recorded survivors again (after adding tests). Commit the ledger and docs/MUTANTS.md after.
+# learned even when stopped, so runs add up across machines and sessions. MUTANTS_MINUTES=N stops
+# a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests the recorded survivors again (after
+# adding tests). Commit the ledger and docs/MUTANTS.md after.
 # The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
 # target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
 # every mutant's incremental rebuild, and the working tree is never touched. Tests run under

@@ -241,8 +241,7 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
         "# make mutants' ledger (see benches/src/bin/mutants_report.rs): outcome, commit the run started on, and the\n\
          # mutant's key (file, hash of its function's text, line in that function:column: what it does). Do not edit.\n",
     );
-    let key_rows: Vec<(&String, &Row)> = keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed)).collect();
-    for (k, r) in key_rows {
+    for (k, r) in keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed)) {
         writeln!(text, "{}\t{}\t{k}", r.outcome, r.commit)?;
     }
     write(ledger_path, &text)?;
