@@ -83,7 +83,8 @@ verify-long: setup
 # outcomes lapse when its text changes, not when other code in its file does) and records what it
 # learned even when stopped, so runs add up across machines and sessions. MUTANTS_MINUTES=N stops
 # a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests the recorded survivors again (after
-# adding tests). Commit the ledger and docs/MUTANTS.md after.
+# adding tests); MUTANTS_FILES="a.rs b.rs" narrows a run to some of the files, while
+# docs/MUTANTS.md always reports the whole selection. Commit the ledger and docs/MUTANTS.md after.
 # The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
 # target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
 # every mutant's incremental rebuild, and the working tree is never touched. Tests run under
@@ -94,13 +95,15 @@ verify-long: setup
 # the arguments each mutant's run gets (--workspace comes from --test-workspace); and the ledger
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
 # as caught.
-MUTANTS_FILES := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
+MUTANTS_ALL := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
   crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs crates/vplgi-cpu/src/seeding.rs \
   crates/vplgi-cpu/src/gather_radius.rs crates/vplgi-cpu/src/interpolate.rs crates/vplgi-cpu/src/rsm_vpls.rs crates/vplgi-cpu/src/rsm_importance.rs \
   crates/vplgi-cpu/src/rsm_cluster.rs
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points \
   seeding gather_radius interpolate rsm_vpls
+MUTANTS_FILES := $(MUTANTS_ALL)
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
+MUTANTS_SELECT_ALL = --workspace $(foreach f,$(MUTANTS_ALL),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_TREE := target/mutants-tree
 MUTANTS_OUT := ../mutants-report
@@ -122,7 +125,10 @@ mutants: setup
 	  $(addprefix --cargo-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; case $$rc in 0|2|3) ;; 124) echo "make mutants: stopped after $(MUTANTS_MINUTES) minutes; recording what it tested";; *) exit $$rc;; esac
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) record $(MUTANTS_LEDGER) $(MUTANTS_OUT)
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT) ../../ci/mutants-harmless.tsv ../../docs/MUTANTS.md
+	mkdir -p target/mutants-report/all
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT_ALL) --list --json > $(MUTANTS_OUT)/all/all-mutants.json
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT)/all
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT)/all ../../ci/mutants-harmless.tsv ../../docs/MUTANTS.md
 
 # Coverage-guided fuzzing (cargo-fuzz, libFuzzer, nightly) of what users feed vplgi: the glTF
 # loader (gltf_load) and the EXR reader of compare and merge (exr_read), FUZZ_SECONDS each

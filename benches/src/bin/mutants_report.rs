@@ -249,8 +249,12 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The harmless-mutant table: tab-separated lines "text the mutant's line contains<TAB>why it
-/// is harmless"; `#` starts a comment.
+/// The harmless-mutant table: tab-separated lines "pattern<TAB>why it is harmless"; `#` starts a
+/// comment. A pattern names mutants the way their ledger keys do, without the function's hash and
+/// with `*` for any text: "cluster.rs +3:61: replace < with <= in Grid::fill" (the line counted from
+/// the function's first), or "cluster.rs +75:* in Grid::search_from" for a whole line. A reason so
+/// stays attached when lines are added above its function, and is reported stale when the mutants
+/// it describes no longer exist or are caught.
 fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
     let mut rows = Vec::new();
     for (i, l) in read(path)?.lines().enumerate() {
@@ -263,12 +267,45 @@ fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
     Ok(rows)
 }
 
+/// What a harmless-table pattern is matched against: the key without its hash, after a `/` so that
+/// a pattern starting at a file name ("cluster.rs +1:") matches at a path component
+/// ("crates/vplgi-cpu/src/cluster.rs") and not inside a longer name ("rsm_cluster.rs").
+fn unhashed(key: &str) -> String {
+    let mut parts = key.splitn(3, ' ');
+    let (file, _hash, rest) = (parts.next().unwrap_or(""), parts.next(), parts.next().unwrap_or(""));
+    format!("/{file} {rest}")
+}
+
+/// The harmless-table pattern that names exactly the mutant with ledger key `key`: the key without
+/// its hash and with the file's name only.
+fn pattern_of(key: &str) -> String {
+    let text = unhashed(key);
+    let (file, rest) = text.split_once(' ').unwrap_or((&text, ""));
+    format!("{} {rest}", file.rsplit('/').next().unwrap_or(file))
+}
+
+/// Whether harmless-table `pattern` describes the mutant with ledger key `key`: its parts between
+/// `*`s appear in the key in order ("cluster.rs +75:* in Grid::search_from" is every mutant of
+/// that line of that function).
+fn describes(pattern: &str, key: &str) -> bool {
+    let text = unhashed(key);
+    let mut rest = text.as_str();
+    format!("/{pattern}").split('*').all(|part| match rest.find(part) {
+        Some(i) => {
+            rest = &rest[i + part.len()..];
+            true
+        }
+        None => false,
+    })
+}
+
 fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()> {
     let (keyed, _) = selection(dir)?;
     let selection: Vec<&String> = keyed.iter().map(|(n, _)| n).collect();
     let rows = ledger(ledger_path)?;
     let reasons = harmless(table)?;
     let done = valid(&rows, &keyed);
+    let key_of: HashMap<&str, &str> = keyed.iter().map(|(n, k)| (n.as_str(), k.as_str())).collect();
     // file -> outcome -> mutants, with every selected file present.
     let mut by_file: BTreeMap<&str, BTreeMap<&str, Vec<&str>>> = BTreeMap::new();
     let mut selected_in: BTreeMap<&str, usize> = BTreeMap::new();
@@ -335,9 +372,15 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
     for (outcome, what) in OUTCOMES.into_iter().filter(|(o, _)| matches!(*o, "missed" | "timeout")) {
         for (file, o) in &by_file {
             for m in o.get(outcome).into_iter().flatten() {
-                let why = reasons.iter().find(|(p, _)| m.contains(p.as_str())).map(|(_, w)| w.as_str());
-                unexplained += usize::from(why.is_none());
-                writeln!(md, "- `{m}` ({what}, {file}): {}", why.unwrap_or("**unexplained**"))?;
+                let key = key_of[m];
+                match reasons.iter().find(|(p, _)| describes(p, key)) {
+                    Some((_, why)) => writeln!(md, "- `{m}` ({what}, {file}): {why}")?,
+                    None => {
+                        unexplained += 1;
+                        let pattern = pattern_of(key);
+                        writeln!(md, "- `{m}` ({what}, {file}): **unexplained** (table pattern: `{pattern}`)")?
+                    }
+                }
             }
         }
     }
@@ -345,6 +388,13 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
         writeln!(md, "None.")?;
     }
     writeln!(md, "\n{unexplained} survivor(s) unexplained.")?;
+    let stale = stale(&reasons, &keyed, &rows);
+    if !stale.is_empty() {
+        writeln!(md, "\n## Stale reasons\n\nThese lines of `ci/mutants-harmless.tsv` describe no selected mutant that survives or is untested (the code changed, or a test now catches it); delete or re-key them:\n")?;
+        for p in &stale {
+            writeln!(md, "- `{p}`")?;
+        }
+    }
     write(out, &md)?;
     println!(
         "wrote {}: {} of {} mutants tested: {} caught, {} survived, {} timed out, {} did not build; {unexplained} unexplained",
@@ -356,7 +406,26 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
         count("timeout"),
         count("unviable")
     );
+    if !stale.is_empty() {
+        println!("make mutants: {} stale line(s) in {}, listed in {}", stale.len(), table.display(), out.display());
+    }
     Ok(())
+}
+
+/// The harmless-table patterns of selected files that describe no selected mutant still in need of
+/// a reason (survived, timed out, or not yet tested). Patterns of files outside the selection are
+/// left alone: a run narrowed with MUTANTS_FILES cannot judge them.
+fn stale<'a>(reasons: &'a [(String, String)], keyed: &[(String, String)], rows: &BTreeMap<String, Row>) -> Vec<&'a str> {
+    let needs_reason = |k: &String| rows.get(k).is_none_or(|r| matches!(r.outcome.as_str(), "missed" | "timeout"));
+    reasons
+        .iter()
+        .map(|(p, _)| p.as_str())
+        .filter(|p| {
+            let file = format!("/{}", p.split(' ').next().unwrap_or(p));
+            keyed.iter().any(|(_, k)| unhashed(k).split(' ').next().is_some_and(|f| f.ends_with(&file)))
+                && !keyed.iter().any(|(_, k)| needs_reason(k) && describes(p, k))
+        })
+        .collect()
 }
 
 fn main() -> Result<()> {
@@ -420,5 +489,29 @@ mod tests {
         assert_eq!(kept, ["a.rs:1:1: replace x"]);
         let other: Vec<&String> = unselected(&rows, &keyed).into_iter().map(|(k, _)| k).collect();
         assert_eq!(other, ["b.rs 03 +1:1: replace z"]);
+    }
+
+    /// A reason names its mutant by file, line in the function and description, so it survives lines
+    /// added above the function; a file name does not match inside a longer one; and a reason whose
+    /// mutant is gone, or now caught, is reported stale while one for an untested mutant is not.
+    #[test]
+    fn reasons_follow_the_function_and_go_stale_with_it() {
+        let key = |file: &str, hash: &str, what: &str| format!("crates/c/src/{file} {hash} +2:9: {what}");
+        assert!(describes("cluster.rs +2:9: replace < with <= in f", &key("cluster.rs", "01", "replace < with <= in f")));
+        assert!(!describes("cluster.rs +2:9: replace < with <= in f", &key("rsm_cluster.rs", "01", "replace < with <= in f")));
+        assert!(!describes("cluster.rs +2:9: replace < with <= in f", &key("cluster.rs", "01", "replace < with > in f")));
+        assert!(describes("cluster.rs +2:* in f", &key("cluster.rs", "01", "replace < with > in f")));
+        assert_eq!(pattern_of(&key("cluster.rs", "01", "replace / with * in f")), "cluster.rs +2:9: replace / with * in f");
+        assert!(!describes("cluster.rs +2:* in f", &key("cluster.rs", "01", "replace < with > in g")));
+        let reasons: Vec<(String, String)> =
+            ["cluster.rs +2:9: survives", "cluster.rs +2:9: caught now", "cluster.rs +2:9: untested", "cluster.rs +2:9: gone", "other.rs +1:1: x"]
+                .iter()
+                .map(|p| (p.to_string(), "why".to_string()))
+                .collect();
+        let keyed: Vec<(String, String)> =
+            ["survives", "caught now", "untested"].iter().map(|w| (format!("cluster.rs:9:9: {w}"), key("cluster.rs", "07", w))).collect();
+        let row = |o: &str| Row { outcome: o.into(), commit: "c".into() };
+        let rows: BTreeMap<String, Row> = [(keyed[0].1.clone(), row("missed")), (keyed[1].1.clone(), row("caught"))].into();
+        assert_eq!(stale(&reasons, &keyed, &rows), ["cluster.rs +2:9: caught now", "cluster.rs +2:9: gone"]);
     }
 }
