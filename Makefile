@@ -64,7 +64,7 @@ test: setup
 # table, through vplgi-verify's comparisons) at 10,000 cases each instead of make test's few.
 # Override with VPLGI_PROPTEST_CASES=N. Shrunk failures are written next to the test file
 # (tests/tests/<stage>.proptest-regressions): commit them, every later run replays them first.
-PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster seeding gather_radius interpolate
+PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster seeding gather_radius interpolate bias_points rsm_vpls
 verify-long: setup
 	@for t in $(PROPERTY_TESTS); do \
 	  start=$$(date +%s); \
