@@ -421,9 +421,9 @@ fn stale<'a>(reasons: &'a [(String, String)], keyed: &[(String, String)], rows: 
         .iter()
         .map(|(p, _)| p.as_str())
         .filter(|p| {
-            let file = format!("/{}", p.split(' ').next().unwrap_or(p));
-            keyed.iter().any(|(_, k)| unhashed(k).split(' ').next().is_some_and(|f| f.ends_with(&file)))
-                && !keyed.iter().any(|(_, k)| needs_reason(k) && describes(p, k))
+            // The pattern's file name and the space after it: a pattern of its own for the file.
+            let file = p.split_inclusive(' ').next().unwrap_or(p);
+            keyed.iter().any(|(_, k)| describes(file, k)) && !keyed.iter().any(|(_, k)| needs_reason(k) && describes(p, k))
         })
         .collect()
 }
