@@ -239,5 +239,20 @@ mod tests {
         assert!((a[8].position - a[0].position).length() > 0.1 * s.extent(), "it walks");
         assert!(a[2].forward.dot(a[0].forward) < 0.995, "it turns");
         assert!(crate::generate::camera_walk(&s, 1).unwrap_err().contains("at least 2"));
+
+        // Stepped tracks stay stepped: between keys the camera holds the earlier key's pose.
+        let stepped = crate::CameraPath {
+            translation: crate::Track::new(walk.translation.times().to_vec(), walk.translation.values().to_vec(), true).unwrap(),
+            rotation: crate::Track::new(walk.rotation.times().to_vec(), walk.rotation.values().to_vec(), true).unwrap(),
+            ..walk
+        };
+        s.camera_path = Some(stepped.clone());
+        std::fs::write(&path, glb(&s).unwrap()).unwrap();
+        let back = Scene::load(&path).unwrap().camera_path.expect("a camera path");
+        assert!(back.translation.is_step() && back.rotation.is_step());
+        let (held, read) = (stepped.at(0.5).unwrap(), back.at(0.5).unwrap());
+        assert_eq!(held.position, stepped.at(0.0).unwrap().position);
+        assert!((walk.at(0.5).unwrap().position - held.position).length() > 1e-3, "read as linear, the walk has moved by then");
+        assert!((read.position - held.position).length() < 1e-5 && (read.forward - held.forward).length() < 1e-5, "{read:?} vs {held:?}");
     }
 }

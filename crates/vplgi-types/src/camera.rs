@@ -194,6 +194,34 @@ impl CameraPath {
 mod tests {
     use super::*;
 
+    /// `framing` backs away along +Z until the box's bounding sphere just fills the vertical
+    /// field of view (sin(yfov / 2) = radius / distance), checked against numbers worked by hand.
+    #[test]
+    fn framing_fits_the_bounding_sphere_in_the_view() {
+        let c = Camera::framing(Vec3::new(-1.0, 0.0, 2.0), Vec3::new(3.0, 2.0, 4.0));
+        // Centre (1, 1, 3); radius |(4, 2, 2)| / 2 = 2.44949; distance 2.44949 / sin(22.5°) = 6.40083.
+        assert!((c.position - Vec3::new(1.0, 1.0, 9.40083)).length() < 1e-4, "{c:?}");
+        assert_eq!((c.forward, c.up), (-Vec3::Z, Vec3::Y));
+        assert!((c.yfov - std::f32::consts::FRAC_PI_4).abs() < 1e-7, "{c:?}");
+        // A box with no extent is still seen, from the distance of a sphere of radius 1e-3.
+        let p = Camera::framing(Vec3::ONE, Vec3::ONE);
+        assert!((p.position - Vec3::new(1.0, 1.0, 1.0 + 1e-3 / 0.382_683_43)).length() < 1e-6, "{p:?}");
+    }
+
+    /// A sheared node transform gives a camera whose up is the node's +y made orthogonal to the
+    /// view direction (Gram-Schmidt), and a field of view outside (0, pi) gives none.
+    #[test]
+    fn from_world_orthogonalises_up_and_refuses_bad_fields_of_view() {
+        // Local +y maps to (0, 1, 1) while local -z still maps to -z: up must become +y.
+        let shear = Mat4::from_cols(Vec3::X.extend(0.0), Vec3::new(0.0, 1.0, 1.0).extend(0.0), Vec3::Z.extend(0.0), glam::Vec4::W);
+        let c = Camera::from_world(&shear, 1.0).unwrap();
+        assert_eq!((c.forward, c.up), (-Vec3::Z, Vec3::Y));
+        for yfov in [0.0, -1.0, std::f32::consts::PI, 4.0, f32::NAN] {
+            assert_eq!(Camera::from_world(&Mat4::IDENTITY, yfov), None, "yfov {yfov}");
+        }
+        assert!(Camera::from_world(&Mat4::IDENTITY, 3.1).is_some());
+    }
+
     /// The node rotation written for a camera reads back as the same camera.
     #[test]
     fn rotation_round_trips_through_from_world() {

@@ -280,6 +280,73 @@ pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, metric: Metric, cell:
 mod tests {
     use super::*;
 
+    /// Alg. 1's downsampling takes exactly one point from each block of gamma consecutive
+    /// points (the last block may be short), and its jitter reaches every offset of a block.
+    #[test]
+    fn downsampling_takes_one_point_per_block_at_every_offset() {
+        for (m, gamma, seed) in [(1000, 7, 1), (999, 10, 2), (5, 8, 3), (64, 1, 4)] {
+            let s = downsample(m, gamma, seed);
+            assert_eq!(s.len(), m.div_ceil(gamma));
+            let mut offsets = vec![0; gamma];
+            for (b, &i) in s.iter().enumerate() {
+                let i = i as usize;
+                assert!(i >= b * gamma && i < ((b + 1) * gamma).min(m), "m {m}, gamma {gamma}: block {b} took point {i}");
+                offsets[i - b * gamma] += 1;
+            }
+            if m > 100 * gamma {
+                assert!(offsets.iter().all(|&c| c > 0), "m {m}, gamma {gamma}: offsets {offsets:?}");
+            }
+        }
+    }
+
+    /// The grid's size is bounded whatever the data reports: however few cells the points
+    /// occupy (each step then shrinks the cell fourfold), at most 4096 cells per axis, and for
+    /// a volume about MAX_CELLS in all. On a surface the cell settles where about k / 2 cells
+    /// are occupied (two centroids per occupied cell), within a factor 2.
+    #[test]
+    fn grid_is_bounded_and_settles_near_half_k_occupied_cells() {
+        let cube = grid_geometry(Vec3::ZERO, Vec3::splat(10.0), 1 << 20, |_| 1);
+        let cells: f64 = cube.dims.iter().map(|&d| d as f64).product();
+        assert!(cells <= 1.1 * MAX_CELLS, "{cube:?}: {cells} cells");
+        for max in [Vec3::new(100.0, 1e-3, 1.0), Vec3::new(10.0, 10.0, 0.0)] {
+            let g = grid_geometry(Vec3::ZERO, max, 1 << 20, |_| 1);
+            assert!(g.dims.iter().all(|&d| (1..=4097).contains(&d)), "{max}: {g:?}");
+        }
+        let n = 100;
+        let mut points = Vec::new();
+        for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+            let (u, v) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            points.extend([(u, v, 0.0), (u, v, 1.0), (u, 0.0, v), (u, 1.0, v), (0.0, u, v), (1.0, u, v)].map(Vec3::from));
+        }
+        let occupied = |cell: f32| points.iter().map(|&p| (p / cell).floor().as_ivec3().to_array()).collect::<std::collections::HashSet<_>>().len();
+        for k in [100, 2000, 20000] {
+            let g = grid_geometry(Vec3::ZERO, Vec3::ONE, k, occupied);
+            let occ = occupied(g.cell);
+            println!("k = {k}: cell {}, {occ} cells occupied", g.cell);
+            assert!(occ * 4 >= k && occ <= k, "k = {k}: cell {} occupies {occ} cells", g.cell);
+        }
+    }
+
+    /// Eq. 10's inverse-distance weights hold a distance of zero at 1e-4 of a grid cell in the
+    /// metric's own units (a length for Eq. 7, alpha x length for Eq. 2): a point sitting on one
+    /// centroid still leaves the others a share, in the ratio of the floor to their distances.
+    #[test]
+    fn weights_floor_a_zero_distance_at_a_ten_thousandth_of_a_cell() {
+        let mut w = [0.0; 2];
+        // Eq. 7 keys are squared distances: 0 is held at 1e-4 x 0.5 = 5e-5, against 1e-4.
+        fuzzy_weights(&[(0.0, 0), (1e-8, 1)], FuzzyMode::Weighted, Metric::Eq7 { normal_threshold: 0.5 }, 0.5, &mut w);
+        assert!((w[0] - 2.0 / 3.0).abs() < 1e-5 && (w[1] - 1.0 / 3.0).abs() < 1e-5, "{w:?}");
+        // Eq. 2 keys are errors: 0 is held at 1e-4 x (4 x 0.5) = 2e-4, against 1e-3.
+        fuzzy_weights(&[(0.0, 0), (1e-3, 1)], FuzzyMode::Weighted, Metric::Ward { alpha: 4.0 }, 0.5, &mut w);
+        assert!((w[0] - 5.0 / 6.0).abs() < 1e-5 && (w[1] - 1.0 / 6.0).abs() < 1e-5, "{w:?}");
+        // Squared distances that overflowed (points ~1e19 apart) leave no inverse distance to
+        // weigh by: the weights fall back to Eq. 8's plain mean instead of 0 / 0.
+        for metric in [Metric::Eq7 { normal_threshold: 0.5 }, Metric::Ward { alpha: 4.0 }] {
+            fuzzy_weights(&[(f32::INFINITY, 0), (f32::INFINITY, 1)], FuzzyMode::Weighted, metric, 0.5, &mut w);
+            assert_eq!(w, [0.5, 0.5], "{metric:?}");
+        }
+    }
+
     #[test]
     fn rounding_without_libm_is_round_ties_even() {
         // Ties at every magnitude, their neighbours one ulp away, and sweeps of the range the

@@ -528,7 +528,7 @@ impl FrameConfig {
             return Err(format!("F must be at most {MAX_F} (got {})", self.f));
         }
         if (self.width as u64) * (self.height as u64) * (self.spp as u64) > (1 << 28) {
-            return Err("width x height x spp must stay below 2^28 shading points".into());
+            return Err(format!("width x height x spp must be at most 2^28 shading points (got {})", self.width as u64 * self.height as u64 * self.spp as u64));
         }
         if !(-1.0..1.0).contains(&self.normal_threshold) {
             // n1 . n2 > 1 never holds: every point would be incompatible with every centroid.
@@ -601,6 +601,79 @@ impl Default for FrameConfig {
 mod tests {
     use super::*;
 
+    /// The presets are the paper's light, intermediate and high settings (VPL / SP clusters),
+    /// vplgi's default, verify's small frame and the unclustered reference; the cluster modes
+    /// cluster what they say.
+    #[test]
+    fn presets_are_the_documented_settings() {
+        let ks = |p: Preset| {
+            let c = p.config();
+            (c.cluster, c.k_vpl, c.k_sp)
+        };
+        assert_eq!(ks(Preset::Light), (ClusterMode::Both, 750, 1_000));
+        assert_eq!(ks(Preset::Intermediate), (ClusterMode::Both, 2_000, 8_000));
+        assert_eq!(ks(Preset::High), (ClusterMode::Both, 4_000, 30_000));
+        assert_eq!(ks(Preset::Default), (ClusterMode::Both, 1_000, 8_000));
+        // The clamp's bias is what the clustered settings measure; the reference puts it back.
+        let r = Preset::Reference.config();
+        assert_eq!((r.cluster, r.bias_compensation), (ClusterMode::None, true));
+        for p in [Preset::Light, Preset::Intermediate, Preset::High, Preset::Default, Preset::Verify] {
+            assert!(!p.config().bias_compensation, "{p:?}");
+        }
+        let v = Preset::Verify.config();
+        assert_eq!((v.cluster, v.width, v.height, v.vpls, v.k_vpl, v.k_sp), (ClusterMode::Both, 128, 128, 2_000, 250, 1_500));
+        let modes = [ClusterMode::None, ClusterMode::Sp, ClusterMode::Vpl, ClusterMode::Both];
+        assert_eq!(modes.map(|m| (m.clusters_sps(), m.clusters_vpls())), [(false, false), (true, false), (false, true), (true, true)]);
+    }
+
+    /// What a config hands the clustering stages: `Hard` means F = 1 whatever `f` says (and
+    /// F is at least 1), and α per scene diagonal becomes α per unit length, divided by the
+    /// diagonal, for the metric, the representative rule and the adaptive seeding alike.
+    #[test]
+    fn cluster_params_turn_options_into_stage_inputs() {
+        use crate::clustering::{Metric, Representative};
+        let c = FrameConfig { f: 6, alpha: 0.3, metric: SpMetric::Ward, representative: SpRepresentative::MinError, ..FrameConfig::default() };
+        let p = c.sp_cluster_params(2.0);
+        assert_eq!((p.f, p.metric, p.representative), (6, Metric::Ward { alpha: 0.15 }, Representative::MinError { alpha: 0.15 }));
+        assert_eq!(c.seed_params(2.0).alpha, 0.15);
+        let hard = FrameConfig { fuzzy: FuzzyMode::Hard, ..c.clone() };
+        assert_eq!((hard.effective_f(), hard.sp_cluster_params(2.0).f), (1, 1));
+        assert_eq!(FrameConfig { f: 0, ..c }.effective_f(), 1);
+    }
+
+    /// A config file written before the later options existed reads with each option's
+    /// documented default: 128² RSM texels (the paper's Cornell-box map), α = 0.3 (the middle
+    /// of Wang et al.'s 0.1 to 0.5), 16 gather rays, Halton RSM seeds, and the rest as
+    /// `FrameConfig::default()`.
+    #[test]
+    fn files_from_before_an_option_read_its_documented_default() {
+        let mut json = serde_json::to_value(FrameConfig::default()).unwrap();
+        let later = [
+            "bias_compensation",
+            "light_shape",
+            "vpl_source",
+            "rsm_size",
+            "vpl_cluster",
+            "rsm_weights",
+            "rsm_seeding",
+            "metric",
+            "alpha",
+            "representative",
+            "seeding",
+            "shade",
+            "gather_rays",
+            "lighting",
+            "temporal",
+        ];
+        for key in later {
+            assert!(json.as_object_mut().unwrap().remove(key).is_some(), "no field {key}");
+        }
+        let old: FrameConfig = serde_json::from_value(json).unwrap();
+        // RSM seeding predates its importance map: old files keep the Halton seeds they had.
+        assert_eq!(old, FrameConfig { rsm_seeding: RsmSeeding::Halton, ..FrameConfig::default() });
+        assert_eq!((old.rsm_size, old.alpha, old.gather_rays), (128, 0.3, 16));
+    }
+
     #[test]
     fn presets_validate_and_bad_values_are_named() {
         for c in [
@@ -644,6 +717,9 @@ mod tests {
         assert!(bad(|c| c.alpha = f32::INFINITY).contains("alpha"));
         assert!(bad(|c| (c.shade, c.cluster) = (ShadeMode::Interpolate, ClusterMode::Vpl)).contains("--cluster sp or both"));
         assert!(bad(|c| (c.shade, c.gather_rays) = (ShadeMode::Interpolate, 0)).contains("gather-rays"));
-        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28"));
+        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28 shading points (got 536870912)"));
+        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 13, 1 << 13, 8)).contains("2^28"));
+        let largest = FrameConfig { width: 1 << 14, height: 1 << 14, spp: 1, ..FrameConfig::default() };
+        assert_eq!(largest.validate(), Ok(()), "2^28 shading points are allowed");
     }
 }
