@@ -527,8 +527,9 @@ impl FrameConfig {
         if self.f > MAX_F {
             return Err(format!("F must be at most {MAX_F} (got {})", self.f));
         }
-        if (self.width as u64) * (self.height as u64) * (self.spp as u64) > (1 << 28) {
-            return Err(format!("width x height x spp must be at most 2^28 shading points (got {})", self.width as u64 * self.height as u64 * self.spp as u64));
+        let points = self.width as u64 * self.height as u64 * self.spp as u64;
+        if points > (1 << 28) {
+            return Err(format!("width x height x spp must be at most 2^28 shading points (got {points})"));
         }
         if !(-1.0..1.0).contains(&self.normal_threshold) {
             // n1 . n2 > 1 never holds: every point would be incompatible with every centroid.
