@@ -713,7 +713,25 @@ mod tests {
         .contains("rsm-size"));
         assert!(bad(|c| c.f = 17).contains('F'));
         assert!(bad(|c| c.normal_threshold = 1.0).contains("normal threshold"));
-        assert!(bad(|c| c.g_clamp_rel = f32::NAN).contains("g-clamp"));
+        for g in [f32::NAN, -0.01, f32::INFINITY] {
+            let c = FrameConfig { g_clamp_rel: g, ..FrameConfig::default() };
+            assert!(c.validate().unwrap_err().contains("g-clamp"), "g-clamp {g}");
+        }
+        // Temporal coherence carries clusters from frame to frame: shading-point clusters, or
+        // VPL clusters in RSM space; Eq. 7's VPL clusters alone have nothing to carry.
+        let temporal = |cluster: ClusterMode, rsm: bool| {
+            let mut c = FrameConfig { temporal: Temporal::On, cluster, ..FrameConfig::default() };
+            if rsm {
+                (c.vpl_cluster, c.vpl_source, c.bounces) = (VplClustering::Rsm, VplSource::Rsm, 1);
+            }
+            c.validate()
+        };
+        for (cluster, rsm) in [(ClusterMode::None, false), (ClusterMode::Vpl, false), (ClusterMode::None, true)] {
+            assert!(temporal(cluster, rsm).unwrap_err().contains("temporal on"), "{cluster:?}, rsm {rsm}");
+        }
+        for (cluster, rsm) in [(ClusterMode::Sp, false), (ClusterMode::Both, false), (ClusterMode::Vpl, true), (ClusterMode::Sp, true)] {
+            assert_eq!(temporal(cluster, rsm), Ok(()), "{cluster:?}, rsm {rsm}");
+        }
         assert!(bad(|c| c.alpha = 0.0).contains("alpha"));
         assert!(bad(|c| c.alpha = f32::INFINITY).contains("alpha"));
         assert!(bad(|c| (c.shade, c.cluster) = (ShadeMode::Interpolate, ClusterMode::Vpl)).contains("--cluster sp or both"));

@@ -299,6 +299,20 @@ mod tests {
         }
         println!("60 cases, {clipped} cut by the horizon: worst relative difference {worst:.2e}");
         assert!(clipped >= 15, "only {clipped} cases exercised the cut disk");
+        // Exactly on the axis, where the frame's first direction is arbitrary, with the horizon
+        // cutting the disk, and disks of other radii.
+        let cases: [([f64; 3], [f64; 3], f64); 4] = [
+            ([0.0, 0.0, 0.5], [0.866, 0.0, -0.5], 1.0),
+            ([0.0, 0.0, 0.2], [0.0, 0.6, 0.8], 1.0),
+            ([0.5, -0.4, 0.7], [-0.3, 0.9, -0.2], 0.4),
+            ([1.2, 0.3, 0.9], [-0.8, 0.0, 0.3], 2.5),
+        ];
+        for (p, np, r) in cases {
+            let len = (np[0] * np[0] + np[1] * np[1] + np[2] * np[2]).sqrt();
+            let np = np.map(|c| c / len);
+            let (quad, exact) = (form_factor_by_quadrature(p, np, r), form_factor_exact(p, np, r));
+            assert!((exact - quad).abs() <= 2e-3 * quad.max(1e-3), "p {p:?}, n {np:?}, R {r}: exact {exact}, quadrature {quad}");
+        }
     }
 
     #[test]
@@ -313,6 +327,17 @@ mod tests {
         assert_eq!(exact_geometry_term(Vec3::new(0.2, 0.0, -1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
         assert_eq!(exact_geometry_term(Vec3::new(3.0, 0.0, 0.0), -Vec3::X, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
         assert_eq!(exact_geometry_term(Vec3::new(0.0, 0.0, 1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
+        // Points behind the plane or in it, over the disk and beside it, with receivers turned
+        // every way (many facing the disk's back, where the contour integral alone would not be
+        // 0): the disk emits on its front side only.
+        let mut rng = Rng::new(12, Stream::Oracle, 0);
+        for case in 0..200 {
+            let mut f = || rng.next_f32() * 2.0 - 1.0;
+            let p = Vec3::new(2.0 * f(), 2.0 * f(), if case % 2 == 0 { 0.0 } else { -(f() + 1.0) });
+            let n = Vec3::new(f(), f(), f()).normalize();
+            assert_eq!(exact_geometry_term(p, n, Vec3::ZERO, Vec3::Z, 1.0), 0.0, "p {p}, n {n}");
+        }
+        assert_eq!(exact_geometry_term(Vec3::ZERO, Vec3::new(0.6, 0.0, 0.8), Vec3::ZERO, Vec3::Z, 1.0), 0.0);
     }
 
     #[test]
