@@ -107,6 +107,8 @@ MUTANTS_FILES := $(MUTANTS_ALL)
 # any mutant (found by chance with random cases) would count them all as caught: cases saved during
 # a run are replayed on the unmutated code before anything is recorded.
 MUTANTS_ENV = $(TEST_ENV) PROPTEST_RNG_SEED=20261205
+# The covering tests on the unmutated tree: before a run, and after one that saved cases.
+MUTANTS_BASELINE = cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
 MUTANTS_SELECT_ALL = --workspace $(foreach f,$(MUTANTS_ALL),-f '$(f)')
 MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
@@ -124,14 +126,14 @@ mutants: setup
 	@echo "make mutants: testing HEAD ($$(git rev-parse --short HEAD)) in $(MUTANTS_TREE)"
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list --json > $(MUTANTS_OUT)/all-mutants.json
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors)
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail
+	$(MUTANTS_BASELINE)
 	@cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) timeout -s INT $(MUTANTS_MINUTES)m cargo mutants $(MUTANTS_SELECT) \
 	  --in-place --iterate --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true --test-tool nextest \
 	  $(addprefix --cargo-arg=,$(MUTANTS_TARGETS)) -o $(MUTANTS_OUT); \
 	  rc=$$?; case $$rc in 0|2|3) ;; 124) echo "make mutants: stopped after $(MUTANTS_MINUTES) minutes; recording what it tested";; *) exit $$rc;; esac
 	@new=$$(git -C $(MUTANTS_TREE) status --porcelain --untracked-files=all -- '*.proptest-regressions'); if [ -n "$$new" ]; then \
 	  echo "make mutants: property tests saved failing cases during the run ($$new); replaying them on the unmutated code"; \
-	  cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail \
+	  $(MUTANTS_BASELINE) \
 	  || { echo "make mutants: a saved case fails without any mutant, so every mutant tested after it may be caught by it alone: nothing recorded; fix the failure first (the case is in $(MUTANTS_TREE))" >&2; exit 1; }; fi
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) record $(MUTANTS_LEDGER) $(MUTANTS_OUT)
 	mkdir -p target/mutants-report/all

@@ -8,7 +8,8 @@
 //! row counts only while that function's text is unchanged: editing a function sends its mutants
 //! back to be tested, while an edit elsewhere in the file (a test module, another function, lines
 //! added above) leaves them counted. (Tests added since do not lapse rows either: a caught mutant
-//! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors, not the timeouts, again after new tests.)
+//! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors, not the timeouts,
+//! again after new tests.)
 //!
 //! Usage:
 //!   mutants_report prepare LEDGER REPORT_DIR [--retest-survivors]
