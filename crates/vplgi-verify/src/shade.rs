@@ -3,8 +3,9 @@
 //! CPU) <= 1e-4).
 
 use crate::inputs::{CpuClusters, CpuFrame};
-use crate::tolerance::{Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
+use crate::tolerance::{polygon_outline_bounds, Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
 use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use glam::{DVec3, Vec3};
 use vplgi_cpu::interpolate::IrradianceSamples;
 use vplgi_cpu::shade::{sample_irradiance, VisibilitySource};
 use vplgi_frame::{Backend, LightSet};
@@ -150,9 +151,11 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
 }
 
 /// The GPU's lights of the CPU's VPL clustering (the frame's `cluster_lights` kernel: flux sums
-/// and, for disks, R²) against the CPU's: the largest relative difference of any component.
-pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: &CpuClusters) -> Result<Option<Disagreement>, VerifyError> {
-    let Some(vc) = &clusters.vpl_clusters else { return Ok(None) };
+/// and, for disks, R²) against the CPU's: the largest relative difference of any component; and
+/// for polygons the outlines (and with them R², area / π), each within its own
+/// [`polygon_outline_bounds`].
+pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: &CpuClusters) -> Result<Vec<Disagreement>, VerifyError> {
+    let Some(vc) = &clusters.vpl_clusters else { return Ok(Vec::new()) };
     let (device, queue) = (twins.device(), twins.queue());
     let n = frame.vpls.len() as u32;
     let k = vc.k() as u32;
@@ -161,43 +164,95 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let vpls = GpuVpls { buffer: storage(device, "vpls", &frame.vpls), count: n, particles: 0 };
     let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
     let gpu: Vec<VplLight> = read_back(device, queue, &buffer.buffer, k as usize)?;
+    let polygons = buffer.outlines.is_some();
     let mut worst = (0.0f64, None);
     for (c, (a, b)) in clusters.lights.lights.iter().zip(&gpu).enumerate() {
         let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 12]>(*a), bytemuck::cast::<VplLight, [f32; 12]>(*b));
-        let d = fa.iter().zip(&fb).map(|(x, y)| ((x - y).abs() / x.abs().max(1e-20)) as f64).fold(0.0, f64::max);
+        // A polygon's R² is its outline's area / π, judged with the outline below.
+        let judged = fa.iter().zip(&fb).enumerate().filter(|(i, _)| !(polygons && *i == 3));
+        let d = judged.map(|(_, (x, y))| ((x - y).abs() / x.abs().max(1e-20)) as f64).fold(0.0, f64::max);
         if d > worst.0 || d.is_nan() {
             worst = (d, Some(format!("cluster {c}: CPU flux {} R² {}, GPU flux {} R² {}", crate::v3(a.flux), a.radius2, crate::v3(b.flux), b.radius2)));
         }
     }
-    // A polygon's outline: each vertex's distance to the nearest vertex of the other's, over the
-    // polygon's size (√area), and the areas' relative difference. Not vertex by vertex: where a
-    // diagonal side of the outline just grazes a corner, rounding may cut the corner on one
-    // backend (two vertices a rounding error apart) and not on the other, the same polygon.
+    let shape = serde_json::to_value(cfg.light_shape).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+    let case = format!("{} {shape}", Mode::of(cfg).name_in(cfg));
+    let what = if polygons { "largest relative difference of a light's flux" } else { "largest relative difference of a light's flux or R²" };
+    let mut checks = vec![Disagreement::at_most("shade / cluster lights", what, worst.0, CLUSTER_LIGHTS_REL).with_case(&case).with_worst(worst.1)];
     if let Some(outlines) = &buffer.outlines {
-        let gpu: Vec<LightOutline> = read_back(device, queue, outlines, k as usize)?;
-        for (c, (a, b)) in clusters.lights.outlines.iter().zip(&gpu).enumerate() {
-            let size = (a.area() as f64).sqrt().max(1e-20);
-            let d = outline_distance(a, b).max(outline_distance(b, a)) / size;
-            let d = d.max(((a.area() - b.area()) / a.area().max(1e-20)).abs() as f64);
-            if d > worst.0 || d.is_nan() {
-                worst =
-                    (d, Some(format!("cluster {c}: CPU outline of {} vertices, area {}; GPU {} vertices, area {}", a.count(), a.area(), b.count(), b.area())));
+        // Each cluster's reach: the farthest light-carrying member from its representative.
+        let mut reach = vec![0.0f64; k as usize];
+        for (v, &c) in frame.vpls.iter().zip(&hard) {
+            if vplgi_types::disk::member_weight(Vec3::from(v.flux)) > 0.0 {
+                let centre = dvec(clusters.lights.lights[c as usize].position);
+                reach[c as usize] = reach[c as usize].max(dvec(v.position).distance(centre));
             }
         }
-    }
-    let shape = serde_json::to_value(cfg.light_shape).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
-    Ok(Some(
-        Disagreement::at_most("shade / cluster lights", "largest relative difference of a light's flux, R² or outline", worst.0, CLUSTER_LIGHTS_REL)
-            .with_case(format!("{} {shape}", Mode::of(cfg).name_in(cfg)))
+        let gpu: Vec<LightOutline> = read_back(device, queue, outlines, k as usize)?;
+        let mut worst = (0.0f64, None);
+        for (c, (a, b)) in clusters.lights.outlines.iter().zip(&gpu).enumerate() {
+            let d = outline_share(a, b, reach[c], dvec(clusters.lights.lights[c].position).length());
+            if d.share > worst.0 || d.share.is_nan() {
+                worst = (d.share, Some(format!("cluster {c}: {d}")));
+            }
+        }
+        checks.push(
+            Disagreement::at_most(
+                "shade / cluster lights",
+                "largest difference of a polygon's area or vertices over its rounding bound (tolerance::polygon_outline_bounds)",
+                worst.0,
+                1.0,
+            )
+            .with_case(case)
             .with_worst(worst.1),
-    ))
+        );
+    }
+    Ok(checks)
+}
+
+fn dvec(v: [f32; 3]) -> DVec3 {
+    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
+}
+
+/// Two backends' outline of one polygon light, measured against [`polygon_outline_bounds`].
+struct OutlineDifference {
+    /// The larger of the area's and the vertices' difference over its bound (≤ 1 agrees).
+    share: f64,
+    areas: (f32, f32),
+    counts: (usize, usize),
+    vertex_distance: f64,
+    bounds: (f64, f64),
+}
+
+impl std::fmt::Display for OutlineDifference {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "CPU outline of {} vertices, area {:e}; GPU {} vertices, area {:e} (bound {:.2e}); vertices {:.2e} apart (bound {:.2e})",
+            self.counts.0, self.areas.0, self.counts.1, self.areas.1, self.bounds.0, self.vertex_distance, self.bounds.1
+        )
+    }
+}
+
+/// `cpu` and `gpu`, the outline of a cluster whose members reach `reach` from its representative
+/// (`centre_distance` from the origin). Vertices are compared each to the nearest vertex of the
+/// other outline, not one by one: where a diagonal side just grazes a corner, rounding may cut
+/// the corner on one backend (two vertices a rounding error apart) and not on the other, the
+/// same polygon.
+fn outline_share(cpu: &LightOutline, gpu: &LightOutline, reach: f64, centre_distance: f64) -> OutlineDifference {
+    let v = |o: &LightOutline| o.vertices[..o.count()].iter().map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect::<Vec<_>>();
+    let (a, b) = (v(cpu), v(gpu));
+    let perimeter: f64 = (0..a.len()).map(|i| a[i].distance(a[(i + 1) % a.len()])).sum();
+    let bounds = polygon_outline_bounds(cpu.area() as f64, perimeter, reach, centre_distance);
+    let vertex_distance = outline_distance(&a, &b).max(outline_distance(&b, &a));
+    let area_difference = (cpu.area() as f64 - gpu.area() as f64).abs();
+    let share = (area_difference / bounds.0.max(f64::MIN_POSITIVE)).max(vertex_distance / bounds.1.max(f64::MIN_POSITIVE));
+    OutlineDifference { share, areas: (cpu.area(), gpu.area()), counts: (a.len(), b.len()), vertex_distance, bounds }
 }
 
 /// The farthest any vertex of `a` is from the nearest vertex of `b` (0 with no vertices in `a`,
 /// infinite with none in `b` only).
-fn outline_distance(a: &LightOutline, b: &LightOutline) -> f64 {
-    let v = |o: &LightOutline| o.vertices[..o.count()].iter().map(|x| glam::DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect::<Vec<_>>();
-    let (a, b) = (v(a), v(b));
+fn outline_distance(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().map(|x| b.iter().map(|y| x.distance(*y)).fold(f64::INFINITY, f64::min)).fold(0.0, f64::max)
 }
 
@@ -238,4 +293,70 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageR
             .into(),
     );
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vplgi_types::polygon::{support, Outline, SIDES};
+
+    /// A sliver: members along a crease 0.23 long and 0.0014 wide, the representative at one
+    /// end, far from the origin (the case a random soup found beyond the flat 1e-5).
+    fn sliver() -> (Vec<(Vec3, Vec3)>, Vec3, Vec3) {
+        let normal = Vec3::new(0.3, 0.8, 0.5).normalize();
+        let (t, b) = vplgi_types::polygon::frame(normal);
+        let centre = Vec3::new(1.3, -0.7, 0.9);
+        let members = (0..20).map(|i| (centre + t * (0.23 * i as f32 / 19.0) + b * (0.0014 * (i % 2) as f32), Vec3::splat(0.1))).collect();
+        (members, centre, normal)
+    }
+
+    fn outline(s: &[f32; SIDES], centre: Vec3, normal: Vec3) -> LightOutline {
+        LightOutline::placed(&Outline::new(s), centre, normal)
+    }
+
+    #[test]
+    fn a_sliver_rounded_differently_agrees_and_a_wrong_support_does_not() {
+        let (members, centre, normal) = sliver();
+        let s = support(members.iter().copied(), centre, normal);
+        let reach = members.iter().map(|(x, _)| x.distance(centre) as f64).fold(0.0, f64::max);
+        let cpu = outline(&s, centre, normal);
+        let share = |gpu: &LightOutline| outline_share(&cpu, gpu, reach, centre.length() as f64);
+        // Every side a few ulps of the reach away, as a fused multiply-add would put it: beyond
+        // the flat relative bound on the area, within the rounding bound.
+        let nudge = 4.0 * f32::EPSILON * reach as f32;
+        let rounded: [f32; SIDES] = std::array::from_fn(|a| s[a] + if a % 2 == 0 { nudge } else { -nudge });
+        let gpu = outline(&rounded, centre, normal);
+        let relative = ((cpu.area() - gpu.area()) / cpu.area()).abs() as f64;
+        assert!(relative > CLUSTER_LIGHTS_REL, "the sliver should be beyond the flat bound: {relative:e}");
+        let d = share(&gpu);
+        println!("rounded: {d}, share {}", d.share);
+        assert!(d.share <= 1.0, "{d}");
+        // A support 1 % too narrow across the sliver, and a support without the far member.
+        let mut narrow = s;
+        narrow[2] *= 0.99;
+        let far = support(members[..19].iter().copied(), centre, normal);
+        for wrong in [narrow, far] {
+            let d = share(&outline(&wrong, centre, normal));
+            println!("wrong: {d}, share {}", d.share);
+            assert!(d.share > 1.0, "{d}");
+        }
+        // A cluster that stays a point on one backend only.
+        assert!(share(&LightOutline::default()).share > 1.0);
+    }
+
+    #[test]
+    fn round_outlines_keep_the_flat_bound() {
+        // Members on a circle around the representative: a near-regular octagon.
+        let normal = Vec3::Z;
+        let (t, b) = vplgi_types::polygon::frame(normal);
+        let centre = Vec3::new(0.2, 0.1, 0.4);
+        let members: Vec<_> = (0..32).map(|i| (centre + (t * (i as f32 * 0.196).cos() + b * (i as f32 * 0.196).sin()) * 0.1, Vec3::ONE)).collect();
+        let s = support(members.iter().copied(), centre, normal);
+        let cpu = outline(&s, centre, normal);
+        let v: Vec<DVec3> = cpu.vertices[..cpu.count()].iter().map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect();
+        let perimeter: f64 = (0..v.len()).map(|i| v[i].distance(v[(i + 1) % v.len()])).sum();
+        let (area, vertex) = polygon_outline_bounds(cpu.area() as f64, perimeter, 0.1, centre.length() as f64);
+        assert_eq!(area, CLUSTER_LIGHTS_REL * cpu.area() as f64);
+        assert_eq!(vertex, CLUSTER_LIGHTS_REL * (cpu.area() as f64).sqrt());
+    }
 }

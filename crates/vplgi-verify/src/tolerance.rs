@@ -59,8 +59,40 @@ pub const VISIBILITY_SAME_BITS: f64 = 0.999;
 pub const SHADE_REL_MSE: f64 = 1e-4;
 /// The lights of VPL clusters made from the same clustering (flux summed in VPL order; a disk's
 /// R² from the members' moments, `vplgi_types::disk`): within this, relative. Sums in the same
-/// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice.
+/// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice. A polygon's
+/// outline (and R², its area / π) is judged by [`polygon_outline_bounds`] instead.
 pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
+
+/// How far apart the backends may place the outline of one polygon light (`--light-shape
+/// polygon`): its area (so R² = area / π) and each vertex, from what rounding does to an outline,
+/// and never tighter than [`CLUSTER_LIGHTS_REL`] (relative to the area, and to √area for a
+/// vertex). Returns (area, vertex distance), absolute.
+///
+/// Why a relative bound alone cannot hold: the outline is cut from support values s_a = u_a ·
+/// (x − c) over the members x around the representative c (`vplgi_types::polygon::support`).
+/// x − c rounds alike on both backends (one correctly rounded subtraction), but u_a is built
+/// from the normal in multiplies and adds a kernel compiler may fuse, the dot product adds
+/// three more, and so do the clip's crossings: we allow each side of the outline to sit
+/// δ = 16 ε R apart, R = `reach` / cos(π/8) (every s_a is at most the members' reach from c, so
+/// the outline lies in the regular octagon of that inradius, whose corners are R from c): about
+/// one ulp at magnitude R for each of the ~16 operations on the way. Moving every side by δ
+/// changes the area by at most `perimeter` δ; the shoelace sum adds 8 terms of 3 roundings at
+/// magnitude ≤ R², on either backend: 24 ε R² more. A sliver (a cluster along a crease, seen
+/// from a representative at its end) has a perimeter of twice its length and an area of length ×
+/// width, so its relative bound grows as length / width: a 0.23 × 0.0014 sliver gets 1.2e-3.
+/// One a random soup made was measured 1.4e-5 apart, beyond the flat 1e-5, on correct kernels. A vertex is where two
+/// sides at least 45° apart meet: each moved by δ moves it by at most √(2 + √2) / sin(π/4) δ =
+/// 2.61 δ; placing it in space (c + t q_x + b q_y) rounds 3 times at magnitude ≤
+/// `centre_distance` (|c|) + R on either backend. Derived from this rounding model, not
+/// measured; round outlines keep the flat bound (a regular octagon gets 43 ε = 5.1e-6 < 1e-5).
+pub fn polygon_outline_bounds(area: f64, perimeter: f64, reach: f64, centre_distance: f64) -> (f64, f64) {
+    let eps = f32::EPSILON as f64;
+    let corner = reach / (std::f64::consts::PI / 8.0).cos();
+    let delta = 16.0 * eps * corner;
+    let area_bound = (perimeter * delta + 24.0 * eps * corner * corner).max(CLUSTER_LIGHTS_REL * area);
+    let vertex_bound = (2.61 * delta + 6.0 * eps * (centre_distance + corner)).max(CLUSTER_LIGHTS_REL * area.sqrt());
+    (area_bound, vertex_bound)
+}
 
 /// `gather_radius` (`--shade interpolate`) of the same sample points: 1 / R_j, the mean of 1 / t
 /// over its rays, within [`gather_radius_bound`]. Directions differ only by the rounding of cos
