@@ -34,7 +34,14 @@ impl ObvhsScene {
         }
         let p = cs.offset_toward(a.p(), a.n(), b.p());
         let q = cs.offset_toward(b.p(), b.n(), a.p());
-        let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR);
+        // obvhs 0.4's node test clamps a box's entry to t >= 1e-4 whatever the ray's tmin, so a
+        // blocker within 1e-4 of the segment's start (a box face 1e-5 below an offset endpoint,
+        // found at 10,000 cases) was never reached. Starting the ray BACK_OFF segments earlier
+        // puts the segment's whole span past that clamp; the triangle test still counts only
+        // t in (TNEAR, TFAR) of the segment.
+        const BACK_OFF: f32 = 1.0 / 64.0;
+        let d = q - p;
+        let ray = obvhs::ray::Ray::new(Vec3A::from(p - d * BACK_OFF), Vec3A::from(d), BACK_OFF + vplgi_cpu::SEGMENT_TNEAR, BACK_OFF + vplgi_cpu::SEGMENT_TFAR);
         self.bvh.ray_traverse_miss(ray, |r, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(r))
     }
 }
