@@ -183,17 +183,19 @@ proptest::proptest! {
     }
 
     /// The same with 40 % of the endpoints on edges and vertices: segments that touch an edge or
-    /// lie in a surface's plane (two points on the line where a box meets the floor). Embree and
-    /// the GPU both use a watertight triangle test and must still meet the SPEC's row between
-    /// them; obvhs' Möller–Trumbore test decides such touches its own way, so its agreement is
-    /// measured and printed, not judged (in 1,000 cases, as low as 0.989 in one).
+    /// lie in a surface's plane (two points on the line where a box meets the floor). Here
+    /// rounding ties are common enough to decide the SPEC's raw share: at 10,000 cases two
+    /// points on one fold's edge made Embree and the GPU differ on 2 of 1,184 pairs, each
+    /// segment passing a triangle 6e-6 from its offset end, at t 1e-8 from `SEGMENT_TFAR`; and
+    /// obvhs' Möller–Trumbore test leaks through shared edges. So each pair of backends is
+    /// judged with the f64 oracle's ties set aside, and the raw shares are printed.
     #[test]
     fn watertight_visibility_agrees_on_grazing_rays(scene in vplgi_tests::inputs::random_scene(), rows in 32usize..64, cols in 32usize..64, seed in proptest::prelude::any::<u64>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("watertight_visibility_agrees_on_grazing_rays") else { return Ok(()) };
         let checks = three_ways(gpu, &scene, (rows, cols), seed, 0.4);
-        let (watertight, others): (Vec<_>, Vec<_>) = checks.into_iter().partition(|c| c.what.ends_with("Embree / GPU"));
+        let (judged, others): (Vec<_>, Vec<_>) = checks.into_iter().partition(|c| c.what.contains("apart from rounding ties"));
         others.iter().for_each(|c| println!("(not judged) {c}"));
-        proptest::prop_assert_eq!(watertight.len(), 1);
-        vplgi_tests::hold(&watertight)?;
+        proptest::prop_assert_eq!(judged.len(), 3);
+        vplgi_tests::hold(&judged)?;
     }
 }

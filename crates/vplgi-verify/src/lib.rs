@@ -19,6 +19,7 @@ pub mod interpolate;
 pub mod report;
 pub mod rng;
 pub mod rsm_vpls;
+pub mod segment;
 pub mod shade;
 pub mod shading_points;
 pub mod tolerance;
