@@ -103,7 +103,10 @@ fn exact_geometry_term(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, normal: ve
     let rel2 = dot(rel, rel);
     let n_z = dot(n, normal);
     let n_rho = dot(n, rho_vec);
-    let m = length(n - normal * n_z);
+    var m = length(n - normal * n_z);
+    if (!(m > DISK_MIN_TILT)) {
+        m = 0.0;
+    }
     let r = sqrt(radius2);
     let n_rel = dot(n, rel);
     if (n_rel >= r * m) {
@@ -155,7 +158,7 @@ fn exact_geometry_term(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, normal: ve
     let end = centre + (u * cos2 + v * sin2) * r - p;
     let start = centre + (u * cos1 + v * sin1) * r - p;
     let chord = atan2(dot(n, cross(end, start)), dot(end, start));
-    return max(-(arc + chord) / (2.0 * PI * radius2), 0.0);
+    return min(max(-(arc + chord) / (2.0 * PI * radius2), 0.0), 1.0 / radius2);
 }
 
 // disk::exact_geometry_term's D(φ) / b.

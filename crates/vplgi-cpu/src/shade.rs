@@ -261,7 +261,7 @@ fn exact_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[u32], base: usize, g:
         let h = normal.dot(rel);
         let rho_vec = rel - normal * h;
         let n_z = n.dot(normal);
-        let m = (n - normal * n_z).length();
+        let m = disk::tilt(n, normal, n_z);
         let reach = radius2.sqrt() * m;
         let n_rel = n.dot(rel);
         let lit = h > 0.0 && radius2 > 0.0 && n_rel < reach;

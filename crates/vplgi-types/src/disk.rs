@@ -61,7 +61,7 @@ pub fn exact_geometry_term(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, radius2
     let n_rho = n.dot(rho_vec);
     // The disk's lowest point under p's horizon plane, relative to p: n · (z − p) over the disk
     // ranges over −n · rel ± R m, m the length of n's part in the disk's plane.
-    let m = (n - normal * n_z).length();
+    let m = tilt(n, normal, n_z);
     let r = radius2.sqrt();
     let n_rel = n.dot(rel);
     if n_rel >= r * m {
@@ -111,7 +111,29 @@ pub fn exact_geometry_term(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, radius2
     let end = centre + (u * cos2 + v * sin2) * r - p;
     let start = centre + (u * cos1 + v * sin1) * r - p;
     let chord = n.dot(end.cross(start)).atan2(end.dot(start));
-    (-(arc + chord) / (2.0 * std::f32::consts::PI * radius2)).max(0.0)
+    // A form factor is at most 1, so G at most 1 / R². Beyond it is rounding: a receiver within
+    // rounding of the rim and of the disk's plane makes s ~ 0, and two terms of order 1 / s
+    // cancel in the arc.
+    (-(arc + chord) / (2.0 * std::f32::consts::PI * radius2)).max(0.0).min(1.0 / radius2)
+}
+
+/// Below this length of a receiver normal's part in a disk's plane, the receiver is taken as
+/// parallel to the disk: 64 ulps, far above the rounding of two unit normals (a cluster's mean
+/// normal and the receiver's own, on the same flat surface), and a tilt that changes a form
+/// factor by about as much. Without it, a receiver on a disk's own surface cut the disk along a
+/// horizon set by rounding noise and, near the rim, gave G = ∞ (a property test found it).
+pub const MIN_TILT: f32 = 64.0 * f32::EPSILON;
+
+/// m: the length of unit `n`'s part in the plane of unit `normal` (`n_z` = n · normal), 0 below
+/// [`MIN_TILT`].
+#[inline]
+pub fn tilt(n: Vec3, normal: Vec3, n_z: f32) -> f32 {
+    let m = (n - normal * n_z).length();
+    if m > MIN_TILT {
+        m
+    } else {
+        0.0
+    }
 }
 
 /// [`exact_geometry_term`] where all of the disk is above the receiver's horizon: the circle's
@@ -312,6 +334,31 @@ mod tests {
             let np = np.map(|c| c / len);
             let (quad, exact) = (form_factor_by_quadrature(p, np, r), form_factor_exact(p, np, r));
             assert!((exact - quad).abs() <= 2e-3 * quad.max(1e-3), "p {p:?}, n {np:?}, R {r}: exact {exact}, quadrature {quad}");
+        }
+    }
+
+    /// A receiver on the disk's own surface, at its rim, whose normal differs from the disk's
+    /// by rounding (the property test's case: a cluster's mean normal against the receiver's,
+    /// on one flat triangle): no light, on the whole disk and on its rim. Before `tilt`, the
+    /// horizon cut the disk by noise and this gave ∞.
+    #[test]
+    fn a_receiver_on_the_disk_itself_gets_nothing() {
+        let p = Vec3::new(-0.034616858, -0.4385121, -0.45487833);
+        let n = Vec3::new(-0.9009671, -0.34830597, 0.25873032);
+        let (centre, normal) = (Vec3::new(0.0046733357, -0.47797665, -0.37118727), Vec3::new(-0.900967, -0.34830597, 0.25873026));
+        assert_eq!(exact_geometry_term(p, n, centre, normal, 1.0099542e-2), 0.0);
+        // The same tilts about a unit disk in z = 0: rounding-sized ones (below MIN_TILT) give 0
+        // at heights from 1e-9 to 1e-3 and radii from the centre to past the rim.
+        for (tilt_x, h, rho) in [(1e-7, 1e-9, 1.0), (3e-6, 1e-7, 0.999_999), (-5e-6, 1e-3, 0.5), (2e-6, 1e-8, 1.000_001)] {
+            let n = Vec3::new(tilt_x, 0.0, 1.0).normalize();
+            assert_eq!(exact_geometry_term(Vec3::new(rho, 0.0, h), n, Vec3::ZERO, Vec3::Z, 1.0), 0.0, "tilt {tilt_x}, h {h}, ρ {rho}");
+        }
+        // A real tilt at the rim, just above the plane: the cancelling terms stay within the
+        // form factor's bound, 1 / R².
+        for (tilt_x, h) in [(0.3, 1e-7), (-0.8, 1e-6), (1.0, 1e-9)] {
+            let n = Vec3::new(tilt_x, 0.0, 1.0).normalize();
+            let g = exact_geometry_term(Vec3::new(1.0, 0.0, h), n, Vec3::ZERO, Vec3::Z, 1.0);
+            assert!((0.0..=1.0).contains(&g), "tilt {tilt_x}, h {h}: {g}");
         }
     }
 
