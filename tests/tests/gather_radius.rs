@@ -14,7 +14,10 @@ proptest! {
     #![proptest_config(vplgi_tests::proptest_config(8))]
 
     /// 1 to 300 points on random scenes' surfaces (a share of them on triangle edges), 1 to 64
-    /// rays each: the share of points whose 1 / R agree meets the row.
+    /// rays each: the share of points whose 1 / R agree, rounding ties set aside, meets the row.
+    /// The raw share is printed: at 10,000 cases, 1 of 2 points differed by about one ray's
+    /// 1 / eps term (a hit at t ≈ eps counted on one backend only; the f64 oracle finds that ray
+    /// a tie), which no share of two points can absorb.
     #[test]
     fn gather_radius_matches_the_cpu_on_random_scenes(
         scene in vplgi_tests::inputs::random_scene(),
@@ -28,7 +31,9 @@ proptest! {
         let points = vplgi_tests::inputs::surface_endpoints(&scene, n, points_seed, on_edges);
         println!("{}: {} points ({on_edges:.2} on edges), {rays} rays", scene.name, points.len());
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::gather_radius::compare(t, &points, &GatherParams { seed, rays })).expect("GPU");
-        vplgi_tests::hold(&checks)?;
+        let (raw, judged): (Vec<_>, Vec<_>) = checks.into_iter().partition(|c| c.what.starts_with("share of") && !c.what.ends_with("apart from rounding ties"));
+        raw.iter().for_each(|c| println!("(not judged) {c}"));
+        vplgi_tests::hold(&judged)?;
     }
 }
 

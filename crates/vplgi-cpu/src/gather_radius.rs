@@ -21,19 +21,28 @@ pub fn gather_radius(cs: &CpuScene, points: &[Endpoint], params: &GatherParams) 
 
 /// 1 / R of one point `p` with normal `n`, sample point `index`.
 pub fn inverse_radius_at(cs: &CpuScene, p: Vec3, n: Vec3, index: u32, params: &GatherParams) -> f32 {
-    let mut rng = Rng::new(params.seed, Stream::Gather, index);
-    // Pushed off along the normal, as a shadow ray's end is: the ray must not find its own
-    // surface at t ≈ 0, which would make 1 / t enormous.
-    let origin = p + n * cs.eps;
+    let (origin, dirs) = rays(p, n, cs.eps, index, params);
     let mut sum = 0.0f32;
-    for _ in 0..params.rays {
-        let (u1, u2) = (rng.next_f32(), rng.next_f32());
-        let dir = sampling::cosine_hemisphere(n, u1, u2);
+    for dir in dirs {
         if let Some(hit) = cs.rt.intersect(origin, dir, cs.eps, f32::INFINITY) {
             sum += 1.0 / hit.t;
         }
     }
     inverse_radius(sum, params.rays)
+}
+
+/// The gather rays of sample point `index` at `p` with normal `n`: their common origin and
+/// their directions, each traced over t in (eps, ∞).
+pub fn rays(p: Vec3, n: Vec3, eps: f32, index: u32, params: &GatherParams) -> (Vec3, impl Iterator<Item = Vec3>) {
+    let mut rng = Rng::new(params.seed, Stream::Gather, index);
+    // Pushed off along the normal, as a shadow ray's end is: the ray must not find its own
+    // surface at t ≈ 0, which would make 1 / t enormous.
+    let origin = p + n * eps;
+    let dirs = (0..params.rays).map(move |_| {
+        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        sampling::cosine_hemisphere(n, u1, u2)
+    });
+    (origin, dirs)
 }
 
 #[cfg(test)]

@@ -60,27 +60,48 @@ impl TieOracle {
             Verdict::Visible
         }
     }
+
+    /// Whether rounding can change where the ray `o` + t `d` (t in (`tmin`, `tmax`)) first
+    /// hits, or whether it hits: a triangle within the tolerance of the ray before its first
+    /// hit with room to spare (or before `tmax` if it has none) that is not such a hit itself,
+    /// as a hit at t ≈ `tmin`, a graze of an edge, or a near miss are.
+    pub fn ray_is_tie(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        let (a, far) = (o + d * tmin, o + d * tmax);
+        let robust: Vec<Option<f64>> = self.tris.iter().map(|tri| crossing_with_room(a, far, tri, self.tol)).collect();
+        let first = robust.iter().flatten().fold(1.0f64, |m, &s| m.min(s));
+        let b = a + (far - a) * first;
+        self.tris.iter().zip(&robust).any(|(tri, r)| r.is_none() && segment_triangle_distance(a, b, tri) <= self.tol)
+    }
 }
 
 /// Whether segment `a`-`b` crosses the triangle's plane at a point inside it by more than `tol`
 /// from each edge, with both ends more than `tol` from the plane.
-fn crosses_with_room(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3], tol: f64) -> bool {
+fn crosses_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
+    crossing_with_room(a, b, tri, tol).is_some()
+}
+
+/// [`crosses_with_room`]'s crossing as a fraction of the way from `a` to `b`.
+fn crossing_with_room(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3], tol: f64) -> Option<f64> {
     let n = (*v1 - *v0).cross(*v2 - *v0);
     let len = n.length();
     if len == 0.0 {
-        return false;
+        return None;
     }
     let n = n / len;
     let (da, db) = (n.dot(a - *v0), n.dot(b - *v0));
     if da.abs() <= tol || db.abs() <= tol || (da > 0.0) == (db > 0.0) {
-        return false;
+        return None;
     }
-    let x = a + (b - a) * (da / (da - db));
-    [(*v0, *v1), (*v1, *v2), (*v2, *v0)].iter().all(|&(e0, e1)| {
-        let e = e1 - e0;
-        // Signed distance from x to the edge's line, positive on the triangle's side.
-        n.cross(e).dot(x - e0) / e.length() > tol
-    })
+    let s = da / (da - db);
+    let x = a + (b - a) * s;
+    [(*v0, *v1), (*v1, *v2), (*v2, *v0)]
+        .iter()
+        .all(|&(e0, e1)| {
+            let e = e1 - e0;
+            // Signed distance from x to the edge's line, positive on the triangle's side.
+            n.cross(e).dot(x - e0) / e.length() > tol
+        })
+        .then_some(s)
 }
 
 /// Distance between segment `a`-`b` and a triangle (0 if they meet).
@@ -213,5 +234,30 @@ mod tests {
         // The span's end 1e-7 past the plane: a crossing that rounding may miss.
         let end = v(0.3, 0.6, -1e-7);
         assert_eq!(o.verdict(p, p + (end - p) / SEGMENT_TFAR as f64), Verdict::Tie);
+    }
+
+    #[test]
+    fn rays_that_rounding_can_decide() {
+        let o = TieOracle::new(&square());
+        let down = v(0.0, 0.0, -1.0);
+        // A hit well inside, and a clean miss: decided.
+        assert!(!o.ray_is_tie(v(0.3, 0.6, 1.0), down, 1e-3, 10.0));
+        assert!(!o.ray_is_tie(v(1.1, 0.5, 1.0), down, 1e-3, 10.0));
+        // Through the shared diagonal, 1e-6 past the square's edge, and a hit 1e-7 past tmin.
+        assert!(o.ray_is_tie(v(0.5, 0.5, 1.0), down, 1e-3, 10.0));
+        assert!(o.ray_is_tie(v(1.0 + 1e-6, 0.5, 1.0), down, 1e-3, 10.0));
+        assert!(o.ray_is_tie(v(0.3, 0.6, 1e-3 + 1e-7), down, 1e-3, 10.0));
+        // A graze beyond a clean first hit does not matter: a triangle 1 below the square with a
+        // corner on the ray.
+        let mut s = square();
+        let n = s.positions.len() as u32;
+        s.positions.extend([glam::Vec3::new(0.3, 0.6, -1.0), glam::Vec3::new(1.3, 0.6, -1.0), glam::Vec3::new(1.3, 1.6, -1.0)]);
+        s.normals.extend([glam::Vec3::Z; 3]);
+        s.uvs.extend([glam::Vec2::ZERO; 3]);
+        s.indices.push([n, n + 1, n + 2]);
+        s.material_ids.push(0);
+        let o2 = TieOracle::new(&s);
+        assert!(!o2.ray_is_tie(v(0.3, 0.6, 1.0), down, 1e-3, 10.0));
+        assert!(o2.ray_is_tie(v(0.3, 0.6, -0.5), down, 1e-3, 10.0));
     }
 }
