@@ -74,8 +74,9 @@ impl TieOracle {
     }
 }
 
-/// Whether segment `a`-`b` crosses the triangle's plane at a point inside it by more than `tol`
-/// from each edge, with both ends more than `tol` from the plane.
+/// Whether segment `a`-`b` crosses the triangle's plane at a point inside it with room to spare
+/// from each edge (`tol`, more for a segment near the plane), with both ends more than `tol`
+/// from the plane.
 fn crosses_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
     crossing_with_room(a, b, tri, tol).is_some()
 }
@@ -94,12 +95,19 @@ fn crossing_with_room(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3], tol: f64) -
     }
     let s = da / (da - db);
     let x = a + (b - a) * s;
+    // Moving the segment by `tol` across the plane slides the crossing along the plane by `tol`
+    // times the cotangent of their angle: a segment 1.5e-4 rad from a triangle's plane, 1.03e-5
+    // inside an edge (tol 9.5e-6), was blocked on Embree and the GPU and missed from both ends
+    // by obvhs' Möller–Trumbore test (found at 10,000 cases). So the room an edge needs grows as
+    // the segment approaches the plane.
+    let sin = (da - db).abs() / (b - a).length();
+    let room = tol * (1.0 + (1.0 - sin * sin).max(0.0).sqrt() / sin);
     [(*v0, *v1), (*v1, *v2), (*v2, *v0)]
         .iter()
         .all(|&(e0, e1)| {
             let e = e1 - e0;
             // Signed distance from x to the edge's line, positive on the triangle's side.
-            n.cross(e).dot(x - e0) / e.length() > tol
+            n.cross(e).dot(x - e0) / e.length() > room
         })
         .then_some(s)
 }
@@ -204,6 +212,12 @@ mod tests {
         assert!(crosses_with_room(v(0.5, 2e-6, 1.0), v(0.5, 2e-6, -1.0), &TRI, tol));
         // An end 5e-7 past the plane: a touch rounding may miss.
         assert!(!crosses_with_room(v(0.2, 0.2, 1.0), v(0.2, 0.2, -5e-7), &TRI, tol));
+        // 45 degrees from the plane, 1.5e-6 inside the edge: rounding across the plane moves
+        // the crossing by up to tol along it, so 2 tol is needed.
+        assert!(!crosses_with_room(v(0.5, 1.5e-6 - 1.0, 1.0), v(0.5, 1.5e-6 + 1.0, -1.0), &TRI, tol));
+        assert!(crosses_with_room(v(0.5, 2.5e-6 - 1.0, 1.0), v(0.5, 2.5e-6 + 1.0, -1.0), &TRI, tol));
+        // 1e-3 rad from the plane, 1e-4 inside the edge: no room (it needs about 1e-3).
+        assert!(!crosses_with_room(v(0.5, 1e-4 - 1.0, 1e-3), v(0.5, 1e-4 + 1.0, -1e-3), &TRI, tol));
         // Either winding.
         assert!(crosses_with_room(v(0.2, 0.2, 1.0), v(0.2, 0.2, -1.0), &[DVec3::ZERO, DVec3::Y, DVec3::X], tol));
     }
