@@ -31,6 +31,21 @@ var<private> best_k: array<u32, MAX_F>;
 var<private> threshold: f32;
 var<private> ward_alpha: f32;
 
+// llvmpipe (lavapipe) counts the iterations of all the loops of an invocation together and,
+// past 65,535, ends every loop at its next test, silently (its loop limiter). A ring walk
+// through a large sparse grid (a room's visible walls in their 3-D bounding box) ran that many
+// before settling, and the rest of the search then returned farther clusters, or none. So the
+// walk beyond the 27 cells stops after WALK_BUDGET cells and centroids and the search scans every
+// centroid instead, four per loop iteration: the scan is exact too, so the answer is the CPU's.
+// The budget is a quarter of the largest that kept tests/tests/cluster.rs' long searches exact
+// with K = 6,000 (8,192 did not: a unit of it costs several of lavapipe's iterations); with it,
+// they stayed exact up to K = 60,000.
+const WALK_BUDGET: i32 = 2048;
+var<private> walk_left: i32;
+// The nearest centroid by position, kept by scan_all for points with no compatible one.
+var<private> near_d: f32;
+var<private> near_k: u32;
+
 fn clear_best() {
     for (var j = 0u; j < F; j = j + 1u) {
         best_d[j] = bitcast<f32>(0x7f800000u);
@@ -71,23 +86,28 @@ fn consider(k: u32, p: vec3<f32>, n: vec3<f32>) {
 }
 
 fn consider_cell(c: vec3<i32>, p: vec3<f32>, n: vec3<f32>) {
+    walk_left = walk_left - 1;
     if (any(c < vec3<i32>(0)) || any(c >= params.dims.xyz)) {
         return;
     }
     let l = cell_linear(c);
-    for (var i = cell_offsets[l]; i < cell_offsets[l + 1u]; i = i + 1u) {
+    let first = cell_offsets[l];
+    let end = cell_offsets[l + 1u];
+    walk_left = walk_left - i32(end - first);
+    for (var i = first; i < end; i = i + 1u) {
         consider(cell_items[i], p, n);
     }
 }
 
-// Grid::visit_ring: the shell at Chebyshev distance r (r = 1: all 27 cells), clipped to the grid.
+// Grid::visit_ring: the shell at Chebyshev distance r (r = 1: all 27 cells), clipped to the
+// grid; it stops where the walk's budget runs out.
 fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
     let lo = max(c - vec3<i32>(r), vec3<i32>(0));
     let hi = min(c + vec3<i32>(r), params.dims.xyz - vec3<i32>(1));
-    for (var z = lo.z; z <= hi.z; z = z + 1) {
-        for (var y = lo.y; y <= hi.y; y = y + 1) {
+    for (var z = lo.z; z <= hi.z && walk_left > 0; z = z + 1) {
+        for (var y = lo.y; y <= hi.y && walk_left > 0; y = y + 1) {
             if (r == 1 || abs(z - c.z) == r || abs(y - c.y) == r) {
-                for (var x = lo.x; x <= hi.x; x = x + 1) {
+                for (var x = lo.x; x <= hi.x && walk_left > 0; x = x + 1) {
                     consider_cell(vec3<i32>(x, y, z), p, n);
                 }
             } else {
@@ -115,6 +135,8 @@ fn list_settled(reach: f32) -> bool {
 fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     clear_best();
     let c = cell_coords(p);
+    // The 27 cells are always visited whole: Eq. 7's answer is what they hold.
+    walk_left = 0x7fffffff;
     visit_ring(c, 1, p, n);
     // Eq. 7 keeps the paper's approximation (whatever the 27 cells hold); Eq. 2 is exact.
     if (METRIC == METRIC_WARD) {
@@ -126,35 +148,63 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     }
     let far = max(c, params.dims.xyz - vec3<i32>(1) - c);
     let last = max(max(max(far.x, far.y), far.z), 1);
+    walk_left = WALK_BUDGET;
     for (var r = 2; r <= last; r = r + 1) {
-        if (r >= params.dims.w) {
-            clear_best();
-            for (var k = 0u; k < params.k; k = k + 1u) {
-                consider(k, p, n);
+        if (r < params.dims.w) {
+            visit_ring(c, r, p, n);
+            if (walk_left > 0) {
+                // Exact F nearest once the F-th best is nearer than anything in the unvisited
+                // rings.
+                if (list_settled(f32(r) * params.origin.w)) {
+                    return 1u;
+                }
+                continue;
             }
-            break;
         }
-        visit_ring(c, r, p, n);
-        // Exact F nearest once the F-th best is nearer than anything in the unvisited rings.
-        if (list_settled(f32(r) * params.origin.w)) {
-            return 1u;
-        }
+        // The rings now hold more cells than there are centroids, or the walk is out of budget
+        // (its last ring may be incomplete): every centroid instead.
+        return select(2u, 1u, scan_all(p, n));
     }
     if (best_k[0] != MISS) {
         return 1u;
     }
-    var nd = bitcast<f32>(0x7f800000u);
-    var nk = MISS;
-    for (var k = 0u; k < params.k; k = k + 1u) {
-        let d = dist2(p, centroids[k].position.xyz);
-        if (d < nd) {
-            nd = d;
-            nk = k;
-        }
-    }
-    best_d[0] = nd;
-    best_k[0] = nk;
+    // The whole grid walked and no compatible centroid: the nearest by position.
+    _ = scan_all(p, n);
     return 2u;
+}
+
+fn scan_one(k: u32, p: vec3<f32>, n: vec3<f32>) {
+    consider(k, p, n);
+    let d = dist2(p, centroids[k].position.xyz);
+    if (d < near_d) {
+        near_d = d;
+        near_k = k;
+    }
+}
+
+// The F nearest compatible centroids of all, or, if none is compatible (returns false), the
+// nearest by position in best_*[0]. Four centroids per iteration, against lavapipe's loop
+// limiter.
+fn scan_all(p: vec3<f32>, n: vec3<f32>) -> bool {
+    clear_best();
+    near_d = bitcast<f32>(0x7f800000u);
+    near_k = MISS;
+    var k = 0u;
+    for (; k + 4u <= params.k; k = k + 4u) {
+        scan_one(k, p, n);
+        scan_one(k + 1u, p, n);
+        scan_one(k + 2u, p, n);
+        scan_one(k + 3u, p, n);
+    }
+    for (; k < params.k; k = k + 1u) {
+        scan_one(k, p, n);
+    }
+    if (best_k[0] != MISS) {
+        return true;
+    }
+    best_d[0] = near_d;
+    best_k[0] = near_k;
+    return false;
 }
 
 @compute @workgroup_size(64)

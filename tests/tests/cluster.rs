@@ -141,6 +141,60 @@ fn cluster_assign_and_update_match_the_cpu() {
     compare_update(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), &hard).unwrap().with_case("cornell points").check();
 }
 
+/// Points far from every centroid: 6,000 centroids packed into a tenth of a square of 20,000
+/// points in a cube, so a point across the square walks a dozen or more rings of cells before
+/// its F nearest are settled. lavapipe stops every loop of a shader invocation once they have run 65,535
+/// iterations between them (llvmpipe's loop limiter), silently: such a walk used to exhaust it
+/// and the search's last loops ended early, leaving points of a random scene at 10,000 cases
+/// with farther clusters than the nearest, or none (1.3 % of the F = 6 sets here). The GPU's
+/// labels must be the exact nearest compatible centroids, found by brute force.
+#[test]
+fn long_searches_find_the_exact_nearest_centroids() {
+    let Some(gpu) = vplgi_tests::shared_gpu("long_searches_find_the_exact_nearest_centroids") else {
+        return;
+    };
+    let mut rng = vplgi_types::rng::Rng::new(11, vplgi_types::rng::Stream::Oracle, 0);
+    // A unit square of points in a unit cube (one point at its far corner): the grid's cells
+    // are sized for the square, so a search's rings are shells of a 3-D grid, tens of thousands
+    // of cells deep, as for the visible walls of a room.
+    let mut ps: Vec<Vec3> = (0..20_000).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), 0.0)).collect();
+    ps.push(Vec3::ONE);
+    let ns = vec![Vec3::Z; ps.len()];
+    let cp: Vec<Vec3> = ps.iter().filter(|p| p.x < 0.1).take(1_500).flat_map(|&p| (0..4).map(move |i| p + Vec3::new(0.0, 0.0, i as f32 * 1e-3))).collect();
+    let cn = vec![Vec3::Z; cp.len()];
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    let metric = Metric::Eq7 { normal_threshold: 0.866 };
+    let grid = Grid::for_data(bounds(&ps), &ps, cp.len()).fill(&cp, &cn);
+    let geometry = vplgi_types::clustering::GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
+    let cents = storage(device, "centroids", &endpoints(&cp, &cn));
+    let points = storage(device, "points", &endpoints(&ps, &ns));
+    let ggrid = kernel.fill_grid(device, queue, &geometry, &cents, cp.len() as u32).unwrap();
+    for (f, fuzzy) in [(1usize, FuzzyMode::Hard), (6, FuzzyMode::Weighted)] {
+        let a = kernel.assign(device, queue, &ggrid, (&points, ps.len() as u32), (&cents, cp.len() as u32), AssignRule { metric, f: f as u32, fuzzy }).unwrap();
+        let labels: Vec<u32> = read_back(device, queue, &a.labels, ps.len() * f).unwrap();
+        let outcome: Vec<u32> = read_back(device, queue, &a.outcome, ps.len()).unwrap();
+        let (mut wrong, mut widened, mut first) = (0usize, 0usize, None);
+        for (i, &p) in ps.iter().enumerate() {
+            // Every centroid is compatible; any with another in its 27 cells is Eq. 7's
+            // neighbourhood answer, so only the widened searches are held to the exact order.
+            if outcome[i] == 0 {
+                continue;
+            }
+            widened += 1;
+            let mut all: Vec<(f32, u32)> = cp.iter().enumerate().map(|(k, &c)| ((p - c).length_squared(), k as u32)).collect();
+            all.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            let exact: Vec<u32> = all[..f].iter().map(|x| x.1).collect();
+            if labels[i * f..(i + 1) * f] != exact[..] {
+                wrong += 1;
+                first.get_or_insert_with(|| format!("point {i} at {p}: GPU {:?}, exact {exact:?}", &labels[i * f..(i + 1) * f]));
+            }
+        }
+        println!("F = {f}: {widened} widened searches, {wrong} not the exact nearest");
+        assert!(widened > 10_000, "the case must make long searches ({widened} widened)");
+        assert_eq!(wrong, 0, "F = {f}: the first is {}", first.unwrap_or_default());
+    }
+}
+
 /// The whole clustering (Alg. 1 iterations, empty-cluster removal, Alg. 2, representatives)
 /// on both backends from the same data and seed.
 #[test]
