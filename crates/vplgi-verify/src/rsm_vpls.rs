@@ -1,10 +1,10 @@
 //! `rsm_vpls`: the GPU's reflective-shadow-map VPLs against the CPU's, texel by texel (the
 //! trace_vpls row of the SPEC: positions, normals and fluxes within 1e-4 relative; at most 0.1 %
-//! of texels may differ at grazing hits, counted; a texel whose ray meets a shared edge may land
-//! on either triangle, counted apart as an edge tie).
+//! of texels may differ at grazing hits, counted; a texel whose ray meets a shared edge, or the
+//! line where two triangles cross, may land on either triangle, counted apart as a tie).
 
 use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
-use crate::trace_vpls::{difference, on_an_edge};
+use crate::trace_vpls::{difference, on_an_edge, on_two_triangles};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
 use std::collections::BTreeMap;
@@ -37,12 +37,14 @@ pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyErro
             max_agreeing = max_agreeing.max(d);
             continue;
         }
-        // The same point on a triangle's edge (the other triangle there gave another normal or
-        // albedo), or a VPL on an edge on one side only: a ray through a shared edge (the
-        // shading-points row's tie). Away from edges the same point with another flux is a
-        // difference, not a tie.
+        // The same point where two triangles meet (a shared edge, or where one passes through
+        // the other: the other triangle gave another normal or albedo), or a VPL on an edge on
+        // one side only: the shading-points row's tie. On one triangle alone the same point with
+        // another flux is a difference, not a tie.
         let tie = match (a, b) {
-            (Some(x), Some(y)) => (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps && on_an_edge(twins.scene, Vec3::from(x.position), eps),
+            (Some(x), Some(y)) => {
+                (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps && on_two_triangles(twins.scene, Vec3::from(x.position), eps)
+            }
             (Some(x), None) | (None, Some(x)) => on_an_edge(twins.scene, Vec3::from(x.position), eps),
             (None, None) => false,
         };
@@ -62,8 +64,12 @@ pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyErro
         Disagreement::at_most("rsm_vpls", "share of texels whose VPLs differ", differ as f64 / texels.max(1) as f64, TRACE_VPLS_DIVERGED_PATHS)
             .with_case(&case)
             .with_worst(worst),
-        Disagreement::info("rsm_vpls", "texels that part at an edge tie (same point, another triangle; or a VPL on an edge on one side only)", ties as f64)
-            .with_case(&case),
+        Disagreement::info(
+            "rsm_vpls",
+            "texels that part at a tie (the same point where two triangles meet; or a VPL on an edge on one side only)",
+            ties as f64,
+        )
+        .with_case(&case),
         Disagreement::info("rsm_vpls", "largest relative difference on agreeing texels", max_agreeing as f64).with_case(&case),
         Disagreement::info("rsm_vpls", "VPL count, |CPU - GPU|", cpu.len().abs_diff(gpu.len()) as f64).with_case(&case),
     ])
@@ -75,8 +81,8 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
     r.checks = compare(twins, cfg.rsm_size)?;
     r.notes.push(
         "VPLs are matched by texel; a texel agrees when both backends have a VPL within 1e-4 (position relative to the scene extent, normal, flux relative \
-         to its largest channel) or neither has one. A texel whose VPLs lie at the same point on a triangle's edge (another triangle there), or that has a VPL on an edge \
-         on one side only, is an edge tie, counted apart"
+         to its largest channel) or neither has one. A texel whose VPLs lie at the same point where two triangles meet (a shared edge or a crossing: another triangle there), \
+         or that has a VPL on an edge on one side only, is a tie, counted apart"
             .into(),
     );
     Ok(r)

@@ -135,7 +135,7 @@ fn segment_meets_triangle(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> bool
 
 /// Distance from `p` to the triangle: to its interior if `p` projects inside, else to the nearest
 /// edge.
-fn point_triangle_distance(p: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> f64 {
+pub(crate) fn point_triangle_distance(p: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> f64 {
     let n = (*v1 - *v0).cross(*v2 - *v0);
     let edges = [(*v0, *v1), (*v1, *v2), (*v2, *v0)];
     if n != DVec3::ZERO && edges.iter().all(|&(e0, e1)| n.dot((e1 - e0).cross(p - e0)) >= 0.0) {

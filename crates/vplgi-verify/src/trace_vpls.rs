@@ -45,6 +45,15 @@ pub(crate) fn on_an_edge(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) -> bool 
     })
 }
 
+/// Whether `p` lies within `eps` of two of `scene`'s triangles: on an edge they share, or on the
+/// line where one passes through the other. A ray to such a point may reach either first, and
+/// rounding decides which.
+pub(crate) fn on_two_triangles(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) -> bool {
+    let p = p.as_dvec3();
+    let near = |t: &[u32; 3]| crate::segment::point_triangle_distance(p, &t.map(|i| scene.positions[i as usize].as_dvec3())) <= eps as f64;
+    scene.indices.iter().filter(|t| near(t)).nth(1).is_some()
+}
+
 /// Traces `params` on both backends and compares path by path. A path agrees when it has the
 /// same VPLs, each within [`TRACE_VPLS_REL`]; the last path may be cut at a different length
 /// (the VPL budget runs out inside it) if an earlier one diverged. Fluxes are compared per
@@ -81,18 +90,19 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
                 first_off = Some(i);
             }
         }
-        // Where the paths first part, the same point at the same bounce means a ray through an
-        // edge two triangles share that each backend gave to another triangle (another albedo
-        // and normal from there on): the shading-points row's edge tie, counted apart. So does
-        // a VPL on one side only that lies on an edge: the other backend gave the hit to a
-        // triangle the particle meets from behind or edge-on, which keeps no VPL there.
+        // Where the paths first part, the same point at the same bounce where two triangles
+        // meet (an edge they share, or the line where one passes through the other, as in a
+        // soup) means a ray each backend gave to another of them (another albedo and normal
+        // from there on): the shading-points row's edge tie, counted apart. So does a VPL on
+        // one side only that lies on an edge: the other backend gave the hit to a triangle the
+        // particle meets from behind or edge-on, which keeps no VPL there.
         let eps = TRACE_VPLS_REL as f32 * cs.extent;
-        // Both on an edge: the same point away from edges with another flux is a difference.
+        // The same point on one triangle alone with another flux is a difference.
         let tie = first_off.is_some_and(|i| match (a.get(i), b.get(i)) {
             (Some(x), Some(y)) => {
                 x.bounce == y.bounce
                     && (Vec3::from(x.position) - Vec3::from(y.position)).length() <= eps
-                    && on_an_edge(twins.scene, Vec3::from(x.position), eps)
+                    && on_two_triangles(twins.scene, Vec3::from(x.position), eps)
             }
             (Some(x), None) | (None, Some(x)) => on_an_edge(twins.scene, Vec3::from(x.position), eps),
             (None, None) => false,
@@ -130,8 +140,12 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
         Disagreement::at_most("trace_vpls", "share of light paths that diverge", diverged as f64 / n_paths, TRACE_VPLS_DIVERGED_PATHS)
             .with_case(&case)
             .with_worst(worst),
-        Disagreement::info("trace_vpls", "paths that part at an edge tie (same point, another triangle; or a VPL on an edge on one side only)", ties as f64)
-            .with_case(&case),
+        Disagreement::info(
+            "trace_vpls",
+            "paths that part at a tie (the same point where two triangles meet; or a VPL on an edge on one side only)",
+            ties as f64,
+        )
+        .with_case(&case),
         Disagreement::info("trace_vpls", "largest relative difference on agreeing paths", max_agreeing as f64).with_case(&case),
         Disagreement::info("trace_vpls", "light particles traced, |CPU - GPU| (moves with diverging paths)", (cpu.particles as f64 - g.particles as f64).abs())
             .with_case(&case),
@@ -144,10 +158,43 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
     r.checks = compare(twins, &cfg.trace_params())?;
     r.notes.push(
         "VPLs are matched by light path; a path agrees when every VPL is within 1e-4 (position relative to the scene extent, normal, flux per particle relative \
-         to its largest channel) at the same bounce. A path whose first differing VPL is at the same point on a triangle's edge (an edge tie: another triangle, so another albedo) \
-         is counted apart, as the shading-points row counts edge ties, and so is one whose first differing VPL lies on a triangle's edge and exists on one side only \
+         to its largest channel) at the same bounce. A path whose first differing VPL is at the same point where two triangles meet (an edge they share or a line where one passes \
+         through the other: another triangle, so another albedo) is counted apart, as the shading-points row counts edge ties, and so is one whose first differing VPL lies on a triangle's edge and exists on one side only \
          (the other backend gave the hit to a triangle that keeps no VPL there)"
             .into(),
     );
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two unit triangles crossing at right angles (one in z = 0, one in x = 0.25 through it)
+    /// and a third sharing an edge with the first.
+    fn crossing() -> vplgi_scene::Scene {
+        let mut s = vplgi_scene::cornell::cornell_box();
+        s.positions =
+            vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.25, -0.5, -0.5), Vec3::new(0.25, 1.0, -0.5), Vec3::new(0.25, 0.25, 1.0), Vec3::new(1.0, 1.0, 0.0)];
+        s.normals = vec![Vec3::Z; 7];
+        s.uvs = vec![glam::Vec2::ZERO; 7];
+        s.indices = vec![[0, 1, 2], [3, 4, 5], [1, 6, 2]];
+        s.material_ids = vec![0, 0, 0];
+        s
+    }
+
+    #[test]
+    fn two_triangles_meet_on_shared_edges_and_crossing_lines() {
+        let s = crossing();
+        let eps = 1e-5;
+        // On the line where the second passes through the first (x = 0.25, z = 0).
+        assert!(on_two_triangles(&s, Vec3::new(0.25, 0.3, 0.0), eps));
+        assert!(!on_an_edge(&s, Vec3::new(0.25, 0.3, 0.0), eps));
+        // On the edge the first and third share, and 2e-5 off it inside the first.
+        assert!(on_two_triangles(&s, Vec3::new(0.5, 0.5, 0.0), eps));
+        assert!(!on_two_triangles(&s, Vec3::new(0.5 - 1.5e-5, 0.5 - 1.5e-5, 0.0), eps));
+        // Inside the first only; on the first's outer edge only.
+        assert!(!on_two_triangles(&s, Vec3::new(0.1, 0.1, 0.0), eps));
+        assert!(!on_two_triangles(&s, Vec3::new(0.6, 0.0, 0.0), eps));
+    }
 }
