@@ -13,21 +13,22 @@ fn run(args: &[&str]) -> Output {
     vplgi().args(args).output().expect("run vplgi")
 }
 
-/// Every file in `dir` is complete: it parses as what its extension says. Hidden temporary
-/// names (`.image.exr.tmp-<pid>-<n>`) are judged by the name they were going to get: one can be
-/// left only by a kill in the instant between naming a finished file and renaming it.
+/// Every file in `dir` is complete: it has its final name and parses as what its extension
+/// says. The outputs go to a fresh folder, where each file is written without a name and linked
+/// under its final one only once complete, so no temporary name (`.image.exr.tmp-<pid>-<n>`)
+/// may be left either.
 fn assert_complete(dir: &Path, what: &str) -> usize {
     let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
     let mut n = 0;
     for e in entries {
         let path = e.expect("entry").path();
         let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        let real = name.split(".tmp-").next().unwrap_or(&name).trim_start_matches('.').to_string();
-        let ok = if real.ends_with(".exr") {
+        assert!(!name.contains(".tmp-"), "{what}: a temporary file {name} was left");
+        let ok = if name.ends_with(".exr") {
             vplgi_image::read_exr(&path).is_ok()
-        } else if real.ends_with(".json") {
+        } else if name.ends_with(".json") {
             serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).expect("read")).is_ok()
-        } else if real.ends_with(".png") {
+        } else if name.ends_with(".png") {
             image::open(&path).is_ok()
         } else {
             panic!("{what}: unexpected file {name}");

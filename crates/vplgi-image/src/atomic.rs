@@ -1,8 +1,9 @@
 //! Atomic file replacement: write a temporary sibling, fsync it, rename it over the target.
 //!
 //! On Linux the temporary file has no name while it is written (`O_TMPFILE`): a process killed
-//! outright (SIGKILL, the OOM killer) leaves nothing in the directory. It is linked under a
-//! temporary name only once complete, and renamed over the target at once.
+//! outright (SIGKILL, the OOM killer) leaves nothing in the directory. Once complete it is linked
+//! under the target's name if that is free, else under a temporary name renamed over the target
+//! at once.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter};
@@ -50,6 +51,18 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     let file = writer.into_inner().map_err(|e| wrap(e.into_error()))?;
     file.sync_all().map_err(wrap)?;
     if unnamed {
+        // Where the target does not exist yet (a fresh output folder), the complete file gets
+        // its final name at once and no temporary name ever appears. linkat refuses to replace
+        // an existing file, so a rewrite goes through a temporary name and a rename instead.
+        match link_unnamed(&file, path) {
+            Ok(()) => {
+                guard.renamed = true;
+                sync_dir(dir);
+                return Ok(());
+            }
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(wrap(e)),
+        }
         link_unnamed(&file, &guard.path).map_err(wrap)?;
         guard.named = true;
     }
@@ -59,12 +72,16 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     // unrelated file created since.
     guard.renamed = true;
 
-    // Make the rename itself durable. Best effort: some platforms cannot open or sync a
-    // directory, and the file content is already safely on disk either way.
+    sync_dir(dir);
+    Ok(())
+}
+
+/// Makes a new name in `dir` durable. Best effort: some platforms cannot open or sync a
+/// directory, and the file content is already safely on disk either way.
+fn sync_dir(dir: &Path) {
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
     }
-    Ok(())
 }
 
 /// A file without a name in `dir`, or `None` where the platform or filesystem has no
