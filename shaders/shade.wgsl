@@ -125,10 +125,15 @@ fn exact_geometry_term(p: vec3<f32>, n: vec3<f32>, centre: vec3<f32>, normal: ve
         return max(-g_z * n_z - g_rho * n_rho, 0.0);
     }
     // The horizon cuts the disk: the arc above it and the chord along it.
-    let rho = length(rho_vec);
+    // ρ̂ projected into the plane once more, and the axis within rounding of it (as the CPU's
+    // disk::off_axis, where the reason is).
+    let in_plane = rho_vec - normal * dot(normal, rho_vec);
+    var rho = length(in_plane);
     var u = disk_perpendicular(normal);
-    if (rho > 0.0) {
-        u = rho_vec / rho;
+    if (rho * rho > DISK_MIN_OFF_AXIS * DISK_MIN_OFF_AXIS * rel2) {
+        u = in_plane / rho;
+    } else {
+        rho = 0.0;
     }
     let v = cross(normal, u);
     let n_u = dot(n, u);

@@ -218,6 +218,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
         ("DISK_MIN_TILT", vplgi_types::disk::MIN_TILT),
+        ("DISK_MIN_OFF_AXIS", vplgi_types::disk::MIN_OFF_AXIS),
         ("PI", std::f32::consts::PI),
         ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
         ("ERROR_ONE", vplgi_types::seeding::ERROR_ONE),
