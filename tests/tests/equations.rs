@@ -257,7 +257,7 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
     let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends") else { return };
     let (radius, rho) = (0.6f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
-    let light = VplLight { radius2: radius * radius, exact: 1, ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux) };
+    let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux) };
     let receivers: [([f32; 3], [f32; 3]); 7] = [
         ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
         ([0.5, 0.2, 0.3], [0.0, 1.0, 0.0]),
@@ -280,7 +280,7 @@ fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
     let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends") else { return };
     let (radius, rho) = (0.6f32, 0.5f32);
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
-    let light = VplLight { radius2: radius * radius, exact: 1, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
     let t = normal.cross(Vec3::X).normalize();
     let b = normal.cross(t);
     let receivers: Vec<([f32; 3], [f32; 3])> = [(0.5f32, 0.0f32, 1.0f32), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5)]

@@ -158,7 +158,7 @@ pub const MIN_OFF_AXIS: f32 = 64.0 * f32::EPSILON;
 /// subtraction leaves a residue along the normal of a few ulps of |rel|; near the axis that
 /// residue is most of `rho_vec`, and a ρ̂ built on it leaves the disk's plane, so that u, v and
 /// the normal are no frame and the arc's ends come out wrong (13 % too much light on the axis of
-/// a tilted disk, 7e-8 off it, before this). So `rho_vec` is projected into the plane once more,
+/// a tilted disk, 3e-8 off it, before this). So `rho_vec` is projected into the plane once more,
 /// and within [`MIN_OFF_AXIS`] of the axis the point is put on it, where any ρ̂ will do.
 #[inline]
 pub fn off_axis(rho_vec: Vec3, normal: Vec3, rel2: f32) -> (f32, Vec3) {
@@ -423,8 +423,8 @@ mod tests {
         let (centre, normal) = (Vec3::new(0.25, -0.5, 0.125), Vec3::new(0.0, 0.6, 0.8));
         // A frame for the disk's plane, so that the cases' z = 0 plane maps onto it.
         let (t, b) = (Vec3::X, normal.cross(Vec3::X));
+        let to_world = |v: Vec3| t * v.x + b * v.y + normal * v.z;
         for (p, n, r) in cases {
-            let to_world = |v: Vec3| t * v.x + b * v.y + normal * v.z;
             let (p, n) = (to_world(p), to_world(n.normalize()));
             let at_one = exact_geometry_term(centre + p, n, centre, normal, r * r);
             assert!(at_one > 0.0, "p {p}, n {n}, R {r}: nothing to compare");
