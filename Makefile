@@ -105,8 +105,9 @@ MUTANTS_FILES := $(MUTANTS_ALL)
 # Property tests draw the same cases for the baseline and every mutant. A failing case is saved to a
 # .proptest-regressions file and replayed first for every later mutant, so one that fails without
 # any mutant (found by chance with random cases) would count them all as caught: cases saved during
-# a run are replayed on the unmutated code before anything is recorded.
-MUTANTS_ENV = $(TEST_ENV) PROPTEST_RNG_SEED=20261205
+# a run are replayed on the unmutated code before anything is recorded. NEXTEST_PROFILE picks the
+# test order and fail-fast of .config/nextest.toml, which only changes how soon a mutant is caught.
+MUTANTS_ENV = $(TEST_ENV) PROPTEST_RNG_SEED=20261205 NEXTEST_PROFILE=mutants
 # The covering tests on the unmutated tree: before a run, and after one that saved cases.
 MUTANTS_BASELINE = cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) $(CARGO) nextest run --cargo-profile mutants --workspace $(MUTANTS_TARGETS) --status-level fail
 MUTANTS_SELECT = --workspace $(foreach f,$(MUTANTS_FILES),-f '$(f)')
