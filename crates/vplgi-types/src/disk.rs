@@ -458,6 +458,33 @@ mod tests {
         }
     }
 
+    /// `off_axis` itself, on disks turned every way and from 1e-3 to 1e3 away: ρ̂ is a unit
+    /// vector in the disk's plane and ρ the distance from the axis, whatever residue the
+    /// subtraction left along the normal. Two kinds of input: a point 1e-4 |rel| off the axis
+    /// with a residue of up to 1e-6 |rel| along the normal, and a `rho_vec` that is all residue
+    /// (a multiple of the normal: the point is on the axis, and one projection leaves a multiple
+    /// of the normal again wherever normal · normal rounds away from 1, so only the on-axis rule
+    /// gives it a frame).
+    #[test]
+    fn the_cut_disks_frame_lies_in_the_disks_plane() {
+        let mut rng = Rng::new(13, Stream::Oracle, 0);
+        for case in 0..400 {
+            let mut f = || rng.next_f32() * 2.0 - 1.0;
+            let normal = Vec3::new(f(), f(), f()).normalize();
+            let dist = 10f32.powf(3.0 * f());
+            let (rho_vec, rho) = if case % 2 == 0 {
+                let w = Vec3::new(f(), f(), f());
+                let in_plane = (w - normal * normal.dot(w)).normalize();
+                (in_plane * (1e-4 * dist) + normal * (1e-6 * dist * f()), 1e-4 * dist)
+            } else {
+                (normal * (dist * f()), 0.0)
+            };
+            let (got, u) = off_axis(rho_vec, normal, dist * dist);
+            assert!((got - rho).abs() <= 1e-5 * rho, "case {case}: ρ {got}, expected {rho} (normal {normal}, |rel| {dist})");
+            assert!((u.length() - 1.0).abs() < 1e-6 && u.dot(normal).abs() < 1e-5, "case {case}: ρ̂ {u} is not in the plane of {normal}");
+        }
+    }
+
     #[test]
     fn members_spread_evenly_over_a_disk_give_its_radius() {
         let mut rng = Rng::new(7, Stream::Oracle, 0);

@@ -423,7 +423,9 @@ mod tests {
 
     #[test]
     fn area_and_point_maps_carry_exactly_the_lights_power() {
-        let a = area(Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * 3.0, Vec3::Y, Vec3::new(1.0, 2.0, 3.0));
+        // Off the origin, so that the area comes from the edges, not the corners.
+        let o = Vec3::new(0.5, 1.0, -2.0);
+        let a = area(o, o + Vec3::X * 2.0, o + Vec3::Z * 3.0, Vec3::Y, Vec3::new(1.0, 2.0, 3.0));
         // π A L_e with A = 3.
         assert!((Vec3::from(a.power) - Vec3::new(1.0, 2.0, 3.0) * 3.0 * PI).abs().max_element() < 1e-5);
         for l in [a, point(Vec3::ONE, Vec3::splat(0.5))] {
@@ -481,6 +483,44 @@ mod tests {
             println!("spot {inner_deg}-{outer_deg} deg: map power {total:.6}, ∫ I falloff dΩ {exact:.6}");
             assert!((total / exact - 1.0).abs() < 2e-3, "{total} vs {exact}");
         }
+    }
+
+    /// A spot's map is the square around its outer cone, so that `--rsm-size` buys texels in
+    /// the cone: the middle of each edge lies on the outer cone, and the cone's disc fills π/4 of
+    /// the texels. A wider map would still carry the spot's power (the test above) with fewer
+    /// VPLs than asked for. Every ray starts at the spot.
+    #[test]
+    fn a_spots_map_is_the_square_around_its_cone() {
+        let (position, dir) = (Vec3::new(1.0, 2.0, -3.0), Vec3::new(0.0, -0.6, 0.8));
+        for outer_deg in [5.0f32, 30.0, 45.0, 80.0] {
+            let co = outer_deg.to_radians().cos();
+            let light = spot(position, dir, Vec3::ONE, 1.0, co);
+            for e in [light.e1, light.e2] {
+                let edge = (dir + Vec3::from(e)).normalize();
+                assert!((edge.dot(dir) - co).abs() < 1e-5, "{outer_deg} deg: an edge's middle at cos {} for {co}", edge.dot(dir));
+            }
+            let m = sized_one(light, 256);
+            let rays: Vec<TexelRay> = (0..256 * 256).filter_map(|t| texel_ray(&m, t)).collect();
+            assert!(rays.iter().all(|r| r.origin == position), "{outer_deg} deg: a ray that does not start at the spot");
+            let inside = rays.len();
+            let share = inside as f32 / (256.0 * 256.0);
+            assert!((share / (PI / 4.0) - 1.0).abs() < 0.01, "{outer_deg} deg: {share} of the texels in the cone, not π/4");
+        }
+    }
+
+    /// The warm start keeps each map's previous clusters in order, at most that map's share k,
+    /// and drops those of maps that no longer exist: a map never starts with more clusters than
+    /// it was given.
+    #[test]
+    fn warm_slots_keep_at_most_each_maps_share_in_order() {
+        let centre = |map: u32, x: f32| RsmCentre { texel_x: x, map, ..Default::default() };
+        let previous = [centre(0, 0.0), centre(1, 1.0), centre(0, 2.0), centre(0, 3.0), centre(2, 4.0), centre(1, 5.0), centre(0, 6.0)];
+        let slots = warm_slots(&previous, &[3, 5]);
+        let xs = |m: usize| slots[m].iter().map(|c| c.texel_x).collect::<Vec<_>>();
+        assert_eq!(slots.len(), 2);
+        assert_eq!(xs(0), [0.0, 2.0, 3.0]);
+        assert_eq!(xs(1), [1.0, 5.0]);
+        assert!(warm_slots(&previous, &[0, 0]).iter().all(Vec::is_empty));
     }
 
     #[test]

@@ -168,6 +168,28 @@ mod tests {
         assert_eq!(g(8)[3..], [5.0 / 16.0, 11.0 / 16.0]);
     }
 
+    /// Independent of the recurrences, and on indices with high bits set, where a loop that stopped
+    /// early would drop digits (light particles index past 2^16): dimension 1 is j's bits
+    /// reversed (van der Corput), and dimension 2's generator matrix is Pascal's triangle mod 2,
+    /// so digit d of the fraction XORs every bit c of j with C(c, d) odd, which by Lucas's
+    /// theorem is c & d == d.
+    #[test]
+    fn sobols_first_two_dimensions_match_their_closed_forms() {
+        let pascal = |j: u32| {
+            (0..32u32).fold(0u32, |x, d| {
+                let parity = (d..32).filter(|&c| c & d == d && (j >> c) & 1 == 1).count() as u32 & 1;
+                x | parity << (31 - d)
+            })
+        };
+        let mut rng = crate::rng::Rng::new(17, crate::rng::Stream::Direct, 0);
+        let edges = [1, 1 << 16, 3 << 16, 1 << 31, 0x8000_0001, u32::MAX];
+        for j in edges.into_iter().chain((0..2000).map(|_| rng.next_u32())) {
+            let s = sobol5(j);
+            assert_eq!(s[0], j.reverse_bits(), "dimension 1 of point {j:#x}");
+            assert_eq!(s[1], pascal(j), "dimension 2 of point {j:#x}");
+        }
+    }
+
     /// The stratification direct light and light particles rely on, for every power of two up to
     /// 2^10: each dimension has one point per interval of 2^-m, and dimensions 1-2 one point per
     /// elementary rectangle (a (0, m, 2)-net).
