@@ -82,9 +82,10 @@ verify-long: setup
 # text of the function it mutated; a run tests only mutants without a valid outcome (a function's
 # outcomes lapse when its text changes, not when other code in its file does) and records what it
 # learned even when stopped, so runs add up across machines and sessions. MUTANTS_MINUTES=N stops
-# a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests the recorded survivors again (after
-# adding tests); MUTANTS_FILES="a.rs b.rs" narrows a run to some of the files, while
-# docs/MUTANTS.md always reports the whole selection. Commit the ledger and docs/MUTANTS.md after.
+# a run after N minutes (0: no limit); MUTANTS_RETEST=1 tests again the recorded survivors that
+# ci/mutants-harmless.tsv does not explain (after adding tests); MUTANTS_FILES="a.rs b.rs" narrows
+# a run to some of the files, while docs/MUTANTS.md always reports the whole selection. Commit
+# the ledger and docs/MUTANTS.md after.
 # The run tests HEAD (commit first): cargo-mutants mutates, in place, a git worktree of HEAD under
 # target/mutants-tree with its own target folder, so one build serves the baseline, the tool and
 # every mutant's incremental rebuild, and the working tree is never touched. Tests run under
@@ -116,6 +117,7 @@ MUTANTS_TARGETS := --lib $(addprefix --test ,$(MUTANTS_TESTS))
 MUTANTS_TREE := target/mutants-tree
 MUTANTS_OUT := ../mutants-report
 MUTANTS_LEDGER := ../../ci/mutants-ledger.tsv
+MUTANTS_HARMLESS := ../../ci/mutants-harmless.tsv
 MUTANTS_MINUTES ?= 0
 MUTANTS_RETEST ?=
 MUTANTS_TOOL = $(CARGO) run -q --profile mutants -p vplgi-benches --bin mutants_report --
@@ -126,7 +128,7 @@ mutants: setup
 	  && git -C $(MUTANTS_TREE) clean -q -f -d; else git worktree add -q --detach $(MUTANTS_TREE) HEAD; fi; mkdir -p target/mutants-report
 	@echo "make mutants: testing HEAD ($$(git rev-parse --short HEAD)) in $(MUTANTS_TREE)"
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT) --list --json > $(MUTANTS_OUT)/all-mutants.json
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors)
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT) $(if $(MUTANTS_RETEST),--retest-survivors $(MUTANTS_HARMLESS))
 	$(MUTANTS_BASELINE)
 	@cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_ENV) timeout -s INT $(MUTANTS_MINUTES)m cargo mutants $(MUTANTS_SELECT) \
 	  --in-place --iterate --baseline skip --timeout 300 --build-timeout 1200 --profile mutants --test-workspace true --test-tool nextest \
@@ -140,7 +142,7 @@ mutants: setup
 	mkdir -p target/mutants-report/all
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR cargo mutants $(MUTANTS_SELECT_ALL) --list --json > $(MUTANTS_OUT)/all/all-mutants.json
 	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) prepare $(MUTANTS_LEDGER) $(MUTANTS_OUT)/all
-	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT)/all ../../ci/mutants-harmless.tsv ../../docs/MUTANTS.md
+	cd $(MUTANTS_TREE) && env -u CARGO_TARGET_DIR $(MUTANTS_TOOL) report $(MUTANTS_LEDGER) $(MUTANTS_OUT)/all $(MUTANTS_HARMLESS) ../../docs/MUTANTS.md
 
 # Coverage-guided fuzzing (cargo-fuzz, libFuzzer, nightly) of what users feed vplgi: the glTF
 # loader (gltf_load) and the EXR reader of compare and merge (exr_read), FUZZ_SECONDS each

@@ -8,15 +8,16 @@
 //! row counts only while that function's text is unchanged: editing a function sends its mutants
 //! back to be tested, while an edit elsewhere in the file (a test module, another function, lines
 //! added above) leaves them counted. (Tests added since do not lapse rows either: a caught mutant
-//! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors, not the timeouts,
-//! again after new tests.)
+//! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors the harmless table does
+//! not explain, not the timeouts, again after new tests.)
 //!
 //! Usage:
-//!   mutants_report prepare LEDGER REPORT_DIR [--retest-survivors]
+//!   mutants_report prepare LEDGER REPORT_DIR [--retest-survivors HARMLESS_TSV]
 //!       Keys the selection (REPORT_DIR/all-mutants.json, `cargo mutants --list --json`) by the
 //!       current sources into REPORT_DIR/keys.tsv, and writes the mutants the ledger already has an
 //!       outcome for into REPORT_DIR/mutants.out/previously_caught.txt, which `cargo mutants
-//!       --iterate` skips.
+//!       --iterate` skips; with --retest-survivors, all but the survivors the table does not
+//!       explain.
 //!   mutants_report record LEDGER REPORT_DIR
 //!       Adds the outcomes of the run in REPORT_DIR/mutants.out to the ledger.
 //!   mutants_report report LEDGER REPORT_DIR HARMLESS_TSV OUT_MD
@@ -174,7 +175,8 @@ fn unselected<'a>(rows: &'a BTreeMap<String, Row>, keyed: &[(String, String)]) -
     rows.iter().filter(|(k, _)| !files.contains(file_of(k))).collect()
 }
 
-fn prepare(ledger_path: &Path, dir: &Path, retest_survivors: bool) -> Result<()> {
+/// `retest`: the harmless table, whose survivors stay skipped while the others are tested again.
+fn prepare(ledger_path: &Path, dir: &Path, retest: Option<&Path>) -> Result<()> {
     let keyed = key_selection(dir)?;
     let mut tsv = format!("commit\t{}\n", git(&["rev-parse", "HEAD"])?);
     for (name, key) in &keyed {
@@ -184,8 +186,15 @@ fn prepare(ledger_path: &Path, dir: &Path, retest_survivors: bool) -> Result<()>
     let rows = ledger(ledger_path)?;
     let keep = valid(&rows, &keyed);
     // A timeout is not re-tested: it is a mutant that never finishes (an infinite recursion or loop),
-    // and new tests cannot make it finish, only cost another 5-minute timeout.
-    let skip: Vec<&str> = keep.iter().filter(|(_, r)| !(retest_survivors && r.outcome == "missed")).map(|(m, _)| m.as_str()).collect();
+    // and new tests cannot make it finish, only cost another 5-minute timeout. Nor is a survivor
+    // the table explains: no test is meant to notice it, and each costs a full run of the tests.
+    let reasons = retest.map(harmless).transpose()?;
+    let key_of: HashMap<&str, &str> = keyed.iter().map(|(n, k)| (n.as_str(), k.as_str())).collect();
+    let retested = |name: &str, r: &Row| {
+        let explained = |table: &Vec<(String, String)>| table.iter().any(|(p, _)| key_of.get(name).is_some_and(|k| describes(p, k)));
+        r.outcome == "missed" && reasons.as_ref().is_some_and(|t| !explained(t))
+    };
+    let skip: Vec<&str> = keep.iter().filter(|(m, r)| !retested(m, r)).map(|(m, _)| m.as_str()).collect();
     let out = dir.join("mutants.out");
     for d in [out.clone(), dir.join("mutants.out.old")] {
         if d.exists() {
@@ -434,12 +443,12 @@ fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let a: Vec<&str> = args.iter().map(String::as_str).collect();
     match a[..] {
-        ["prepare", ledger, dir] => prepare(Path::new(ledger), Path::new(dir), false),
-        ["prepare", ledger, dir, "--retest-survivors"] => prepare(Path::new(ledger), Path::new(dir), true),
+        ["prepare", ledger, dir] => prepare(Path::new(ledger), Path::new(dir), None),
+        ["prepare", ledger, dir, "--retest-survivors", table] => prepare(Path::new(ledger), Path::new(dir), Some(Path::new(table))),
         ["record", ledger, dir] => record(Path::new(ledger), Path::new(dir)),
         ["report", ledger, dir, table, out] => report(Path::new(ledger), Path::new(dir), Path::new(table), Path::new(out)),
         _ => bail!(
-            "usage: mutants_report prepare LEDGER REPORT_DIR [--retest-survivors] | record LEDGER REPORT_DIR | \
+            "usage: mutants_report prepare LEDGER REPORT_DIR [--retest-survivors HARMLESS_TSV] | record LEDGER REPORT_DIR | \
              report LEDGER REPORT_DIR HARMLESS_TSV OUT_MD"
         ),
     }
