@@ -293,6 +293,54 @@ fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
     area_light_matches_quadrature(gpu, light, None, rho, &receivers, form_factor);
 }
 
+/// An exact disk emits from its front only: receivers behind its plane get no light on either
+/// backend, whether the whole disk is above their horizon, their horizon cuts it, or it is below
+/// it, and neither does a receiver exactly in its plane, on the disk and facing the side it
+/// lights (cos θ_light = 0 over the whole disk, where the whole-disk closed form alone gives
+/// 1 / R²). A receiver in front of each disk (the control) gets some. (Each backend sorts disks
+/// into wholly above the horizon, cut by it, or below it before the exact form.)
+#[test]
+fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
+    let Some(gpu) = vplgi_tests::shared_gpu("exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends") else { return };
+    let disk =
+        |centre: Vec3, normal: Vec3| VplLight { radius2: 0.36, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
+    let t = normal.cross(Vec3::X).normalize();
+    let at = |h: f32, off: f32| centre + normal * h + t * off;
+    // Behind facing the disk's back (the whole disk above the horizon), behind and tilted (the
+    // horizon cuts it), behind facing away; then the control in front. `true`: must be lit.
+    let tilted = [
+        (at(-0.5, 0.0), normal, false),
+        (at(-0.3, 0.4), (normal + t * 1.5).normalize(), false),
+        (at(-0.4, -0.2), -normal, false),
+        (at(0.5, 0.1), -normal, true),
+    ];
+    // A disk facing down from y = 1: h is exactly 0 in f32 for a receiver at y = 1.
+    let level_centre = Vec3::new(0.25, 1.0, 0.125);
+    let level = [(level_centre + Vec3::new(0.1, 0.0, 0.05), Vec3::Y, false), (level_centre - Vec3::Y * 0.5, Vec3::Y, true)];
+    for (light, cases) in [(disk(centre, normal), &tilted[..]), (disk(level_centre, -Vec3::Y), &level[..])] {
+        let sps: Vec<ShadingPoint> = cases
+            .iter()
+            .enumerate()
+            .map(|(i, &(p, n, _))| ShadingPoint { position: p.to_array(), normal: n.to_array(), albedo: [0.5; 3], pixel: i as u32, ..Default::default() })
+            .collect();
+        let mut matrix = BitMatrix::new(1, 1);
+        matrix.set(0, 0);
+        let n = sps.len();
+        let (labels, weights, row_of) = (vec![0u32; n], vec![1.0f32; n], vec![0u32; n]);
+        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, None, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
+        for (i, &(p, _, lit)) in cases.iter().enumerate() {
+            let h = Vec3::from(light.normal).dot(p - Vec3::from(light.position));
+            println!("receiver at {p} (height {h:.3} over the disk): CPU {}, GPU {}", cpu[i], gpu_pixels[i]);
+            if lit {
+                assert!(cpu[i].min_element() > 0.0 && gpu_pixels[i].min_element() > 0.0, "the control at {p} must be lit");
+            } else {
+                assert_eq!((cpu[i], gpu_pixels[i]), (Vec3::ZERO, Vec3::ZERO), "receiver at {p}, height {h} over the disk, is lit");
+            }
+        }
+    }
+}
+
 /// A polygon light (`--light-shape polygon`) on both backends: the irradiance Φ / A times the
 /// form factor, the form factor by a midpoint rule over the polygon in f64 (a point-in-polygon
 /// test per cell: nothing of the contour form). The polygon is a 1.2 x 0.8 rectangle with a

@@ -182,6 +182,20 @@ mod tests {
         assert_eq!(Quadtree::new(1, 1).levels, 1, "even one pixel has a root of 2 x 2");
     }
 
+    /// Against Rust's correctly rounded `as f32`: within the two roundings of the halves and the
+    /// one of their sum, below 2^32 and above it where the low half is large against the high one
+    /// (the shares' weights are sums of quantized errors and pass 2^32 on large images).
+    #[test]
+    fn u64s_convert_within_their_roundings() {
+        let mut rng = crate::rng::Rng::new(3, crate::rng::Stream::Seeding, 0);
+        let edges = [0u64, 1, u32::MAX as u64, 1 << 32, (1 << 32) + u32::MAX as u64, (3 << 40) | 0x8000_0000, u64::MAX];
+        let random = (0..1000).map(|_| ((rng.next_u32() as u64) << (rng.next_u32() % 33)) | rng.next_u32() as u64);
+        for x in edges.into_iter().chain(random) {
+            let (got, exact) = (u64_f32(x) as f64, x as f64);
+            assert!((got - exact).abs() <= exact * 2.0 * f32::EPSILON as f64, "{x}: {got} vs {exact}");
+        }
+    }
+
     #[test]
     fn shares_follow_the_weights_and_sum_to_the_seeds() {
         assert_eq!(shares(10, [1, 1, 1, 1]), [2, 3, 2, 3]);
@@ -230,6 +244,9 @@ mod tests {
             }
             assert!(r.windows(2).all(|p| p[0] < p[1]), "{s} of {n}: {r:?}");
         }
+        // 11 (13 / 11) rounds to 12.99... in f32: the last stratum must still end at rank 12, not
+        // at floor(s r), or the node's last hit could never be picked.
+        assert!((0..64).any(|node| ranks(7, node, 11, 13).last() == Some(12)), "rank 12 of 13 is never picked");
     }
 
     #[test]
