@@ -423,6 +423,9 @@ fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
                 own = sp.emitted + direct(sp, i);
             }
             sum = sum + (own + lights * (sp.albedo / PI));
+        } else if (params.direct != 0u) {
+            // A jittered miss carries the emission its pixel sees elsewhere (shading_points).
+            sum = sum + sp.emitted;
         }
     }
     out[local] = vec4<f32>(sum / f32(params.spp), 0.0);

@@ -35,6 +35,17 @@ pub fn sunlit_plane_with_box() -> Scene {
     scene
 }
 
+/// A lone emissive square of half size `half` in the plane z = 0, facing the default camera at
+/// (0, 0, 5) (looking down -z, yfov 0.7), radiance `radiance`, albedo 0: seen against the
+/// background, its image is `radiance` times the part of each pixel it covers.
+pub fn emissive_square(half: f32, radiance: Vec3) -> Scene {
+    let mut scene = Scene { name: "emissive square".into(), ..Scene::default() };
+    let m = material(&mut scene, Vec3::ZERO, radiance);
+    grid_quad(&mut scene, Vec3::new(-half, -half, 0.0), (Vec3::X * (2.0 * half), Vec3::Y * (2.0 * half)), 1, Vec3::Z, m);
+    scene.validate().expect("a valid scene");
+    scene
+}
+
 /// [`sunlit_plane_with_box`]'s sun: 40 degrees from straight down, towards -x and +z.
 pub fn sun_direction() -> Vec3 {
     let a = 40f32.to_radians();

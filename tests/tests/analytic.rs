@@ -196,3 +196,76 @@ fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     println!("sun shadow-map VPL flux {total:.5}: relative {:+.2e} {:+.2e} {:+.2e}", rel.x, rel.y, rel.z);
     assert!(rel.abs().max_element() < 2e-3, "{rel}");
 }
+
+/// A lone emissive square seen against the background through jittered samples: each pixel's
+/// mean is the radiance times the part of the pixel the square covers (its image is an
+/// axis-aligned rectangle on the film, edges at fractional pixels), on both backends. Samples
+/// whose own ray misses carry the emission the rest of their pixel sees: dropping it would make
+/// edge pixels dark by about their uncovered share. Each sample's emission comes from 4 x 4
+/// stratified rays, so it is a multiple of 1/16 of the radiance, and across an edge pixel's
+/// samples it spreads far less than one ray's all-or-nothing (checked on both backends' shading
+/// points).
+#[test]
+fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
+    use vplgi_types::params::EMISSION_STRATA;
+    let (half, le) = (1.0f32, 2.0f32);
+    let scene = vplgi_tests::inputs::emissive_square(half, Vec3::splat(le));
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let cfg = FrameConfig { width: 16, height: 16, spp: 64, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
+    let (w, h) = (cfg.width as f32, cfg.height as f32);
+    // The square at distance 5 spans tangents +-half / 5 of tan(yfov / 2) on the film (aspect 1).
+    let reach = half / (scene.camera.position.z * (0.5 * scene.camera.yfov).tan());
+    let (x0, x1, y0, y1) = (0.5 * w * (1.0 - reach), 0.5 * w * (1.0 + reach), 0.5 * h * (1.0 - reach), 0.5 * h * (1.0 + reach));
+    let overlap = |a: f32, b: f32, lo: f32, hi: f32| (b.min(hi) - a.max(lo)).max(0.0);
+    let covered = |px: u32| {
+        let (i, j) = ((px % cfg.width) as f32, (px / cfg.width) as f32);
+        overlap(i, i + 1.0, x0, x1) * overlap(j, j + 1.0, y0, y1)
+    };
+    let ctx = vplgi_tests::gpu("emission_through_jittered_pixels_is_the_covered_area_on_both_backends");
+    let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
+    let gpu = ctx.as_ref().map(|ctx| {
+        let kernels = vplgi_gpu::GpuKernels::new(&ctx.device).unwrap();
+        vplgi_gpu::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap().pixels
+    });
+    for (backend, pixels) in [("CPU", Some(&cpu)), ("GPU", gpu.as_ref())] {
+        let Some(pixels) = pixels else { continue };
+        let (mut worst, mut edges) = (0.0f32, 0);
+        for (px, got) in pixels.iter().enumerate() {
+            let expected = le * covered(px as u32);
+            worst = worst.max((got[0] - expected).abs() / le);
+            edges += (expected > 0.0 && expected < le) as u32;
+        }
+        println!("{backend}: emissive square, {edges} edge pixels: worst |mean - L covered| = {worst:.4} L");
+        // 64 samples of at most 7 partly covered strata each: sigma <= sqrt(7 / 4) / 16 / 8 = 0.010 L.
+        assert!(worst < 0.05, "{backend}: a pixel's emission is {worst} L from the covered area");
+        assert!(edges >= 30, "the square's edges must cross pixels ({edges})");
+    }
+    let camera = cfg.camera_params(scene.camera);
+    let cpu_sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let gpu_sps = ctx.as_ref().map(|ctx| {
+        let gs = vplgi_gpu::scene::GpuScene::new(&ctx.device, &scene).unwrap();
+        let kernel = vplgi_gpu::shading_points::ShadingPointsKernel::new(&ctx.device).unwrap();
+        kernel.run(&ctx.device, &ctx.queue, &gs, &camera, None).unwrap()
+    });
+    let strata = (EMISSION_STRATA * EMISSION_STRATA) as f32;
+    for (backend, sps) in [("CPU", Some(&cpu_sps)), ("GPU", gpu_sps.as_ref())] {
+        let Some(sps) = sps else { continue };
+        let mut worst_spread = 0.0f32;
+        for (px, samples) in sps.chunks(cfg.spp as usize).enumerate() {
+            let c = covered(px as u32);
+            let e: Vec<f32> = samples.iter().map(|s| s.emitted[0] / le).collect();
+            for x in &e {
+                assert!((x * strata - (x * strata).round()).abs() < 1e-4, "{backend}: pixel {px}: emission {x} L is not a multiple of 1/16");
+            }
+            if c > 0.2 && c < 0.8 {
+                let mean = e.iter().sum::<f32>() / e.len() as f32;
+                let sd = (e.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / (e.len() - 1) as f32).sqrt();
+                // One ray: sqrt(c (1 - c)) >= 0.4 here.
+                worst_spread = worst_spread.max(sd / (c * (1.0 - c)).sqrt());
+            }
+        }
+        println!("{backend}: a sample's emission spreads {worst_spread:.3} of one ray's at worst");
+        assert!(worst_spread < 0.35, "{backend}: stratified emission spreads {worst_spread} of one ray's");
+    }
+}

@@ -342,11 +342,11 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
     sum * brdf
 }
 
-/// Radiance of shading point `sp`, sample `i` of the image: emitted + direct + indirect (zero
-/// for a miss).
+/// Radiance of shading point `sp`, sample `i` of the image: emitted + direct + indirect (for a
+/// miss, only the emission its pixel sees elsewhere, which jittered samples carry).
 pub fn shade_point(cs: &CpuScene, sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, params: &ShadeParams) -> Vec3 {
     if sp.triangle == MISS {
-        return Vec3::ZERO;
+        return if params.direct { Vec3::from(sp.emitted) } else { Vec3::ZERO };
     }
     let own = if params.direct { Vec3::from(sp.emitted) + direct(cs, sp, i as u32, params.seed, params.direct_samples) } else { Vec3::ZERO };
     own + indirect(sp, i, lights, vis, params.g_max)

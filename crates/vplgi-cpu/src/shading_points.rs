@@ -1,22 +1,13 @@
 //! Stage 2, `shading_points`: one primary ray per camera sample. Sample `s` of pixel `p` is
 //! shading point `p * spp + s`; with `spp = 1` it goes through the pixel centre, otherwise it is
-//! jittered with the stream (seed, `Stream::Camera`, shading-point index).
+//! jittered with the stream (seed, `Stream::Camera`, shading-point index), and its emission is
+//! the pixel's, estimated from [`EMISSION_STRATA`]² stratified rays drawn next from that stream.
 
 use crate::CpuScene;
+use glam::Vec3;
 use rayon::prelude::*;
-use vplgi_types::{CameraParams, Rng, ShadingPoint, Stream, MISS};
-
-/// The film position (pixels, origin top-left) of shading point `index`.
-pub fn film_position(index: u32, width: u32, spp: u32, seed: u32) -> (f32, f32) {
-    let pixel = index / spp;
-    let (x, y) = ((pixel % width) as f32, (pixel / width) as f32);
-    if spp == 1 {
-        (x + 0.5, y + 0.5)
-    } else {
-        let mut rng = Rng::new(seed, Stream::Camera, index);
-        (x + rng.next_f32(), y + rng.next_f32())
-    }
-}
+use vplgi_types::params::EMISSION_STRATA;
+use vplgi_types::{Camera, CameraParams, Rng, ShadingPoint, Stream, MISS};
 
 pub fn shading_points(cs: &CpuScene, width: u32, height: u32, spp: u32, seed: u32) -> Vec<ShadingPoint> {
     shading_points_of(cs, &CameraParams { camera: cs.scene.camera, width, height, spp, seed }, 0..width * height * spp)
@@ -29,21 +20,53 @@ pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops
     samples
         .into_par_iter()
         .map(|i| {
-            let (sx, sy) = film_position(i, width, spp, seed);
-            let dir = camera.ray_direction(sx, sy, width, height);
-            match cs.trace(camera.position, dir) {
+            let pixel = i / spp;
+            let (x, y) = ((pixel % width) as f32, (pixel / width) as f32);
+            let mut jitter = (spp != 1).then(|| Rng::new(seed, Stream::Camera, i));
+            let (sx, sy) = match jitter.as_mut() {
+                Some(rng) => (x + rng.next_f32(), y + rng.next_f32()),
+                None => (x + 0.5, y + 0.5),
+            };
+            let hit = cs.trace(camera.position, camera.ray_direction(sx, sy, width, height));
+            // A miss carries its pixel's emission too: the pixel may see an emitter's edge
+            // against the background, and dropping it there would bias the pixel dark.
+            let emitted = match (jitter.as_mut(), &hit) {
+                (Some(rng), _) => pixel_emission(cs, &camera, (width, height), (x, y), rng),
+                (None, Some(h)) => h.emitted,
+                (None, None) => Vec3::ZERO,
+            };
+            match hit {
                 Some(h) => ShadingPoint {
                     position: h.position.to_array(),
-                    pixel: i / spp,
+                    pixel,
                     normal: h.ns.to_array(),
                     triangle: h.triangle,
                     albedo: h.albedo.to_array(),
                     _pad0: 0,
-                    emitted: h.emitted.to_array(),
+                    emitted: emitted.to_array(),
                     _pad1: 0,
                 },
-                None => ShadingPoint { pixel: i / spp, triangle: MISS, ..Default::default() },
+                None => ShadingPoint { pixel, triangle: MISS, emitted: emitted.to_array(), ..Default::default() },
             }
         })
         .collect()
+}
+
+/// The emission seen through the pixel whose top-left corner is `(x, y)`: the mean over one ray
+/// jittered in each cell of an `EMISSION_STRATA`² grid over the pixel, an unbiased estimate of
+/// the pixel's mean with far less variance than one ray where an emitter's edge crosses it.
+fn pixel_emission(cs: &CpuScene, camera: &Camera, (width, height): (u32, u32), (x, y): (f32, f32), rng: &mut Rng) -> Vec3 {
+    let n = EMISSION_STRATA;
+    let cell = 1.0 / n as f32;
+    let mut sum = Vec3::ZERO;
+    for j in 0..n {
+        for i in 0..n {
+            let sx = x + (i as f32 + rng.next_f32()) * cell;
+            let sy = y + (j as f32 + rng.next_f32()) * cell;
+            if let Some(h) = cs.trace(camera.position, camera.ray_direction(sx, sy, width, height)) {
+                sum += h.emitted;
+            }
+        }
+    }
+    sum / (n * n) as f32
 }

@@ -186,6 +186,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
     let u = vec![
         ("MISS", vplgi_types::MISS),
         ("MAX_F", vplgi_types::config::MAX_F),
+        ("EMISSION_STRATA", vplgi_types::params::EMISSION_STRATA),
         ("STREAM_LIGHT_PATH", Stream::LightPath as u32),
         ("STREAM_DIRECT", Stream::Direct as u32),
         ("STREAM_CAMERA", Stream::Camera as u32),

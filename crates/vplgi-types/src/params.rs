@@ -23,6 +23,14 @@ pub struct CameraParams {
     pub seed: u32,
 }
 
+/// Jittered camera samples (`spp` > 1) estimate the emission their pixel sees from
+/// `EMISSION_STRATA`² extra primary rays, one jittered in each cell of a square grid over the
+/// pixel, instead of from their own ray. Where an emitter's edge crosses a pixel, one ray sees
+/// all or none of its radiance: on the Cornell box that noise made the standard error of a
+/// reference's top third (the rows showing the light) 18 times that of pixel-centre samples.
+/// The extra rays only look up what the camera sees directly, a small part of shading a sample.
+pub const EMISSION_STRATA: u32 = 4;
+
 /// `shade`: how a pixel's radiance is gathered from its shading points.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadeParams {

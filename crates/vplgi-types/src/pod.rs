@@ -31,7 +31,7 @@ pub struct Vpl {
 /// The surface seen through one camera sample.
 ///
 /// `normal` is the shading normal, turned to face the camera. When `triangle == MISS` the sample
-/// saw the background and every other field is zero.
+/// saw the background and every other field but `emitted` is zero.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ShadingPoint {
@@ -44,7 +44,9 @@ pub struct ShadingPoint {
     /// Diffuse albedo (base colour, texture applied), linear RGB.
     pub albedo: [f32; 3],
     pub _pad0: u32,
-    /// Radiance emitted towards the camera (non-zero on area lights).
+    /// Radiance emitted towards the camera (non-zero on area lights): what the sample's own ray
+    /// sees for a pixel-centre sample, the pixel's mean estimated from stratified rays
+    /// ([`EMISSION_STRATA`](crate::params::EMISSION_STRATA)) for a jittered one, miss or hit.
     pub emitted: [f32; 3],
     pub _pad1: u32,
 }
