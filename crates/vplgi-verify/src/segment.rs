@@ -52,7 +52,7 @@ impl TieOracle {
             if crosses_with_room(a, b, tri, self.tol) {
                 return Verdict::Blocked;
             }
-            near |= segment_triangle_distance(a, b, tri) <= self.tol;
+            near |= is_near(a, b, tri, self.tol);
         }
         if near {
             Verdict::Tie
@@ -70,8 +70,58 @@ impl TieOracle {
         let robust: Vec<Option<f64>> = self.tris.iter().map(|tri| crossing_with_room(a, far, tri, self.tol)).collect();
         let first = robust.iter().flatten().fold(1.0f64, |m, &s| m.min(s));
         let b = a + (far - a) * first;
-        self.tris.iter().zip(&robust).any(|(tri, r)| r.is_none() && segment_triangle_distance(a, b, tri) <= self.tol)
+        self.tris.iter().zip(&robust).any(|(tri, r)| r.is_none() && is_near(a, b, tri, self.tol))
     }
+}
+
+/// Whether rounding can make a tracer report that segment `a`-`b` meets the triangle: it comes
+/// within `tol` of it, or crosses its plane within [`room`] outside its edges. The second is the
+/// mirror of the room a crossing needs inside: a segment 3.5e-5 rad from a triangle's plane,
+/// crossing it 4e-4 outside an edge (tol 7.6e-6), was blocked by obvhs' Möller–Trumbore test
+/// from one end and visible to Embree and from the other end (found at 10,000 cases).
+fn is_near(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
+    segment_triangle_distance(a, b, tri) <= tol || plane_crossing(a, b, tri).is_some_and(|c| c.inside > -room(tol, c.sin))
+}
+
+/// Where a segment crosses a triangle's plane, its ends on opposite sides of it.
+struct Crossing {
+    /// The fraction of the way from the first end.
+    s: f64,
+    /// The ends' signed distances from the plane.
+    heights: (f64, f64),
+    /// The smallest signed distance from the crossing to an edge's line, positive inside.
+    inside: f64,
+    /// The sine of the segment's angle to the plane.
+    sin: f64,
+}
+
+fn plane_crossing(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> Option<Crossing> {
+    let n = (*v1 - *v0).cross(*v2 - *v0);
+    let len = n.length();
+    if len == 0.0 {
+        return None;
+    }
+    let n = n / len;
+    let (da, db) = (n.dot(a - *v0), n.dot(b - *v0));
+    if da == 0.0 || db == 0.0 || (da > 0.0) == (db > 0.0) {
+        return None;
+    }
+    let s = da / (da - db);
+    let x = a + (b - a) * s;
+    let inside = [(*v0, *v1), (*v1, *v2), (*v2, *v0)].iter().fold(f64::INFINITY, |m, &(e0, e1)| {
+        let e = e1 - e0;
+        m.min(n.cross(e).dot(x - e0) / e.length())
+    });
+    Some(Crossing { s, heights: (da, db), inside, sin: (da - db).abs() / (b - a).length() })
+}
+
+/// How far along a triangle's plane rounding can move a segment's crossing: moving the segment
+/// by `tol` across the plane slides the crossing by `tol` times the cotangent of their angle. A
+/// segment 1.5e-4 rad from a triangle's plane, 1.03e-5 inside an edge (tol 9.5e-6), was blocked
+/// on Embree and the GPU and missed from both ends by obvhs' Möller–Trumbore test (found at
+/// 10,000 cases).
+fn room(tol: f64, sin: f64) -> f64 {
+    tol * (1.0 + (1.0 - sin * sin).max(0.0).sqrt() / sin)
 }
 
 /// Whether segment `a`-`b` crosses the triangle's plane at a point inside it with room to spare
@@ -81,35 +131,11 @@ fn crosses_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
     crossing_with_room(a, b, tri, tol).is_some()
 }
 
-/// [`crosses_with_room`]'s crossing as a fraction of the way from `a` to `b`.
-fn crossing_with_room(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3], tol: f64) -> Option<f64> {
-    let n = (*v1 - *v0).cross(*v2 - *v0);
-    let len = n.length();
-    if len == 0.0 {
-        return None;
-    }
-    let n = n / len;
-    let (da, db) = (n.dot(a - *v0), n.dot(b - *v0));
-    if da.abs() <= tol || db.abs() <= tol || (da > 0.0) == (db > 0.0) {
-        return None;
-    }
-    let s = da / (da - db);
-    let x = a + (b - a) * s;
-    // Moving the segment by `tol` across the plane slides the crossing along the plane by `tol`
-    // times the cotangent of their angle: a segment 1.5e-4 rad from a triangle's plane, 1.03e-5
-    // inside an edge (tol 9.5e-6), was blocked on Embree and the GPU and missed from both ends
-    // by obvhs' Möller–Trumbore test (found at 10,000 cases). So the room an edge needs grows as
-    // the segment approaches the plane.
-    let sin = (da - db).abs() / (b - a).length();
-    let room = tol * (1.0 + (1.0 - sin * sin).max(0.0).sqrt() / sin);
-    [(*v0, *v1), (*v1, *v2), (*v2, *v0)]
-        .iter()
-        .all(|&(e0, e1)| {
-            let e = e1 - e0;
-            // Signed distance from x to the edge's line, positive on the triangle's side.
-            n.cross(e).dot(x - e0) / e.length() > room
-        })
-        .then_some(s)
+/// [`crosses_with_room`]'s crossing as a fraction of the way from `a` to `b`: the ends more than
+/// `tol` from the plane, the crossing more than [`room`] inside every edge.
+fn crossing_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> Option<f64> {
+    let c = plane_crossing(a, b, tri)?;
+    (c.heights.0.abs() > tol && c.heights.1.abs() > tol && c.inside > room(tol, c.sin)).then_some(c.s)
 }
 
 /// Distance between segment `a`-`b` and a triangle (0 if they meet).
@@ -220,6 +246,20 @@ mod tests {
         assert!(!crosses_with_room(v(0.5, 1e-4 - 1.0, 1e-3), v(0.5, 1e-4 + 1.0, -1e-3), &TRI, tol));
         // Either winding.
         assert!(crosses_with_room(v(0.2, 0.2, 1.0), v(0.2, 0.2, -1.0), &[DVec3::ZERO, DVec3::Y, DVec3::X], tol));
+    }
+
+    #[test]
+    fn a_near_miss_is_near_by_the_room_rounding_gives_it() {
+        let tol = 1e-6;
+        // Crossing the plane 4e-4 outside the edge on the x axis: steeply, far from the triangle;
+        // along the edge 3.5e-5 rad from the plane (never nearer the triangle than 4e-4), within
+        // the room rounding gives it (tol / 3.5e-5 = 0.029), so a tie.
+        assert!(!is_near(v(0.5, -4e-4, 1.0), v(0.5, -4e-4, -1.0), &TRI, tol));
+        assert!(is_near(v(-0.5, -4e-4, 3.5e-5), v(1.5, -4e-4, -3.5e-5), &TRI, tol));
+        assert!(segment_triangle_distance(v(-0.5, -4e-4, 3.5e-5), v(1.5, -4e-4, -3.5e-5), &TRI) > 3e-4);
+        // Within tol of the edge without crossing the plane, and clear of it.
+        assert!(is_near(v(0.5, -5e-7, 1.0), v(0.5, -5e-7, 1e-7), &TRI, tol));
+        assert!(!is_near(v(0.5, -1e-3, 1.0), v(0.5, -1e-3, 1e-7), &TRI, tol));
     }
 
     fn square() -> vplgi_scene::Scene {
