@@ -319,16 +319,8 @@ fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
     let level_centre = Vec3::new(0.25, 1.0, 0.125);
     let level = [(level_centre + Vec3::new(0.1, 0.0, 0.05), Vec3::Y, false), (level_centre - Vec3::Y * 0.5, Vec3::Y, true)];
     for (light, cases) in [(disk(centre, normal), &tilted[..]), (disk(level_centre, -Vec3::Y), &level[..])] {
-        let sps: Vec<ShadingPoint> = cases
-            .iter()
-            .enumerate()
-            .map(|(i, &(p, n, _))| ShadingPoint { position: p.to_array(), normal: n.to_array(), albedo: [0.5; 3], pixel: i as u32, ..Default::default() })
-            .collect();
-        let mut matrix = BitMatrix::new(1, 1);
-        matrix.set(0, 0);
-        let n = sps.len();
-        let (labels, weights, row_of) = (vec![0u32; n], vec![1.0f32; n], vec![0u32; n]);
-        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, None, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
+        let receivers: Vec<([f32; 3], [f32; 3])> = cases.iter().map(|&(p, n, _)| (p.to_array(), n.to_array())).collect();
+        let (cpu, gpu_pixels) = receivers_of_one_visible_light(gpu, light, None, 0.5, &receivers);
         for (i, &(p, _, lit)) in cases.iter().enumerate() {
             let h = Vec3::from(light.normal).dot(p - Vec3::from(light.position));
             println!("receiver at {p} (height {h:.3} over the disk): CPU {}, GPU {}", cpu[i], gpu_pixels[i]);
@@ -371,6 +363,26 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
     area_light_matches_quadrature(gpu, light, Some(placed), rho, &receivers, form_factor);
 }
 
+/// Receivers (position, normal; albedo `rho`) that all see `light` unoccluded and unclamped: their
+/// radiance on both backends.
+fn receivers_of_one_visible_light(
+    gpu: &vplgi_tests::SharedGpu,
+    light: VplLight,
+    outline: Option<vplgi_types::LightOutline>,
+    rho: f32,
+    receivers: &[([f32; 3], [f32; 3])],
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let sps: Vec<ShadingPoint> = receivers
+        .iter()
+        .enumerate()
+        .map(|(i, &(p, n))| ShadingPoint { position: p, normal: n, albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .collect();
+    let mut matrix = BitMatrix::new(1, 1);
+    matrix.set(0, 0);
+    let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], vec![0u32; sps.len()]);
+    one_light_on_both_backends(gpu, &sps, light, outline, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY)
+}
+
 /// One area light (a polygon if it has an `outline`, else a disk) over `receivers` (position,
 /// normal; albedo `rho`) on both backends, each pixel against the irradiance Φ / A times
 /// `form_factor(p, n)` (a quadrature) within 2e-4 of its size, A = π `light.radius2`; every
@@ -385,16 +397,8 @@ fn area_light_matches_quadrature(
 ) {
     let shape = if outline.is_some() { "polygon" } else { "disk" };
     let area = PI * light.radius2;
-    let sps: Vec<ShadingPoint> = receivers
-        .iter()
-        .enumerate()
-        .map(|(i, &(p, n))| ShadingPoint { position: p, normal: n, albedo: [rho; 3], pixel: i as u32, ..Default::default() })
-        .collect();
     let flux = Vec3::from(light.flux);
-    let mut matrix = BitMatrix::new(1, 1);
-    matrix.set(0, 0);
-    let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], vec![0u32; sps.len()]);
-    let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, outline, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY);
+    let (cpu, gpu_pixels) = receivers_of_one_visible_light(gpu, light, outline, rho, receivers);
     for (i, &(p, n)) in receivers.iter().enumerate() {
         let e = (rho / PI) * flux / area * form_factor(Vec3::from(p).as_dvec3(), Vec3::from(n).as_dvec3()) as f32;
         let (c, g) = (cpu[i], gpu_pixels[i]);
