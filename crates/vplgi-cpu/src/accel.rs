@@ -19,6 +19,17 @@ pub struct CpuScene<'a> {
 
 pub use vplgi_types::params::{SEGMENT_TFAR, SEGMENT_TNEAR};
 
+/// A shadow ray as the tracer is asked it: `origin + t dir` blocked or not for t in
+/// (`tmin`, `tmax`), the origin already pushed off its surface. Direct lighting hands its rays
+/// out in this form so that `vplgi verify` can judge the very same ray in f64.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSpan {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
 /// What a ray sees where it hits a surface.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
@@ -76,28 +87,52 @@ impl<'a> CpuScene<'a> {
         (a, b - a)
     }
 
+    /// The span [`Self::visible`] tests.
+    #[inline]
+    pub fn segment_span(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> ShadowSpan {
+        let (origin, dir) = self.shadow_segment(p, np, q, nq);
+        ShadowSpan { origin, dir, tmin: SEGMENT_TNEAR, tmax: SEGMENT_TFAR }
+    }
+
+    /// The span [`Self::visible_toward`] tests: from the pushed-off point to infinity.
+    #[inline]
+    pub fn toward_span(&self, p: Vec3, np: Vec3, dir: Vec3) -> ShadowSpan {
+        ShadowSpan { origin: self.offset_toward(p, np, p + dir), dir, tmin: 0.0, tmax: f32::INFINITY }
+    }
+
+    /// The span [`Self::visible_from_surface`] tests, stopping eps short of the light; `None`
+    /// when the light is within eps of the pushed-off point (not visible).
+    #[inline]
+    pub fn from_surface_span(&self, p: Vec3, np: Vec3, light: Vec3) -> Option<ShadowSpan> {
+        let origin = self.offset_toward(p, np, light);
+        let dir = light - origin;
+        let len = dir.length();
+        (len > self.eps).then(|| ShadowSpan { origin, dir, tmin: SEGMENT_TNEAR, tmax: 1.0 - self.eps / len })
+    }
+
+    /// Whether nothing blocks `span`.
+    #[inline]
+    pub fn unoccluded(&self, span: ShadowSpan) -> bool {
+        !self.rt.occluded(span.origin, span.dir, span.tmin, span.tmax)
+    }
+
     /// Visibility between two surface points: nothing blocks their [`Self::shadow_segment`].
     #[inline]
     pub fn visible(&self, p: Vec3, np: Vec3, q: Vec3, nq: Vec3) -> bool {
-        let (o, d) = self.shadow_segment(p, np, q, nq);
-        !self.rt.occluded(o, d, SEGMENT_TNEAR, SEGMENT_TFAR)
+        self.unoccluded(self.segment_span(p, np, q, nq))
     }
 
     /// Visibility from a surface point along unit direction `dir` to infinity (a directional
     /// light).
     #[inline]
     pub fn visible_toward(&self, p: Vec3, np: Vec3, dir: Vec3) -> bool {
-        let a = self.offset_toward(p, np, p + dir);
-        !self.rt.occluded(a, dir, 0.0, f32::INFINITY)
+        self.unoccluded(self.toward_span(p, np, dir))
     }
 
     /// Visibility between a surface point and a point in free space (a punctual light). The
     /// segment stops eps short of the light, so a light mounted on a surface is not blocked by it.
     #[inline]
     pub fn visible_from_surface(&self, p: Vec3, np: Vec3, light: Vec3) -> bool {
-        let a = self.offset_toward(p, np, light);
-        let d = light - a;
-        let len = d.length();
-        len > self.eps && !self.rt.occluded(a, d, SEGMENT_TNEAR, 1.0 - self.eps / len)
+        self.from_surface_span(p, np, light).is_some_and(|span| self.unoccluded(span))
     }
 }

@@ -28,7 +28,7 @@ pub mod visibility;
 pub use vplgi_scene::lights;
 
 mod accel;
-pub use accel::{CpuScene, SurfaceHit, SEGMENT_TFAR, SEGMENT_TNEAR};
+pub use accel::{CpuScene, ShadowSpan, SurfaceHit, SEGMENT_TFAR, SEGMENT_TNEAR};
 pub use backend::CpuHits;
 /// The frame driver is the same for every backend: `render(&cpu_scene, &cfg, &progress)`.
 pub use vplgi_frame::{render, render_rows, Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings};

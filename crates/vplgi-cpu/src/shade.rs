@@ -19,7 +19,7 @@
 use crate::cluster::Clustering;
 use crate::interpolate::IrradianceSamples;
 use crate::visibility::BitMatrix;
-use crate::CpuScene;
+use crate::{CpuScene, ShadowSpan};
 use glam::Vec3;
 use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
@@ -290,6 +290,13 @@ fn exact_terms(p: Vec3, n: Vec3, l: &LightArrays, exact: &[u32], base: usize, g:
 /// (seed, `Stream::Direct`, index). Stratifying 4 samples divides the seed-to-seed relMSE of the
 /// default Cornell box render by about three against independent samples, for the same rays.
 pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: u32) -> Vec3 {
+    direct_with(cs, sp, index, seed, samples, |span| cs.unoccluded(span))
+}
+
+/// [`direct`] with its shadow rays answered by `unoccluded`: every ray `direct` traces, in the
+/// same order, and nothing else depends on the answers. `vplgi verify` passes a judge that
+/// records them, to find pixels whose direct light rests on a rounding tie.
+pub fn direct_with(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: u32, mut unoccluded: impl FnMut(ShadowSpan) -> bool) -> Vec3 {
     let p = Vec3::from(sp.position);
     let n = Vec3::from(sp.normal);
     let brdf = Vec3::from(sp.albedo) / PI;
@@ -311,7 +318,7 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
         if d2 <= 0.0 || cos_p <= 0.0 || cos_l <= 0.0 {
             continue;
         }
-        if cs.visible(p, n, s.position, s.normal) {
+        if unoccluded(cs.segment_span(p, n, s.position, s.normal)) {
             area += s.radiance * (cos_p * cos_l / (d2 * d2) / s.pdf_area);
         }
     }
@@ -321,7 +328,7 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
             PunctualLight::Directional { direction, irradiance } => {
                 // E cos θ, along a ray to infinity.
                 let cos_d = -n.dot(direction);
-                if cos_d > 0.0 && cs.visible_toward(p, n, -direction) {
+                if cos_d > 0.0 && unoccluded(cs.toward_span(p, n, -direction)) {
                     sum += irradiance * cos_d;
                 }
             }
@@ -333,7 +340,7 @@ pub fn direct(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samples: 
                     continue;
                 }
                 let falloff = l.falloff(-d / d2.sqrt());
-                if falloff > 0.0 && cs.visible_from_surface(p, n, position) {
+                if falloff > 0.0 && cs.from_surface_span(p, n, position).is_some_and(&mut unoccluded) {
                     sum += intensity * (falloff * cos_p / (d2 * d2.sqrt()));
                 }
             }

@@ -15,6 +15,9 @@ use vplgi_types::params::{SEGMENT_TFAR, SEGMENT_TNEAR};
 pub struct TieOracle {
     tris: Vec<[DVec3; 3]>,
     tol: f64,
+    /// A sphere holding every triangle: where a ray to infinity has left the scene.
+    centre: DVec3,
+    radius: f64,
 }
 
 /// How rounding can decide a segment.
@@ -36,7 +39,8 @@ impl TieOracle {
         let (min, max) = scene.bounds();
         let far = min.abs().max(max.abs()).max_element() as f64;
         let tris = (0..scene.triangle_count()).map(|t| scene.triangle(t).map(|v| v.as_dvec3())).collect();
-        TieOracle { tris, tol: 64.0 * f32::EPSILON as f64 * far.max(1e-6) }
+        let (min, max) = (min.as_dvec3(), max.as_dvec3());
+        TieOracle { tris, tol: 64.0 * f32::EPSILON as f64 * far.max(1e-6), centre: (min + max) / 2.0, radius: (max - min).length() / 2.0 }
     }
 
     pub fn tolerance(&self) -> f64 {
@@ -45,8 +49,15 @@ impl TieOracle {
 
     /// The segment from `p` to `q` (the ends already pushed off their surfaces), over its span.
     pub fn verdict(&self, p: DVec3, q: DVec3) -> Verdict {
-        let d = q - p;
-        let (a, b) = (p + d * SEGMENT_TNEAR as f64, p + d * SEGMENT_TFAR as f64);
+        self.span_verdict(p, q - p, SEGMENT_TNEAR as f64, SEGMENT_TFAR as f64)
+    }
+
+    /// The ray `o + t d` over t in (`tmin`, `tmax`), as a tracer is asked it (a
+    /// `vplgi_cpu::ShadowSpan`). An infinite `tmax` (a directional light's ray) ends where the
+    /// ray is more than the tolerance outside every triangle's bounding sphere.
+    pub fn span_verdict(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Verdict {
+        let end = if tmax.is_finite() { tmax } else { ((o - self.centre).length() + self.radius + 2.0 * self.tol) / d.length() };
+        let (a, b) = (o + d * tmin, o + d * end);
         let mut near = false;
         for tri in &self.tris {
             if crosses_with_room(a, b, tri, self.tol) {
@@ -203,7 +214,7 @@ fn segment_segment_distance(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn v(x: f64, y: f64, z: f64) -> DVec3 {
@@ -262,7 +273,8 @@ mod tests {
         assert!(!is_near(v(0.5, -1e-3, 1.0), v(0.5, -1e-3, 1e-7), &TRI, tol));
     }
 
-    fn square() -> vplgi_scene::Scene {
+    /// The unit square in z = 0, two triangles sharing the diagonal x = y, no lights.
+    pub(crate) fn square() -> vplgi_scene::Scene {
         let mut s = vplgi_scene::cornell::cornell_box();
         s.positions = vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::new(1.0, 1.0, 0.0), glam::Vec3::Y];
         s.normals = vec![glam::Vec3::Z; 4];
@@ -288,6 +300,19 @@ mod tests {
         // The span's end 1e-7 past the plane: a crossing that rounding may miss.
         let end = v(0.3, 0.6, -1e-7);
         assert_eq!(o.verdict(p, p + (end - p) / SEGMENT_TFAR as f64), Verdict::Tie);
+    }
+
+    #[test]
+    fn spans_to_infinity_are_judged_until_they_leave_the_scene() {
+        let o = TieOracle::new(&square());
+        let inf = f64::INFINITY;
+        assert_eq!(o.span_verdict(v(0.3, 0.6, 1.0), v(0.0, 0.0, -1.0), 0.0, inf), Verdict::Blocked);
+        assert_eq!(o.span_verdict(v(0.3, 0.6, 1.0), v(0.0, 0.0, 1.0), 0.0, inf), Verdict::Visible);
+        assert_eq!(o.span_verdict(v(0.5, 0.5, 1.0), v(0.0, 0.0, -1.0), 0.0, inf), Verdict::Tie);
+        // From far away (100 above, a short direction): still reaches the square.
+        assert_eq!(o.span_verdict(v(0.3, 0.6, 100.0), v(0.0, 0.0, -1e-3), 0.0, inf), Verdict::Blocked);
+        // A finite span is the segment it says: stopping 0.5 above the square.
+        assert_eq!(o.span_verdict(v(0.3, 0.6, 1.0), v(0.0, 0.0, -1.0), 0.0, 0.5), Verdict::Visible);
     }
 
     #[test]
