@@ -235,8 +235,8 @@ rsm: build
 # under target/ with numpy (nothing system-wide): each of the four scenes exported with
 # `vplgi scene export --format mitsuba`, rendered by Mitsuba and by vplgi (compensated and clamped),
 # compared per channel and per third of the image against both images' noise: docs/VALIDATION.md.
-# About 40 minutes on 2 cores (11 at --width 128); a subset:
-# make validate VALIDATE_ARGS="--scenes cornell-box --width 128"
+# About 35 minutes on 2 cores (64 seeds per scene at 128x90); a quick, noisier subset:
+# make validate VALIDATE_ARGS="--scenes cornell-box --seeds 2"
 MITSUBA_PY := target/mitsuba-python
 validate: build
 	@test -d $(MITSUBA_PY)/mitsuba || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(MITSUBA_PY) "mitsuba==3.9.1" "numpy<3"
