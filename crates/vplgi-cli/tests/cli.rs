@@ -191,6 +191,18 @@ fn help_explains_every_option_with_defaults() {
 }
 
 #[test]
+fn help_texts_show_no_rustdoc_links() {
+    // Option help comes from doc comments shared with rustdoc; an intra-doc link such as
+    // [`crate::temporal`] means nothing to a user reading `--help`.
+    for cmd in [&["render"][..], &["verify"], &["reference"], &["bench"], &["sweep"], &["compare"], &["merge"], &["scene", "generate"], &["scene", "export"]] {
+        let o = vplgi(&[cmd, &["--help"]].concat());
+        let help = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success() && !help.is_empty(), "{cmd:?} --help failed");
+        assert!(!help.contains("[`"), "{cmd:?} --help shows a rustdoc link: {help}");
+    }
+}
+
+#[test]
 fn a_scene_without_light_renders_black() {
     // A glTF triangle with no emissive material and no punctual light.
     let dir = tempfile::tempdir().unwrap();

@@ -177,9 +177,9 @@ pub enum Temporal {
     Off,
     /// Wang et al. 2009: the previous frame's clusters that still admit a shading point are kept
     /// (each admits points up to its members' largest error), new clusters are seeded where
-    /// none does, and the iterations start from both ([`crate::temporal`]). With
-    /// `VplClustering::Rsm`, Prutkin et al.'s warm start too: the previous frame's live RSM
-    /// clusters start the next frame's, and only the slots of clusters that emptied are seeded.
+    /// none does, and the iterations start from both. With `--vpl-cluster rsm`, Prutkin et al.'s
+    /// warm start too: the previous frame's live RSM clusters start the next frame's, and only
+    /// the slots of clusters that emptied are seeded.
     On,
 }
 
