@@ -1,7 +1,7 @@
 //! `shading_points`: the GPU's camera samples against the CPU's (SPEC: >= 99.9 % hit the same
 //! triangle; positions within 1e-4 of the scene extent).
 
-use crate::tolerance::{Disagreement, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE};
+use crate::tolerance::{shading_points_same_emission_share, Disagreement, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
 use glam::Vec3;
 use vplgi_types::{CameraParams, FrameConfig, ShadingPoint};
@@ -84,6 +84,21 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
     for (c, g) in cpu.iter().zip(&gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
         albedo = albedo.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
     }
+    // Emission otherwise reaches only the frame rows, where a 1 % error on an emitter's pixels
+    // passed (relMSE far below the bound). Misses count too: at spp > 1 a sample's emission is its
+    // pixel's, from 4 x 4 extra rays, so a sample that misses may carry some, and one of those rays
+    // through a shared edge may see the emitter on one backend only (a step of 1/16).
+    let (mut emitted, mut paired, mut agree, mut emitted_at) = (0.0f32, 0usize, 0usize, None);
+    for (i, (c, g)) in cpu.iter().zip(&gpu).enumerate().filter(|(_, (c, g))| c.triangle == g.triangle) {
+        let diff = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
+        paired += 1;
+        if diff <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0) {
+            agree += 1;
+        } else if diff > emitted {
+            emitted = diff;
+            emitted_at = Some(format!("{}: emitted CPU {}, GPU {}", describe(i, camera.width, camera.spp, c, g), v3(c.emitted), v3(g.emitted)));
+        }
+    }
     Ok(vec![
         Disagreement::at_least("shading_points", "share of samples on the same surface point", (d.same + d.ties) as f64 / n, SHADING_POINTS_SAME_SURFACE)
             .with_case(&case)
@@ -101,6 +116,15 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
             .with_worst(d.max_position_at.clone()),
         Disagreement::info("shading_points", "samples on another triangle at the same point (edge ties)", d.ties as f64).with_case(&case),
         Disagreement::info("shading_points", "largest albedo difference", albedo as f64).with_case(&case),
+        Disagreement::at_least(
+            "shading_points",
+            "share of samples on the same triangle (or both missing) with the same emitted radiance",
+            agree as f64 / paired.max(1) as f64,
+            shading_points_same_emission_share(camera.spp),
+        )
+        .with_case(&case)
+        .with_worst(emitted_at),
+        Disagreement::info("shading_points", "largest emitted-radiance difference among them", emitted as f64).with_case(&case),
     ])
 }
 

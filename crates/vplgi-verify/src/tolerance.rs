@@ -110,6 +110,19 @@ pub fn gather_radius_bound(inv_radius: f64, extent: f64) -> f64 {
     GATHER_RADIUS_REL * inv_radius.abs() + SHADING_POINTS_POSITION_REL * extent * inv_radius * inv_radius
 }
 
+/// `shading_points`: the share of samples on the same triangle (or both missing) whose emitted
+/// radiance agrees is at least 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]), where `rays` are
+/// the extra primary rays that find a jittered sample's emission (`EMISSION_STRATA`² at spp > 1,
+/// none at spp = 1, where the emission is the hit triangle's own and must agree exactly): each of
+/// them may see another surface as often as a camera ray may. Derived, not measured. At spp > 1
+/// the bound is loose: 1.6 % of samples may differ, so a 1 % error in every jittered sample's
+/// emission passed on the Cornell box (emitters are about 1 % of its samples); at spp = 1,
+/// verify's default, the same error fails (share 0.993 against 1).
+pub fn shading_points_same_emission_share(spp: u32) -> f64 {
+    let rays = if spp > 1 { vplgi_types::params::EMISSION_STRATA * vplgi_types::params::EMISSION_STRATA } else { 0 };
+    (1.0 - rays as f64 * (1.0 - SHADING_POINTS_SAME_SURFACE)).max(0.0)
+}
+
 /// `gather_radius`: the share of sample points within [`gather_radius_bound`] is at least
 /// 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]): each gather ray may see a different surface
 /// (or escape past a silhouette) as often as a camera ray may, and one such ray moves its point's
