@@ -29,6 +29,14 @@ pub struct HitDifferences {
     /// same as the raw one wherever rays meet surfaces at a sensible angle.
     pub max_position_conditioned: f32,
     pub max_position_conditioned_at: Option<String>,
+    /// Of the `same` samples, those whose emitted radiance agrees (within 1e-6, relative above 1).
+    /// Misses count too: at spp > 1 a sample's emission is its pixel's, from 4 x 4 extra rays, so
+    /// a sample that misses may carry some, and one of those rays through a shared edge may see
+    /// the emitter on one backend only (a step of 1/16).
+    pub same_emission: usize,
+    /// Largest emitted-radiance difference among the `same` samples that disagree, and where.
+    pub max_emitted: f32,
+    pub max_emitted_at: Option<String>,
 }
 
 fn describe(i: usize, width: u32, spp: u32, c: &ShadingPoint, g: &ShadingPoint) -> String {
@@ -44,6 +52,13 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
         let apart = (Vec3::from(c.position) - Vec3::from(g.position)).length() / extent;
         if c.triangle == g.triangle {
             d.same += 1;
+            let emitted = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
+            if emitted <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0) {
+                d.same_emission += 1;
+            } else if emitted > d.max_emitted {
+                d.max_emitted = emitted;
+                d.max_emitted_at = Some(format!("{}: emitted CPU {}, GPU {}", describe(i, width, spp, c, g), v3(c.emitted), v3(g.emitted)));
+            }
             if c.is_miss() {
                 continue;
             }
@@ -84,21 +99,6 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
     for (c, g) in cpu.iter().zip(&gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
         albedo = albedo.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
     }
-    // Emission otherwise reaches only the frame rows, where a 1 % error on an emitter's pixels
-    // passed (relMSE far below the bound). Misses count too: at spp > 1 a sample's emission is its
-    // pixel's, from 4 x 4 extra rays, so a sample that misses may carry some, and one of those rays
-    // through a shared edge may see the emitter on one backend only (a step of 1/16).
-    let (mut emitted, mut paired, mut agree, mut emitted_at) = (0.0f32, 0usize, 0usize, None);
-    for (i, (c, g)) in cpu.iter().zip(&gpu).enumerate().filter(|(_, (c, g))| c.triangle == g.triangle) {
-        let diff = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
-        paired += 1;
-        if diff <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0) {
-            agree += 1;
-        } else if diff > emitted {
-            emitted = diff;
-            emitted_at = Some(format!("{}: emitted CPU {}, GPU {}", describe(i, camera.width, camera.spp, c, g), v3(c.emitted), v3(g.emitted)));
-        }
-    }
     Ok(vec![
         Disagreement::at_least("shading_points", "share of samples on the same surface point", (d.same + d.ties) as f64 / n, SHADING_POINTS_SAME_SURFACE)
             .with_case(&case)
@@ -116,15 +116,17 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
             .with_worst(d.max_position_at.clone()),
         Disagreement::info("shading_points", "samples on another triangle at the same point (edge ties)", d.ties as f64).with_case(&case),
         Disagreement::info("shading_points", "largest albedo difference", albedo as f64).with_case(&case),
+        // Emission otherwise reaches only the frame rows, where a 1 % error on an emitter's pixels
+        // passed (relMSE far below the bound).
         Disagreement::at_least(
             "shading_points",
             "share of samples on the same triangle (or both missing) with the same emitted radiance",
-            agree as f64 / paired.max(1) as f64,
+            d.same_emission as f64 / d.same.max(1) as f64,
             shading_points_same_emission_share(camera.spp),
         )
         .with_case(&case)
-        .with_worst(emitted_at),
-        Disagreement::info("shading_points", "largest emitted-radiance difference among them", emitted as f64).with_case(&case),
+        .with_worst(d.max_emitted_at.clone()),
+        Disagreement::info("shading_points", "largest emitted-radiance difference among them", d.max_emitted as f64).with_case(&case),
     ])
 }
 

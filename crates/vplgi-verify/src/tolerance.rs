@@ -119,7 +119,12 @@ pub fn gather_radius_bound(inv_radius: f64, extent: f64) -> f64 {
 /// emission passed on the Cornell box (emitters are about 1 % of its samples); at spp = 1,
 /// verify's default, the same error fails (share 0.993 against 1).
 pub fn shading_points_same_emission_share(spp: u32) -> f64 {
-    let rays = if spp > 1 { vplgi_types::params::EMISSION_STRATA * vplgi_types::params::EMISSION_STRATA } else { 0 };
+    same_share_after(if spp > 1 { vplgi_types::params::EMISSION_STRATA * vplgi_types::params::EMISSION_STRATA } else { 0 })
+}
+
+/// 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]): the share of items that must agree when each
+/// depends on `rays` rays, each of which may see another surface as often as a camera ray may.
+fn same_share_after(rays: u32) -> f64 {
     (1.0 - rays as f64 * (1.0 - SHADING_POINTS_SAME_SURFACE)).max(0.0)
 }
 
@@ -128,7 +133,7 @@ pub fn shading_points_same_emission_share(spp: u32) -> f64 {
 /// (or escape past a silhouette) as often as a camera ray may, and one such ray moves its point's
 /// 1 / R_j by a whole term. Derived from the shading-point row, not measured.
 pub fn gather_radius_same_share(rays: u32) -> f64 {
-    (1.0 - rays as f64 * (1.0 - SHADING_POINTS_SAME_SURFACE)).max(0.0)
+    same_share_after(rays)
 }
 
 /// The side of its bound a measurement must be on.
