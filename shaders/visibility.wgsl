@@ -49,18 +49,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     // other's surface, so offset_toward pushes each along its own normal (side +1, the same
     // floats): the origin is the row's alone.
     let o = a.position.xyz + a.normal.xyz * params.eps;
-    // The segments are chained in one loop whose state is (b, node, tri): when one segment's
-    // traversal ends, the next starts in the same iteration count, so a SIMD lane that finished
-    // does not idle until the slowest lane of its group finishes the same segment (bvh.wgsl).
-    // An iteration tests one box or one leaf triangle, so the lanes at inner nodes do not wait
-    // for a whole leaf of another lane (the Cornell box's walls are hit leaf after leaf).
+    // lavapipe (Mesa 22.3) runs every branch of a loop body for all 8 lanes of a SIMD group,
+    // masked: a branch no lane takes costs as much as one every lane takes (a never-taken copy of
+    // the leaf test added 30 % to this kernel on the conference room). So the rare work is kept
+    // out of the hot loop: the inner loop only tests boxes, and starting a segment and testing a
+    // leaf's triangles happen once per round of the outer loop. A lane that meets a leaf keeps it
+    // pending and goes on testing boxes until it meets a second one, so it does not idle while
+    // the other lanes of its group finish their boxes. In one loop with all three branches (as
+    // before) the conference room took 1,216-1,332 ms, in these two 847-941 ms (`--shaders`
+    // timings, which keep wgpu's loop checks). The bits are the same: any hit does not depend on
+    // the order in which leaves are tested.
     var bits = 0u;
     var b = 0u;                 // the column bit of the segment in flight
     var node = BVH_END;         // the segment's next node; BVH_END: none left
-    var tri = 0u;               // its leaf triangles still to test: slots [tri, tri_end)
+    var tri = 0u;               // its pending leaf's triangles still to test: slots [tri, tri_end)
     var tri_end = 0u;
+    var d = vec3<f32>(0.0);
     var inv_d = vec3<f32>(0.0);
-    var shear = RayShear(vec3<u32>(0u), vec3<f32>(0.0));
     let origin = bvh_frame[0].xyz;
     let step = bvh_frame[1].xyz;
     loop {
@@ -71,28 +76,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             b = firstTrailingBit(facing);
             facing = facing & (facing - 1u);
             let e = cols[w * 32u + b];
-            let d = (e.position.xyz + e.normal.xyz * params.eps) - o;
+            d = (e.position.xyz + e.normal.xyz * params.eps) - o;
             inv_d = safe_inverse(d);
-            shear = ray_shear(d);
             node = 0u;
+            // Visible until a triangle blocks it.
+            bits = bits | (1u << b);
         }
-        if (tri < tri_end) {
-            if (intersect_tri(bvh_tri(tri), o, shear, SEGMENT_TNEAR, SEGMENT_TFAR).x < SEGMENT_TFAR) {
-                // Blocked: the bit stays 0 and the segment ends.
-                tri_end = tri;
-                node = BVH_END;
-            } else {
-                tri = tri + 1u;
-                if (tri == tri_end && node == BVH_END) {
-                    bits = bits | (1u << b);
-                }
+        loop {
+            if (node == BVH_END) {
+                break;
             }
-        } else {
             let n = decode_node(bvh_node(node), node, origin, step);
             var next = n.skip;
             if (hits_box(n, o, inv_d, SEGMENT_TNEAR, SEGMENT_TFAR)) {
                 if (!n.is_leaf) {
                     next = node + 1u;
+                } else if (tri < tri_end) {
+                    // A second leaf: the pending one is tested first, this box again after it.
+                    break;
                 } else {
                     let slots = leaf_slots(n.leaf);
                     tri = slots.x;
@@ -100,8 +101,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 }
             }
             node = next;
-            if (next == BVH_END && tri == tri_end) {
-                bits = bits | (1u << b);
+        }
+        if (tri < tri_end) {
+            let shear = ray_shear(d);
+            loop {
+                if (tri == tri_end) {
+                    break;
+                }
+                if (intersect_tri(bvh_tri(tri), o, shear, SEGMENT_TNEAR, SEGMENT_TFAR).x < SEGMENT_TFAR) {
+                    // Blocked: the bit is cleared and the segment ends.
+                    bits = bits & ~(1u << b);
+                    tri_end = tri;
+                    node = BVH_END;
+                } else {
+                    tri = tri + 1u;
+                }
             }
         }
     }

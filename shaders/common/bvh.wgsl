@@ -170,6 +170,11 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
 }
 
 // Closest hit along o + t d, t in (tmin, tmax). With any_hit = true, returns the first hit found.
+// lavapipe runs every branch of a loop body for all lanes of a SIMD group (visibility.wgsl), so
+// the hot loop tests boxes only and a leaf's triangles are tested in a loop of their own, once
+// the box loop has found the leaf: with a leaf loop nested in the box loop, every box cost a
+// triangle test too. Leaves are still tested in preorder, so the closest hit (ties included:
+// the first one found stays) is the same.
 fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool) -> Hit {
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
     let inv_d = safe_inverse(d);
@@ -178,29 +183,44 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
     let step = bvh_frame[1].xyz;
     var i = 0u;
     loop {
+        var k = 0u;             // the leaf's triangle slots [k, end) to test
+        var end = 0u;
+        loop {
+            if (i == BVH_END) {
+                break;
+            }
+            let node = decode_node(bvh_node(i), i, origin, step);
+            var next = node.skip;
+            if (hits_box(node, o, inv_d, tmin, hit.t)) {
+                if (!node.is_leaf) {
+                    next = i + 1u;
+                } else {
+                    let slots = leaf_slots(node.leaf);
+                    k = slots.x;
+                    end = slots.y;
+                    i = next;
+                    break;
+                }
+            }
+            i = next;
+        }
+        loop {
+            if (k == end) {
+                break;
+            }
+            let tri = bvh_tri(k);
+            let r = intersect_tri(tri, o, shear, tmin, hit.t);
+            if (r.x < hit.t) {
+                hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, k);
+                if (any_hit) {
+                    return hit;
+                }
+            }
+            k = k + 1u;
+        }
         if (i == BVH_END) {
             break;
         }
-        let node = decode_node(bvh_node(i), i, origin, step);
-        var next = node.skip;
-        if (hits_box(node, o, inv_d, tmin, hit.t)) {
-            if (!node.is_leaf) {
-                next = i + 1u;
-            } else {
-                let slots = leaf_slots(node.leaf);
-                for (var k = slots.x; k < slots.y; k = k + 1u) {
-                    let tri = bvh_tri(k);
-                    let r = intersect_tri(tri, o, shear, tmin, hit.t);
-                    if (r.x < hit.t) {
-                        hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, k);
-                        if (any_hit) {
-                            return hit;
-                        }
-                    }
-                }
-            }
-        }
-        i = next;
     }
     return hit;
 }
