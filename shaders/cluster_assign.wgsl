@@ -100,19 +100,20 @@ fn consider_cell(c: vec3<i32>, p: vec3<f32>, n: vec3<f32>) {
 }
 
 // Grid::visit_ring: the shell at Chebyshev distance r (r = 1: all 27 cells), clipped to the
-// grid; it stops where the walk's budget runs out.
+// grid; it stops where the walk's budget runs out. A row of the shell is either whole (on its
+// top, bottom or sides) or its two end cells, walked by one loop with a stride: lavapipe runs
+// every branch for all lanes, so two branches with a cell visit each cost two visits per row,
+// and the 27 cells cost 45.
 fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
     let lo = max(c - vec3<i32>(r), vec3<i32>(0));
     let hi = min(c + vec3<i32>(r), params.dims.xyz - vec3<i32>(1));
     for (var z = lo.z; z <= hi.z && walk_left > 0; z = z + 1) {
         for (var y = lo.y; y <= hi.y && walk_left > 0; y = y + 1) {
-            if (r == 1 || abs(z - c.z) == r || abs(y - c.y) == r) {
-                for (var x = lo.x; x <= hi.x && walk_left > 0; x = x + 1) {
-                    consider_cell(vec3<i32>(x, y, z), p, n);
-                }
-            } else {
-                consider_cell(vec3<i32>(c.x - r, y, z), p, n);
-                consider_cell(vec3<i32>(c.x + r, y, z), p, n);
+            let whole = r == 1 || abs(z - c.z) == r || abs(y - c.y) == r;
+            let x_end = select(c.x + r, hi.x, whole);
+            let stride = select(2 * r, 1, whole);
+            for (var x = select(c.x - r, lo.x, whole); x <= x_end && walk_left > 0; x = x + stride) {
+                consider_cell(vec3<i32>(x, y, z), p, n);
             }
         }
     }
@@ -132,45 +133,56 @@ fn list_settled(reach: f32) -> bool {
 }
 
 // Returns 0 (neighbourhood), 1 (widened) or 2 (no compatible centroid: nearest by position).
+// The 27 cells and the widening rings are one loop, and every way of giving up on the rings
+// ends at the one scan of all centroids after it: on lavapipe a loop or call that no lane of a
+// SIMD group needs still runs once with every lane masked, so a separate ring walk and two
+// scans cost every point a ring and two scans' worth of masked loads.
 fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     clear_best();
     let c = cell_coords(p);
-    // The 27 cells are always visited whole: Eq. 7's answer is what they hold.
-    walk_left = 0x7fffffff;
-    visit_ring(c, 1, p, n);
-    // Eq. 7 keeps the paper's approximation (whatever the 27 cells hold); Eq. 2 is exact.
-    if (METRIC == METRIC_WARD) {
-        if (list_settled(params.origin.w)) {
-            return 0u;
-        }
-    } else if (best_k[0] != MISS) {
-        return 0u;
-    }
     let far = max(c, params.dims.xyz - vec3<i32>(1) - c);
     let last = max(max(max(far.x, far.y), far.z), 1);
-    walk_left = WALK_BUDGET;
-    for (var r = 2; r <= last; r = r + 1) {
-        if (r < params.dims.w) {
-            visit_ring(c, r, p, n);
-            if (walk_left > 0) {
-                // Exact F nearest once the F-th best is nearer than anything in the unvisited
-                // rings.
-                if (list_settled(f32(r) * params.origin.w)) {
-                    return 1u;
+    // The 27 cells are always visited whole: Eq. 7's answer is what they hold.
+    walk_left = 0x7fffffff;
+    var r = 1;
+    loop {
+        visit_ring(c, r, p, n);
+        if (r == 1) {
+            // Eq. 7 keeps the paper's approximation (whatever the 27 cells hold); Eq. 2 is
+            // exact.
+            if (METRIC == METRIC_WARD) {
+                if (list_settled(params.origin.w)) {
+                    return 0u;
                 }
-                continue;
+            } else if (best_k[0] != MISS) {
+                return 0u;
             }
+            walk_left = WALK_BUDGET;
+        } else if (walk_left > 0) {
+            // Exact F nearest once the F-th best is nearer than anything in the unvisited
+            // rings.
+            if (list_settled(f32(r) * params.origin.w)) {
+                return 1u;
+            }
+        } else {
+            // Out of budget (the last ring may be incomplete): every centroid instead.
+            break;
         }
-        // The rings now hold more cells than there are centroids, or the walk is out of budget
-        // (its last ring may be incomplete): every centroid instead.
-        return select(2u, 1u, scan_all(p, n));
+        r = r + 1;
+        if (r > last) {
+            if (best_k[0] != MISS) {
+                return 1u;
+            }
+            // The whole grid walked and no compatible centroid: the scan finds the nearest by
+            // position.
+            break;
+        }
+        if (r >= params.dims.w) {
+            // The rings now hold more cells than there are centroids: every centroid instead.
+            break;
+        }
     }
-    if (best_k[0] != MISS) {
-        return 1u;
-    }
-    // The whole grid walked and no compatible centroid: the nearest by position.
-    _ = scan_all(p, n);
-    return 2u;
+    return select(2u, 1u, scan_all(p, n));
 }
 
 fn scan_one(k: u32, p: vec3<f32>, n: vec3<f32>) {
