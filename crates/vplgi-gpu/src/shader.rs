@@ -215,6 +215,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
         ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
         ("REDUCE_ITEMS", REDUCE_ITEMS),
+        ("VISIBILITY_ROW_LANES", crate::visibility::ROW_LANES),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),

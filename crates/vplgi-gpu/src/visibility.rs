@@ -28,6 +28,9 @@ pub struct VisibilityKernel {
     pipeline: RayPipeline,
 }
 
+/// Consecutive rows whose same word consecutive invocations compute (`visibility.wgsl` says why).
+pub const ROW_LANES: u32 = 8;
+
 /// 32-bit words per matrix row: the CPU's 64-bit words, doubled.
 pub fn words_per_row(cols: usize) -> usize {
     cols.div_ceil(64) * 2
@@ -64,7 +67,7 @@ impl VisibilityKernel {
                 b.push((i, x.as_entire_buffer_binding()));
             }
             b.extend(self.pipeline.scene_bindings(scene));
-            dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count * wpr).div_ceil(64));
+            dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count.div_ceil(ROW_LANES) * ROW_LANES * wpr).div_ceil(64));
             words
         })
     }
