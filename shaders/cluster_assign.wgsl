@@ -85,14 +85,18 @@ fn consider(k: u32, p: vec3<f32>, n: vec3<f32>) {
     }
 }
 
-fn consider_cell(c: vec3<i32>, p: vec3<f32>, n: vec3<f32>) {
-    walk_left = walk_left - 1;
+// The run of `len` cells from `c` along x (within one row of the grid, or a single cell that
+// may lie outside it): cells are numbered x fastest and their items stored in cell order
+// (cluster_grid.wgsl), so a row's items are one contiguous range whose two ends are the only
+// offsets read.
+fn consider_run(c: vec3<i32>, len: i32, p: vec3<f32>, n: vec3<f32>) {
+    walk_left = walk_left - len;
     if (any(c < vec3<i32>(0)) || any(c >= params.dims.xyz)) {
         return;
     }
     let l = cell_linear(c);
     let first = cell_offsets[l];
-    let end = cell_offsets[l + 1u];
+    let end = cell_offsets[l + u32(len)];
     walk_left = walk_left - i32(end - first);
     for (var i = first; i < end; i = i + 1u) {
         consider(cell_items[i], p, n);
@@ -101,19 +105,24 @@ fn consider_cell(c: vec3<i32>, p: vec3<f32>, n: vec3<f32>) {
 
 // Grid::visit_ring: the shell at Chebyshev distance r (r = 1: all 27 cells), clipped to the
 // grid; it stops where the walk's budget runs out. A row of the shell is either whole (on its
-// top, bottom or sides) or its two end cells, walked by one loop with a stride: lavapipe runs
-// every branch for all lanes, so two branches with a cell visit each cost two visits per row,
-// and the 27 cells cost 45.
+// top, bottom or sides), one run of cells, or its two end cells, two runs of one, walked by one
+// loop with a stride. Loads are what the search's time goes to on lavapipe, which runs every
+// branch and every loop's first iteration for all lanes of a SIMD group, masked: a cell that
+// no lane finds anything in still costs a centroid's loads. The 27 cells visited one by one, and
+// the end cells in a branch of their own, cost 45 cell visits; as 9 runs, 9, and a centroid
+// load for each of the ~2 a cell holds (conference room 256x180: assign 116 -> 90 ms; ties and
+// order do not matter: the list is the F best by key, then index, whatever the order).
 fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
     let lo = max(c - vec3<i32>(r), vec3<i32>(0));
     let hi = min(c + vec3<i32>(r), params.dims.xyz - vec3<i32>(1));
     for (var z = lo.z; z <= hi.z && walk_left > 0; z = z + 1) {
         for (var y = lo.y; y <= hi.y && walk_left > 0; y = y + 1) {
             let whole = r == 1 || abs(z - c.z) == r || abs(y - c.y) == r;
-            let x_end = select(c.x + r, hi.x, whole);
-            let stride = select(2 * r, 1, whole);
+            let len = select(1, hi.x - lo.x + 1, whole);
+            let x_end = select(c.x + r, lo.x, whole);
+            let stride = select(2 * r, len, whole);
             for (var x = select(c.x - r, lo.x, whole); x <= x_end && walk_left > 0; x = x + stride) {
-                consider_cell(vec3<i32>(x, y, z), p, n);
+                consider_run(vec3<i32>(x, y, z), len, p, n);
             }
         }
     }
