@@ -57,6 +57,10 @@ fn texel(info: TextureInfo, i: i32, j: i32) -> vec3<f32> {
 }
 
 // vplgi_scene::Texture::sample: bilinear, repeat, (0, 0) at the top-left corner.
+// false when no material of the scene has a texture: the lookup in surface_at folds away, where
+// lavapipe would run it, masked, at every hit (vplgi_gpu::shader::RayPipeline).
+override TEXTURED: bool = true;
+
 fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
     let info = texture_infos[t];
     let x = uv.x * f32(info.width) - 0.5;
@@ -95,7 +99,7 @@ fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
     let m = materials[bitcast<u32>(st.ng.w)];
     s.albedo = m.base_color.xyz;
     let t = bitcast<u32>(m.base_color.w);
-    if (t != MISS) {
+    if (TEXTURED && t != MISS) {
         let uv = st.uv01.xy * w0 + st.uv01.zw * hit.u + st.uv2.xy * hit.v;
         s.albedo = s.albedo * sample_texture(t, uv);
     }

@@ -47,6 +47,8 @@ pub struct GpuScene {
     /// Whether the BVH's nodes or triangles spill into their second binding
     /// ([`crate::shader::RayPipeline`]).
     pub bvh_paged: bool,
+    /// Some material has a base-colour texture: ray pipelines keep their texture lookup.
+    pub textured: bool,
     pub bvh_nodes: wgpu::Buffer,
     pub bvh_nodes_hi: wgpu::Buffer,
     pub bvh_tris: wgpu::Buffer,
@@ -149,6 +151,7 @@ impl GpuScene {
         let scene_tris = pages::<SceneTri, SCENE_TRI_PAGES>(device, "scene tris", &tris)?;
         Ok(GpuScene {
             bvh_paged,
+            textured: scene.materials.iter().any(|m| m.base_color_texture.is_some()),
             bvh_nodes,
             bvh_nodes_hi,
             bvh_tris,

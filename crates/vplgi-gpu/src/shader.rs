@@ -287,30 +287,48 @@ pub fn pipeline(device: &wgpu::Device, name: &str, entry: &str) -> wgpu::Compute
     pipelines(device, name, &[entry]).remove(0)
 }
 
-/// The pipeline of a stage entry that traverses the BVH, in two variants. The BVH's nodes and
-/// triangles may each spill into a second binding (`bvh_node`/`bvh_tri` in bvh.wgsl), but
-/// branching between the pages on every node costs lavapipe about a quarter of its traversal
-/// throughput (`examples/bvh_choice.rs`: 0.10 against 0.13 Mrays/s), and almost every scene fits
-/// one page. So the pipeline every scene starts with is compiled with `BVH_PAGED = false`, which
-/// folds the branch away, and the paged variant is compiled the first time a scene needs it.
+/// What a ray pipeline is specialised for: overrides that fold branches away when a scene does
+/// not need them. lavapipe runs both sides of every branch for all lanes of a SIMD group, so a
+/// branch no scene in hand takes still costs its loads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneVariant {
+    /// The BVH's nodes or triangles spill into their second binding (`BVH_PAGED`).
+    pub bvh_paged: bool,
+    /// Some material has a base-colour texture (`TEXTURED`).
+    pub textured: bool,
+}
+
+impl SceneVariant {
+    /// Every branch kept: for stages compiled once for any scene.
+    pub const GENERAL: SceneVariant = SceneVariant { bvh_paged: true, textured: true };
+
+    fn index(self) -> usize {
+        self.bvh_paged as usize * 2 + self.textured as usize
+    }
+}
+
+/// The pipeline of a stage entry that traverses the BVH, in variants per [`SceneVariant`]. The
+/// BVH's nodes and triangles may each spill into a second binding (`bvh_node`/`bvh_tri` in
+/// bvh.wgsl), but branching between the pages on every node costs lavapipe about a quarter of
+/// its traversal throughput (`examples/bvh_choice.rs`: 0.10 against 0.13 Mrays/s), and almost
+/// every scene fits one page. A texture lookup at every surface hit costs an untextured scene's
+/// `trace_vpls` kernel about a quarter of its time on lavapipe (paper Cornell frame: 8.4-8.8
+/// against 6.4-6.7 ms without the branch). So the pipeline every scene starts with is compiled
+/// with `BVH_PAGED = false` and `TEXTURED = false`, which fold those branches away, and the
+/// other variants are compiled the first time a scene needs one.
 pub struct RayPipeline {
     name: &'static str,
     entry: &'static str,
-    flat: wgpu::ComputePipeline,
-    paged: std::sync::OnceLock<wgpu::ComputePipeline>,
+    variants: [std::sync::OnceLock<wgpu::ComputePipeline>; 4],
     /// The bindings of group 0 the entry point uses (its layout is derived from them).
     used: Vec<u32>,
 }
 
 impl RayPipeline {
     pub fn new(device: &wgpu::Device, name: &'static str, entry: &'static str) -> RayPipeline {
-        RayPipeline {
-            name,
-            entry,
-            flat: compile(device, name, &[entry], false, &[]).remove(0),
-            paged: std::sync::OnceLock::new(),
-            used: used_bindings(name, entry),
-        }
+        let pipeline = RayPipeline { name, entry, variants: Default::default(), used: used_bindings(name, entry) };
+        pipeline.variant(device, SceneVariant { bvh_paged: false, textured: false });
+        pipeline
     }
 
     /// The arrays of `scene.wgsl` this entry point reads, bound from `scene`: a stage binds its
@@ -321,27 +339,29 @@ impl RayPipeline {
 
     /// The variant for `scene`.
     pub fn get(&self, device: &wgpu::Device, scene: &crate::scene::GpuScene) -> &wgpu::ComputePipeline {
-        if scene.bvh_paged {
-            self.paged.get_or_init(|| compile(device, self.name, &[self.entry], true, &[]).remove(0))
-        } else {
-            &self.flat
-        }
+        self.variant(device, SceneVariant { bvh_paged: scene.bvh_paged, textured: scene.textured })
+    }
+
+    fn variant(&self, device: &wgpu::Device, v: SceneVariant) -> &wgpu::ComputePipeline {
+        self.variants[v.index()].get_or_init(|| compile(device, self.name, &[self.entry], v, &[]).remove(0))
     }
 }
 
 /// The page-size overrides of the paged scene arrays a stage reads, from the device's limits,
 /// and whether the BVH arrays may use their second pages.
-fn page_constants(device: &wgpu::Device, name: &str, bvh_paged: bool) -> Vec<(&'static str, f64)> {
+fn page_constants(device: &wgpu::Device, name: &str, variant: SceneVariant) -> Vec<(&'static str, f64)> {
     let includes = STAGES.iter().find(|(n, _, _)| *n == name).map(|(_, _, i)| *i).unwrap_or(&[]);
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
     let mut c = Vec::new();
     if includes.contains(&"common/bvh.wgsl") {
-        c.push(("BVH_PAGED", if bvh_paged { 1.0 } else { 0.0 }));
+        c.push(("BVH_PAGED", flag(variant.bvh_paged)));
         c.push(("BVH_NODE_PAGE", page_len::<crate::bvh::BvhNode>(device).min(u32::MAX as u64) as f64));
         c.push(("BVH_TRI_PAGE", page_len::<crate::bvh::BvhTri>(device).min(u32::MAX as u64) as f64));
     }
     if includes.contains(&"common/surface.wgsl") {
         c.push(("SCENE_TRI_PAGE", page_len::<crate::scene::SceneTri>(device).min(u32::MAX as u64) as f64));
         c.push(("TEXEL_PAGE", page_len::<u32>(device).min(u32::MAX as u64) as f64));
+        c.push(("TEXTURED", flag(variant.textured)));
     }
     c
 }
@@ -349,17 +369,17 @@ fn page_constants(device: &wgpu::Device, name: &str, bvh_paged: bool) -> Vec<(&'
 /// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
 /// derived from the bindings its entry point uses.
 pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
-    compile(device, name, entries, true, &[])
+    compile(device, name, entries, SceneVariant::GENERAL, &[])
 }
 
 /// The pipeline of `entry` of stage `name` with its own values of some of the module's overrides
 /// (e.g. a loop's trip count, fixed so that the loop is unrolled), for an entry point that does
 /// not traverse the BVH.
 pub fn pipeline_with(device: &wgpu::Device, name: &str, entry: &str, overrides: &[(&'static str, f64)]) -> wgpu::ComputePipeline {
-    compile(device, name, &[entry], false, overrides).remove(0)
+    compile(device, name, &[entry], SceneVariant::GENERAL, overrides).remove(0)
 }
 
-fn compile(device: &wgpu::Device, name: &str, entries: &[&str], bvh_paged: bool, overrides: &[(&'static str, f64)]) -> Vec<wgpu::ComputePipeline> {
+fn compile(device: &wgpu::Device, name: &str, entries: &[&str], variant: SceneVariant, overrides: &[(&'static str, f64)]) -> Vec<wgpu::ComputePipeline> {
     let desc = wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) };
     let module = match REPLACED.get() {
         // Sources from a user's directory (--shaders) are untrusted: every check stays on.
@@ -376,7 +396,7 @@ fn compile(device: &wgpu::Device, name: &str, entries: &[&str], bvh_paged: bool,
             device.create_shader_module_trusted(desc, wgpu::ShaderRuntimeChecks { force_loop_bounding: false, ..wgpu::ShaderRuntimeChecks::checked() })
         },
     };
-    let mut constants = page_constants(device, name, bvh_paged);
+    let mut constants = page_constants(device, name, variant);
     constants.extend_from_slice(overrides);
     entries
         .iter()
