@@ -10,7 +10,7 @@
 //! binding: every per-point step runs over [`Window`]s of them, and gathers by index (seeds, the
 //! downsampled set, representatives) run over every pair of output and point windows.
 
-use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
+use crate::buffers::{batched, dispatch_windows, kernel_params, read_back, record, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scan::ScanKernel;
 use crate::shader::{
@@ -438,6 +438,18 @@ impl ClusterKernel {
         params: &ClusterParams,
         start: ClusterStart<'_>,
     ) -> Result<GpuClustering, GpuError> {
+        // One submission per run of dispatches between the host's reads, not one per dispatch.
+        batched(device, queue, || self.cluster_batched(device, queue, (points, m), params, start))
+    }
+
+    fn cluster_batched(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        (points, m): (&wgpu::Buffer, u32),
+        params: &ClusterParams,
+        start: ClusterStart<'_>,
+    ) -> Result<GpuClustering, GpuError> {
         let f = match params.fuzzy {
             FuzzyMode::Hard => 1,
             _ => params.f.clamp(1, MAX_F),
@@ -498,9 +510,7 @@ impl ClusterKernel {
                 if !fresh.is_empty() {
                     let points_of_fresh = seed_points(&fresh)?;
                     let size = std::mem::size_of::<Endpoint>() as u64;
-                    let mut e = device.create_command_encoder(&Default::default());
-                    e.copy_buffer_to_buffer(&points_of_fresh, 0, &centroids, kept.len() as u64 * size, fresh.len() as u64 * size);
-                    queue.submit([e.finish()]);
+                    record(device, queue, |e| e.copy_buffer_to_buffer(&points_of_fresh, 0, &centroids, kept.len() as u64 * size, fresh.len() as u64 * size));
                 }
                 let (kept, fresh) = (kept.len() as u32, fresh.len() as u32);
                 (centroids, kept + fresh, kept, fresh)
