@@ -141,6 +141,10 @@ impl<'a> GpuBackend<'a> {
     /// device.
     pub fn new(device: &'a wgpu::Device, queue: &'a wgpu::Queue, kernels: &'a GpuKernels, scene: &Scene) -> Result<GpuBackend<'a>, GpuError> {
         let gs = GpuScene::new(device, scene)?;
+        // wgpu copies buffers created mapped to the device with the next submission: without
+        // one here, the scene's upload ran inside the frame's first stage (trace_vpls), a third
+        // of its time on the conference room.
+        queue.submit([]);
         sync(device)?;
         Ok(GpuBackend { device, queue, kernels, scene: gs, extent: scene.extent().max(1e-6) })
     }
