@@ -182,7 +182,7 @@ bench-baseline: setup
 	$(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --save-baseline $(BENCH_BASELINE)
 
 # vplgi side by side with faiss-cpu (k-means), raw Embree (visibility), its GPU backend and its
-# unclustered reference, in one run: docs/PERFORMANCE.md. About 10 minutes. faiss-cpu is
+# unclustered reference, in one run: docs/PERFORMANCE.md. About 5 minutes. faiss-cpu is
 # installed from PyPI under target/ (nothing system-wide).
 PERF_PY := target/perf-python
 perf-report: build
