@@ -86,8 +86,24 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(flux, 0.0));
 }
 
+// Which of the VPLs base .. base + 31 (below `end`) belong to cluster k, as bits. The loops over
+// a cluster's members test 32 labels in step, then visit the set bits in ascending order (the
+// same order as one VPL after the other): lavapipe runs a loop's body for all lanes whenever one
+// lane needs it, so a label test and a member's loads in one loop loaded every VPL's record for
+// every cluster (conference room, 1,000 clusters of 10,000 VPLs, device time of the frame's glue
+// kernels on lavapipe, median of 5: 25.5 -> 13.2 ms).
+fn members_in_block(k: u32, base: u32, end: u32) -> u32 {
+    var found = 0u;
+    for (var j = 0u; j < 32u; j = j + 1u) {
+        let i = min(base + j, end - 1u);
+        found = found | select(0u, 1u << j, base + j < end && labels[i] == k);
+    }
+    return found;
+}
+
 // One light per VPL cluster: its representative, carrying the members' flux summed in VPL
-// order (the CPU's order, so the sums agree bit for bit). O(K N), simple and deterministic; the
+// order (the CPU's order, so the sums agree bit for bit). O(K N) label tests, 32 at a time, and a
+// member's record loaded only for its own cluster (members_in_block); deterministic. The
 // VPLs are read in ranges, each dispatch continuing the running sums of the one before (the
 // same sequential sums, cut: lavapipe stops an invocation's loops after 65,535 iterations).
 // Disk lights (vplgi_types::disk::radius2) also sum, in the same order, the members' flux
@@ -111,9 +127,11 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         var flux = a.xyz;
         var weight = a.w;
         var moment = b.xyz;
-        for (var i = params.first; i < params.hit_first; i = i + 1u) {
-            if (labels[i] == k) {
-                let v = vpls[i];
+        for (var base = params.first; base < params.hit_first; base = base + 32u) {
+            var found = members_in_block(k, base, params.hit_first);
+            while (found != 0u) {
+                let v = vpls[base + firstTrailingBit(found)];
+                found = found & (found - 1u);
                 flux = flux + v.flux;
                 let w = member_weight(v.flux);
                 weight = weight + w;
@@ -137,9 +155,12 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
             if (params.first > 0u) {
                 spread = sums.w;
             }
-            for (var i = params.first; i < params.hit_first; i = i + 1u) {
-                if (labels[i] == k) {
-                    spread = spread + member_weight(vpls[i].flux) * in_plane2(vpls[i].position - centre, n);
+            for (var base = params.first; base < params.hit_first; base = base + 32u) {
+                var found = members_in_block(k, base, params.hit_first);
+                while (found != 0u) {
+                    let v = vpls[base + firstTrailingBit(found)];
+                    found = found & (found - 1u);
+                    spread = spread + member_weight(v.flux) * in_plane2(v.position - centre, n);
                 }
             }
             b = vec4<f32>(sums.xyz, spread);
@@ -162,11 +183,16 @@ fn polygon_support(k: u32) {
         lo = light_sums[4u * k + 2u];
         hi = light_sums[4u * k + 3u];
     }
-    for (var i = params.first; i < params.hit_first; i = i + 1u) {
-        if (labels[i] == k && member_weight(vpls[i].flux) > 0.0) {
-            let d = vpls[i].position - r.position;
-            lo = max(lo, vec4<f32>(dot(u[0], d), dot(u[1], d), dot(u[2], d), dot(u[3], d)));
-            hi = max(hi, vec4<f32>(dot(u[4], d), dot(u[5], d), dot(u[6], d), dot(u[7], d)));
+    for (var base = params.first; base < params.hit_first; base = base + 32u) {
+        var found = members_in_block(k, base, params.hit_first);
+        while (found != 0u) {
+            let v = vpls[base + firstTrailingBit(found)];
+            found = found & (found - 1u);
+            if (member_weight(v.flux) > 0.0) {
+                let d = v.position - r.position;
+                lo = max(lo, vec4<f32>(dot(u[0], d), dot(u[1], d), dot(u[2], d), dot(u[3], d)));
+                hi = max(hi, vec4<f32>(dot(u[4], d), dot(u[5], d), dot(u[6], d), dot(u[7], d)));
+            }
         }
     }
     light_sums[4u * k + 2u] = lo;
