@@ -273,16 +273,7 @@ mod tests {
     /// back as an error.
     #[test]
     fn batched_dispatches_run_in_order_and_report_errors() {
-        let ctx = match crate::context::GpuContext::new() {
-            Ok(c) => c,
-            Err(e) => {
-                if std::env::var("CI").is_ok_and(|v| v == "true") {
-                    panic!("no GPU adapter under CI: {e}");
-                }
-                eprintln!("\n*** SKIPPED batched_dispatches_run_in_order_and_report_errors: {e} ***\n");
-                return;
-            }
-        };
+        let Some(ctx) = crate::context::tests::test_gpu("batched_dispatches_run_in_order_and_report_errors") else { return };
         let (device, queue) = (&ctx.device, &ctx.queue);
         // Each dispatch doubles every word and adds 1, so the result tells how many ran, in order.
         let src = "@group(0) @binding(0) var<storage, read_write> a: array<u32>;\n\

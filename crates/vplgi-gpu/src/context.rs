@@ -137,8 +137,27 @@ pub fn validated<T>(device: &wgpu::Device, what: &str, f: impl FnOnce() -> T) ->
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// The GPU for a test of this crate, announced with the adapter's name (vplgi_tests::gpu's
+    /// rule, which this crate cannot depend on): without an adapter the test fails under CI
+    /// (`CI=true`) and is skipped loudly elsewhere.
+    pub(crate) fn test_gpu(test: &str) -> Option<GpuContext> {
+        match GpuContext::new() {
+            Ok(ctx) => {
+                println!("[{}] {test}", ctx.describe());
+                Some(ctx)
+            }
+            Err(e) => {
+                if std::env::var("CI").is_ok_and(|v| v == "true") {
+                    panic!("{test}: no GPU adapter under CI: {e}");
+                }
+                eprintln!("\n*** SKIPPED {test}: {e} ***\n");
+                None
+            }
+        }
+    }
 
     /// Without a usable adapter the error says so and tells how to get one. Forced here by asking
     /// for a backend that does not exist on Linux, in a child process so the environment variable
@@ -210,17 +229,7 @@ mod tests {
     /// panic (here: binding a 4-byte buffer where the shader needs 48-byte records).
     #[test]
     fn validation_errors_become_errors() {
-        let ctx = match GpuContext::new() {
-            Ok(c) => c,
-            Err(e) => {
-                if std::env::var("CI").is_ok_and(|v| v == "true") {
-                    panic!("no GPU adapter under CI: {e}");
-                }
-                eprintln!("\n*** SKIPPED validation_errors_become_errors: {e} ***\n");
-                return;
-            }
-        };
-        println!("[{}] validation_errors_become_errors", ctx.describe());
+        let Some(ctx) = test_gpu("validation_errors_become_errors") else { return };
         let kernel = crate::visibility::VisibilityKernel::new(&ctx.device).unwrap();
         let scene = vplgi_scene::cornell::cornell_box();
         let gs = crate::scene::GpuScene::new(&ctx.device, &scene).unwrap();
