@@ -75,6 +75,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var inv_d = vec3<f32>(0.0);
     let origin = bvh_frame[0].xyz;
     let step = bvh_frame[1].xyz;
+    let crack = crack_width(o);
     loop {
         if (node == BVH_END && tri == tri_end) {
             if (facing == 0u) {
@@ -115,7 +116,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 if (tri == tri_end) {
                     break;
                 }
-                if (intersect_tri(bvh_tri(tri), o, shear, SEGMENT_TNEAR, SEGMENT_TFAR).x < SEGMENT_TFAR) {
+                if (intersect_tri(bvh_tri(tri), o, shear, SEGMENT_TNEAR, SEGMENT_TFAR, crack).x < SEGMENT_TFAR) {
                     // Blocked: the bit is cleared and the segment ends.
                     bits = bits & ~(1u << b);
                     tri_end = tri;

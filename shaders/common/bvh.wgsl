@@ -116,7 +116,17 @@ fn ray_shear(d: vec3<f32>) -> RayShear {
 // grid's shared edges through; tests/tests/gpu_differential.rs). Edge values of exactly 0 count
 // as inside, as in the paper; its double-precision fallback for them is not used (no f64 on
 // lavapipe), so a ray through a shared vertex may hit both triangles, never neither.
-fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32) -> vec3<f32> {
+// Watertightness needs the edge's vertices to be the same numbers. Meshes placed by their own
+// transforms meet at vertices a few ulps apart, with a hairline crack between them that a pixel
+// ray of a centred camera can run straight into. Embree's test accepts edge values down to one
+// float epsilon of their sum, which widens every triangle by about an ulp of its size and
+// closes such cracks, and also hits a ray that grazes a silhouette edge within that margin. So
+// every edge is moved out by `crack` (crack_width) in the sheared plane, where an edge function
+// divided by its edge's length is the ray's distance from the edge: |edge value| <= crack *
+// |edge|_1 is within crack of it. All edges, not only those no other triangle shares bit for
+// bit: shared ones would stay exact at silhouettes, where Embree's margin blocks segments
+// grazing a block's edge that the GPU would pass.
+fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32, crack: f32) -> vec3<f32> {
     let inf = bitcast<f32>(0x7f800000u);
     let k = ray.k;
     let a = tri.v0.xyz - o;
@@ -131,7 +141,10 @@ fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32)
     let u = cx * by - cy * bx;
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
-    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+    let eu = crack * (abs(cx - bx) + abs(cy - by));
+    let ev = crack * (abs(ax - cx) + abs(ay - cy));
+    let ew = crack * (abs(bx - ax) + abs(by - ay));
+    if ((u < -eu || v < -ev || w < -ew) && (u > eu || v > ev || w > ew)) {
         return vec3<f32>(inf, 0.0, 0.0);
     }
     let det = u + v + w;
@@ -144,6 +157,19 @@ fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32)
         return vec3<f32>(inf, 0.0, 0.0);
     }
     return vec3<f32>(t, v * inv_det, w * inv_det);
+}
+
+// The widest crack intersect_tri closes for rays from `o`: CRACK_ULPS float spacings of the
+// largest coordinate the test computes with (the scene's, from bvh_frame, plus the origin's),
+// which covers separately placed meshes meeting a few ulps apart and the rounding of the sheared
+// vertices. Far below the f64 tie oracle's 64 ulps (vplgi_verify::segment), so a ray the GPU
+// now hits within the crack of an edge is a tie there, never a disagreement. The node boxes keep
+// at least this much room around their triangles (vplgi_gpu::bvh::quantize).
+fn crack_width(o: vec3<f32>) -> f32 {
+    let lo = abs(bvh_frame[0].xyz);
+    let hi = abs(bvh_frame[0].xyz + 65535.0 * bvh_frame[1].xyz);
+    let a = abs(o);
+    return CRACK_ULPS * 1.1920929e-7 * (max(max(lo.x, lo.y), max(lo.z, max(hi.x, max(hi.y, hi.z)))) + max(a.x, max(a.y, a.z)));
 }
 
 // 1 + 2 gamma(3) (Ize, "Robust BVH Ray Traversal", JCGT 2013): the slab distances below are each
@@ -179,6 +205,7 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
     var hit = Hit(tmax_in, NO_HIT, 0.0, 0.0, 0u);
     let inv_d = safe_inverse(d);
     let shear = ray_shear(d);
+    let crack = crack_width(o);
     let origin = bvh_frame[0].xyz;
     let step = bvh_frame[1].xyz;
     var i = 0u;
@@ -209,7 +236,7 @@ fn bvh_trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any_hit: bool)
                 break;
             }
             let tri = bvh_tri(k);
-            let r = intersect_tri(tri, o, shear, tmin, hit.t);
+            let r = intersect_tri(tri, o, shear, tmin, hit.t, crack);
             if (r.x < hit.t) {
                 hit = Hit(r.x, bitcast<u32>(tri.v0.w), r.y, r.z, k);
                 if (any_hit) {

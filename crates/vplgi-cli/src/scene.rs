@@ -20,7 +20,10 @@ enum SceneCommand {
     /// Generate a scene (deterministic) and write it as binary glTF: cornell-fine (the Cornell
     /// box tessellated, ~1.9 M triangles), conference (tables and chairs on thin legs, ~300 k),
     /// living-room (large smooth walls, sofas, a window-like light, ~300 k), sunlit-living-room
-    /// (the same room with an open window and the sun, a directional light, shining in).
+    /// (the same room with an open window and the sun, a directional light, shining in), seams
+    /// and seams-rotated (a Cornell box whose walls and block faces are separately transformed
+    /// meshes meeting at cracks a few ulps wide, as exported scenes do, seen by a centred camera
+    /// whose pixel rays run along them: GPU traversal against Embree on real-world geometry).
     Generate(GenerateArgs),
     /// Write a scene for another renderer, to cross-check vplgi's references against it:
     /// `--format mitsuba` writes DIR/scene.xml (Mitsuba 3, `path` integrator) with one PLY mesh per
@@ -57,10 +60,11 @@ struct ExportArgs {
 #[derive(Args)]
 struct GenerateArgs {
     /// Which scene.
-    #[arg(value_parser = ["cornell-fine", "conference", "living-room", "sunlit-living-room"])]
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(GENERATORS.map(|g| g.0)))]
     name: String,
     /// About how many triangles [default: the paper's size: 1,900,000 for cornell-fine, 300,000
-    /// for the rooms]. Large surfaces are split to meet it; furniture detail is fixed.
+    /// for the rooms, 36 for the seams rooms]. Large surfaces are split to meet it; furniture
+    /// detail is fixed.
     #[arg(long)]
     triangles: Option<usize>,
     /// Output file [default: out/scenes/NAME.glb].

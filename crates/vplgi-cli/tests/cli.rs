@@ -467,7 +467,7 @@ fn sweep_rejects_bad_input_before_any_work() {
 #[test]
 fn generated_scenes_render() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["conference", "living-room", "cornell-fine", "sunlit-living-room"] {
+    for name in ["conference", "living-room", "cornell-fine", "sunlit-living-room", "seams-rotated"] {
         let glb = dir.path().join(format!("{name}.glb"));
         let o = vplgi(&["scene", "generate", name, "--triangles", "20000", "--out", glb.to_str().unwrap()]);
         assert!(o.status.success(), "generate {name}: {}", String::from_utf8_lossy(&o.stderr));

@@ -166,20 +166,30 @@ fn thread(nodes: &[Bvh2Node]) -> Result<Vec<Threaded>, GpuError> {
         .collect()
 }
 
+/// The widest crack between triangles that the WGSL triangle test closes, in float spacings of
+/// the largest coordinate it computes with (`crack_width` in bvh.wgsl): separately transformed
+/// meshes meet at vertices a few ulps apart.
+pub const CRACK_ULPS: f32 = 8.0;
+
 /// The nodes' boxes quantized to 16 bits per axis in a frame spanning the root's box, rounded
 /// outwards so that every quantized box holds its node's box however the GPU evaluates
-/// `origin + q * step` (multiply then add, or fused), and the links encoded.
+/// `origin + q * step` (multiply then add, or fused), and the links encoded. Every box keeps at
+/// least one step of room around its node's exact box, the root's included (the frame starts a
+/// step before it), and a step is at least twice the crack the triangle test closes: a ray
+/// through a crack at the scene's outer walls still enters the boxes of both sides.
 fn quantize(nodes: &[Threaded]) -> Result<(Vec<BvhNode>, BvhFrame), GpuError> {
     let root = &nodes[0];
     let mut frame = BvhFrame::zeroed();
     for a in 0..3 {
         let (lo, hi) = (root.min[a], root.max[a]);
-        // A step of at least 4 float spacings at the box, so that the 65,535 steps reach past
-        // its far side even where the box is tiny against its coordinates.
+        // The crack's float spacings at the box's far coordinate, twice over: a step reaches
+        // past the crack however close to the next power of two that coordinate is. 65,532
+        // steps span the box, one more lies on each side, and one spare absorbs the rounding.
         let far = lo.abs().max(hi.abs());
         let spacing = f32::from_bits(far.to_bits() + 1) - far;
-        frame.origin[a] = lo;
-        frame.step[a] = if hi > lo { ((hi - lo) / 65533.0).max(4.0 * spacing) } else { 0.0 };
+        let step = if hi > lo { ((hi - lo) / 65532.0).max(2.0 * CRACK_ULPS * spacing) } else { 0.0 };
+        frame.origin[a] = lo - step;
+        frame.step[a] = step;
     }
     let quantized = |node: &Threaded| -> Result<[u32; 6], GpuError> {
         let mut q = [0u32; 6];
@@ -334,9 +344,10 @@ mod tests {
         assert!(visited < 2000 * n / 10, "{} nodes visited per ray of {n}: the boxes prune nothing", visited / 2000);
     }
 
-    /// Every quantized box holds its node's exact box, both ways the GPU may evaluate a corner,
-    /// on the clutter scene and on a tiny scene far from the origin (where the float spacing
-    /// is large against the box).
+    /// Every quantized box holds its node's exact box with the triangle test's crack to spare
+    /// on every side (the root's too), both ways the GPU may evaluate a corner, on the clutter
+    /// scene and on a tiny scene far from the origin (where the float spacing is large against
+    /// the box).
     #[test]
     fn quantized_boxes_hold_the_exact_boxes() {
         let mut rng = vplgi_types::Rng::new(4, vplgi_types::Stream::Oracle, 0);
@@ -357,11 +368,14 @@ mod tests {
             let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, BUILD, &mut build_time);
             let threaded = thread(&bvh.nodes).unwrap();
             let (packed, frame) = quantize(&threaded).unwrap();
+            // The crack bvh.wgsl's triangle test closes at this scene's coordinates.
+            let far = (0..3).map(|a| threaded[0].min[a].abs().max(threaded[0].max[a].abs())).fold(0.0f32, f32::max);
+            let crack = CRACK_ULPS * f32::EPSILON * far;
             for (exact, node) in threaded.iter().zip(&packed) {
                 let (min, max) = frame.dequantize(node);
                 for a in 0..3 {
                     assert!(
-                        min[a] <= exact.min[a] && max[a] >= exact.max[a],
+                        min[a] <= exact.min[a] - crack && max[a] >= exact.max[a] + crack,
                         "offset {offset}: axis {a}: {min:?}..{max:?} against {:?}..{:?}",
                         exact.min,
                         exact.max

@@ -226,6 +226,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("ERROR_ONE", vplgi_types::seeding::ERROR_ONE),
         ("MAX_SURVIVAL", vplgi_types::params::MAX_SURVIVAL),
         ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
+        ("CRACK_ULPS", crate::bvh::CRACK_ULPS),
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
         ("FACING_COS", vplgi_types::params::FACING_COS),
         ("MIN_INTERPOLATION_ERROR", vplgi_types::interpolation::MIN_ERROR),

@@ -10,7 +10,10 @@
 //!   bright window-like panel in one wall (about 300 k triangles, like the paper's 313 k room);
 //! * `sunlit-living-room`: the same room with an open window in that wall and the sun (a
 //!   directional light) shining through it onto the floor: the sun-lit room of Prutkin et al.'s
-//!   comparisons, whose indirect light all comes from one bright patch.
+//!   comparisons, whose indirect light all comes from one bright patch;
+//! * `seams` and `seams-rotated`: a Cornell box built as an exporter writes one, every wall and
+//!   block face a separately transformed mesh, so that surfaces meet at hairline cracks a few
+//!   ulps wide, seen by a centred camera whose pixel rays run along them ([`crate::seams`]).
 //!
 //! [`camera_walk`] adds a camera path to any of them (`--camera-walk`), for frame sequences.
 //!
@@ -21,11 +24,13 @@ use crate::{Camera, CameraPath, Material, PunctualLight, Scene, Track};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// The generators, by name: (name, default triangle budget, what it is).
-pub const GENERATORS: [(&str, usize, &str); 4] = [
+pub const GENERATORS: [(&str, usize, &str); 6] = [
     ("cornell-fine", 1_900_000, "the Cornell box tessellated to the paper's 1.9 M triangles"),
     ("conference", 300_000, "a meeting room with rows of tables and chairs on thin legs, ceiling panels"),
     ("living-room", 300_000, "large smooth walls, two sofas and a table, lit through a window-like panel"),
     ("sunlit-living-room", 300_000, "the living room with an open window and the sun shining through it"),
+    ("seams", 36, "a Cornell box of separately transformed meshes meeting at hairline cracks, centred camera"),
+    ("seams-rotated", 36, "the same room turned about a tilted axis and moved off the origin"),
 ];
 
 /// The scene `name` with about `triangles` triangles (at least the furniture's own count).
@@ -35,6 +40,8 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
         "conference" => conference(triangles),
         "living-room" => living_room(triangles),
         "sunlit-living-room" => sunlit_living_room(triangles),
+        "seams" => crate::seams::seam_room(crate::seams::Placement::AXIS_ALIGNED, triangles).scene,
+        "seams-rotated" => Scene { name: "seams-rotated".into(), ..crate::seams::seam_room(crate::seams::Placement::rotated(), triangles).scene },
         _ => return Err(format!("unknown scene {name:?}; the generators are {}", GENERATORS.map(|g| g.0).join(", "))),
     };
     scene.validate()?;

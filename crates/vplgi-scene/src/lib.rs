@@ -14,6 +14,7 @@ pub mod gltf_load;
 pub mod gltf_write;
 pub mod lights;
 pub mod mitsuba;
+pub mod seams;
 
 pub use vplgi_types::camera::{Camera, CameraPath, Track};
 
