@@ -363,6 +363,35 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
     area_light_matches_quadrature(gpu, light, Some(placed), rho, &receivers, form_factor);
 }
 
+/// The polygon of [`polygon_lights_give_the_form_factor_on_both_backends`] facing no coordinate
+/// axis (the tilted disk's normal), on both backends against the same midpoint rule over its
+/// placed corners in f64: the outline's frame and every corner mix all three axes. Receivers on
+/// its axis facing it, on it and 1e-6 off it with their horizon through the polygon, and off the
+/// axis. The rule shares only the placed corners with the backends, nothing of their contour
+/// sums (whose only check at a tilted plane was twin agreement in verify).
+#[test]
+fn polygon_lights_are_right_on_a_tilted_axis_on_both_backends() {
+    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends") else { return };
+    let rho = 0.5f32;
+    let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
+    let outline = vplgi_types::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
+    assert_eq!(outline.count, 5);
+    let area = outline.area();
+    let placed = vplgi_types::LightOutline::placed(&outline, centre, normal);
+    let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    // (height over the plane, offset along b as a share of the height, tilt of the receiver's
+    // normal toward t): a tilt k puts its horizon at k s + h = 0, s along t, inside ±0.6.
+    let (t, b) = vplgi_types::polygon::frame(normal);
+    let receivers: Vec<([f32; 3], [f32; 3])> =
+        [(0.5f32, 0.0f32, 0.0f32), (0.5, 0.0, 1.0), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5), (0.4, 0.75, 0.3)]
+            .iter()
+            .map(|&(h, off, tilt)| ((centre + normal * h + b * (off * h)).to_array(), (-normal + t * tilt).normalize().to_array()))
+            .collect();
+    let corners: Vec<glam::DVec3> = outline.placed(centre, normal).map(|v| v.as_dvec3()).collect();
+    let form_factor = |p: glam::DVec3, n: glam::DVec3| polygon_form_factor_by_quadrature(p, n, &corners, normal.as_dvec3());
+    area_light_matches_quadrature(gpu, light, Some(placed), rho, &receivers, form_factor);
+}
+
 /// Receivers (position, normal; albedo `rho`) that all see `light` unoccluded and unclamped: their
 /// radiance on both backends.
 fn receivers_of_one_visible_light(

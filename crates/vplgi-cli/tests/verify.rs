@@ -109,6 +109,43 @@ fn a_broken_shader_fails_naming_the_stage() {
     assert_eq!(report["passed"], false);
 }
 
+/// The shading-points kernel with 1 % more emitted radiance (its own hit's at 1 spp, the pixel's
+/// 16-ray mean at 3), given with --shaders: verify fails at 1 and at 3 samples per pixel, on the
+/// row that judges each sample's emission against what the scene's emitters can give. (At 3 spp
+/// the share of samples whose emission agrees with the CPU's passes this kernel: its bound lets
+/// 1.6 % differ, and the light is about 1 % of the Cornell box's samples.)
+#[test]
+fn one_percent_more_emission_fails_at_one_and_three_spp() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let shaders = dir.path().join("shaders");
+    std::fs::create_dir(&shaders).expect("mkdir");
+    let mut broken = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl")).expect("shading_points.wgsl");
+    for (from, to) in [
+        ("sp.emitted = surf.emitted;", "sp.emitted = 1.01 * surf.emitted;"),
+        ("return sum / f32(EMISSION_STRATA * EMISSION_STRATA);", "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);"),
+    ] {
+        assert!(broken.contains(from), "shading_points.wgsl changed: update this test's edit of {from}");
+        broken = broken.replace(from, to);
+    }
+    std::fs::write(shaders.join("shading_points.wgsl"), broken).expect("write");
+    for spp in ["1", "3"] {
+        let out = dir.path().join(format!("out-{spp}"));
+        let mut args = SMALL.to_vec();
+        args.extend(["--spp", spp, "--stages", "shading_points", "--shaders", shaders.to_str().expect("utf-8")]);
+        let Some(o) = verify(&out, &args) else { return };
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        println!("{spp} spp:\n{}\n{stderr}", String::from_utf8_lossy(&o.stdout));
+        assert!(!o.status.success(), "1 % more emission passed verify at {spp} spp");
+        let row = stderr
+            .lines()
+            .find(|l| l.contains("samples whose emitted radiance is no"))
+            .unwrap_or_else(|| panic!("no failing emission row at {spp} spp:\n{stderr}"));
+        assert!(row.contains(&format!("[shading_points (40x32, {spp} spp)]")) && row.contains("FAILS") && row.contains("worst: sample "), "{row}");
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json")).expect("JSON");
+        assert_eq!(report["passed"], false);
+    }
+}
+
 /// A shader that does not compile is refused before any GPU work, naming the file; an unknown
 /// stage is refused with the list of stages.
 #[test]

@@ -310,23 +310,44 @@ mod tests {
         assert_eq!(Outline::new(&support(line, Vec3::ZERO, normal)).area(), 0.0);
     }
 
-    #[test]
-    fn on_the_axis_of_a_square_the_term_matches_the_closed_form() {
-        // A point at height h on the axis of a parallel square of side 2a: four times the
-        // classic form factor to a rectangle from a point over its corner, in f64.
+    /// The form factor from a point over the corner of an x × y rectangle, parallel to it at
+    /// distance h: F = (1/2π) (X/√(1+X²) atan(Y/√(1+X²)) + Y/√(1+Y²) atan(X/√(1+Y²))), X = x/h,
+    /// Y = y/h, in f64.
+    fn corner_form_factor(x: f64, y: f64, h: f64) -> f64 {
+        let (x, y) = (x / h, y / h);
+        (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan() + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
+            / (2.0 * std::f64::consts::PI)
+    }
+
+    /// A point at height h on the axis of a parallel square of side 2a, centred at `centre` and
+    /// facing `normal`: four times [`corner_form_factor`], times π / A.
+    fn check_on_the_axis_of_a_square(centre: Vec3, normal: Vec3) {
         for (a, h) in [(0.5f32, 0.1f32), (0.5, 1.0), (1.0, 7.0), (2.0, 0.01)] {
-            let normal = Vec3::Z;
             let o = Outline::new(&[a, 9.0, a, 9.0, a, 9.0, a, 9.0]);
             assert_eq!(o.count, 4);
             let area = o.area();
-            let g = geometry_term(Vec3::new(0.0, 0.0, h), -Vec3::Z, normal, &placed(&o, Vec3::ZERO, normal), area);
-            // A point over the corner of an x × y rectangle (parallel, distance h): F =
-            // (1/2π) (X/√(1+X²) atan(Y/√(1+X²)) + Y/√(1+Y²) atan(X/√(1+Y²))), X = x/h, Y = y/h.
-            let (x, y) = ((a / h) as f64, (a / h) as f64);
-            let corner = (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan() + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
-                / (2.0 * std::f64::consts::PI);
-            let want = 4.0 * corner * std::f64::consts::PI / area as f64;
-            assert!((g as f64 / want - 1.0).abs() < 1e-4, "a {a} h {h}: {g} vs {want}");
+            let g = geometry_term(centre + normal * h, -normal, normal, &placed(&o, centre, normal), area);
+            let want = 4.0 * corner_form_factor(a as f64, a as f64, h as f64) * std::f64::consts::PI / area as f64;
+            assert!((g as f64 / want - 1.0).abs() < 1e-4, "normal {normal}, centre {centre}, a {a} h {h}: {g} vs {want}");
+        }
+    }
+
+    #[test]
+    fn on_the_axis_of_a_square_the_term_matches_the_closed_form() {
+        check_on_the_axis_of_a_square(Vec3::ZERO, Vec3::Z);
+    }
+
+    /// The same closed form for squares whose plane is no coordinate plane, away from the origin
+    /// (tilted about one axis, about two, and one normal near x that takes `perpendicular`'s
+    /// other branch): the outline's frame (`frame`) and its placed vertices then mix all three
+    /// axes, so a frame that is not orthonormal, or turns clockwise about the normal (the contour
+    /// sum changes sign and the term clamps to 0), or a vertex placed off the plane fails here,
+    /// and not only where the plane is a coordinate plane.
+    #[test]
+    fn on_the_axis_of_a_tilted_square_the_term_matches_the_closed_form() {
+        let centre = Vec3::new(0.25, -0.5, 0.125);
+        for normal in [Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.3, -0.8, 0.2).normalize(), Vec3::new(-0.48, 0.6, 0.64), Vec3::new(0.95, 0.3, -0.1).normalize()] {
+            check_on_the_axis_of_a_square(centre, normal);
         }
     }
 

@@ -268,15 +268,21 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, I
 /// Each backend traces the direct light's shadow rays itself (Embree, the WGSL BVH), so "the
 /// same inputs" cannot cover them: a pixel whose direct light rests on a ray that rounding alone
 /// decides (a [`Verdict::Tie`], as the visibility rows set aside) may rightly differ by the whole
-/// light. The SPEC's bound is judged on the other pixels; every pixel's relMSE and the pixels set
-/// aside are reported beside it.
+/// light. The SPEC's bound is judged on the other pixels; every pixel's relMSE, the pixels set
+/// aside and the failing pixels left unexamined (beyond [`MAX_TIE_PIXELS`], judged with the
+/// image) are reported beside it.
 pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
     let clusters = CpuClusters::new(twins.cpu, frame, cfg);
     let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let oracle = TieOracle::new(twins.scene);
-    let ties = direct_ties(twins.cpu, &oracle, &frame.sps, &cfg.shade_params(twins.cpu.extent), &cpu, &gpu);
+    let DirectTies { pixels: ties, unexamined } = direct_ties(twins.cpu, &oracle, &frame.sps, &cfg.shade_params(twins.cpu.extent), &cpu, &gpu, MAX_TIE_PIXELS);
     let kept = |i: usize| ties.binary_search(&i).is_err();
-    let (max_rel, worst) = worst_pixel(&cpu, &gpu, cfg.width, kept);
+    let (max_rel, mut worst) = worst_pixel(&cpu, &gpu, cfg.width, kept);
+    if unexamined > 0 {
+        // Said where a failure is read: some of what fails may be ties nobody looked at.
+        let note = format!("{unexamined} failing pixels beyond the {MAX_TIE_PIXELS} worst were not examined for ties and are judged");
+        worst = Some(worst.map_or(note.clone(), |w| format!("{w}; {note}")));
+    }
     let (cpu_kept, gpu_kept): (Pixels, Pixels) = cpu.iter().zip(&gpu).enumerate().filter(|(i, _)| kept(*i)).map(|(_, (a, b))| (*a, *b)).unzip();
     let case = Mode::of(cfg).name_in(cfg);
     let mut checks = vec![
@@ -295,6 +301,12 @@ pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<
             ties.len() as f64,
         )
         .with_case(&case),
+        Disagreement::info(
+            "shade / final image",
+            format!("failing pixels not examined for ties (only the {MAX_TIE_PIXELS} worst are; the rest stay judged)"),
+            unexamined as f64,
+        )
+        .with_case(&case),
         Disagreement::info("shade / final image", "largest relative pixel difference, apart from those", max_rel as f64).with_case(&case),
     ];
     checks.extend(compare_lights(twins, cfg, frame, &clusters)?);
@@ -303,24 +315,37 @@ pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<
 }
 
 /// At most this many pixels are judged for direct-light ties (each judges its shadow rays against
-/// every triangle in f64).
+/// every triangle in f64, a cost of pixels × rays × triangles per mode, and a broken kernel can
+/// make every pixel fail). Failing pixels beyond them are counted, reported, and stay judged: the
+/// cap can make the judged relMSE higher, never lower.
 pub const MAX_TIE_PIXELS: usize = 2_000;
 
-/// The pixels (sorted) whose direct light rests on a rounding tie: some shadow ray of one of
-/// their samples, exactly as `vplgi_cpu::shade::direct` traces it, that the f64 oracle cannot
-/// decide. Only pixels whose own relMSE breaks the bound are judged, worst first: a pixel within
-/// it is never set aside, so the judged image can only lose pixels that fail on their own.
-fn direct_ties(cs: &CpuScene, oracle: &TieOracle, sps: &[ShadingPoint], params: &ShadeParams, cpu: &[[f32; 3]], gpu: &[[f32; 3]]) -> Vec<usize> {
+/// What [`direct_ties`] found.
+#[derive(Debug, PartialEq)]
+struct DirectTies {
+    /// The pixels (sorted) set aside.
+    pixels: Vec<usize>,
+    /// Failing pixels not examined (beyond the `max` worst): never set aside, so judged.
+    unexamined: usize,
+}
+
+/// The pixels whose direct light rests on a rounding tie: some shadow ray of one of their
+/// samples, exactly as `vplgi_cpu::shade::direct` traces it, that the f64 oracle cannot decide.
+/// Only pixels whose own relMSE breaks the bound are judged, the `max` worst of them: a pixel
+/// within it is never set aside, so the judged image can only lose pixels that fail on their own,
+/// and failing pixels beyond the `max` are counted, not set aside.
+fn direct_ties(cs: &CpuScene, oracle: &TieOracle, sps: &[ShadingPoint], params: &ShadeParams, cpu: &[[f32; 3]], gpu: &[[f32; 3]], max: usize) -> DirectTies {
     if !params.direct {
-        return Vec::new();
+        return DirectTies { pixels: Vec::new(), unexamined: 0 };
     }
     let mut suspects: Vec<(f64, usize)> =
         (0..cpu.len()).map(|i| (rel_mse(&cpu[i..=i], &gpu[i..=i]), i)).filter(|&(e, _)| e > SHADE_REL_MSE || e.is_nan()).collect();
     suspects.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let unexamined = suspects.len().saturating_sub(max);
     let spp = params.spp as usize;
     let mut ties: Vec<usize> = suspects
         .iter()
-        .take(MAX_TIE_PIXELS)
+        .take(max)
         .map(|&(_, px)| px)
         .filter(|&px| {
             (px * spp..(px + 1) * spp).any(|s| {
@@ -338,7 +363,7 @@ fn direct_ties(cs: &CpuScene, oracle: &TieOracle, sps: &[ShadingPoint], params: 
         })
         .collect();
     ties.sort_unstable();
-    ties
+    DirectTies { pixels: ties, unexamined }
 }
 
 /// The final image of every mode in `modes`, each on its own CPU inputs.
@@ -395,9 +420,17 @@ mod tests {
         let cpu = vec![[1.0f32; 3]; 4];
         let mut gpu = vec![[2.0f32; 3]; 4];
         gpu[3] = cpu[3];
-        assert_eq!(direct_ties(&cs, &oracle, &sps, &params, &cpu, &gpu), vec![0]);
+        assert_eq!(direct_ties(&cs, &oracle, &sps, &params, &cpu, &gpu, MAX_TIE_PIXELS), DirectTies { pixels: vec![0], unexamined: 0 });
         // Without direct light no shadow ray is traced.
-        assert!(direct_ties(&cs, &oracle, &sps, &ShadeParams { direct: false, ..params }, &cpu, &gpu).is_empty());
+        assert_eq!(direct_ties(&cs, &oracle, &sps, &ShadeParams { direct: false, ..params }, &cpu, &gpu, MAX_TIE_PIXELS).pixels, Vec::<usize>::new());
+        // Examining only the worst failing pixel: the tie (made the worst) is still set aside, and
+        // the other two failing pixels are counted as unexamined, not set aside.
+        gpu[0] = [3.0; 3];
+        assert_eq!(direct_ties(&cs, &oracle, &sps, &params, &cpu, &gpu, 1), DirectTies { pixels: vec![0], unexamined: 2 });
+        // The tie no longer the worst (pixels 1 and 2 are; their rays are no ties): examining one
+        // pixel sets nothing aside and leaves two unexamined, the tie among them.
+        gpu[0] = [1.5; 3];
+        assert_eq!(direct_ties(&cs, &oracle, &sps, &params, &cpu, &gpu, 1), DirectTies { pixels: vec![], unexamined: 2 });
     }
 
     #[test]

@@ -1,9 +1,13 @@
 //! `shading_points`: the GPU's camera samples against the CPU's (SPEC: >= 99.9 % hit the same
 //! triangle; positions within 1e-4 of the scene extent).
 
-use crate::tolerance::{shading_points_same_emission_share, Disagreement, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE};
+use crate::tolerance::{
+    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SHADING_POINTS_EMISSION_SUMS,
+    SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE, SHADING_POINTS_UNREACHABLE_EMISSION,
+};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+use vplgi_scene::Scene;
 use vplgi_types::{CameraParams, FrameConfig, ShadingPoint};
 
 /// How two backends' shading points of the same samples differ.
@@ -82,6 +86,83 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
     d
 }
 
+/// The emitted radiance a sample can carry whichever triangles its rays meet
+/// ([`SHADING_POINTS_UNREACHABLE_EMISSION`]): `rays` times it is a sum of `rays` values, each the
+/// emission of one of the scene's materials or 0.
+pub struct EmissionSums {
+    rays: u32,
+    /// Every such sum, sorted by the sum of its channels.
+    sums: Vec<DVec3>,
+    /// How far, per channel, a sum added in f32 may be from the exact one.
+    rounding: f64,
+}
+
+impl EmissionSums {
+    /// The sums of `rays` of `scene`'s emission values; `Err` with the number of distinct
+    /// emissions where the sums would number more than [`SHADING_POINTS_EMISSION_SUMS`].
+    pub fn new(scene: &Scene, rays: u32) -> Result<EmissionSums, usize> {
+        let mut values: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).filter(|e| *e != Vec3::ZERO).collect();
+        values.sort_by_key(|e| e.to_array().map(f32::to_bits));
+        values.dedup();
+        // C(rays + M, M), the multisets of at most `rays` of M values, stopping past the cap.
+        let count = (1..=values.len() as u128).try_fold(1u128, |c, k| Some(c * (rays as u128 + k) / k).filter(|&c| c <= SHADING_POINTS_EMISSION_SUMS));
+        if count.is_none() {
+            return Err(values.len());
+        }
+        let values: Vec<DVec3> = values.iter().map(|e| e.as_dvec3()).collect();
+        let mut sums = Vec::new();
+        add_sums(&values, rays, DVec3::ZERO, &mut sums);
+        sums.sort_by(|a, b| a.element_sum().total_cmp(&b.element_sum()));
+        let largest = values.iter().map(|v| v.max_element()).fold(0.0, f64::max);
+        Ok(EmissionSums { rays, sums, rounding: shading_points_emission_rounding(rays, largest) })
+    }
+
+    /// Whether `emitted` is the mean of `rays` of the scene's emission values, up to rounding
+    /// (NaN and infinity never are).
+    pub fn reaches(&self, emitted: [f32; 3]) -> bool {
+        let t = Vec3::from(emitted).as_dvec3() * self.rays as f64;
+        let (key, slack) = (t.element_sum(), 3.0 * self.rounding);
+        let first = self.sums.partition_point(|s| s.element_sum() < key - slack);
+        self.sums[first..].iter().take_while(|s| s.element_sum() <= key + slack).any(|s| (*s - t).abs().max_element() <= self.rounding)
+    }
+}
+
+/// Every sum of `acc` and `left` more of `values`, each taken any number of times (0 included).
+fn add_sums(values: &[DVec3], left: u32, acc: DVec3, out: &mut Vec<DVec3>) {
+    match values.split_first() {
+        None => out.push(acc),
+        Some((v, rest)) => (0..=left).for_each(|k| add_sums(rest, left - k, acc + *v * k as f64, out)),
+    }
+}
+
+/// The row of [`SHADING_POINTS_UNREACHABLE_EMISSION`]: the GPU's samples whose emitted radiance
+/// the scene cannot give (the first described), or, where the scene has too many distinct
+/// emissions to enumerate, how many it has (reported, not judged).
+fn unreachable_emission(scene: &Scene, camera: &CameraParams, cpu: &[ShadingPoint], gpu: &[ShadingPoint]) -> Disagreement {
+    let rays = shading_points_emission_rays(camera.spp);
+    let sums = match EmissionSums::new(scene, rays) {
+        Ok(sums) => sums,
+        Err(values) => {
+            let what =
+                format!("distinct emissions: too many for the per-sample emission row (more than {SHADING_POINTS_EMISSION_SUMS} sums of {rays}), not judged");
+            return Disagreement::info("shading_points", what, values as f64);
+        }
+    };
+    let what = if rays == 1 {
+        "samples whose emitted radiance is none of the scene's emission values (or 0)".to_string()
+    } else {
+        format!("samples whose emitted radiance is no mean of {rays} of the scene's emission values (or 0)")
+    };
+    let mut off = gpu.iter().enumerate().filter(|(_, g)| !sums.reaches(g.emitted));
+    let first = off.next().map(|(i, g)| {
+        let px = i as u32 / camera.spp;
+        let cpu = cpu.get(i).map_or("none".to_string(), |c| v3(c.emitted));
+        format!("sample {i} (pixel {}, {}): GPU emitted {}, CPU {cpu}", px % camera.width, px / camera.width, v3(g.emitted))
+    });
+    let n = first.is_some() as usize + off.count();
+    Disagreement::at_most("shading_points", what, n as f64, SHADING_POINTS_UNREACHABLE_EMISSION as f64).with_worst(first)
+}
+
 /// The shading points of `camera` on both backends.
 pub fn both(twins: &Twins, camera: &CameraParams) -> Result<(Vec<ShadingPoint>, Vec<ShadingPoint>), VerifyError> {
     let cpu = vplgi_cpu::shading_points::shading_points(twins.cpu, camera.width, camera.height, camera.spp, camera.seed);
@@ -99,6 +180,7 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
     for (c, g) in cpu.iter().zip(&gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
         albedo = albedo.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
     }
+    let reachable = unreachable_emission(twins.scene, camera, &cpu, &gpu).with_case(&case);
     Ok(vec![
         Disagreement::at_least("shading_points", "share of samples on the same surface point", (d.same + d.ties) as f64 / n, SHADING_POINTS_SAME_SURFACE)
             .with_case(&case)
@@ -127,6 +209,9 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
         .with_case(&case)
         .with_worst(d.max_emitted_at.clone()),
         Disagreement::info("shading_points", "largest emitted-radiance difference among them", d.max_emitted as f64).with_case(&case),
+        // The share above lets 1.6 % of samples differ at spp > 1, more than the emitters' share
+        // of the image: this row judges every sample's emission, so 1 % more fails at any spp.
+        reachable,
     ])
 }
 
@@ -142,4 +227,67 @@ pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyErr
         count((cfg.width * cfg.height * cfg.spp) as usize)
     ));
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vplgi_scene::Material;
+    use vplgi_types::{Rng, Stream};
+
+    /// The Cornell box (one emission, E = (34, 24, 8)): j of 16 rays on the light is reached for
+    /// every j, 1 % more or less of it is not, nor half a ray's worth, nor NaN; at one ray (spp
+    /// 1), E and 0 only.
+    #[test]
+    fn one_emission_reaches_each_count_of_rays_and_nothing_one_percent_off() {
+        let scene = vplgi_scene::cornell::cornell_box();
+        let e = Vec3::new(34.0, 24.0, 8.0);
+        assert!(scene.materials.iter().any(|m| m.emission == e), "the Cornell box's light changed: update this test");
+        let sixteen = EmissionSums::new(&scene, 16).expect("one emission");
+        for j in 0..=16 {
+            let mean = (0..16).fold(Vec3::ZERO, |sum, k| sum + if k < j { e } else { Vec3::ZERO }) / 16.0;
+            assert!(sixteen.reaches(mean.to_array()), "{j} rays of 16 on the light: {mean}");
+            if j > 0 {
+                for wrong in [mean * 1.01, mean * 0.99] {
+                    assert!(!sixteen.reaches(wrong.to_array()), "{wrong}, 1 % off {j} rays of 16, is reached");
+                }
+            }
+        }
+        assert!(!sixteen.reaches((e / 32.0).to_array()) && !sixteen.reaches([f32::NAN; 3]) && !sixteen.reaches([f32::INFINITY; 3]));
+        let one = EmissionSums::new(&scene, 1).expect("one emission");
+        assert!(one.reaches(e.to_array()) && one.reaches([0.0; 3]));
+        assert!(!one.reaches((e * 1.01).to_array()) && !one.reaches((e / 16.0).to_array()));
+    }
+
+    /// Three emissions that f32 cannot add exactly: 16 random picks (0 among them), added in f32
+    /// in the order drawn as the kernels add them, are reached; 1 % more is not.
+    #[test]
+    fn sums_rounded_in_f32_are_reached() {
+        let mut scene = vplgi_scene::cornell::cornell_box();
+        for emission in [Vec3::new(0.1, 0.7, 1.3), Vec3::new(3.3, 0.3, 0.05)] {
+            scene.materials.push(Material { name: "extra".into(), emission, ..Material::default() });
+        }
+        let values: Vec<Vec3> = [Vec3::ZERO].into_iter().chain(scene.materials.iter().map(|m| m.emission).filter(|e| *e != Vec3::ZERO)).collect();
+        assert_eq!(values.len(), 4);
+        let sums = EmissionSums::new(&scene, 16).expect("three emissions: 969 sums");
+        let mut rng = Rng::new(5, Stream::Oracle, 0);
+        for case in 0..1000 {
+            let mean = (0..16).fold(Vec3::ZERO, |sum, _| sum + values[(rng.next_u32() % 4) as usize]) / 16.0;
+            assert!(sums.reaches(mean.to_array()), "case {case}: {mean}");
+            if mean != Vec3::ZERO {
+                assert!(!sums.reaches((mean * 1.01).to_array()), "case {case}: 1 % more than {mean} is reached");
+            }
+        }
+    }
+
+    /// Too many distinct emissions: not enumerated.
+    #[test]
+    fn too_many_emissions_are_not_enumerated() {
+        let mut scene = vplgi_scene::cornell::cornell_box();
+        for i in 0..12 {
+            scene.materials.push(Material { name: format!("e{i}"), emission: Vec3::splat(1.0 + i as f32), ..Material::default() });
+        }
+        assert_eq!(EmissionSums::new(&scene, 16).err(), Some(13));
+        assert!(EmissionSums::new(&scene, 1).is_ok());
+    }
 }

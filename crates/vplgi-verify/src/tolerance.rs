@@ -115,11 +115,49 @@ pub fn gather_radius_bound(inv_radius: f64, extent: f64) -> f64 {
 /// the extra primary rays that find a jittered sample's emission (`EMISSION_STRATA`² at spp > 1,
 /// none at spp = 1, where the emission is the hit triangle's own and must agree exactly): each of
 /// them may see another surface as often as a camera ray may. Derived, not measured. At spp > 1
-/// the bound is loose: 1.6 % of samples may differ, so a 1 % error in every jittered sample's
-/// emission passed on the Cornell box (emitters are about 1 % of its samples); at spp = 1,
-/// verify's default, the same error fails (share 0.993 against 1).
+/// this share is loose: 1.6 % of samples may differ, so a 1 % error in every jittered sample's
+/// emission passes it on the Cornell box (emitters are about 1 % of its samples); at spp = 1,
+/// verify's default, the same error fails it (share 0.993 against 1). What catches that error at
+/// any spp is [`SHADING_POINTS_UNREACHABLE_EMISSION`], judged per sample.
 pub fn shading_points_same_emission_share(spp: u32) -> f64 {
-    same_share_after(if spp > 1 { vplgi_types::params::EMISSION_STRATA * vplgi_types::params::EMISSION_STRATA } else { 0 })
+    same_share_after(if spp > 1 { shading_points_emission_rays(spp) } else { 0 })
+}
+
+/// The rays whose emission a sample's emitted radiance is the mean of: its own at spp = 1,
+/// `EMISSION_STRATA`² extra primary rays at spp > 1.
+pub fn shading_points_emission_rays(spp: u32) -> u32 {
+    if spp > 1 {
+        vplgi_types::params::EMISSION_STRATA * vplgi_types::params::EMISSION_STRATA
+    } else {
+        1
+    }
+}
+
+/// `shading_points`: samples whose emitted radiance is not a value the scene can give, at most
+/// this many. Whichever triangles each backend's rays meet (edge ties included), a sample's
+/// emission is the mean of `rays` ([`shading_points_emission_rays`]) values, each the emission of
+/// one of the scene's materials or 0 (a back side, a surface that does not emit, a miss): `rays`
+/// times it is a sum of `rays` of them, up to [`shading_points_emission_rounding`]. So no sample
+/// of a correct kernel misses, at any spp, and a kernel that scales, offsets or mis-divides its
+/// emission misses on every sample that carries any: 1 % more emission puts `rays` × it 0.01 j E
+/// from the nearest sum j E, far beyond the rounding (on the Cornell box, E = (34, 24, 8): at
+/// least 0.08 against 1.0e-3). Judged on the GPU's samples alone; the share above compares them
+/// with the CPU's. Not judged (reported) where the scene has so many distinct emissions that
+/// the sums would number more than [`SHADING_POINTS_EMISSION_SUMS`].
+pub const SHADING_POINTS_UNREACHABLE_EMISSION: u64 = 0;
+
+/// The most sums the per-sample emission row enumerates (sums of 16 values, each one of M
+/// distinct emissions or 0, number C(16 + M, M): 17 for one, 74,613 for six).
+pub const SHADING_POINTS_EMISSION_SUMS: u128 = 100_000;
+
+/// How far a sum of `rays` emission values, each at most `largest` in every channel, added in
+/// f32 one after another as both backends do, may round from the exact sum: each of the `rays`
+/// additions rounds by at most half an ulp of a partial sum of at most `rays` × `largest`, so
+/// `rays`² ε `largest` / 2 in all; twice that, which also covers dividing by `rays` (exact for
+/// 16, half an ulp of the mean otherwise).
+pub fn shading_points_emission_rounding(rays: u32, largest: f64) -> f64 {
+    let rays = rays as f64;
+    rays * rays * f32::EPSILON as f64 * largest
 }
 
 /// 1 − rays × (1 − [`SHADING_POINTS_SAME_SURFACE`]): the share of items that must agree when each
