@@ -38,8 +38,10 @@ var<private> ward_alpha: f32;
 // walk beyond the 27 cells stops after WALK_BUDGET cells and centroids and the search scans every
 // centroid instead, four per loop iteration: the scan is exact too, so the answer is the CPU's.
 // The budget is a quarter of the largest that kept tests/tests/cluster.rs' long searches exact
-// with K = 6,000 (8,192 did not: a unit of it costs several of lavapipe's iterations); with it,
-// they stayed exact up to K = 60,000.
+// with K = 6,000 (8,192 did not: a unit of it costs several of lavapipe's iterations). The 27
+// cells have a budget of their own, CROWDED_CENTROIDS cells and centroids, which only data with
+// thousands of centroids in one neighbourhood reaches; so a search costs at most both budgets
+// and a scan, and K is bounded by MAX_ASSIGN_CENTROIDS (vplgi_types::clustering says why).
 const WALK_BUDGET: i32 = 2048;
 var<private> walk_left: i32;
 // The nearest centroid by position, kept by scan_all for points with no compatible one.
@@ -97,6 +99,11 @@ fn consider_run(c: vec3<i32>, len: i32, p: vec3<f32>, n: vec3<f32>) {
     let l = cell_linear(c);
     let first = cell_offsets[l];
     let end = cell_offsets[l + u32(len)];
+    if (i32(end - first) >= walk_left) {
+        // More than the search may still consider: it scans every centroid instead (search).
+        walk_left = 0;
+        return;
+    }
     walk_left = walk_left - i32(end - first);
     for (var i = first; i < end; i = i + 1u) {
         consider(cell_items[i], p, n);
@@ -151,12 +158,16 @@ fn search(p: vec3<f32>, n: vec3<f32>) -> u32 {
     let c = cell_coords(p);
     let far = max(c, params.dims.xyz - vec3<i32>(1) - c);
     let last = max(max(max(far.x, far.y), far.z), 1);
-    // The 27 cells are always visited whole: Eq. 7's answer is what they hold.
-    walk_left = 0x7fffffff;
+    // The 27 cells are visited whole (Eq. 7's answer is what they hold) unless they are crowded
+    // (Grid::search): then every centroid is scanned, a quarter of the loop iterations each.
+    walk_left = i32(CROWDED_CENTROIDS);
     var r = 1;
     loop {
         visit_ring(c, r, p, n);
         if (r == 1) {
+            if (walk_left <= 0) {
+                break;
+            }
             // Eq. 7 keeps the paper's approximation (whatever the 27 cells hold); Eq. 2 is
             // exact.
             if (METRIC == METRIC_WARD) {

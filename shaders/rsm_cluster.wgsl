@@ -29,8 +29,8 @@ struct Params {
     inv_extent: f32,
     importance: u32,  // 1: seeds warped by the importance map
     rows: u32,        // rows over all maps
-    pad0: u32,
-    pad1: u32,
+    first: u32,       // update, representatives: the members [first, first + chunk) of each run
+    chunk: u32,
 }
 
 // One map's share of the VPLs, clusters and grid cells.
@@ -75,6 +75,9 @@ struct ClusterState {
 @group(0) @binding(18) var<storage, read_write> rows: array<u32>;          // row sums, then totals
 @group(0) @binding(19) var<storage, read> live: array<u32>;                // 1: a previous cluster's slot
 @group(0) @binding(20) var<storage, read_write> map_cap: array<u32>;       // largest texel weight
+// update: each cluster's running sums between its member ranges (Σ w x, Σ w; Σ w n, Σ texel.x;
+// Σ flux, Σ texel.y); representatives: its nearest distance so far in [0].x.
+@group(0) @binding(21) var<storage, read_write> running: array<vec4<f32>>;
 
 const NEIGHBOURHOOD: i32 = 2;
 
@@ -482,7 +485,10 @@ fn cluster_ranges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
 }
 
-// MapClusters::update for one cluster, over its members in sorted order.
+// MapClusters::update for one cluster, over its members in sorted order, `params.chunk` of them
+// per dispatch: lavapipe ends an invocation's loops after 65,535 iterations, and one cluster may
+// hold all the VPLs. The sums run on across dispatches in `running`, so they stay the CPU's
+// sequential float sums.
 @compute @workgroup_size(64)
 fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let j = thread_index(gid, groups);
@@ -490,9 +496,11 @@ fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let r = ranges[j];
-    if (r.y <= r.x) {
+    let begin = r.x + params.first;
+    if (r.y <= begin) {
         return;
     }
+    let to = min(r.y, begin + params.chunk);
     var s = states[j];
     let m = maps[s.map];
     var weight = 0.0;
@@ -500,7 +508,17 @@ fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var normal = vec3<f32>(0.0);
     var flux = vec3<f32>(0.0);
     var texel = vec2<f32>(0.0);
-    for (var t = r.x; t < r.y; t = t + 1u) {
+    if (params.first > 0u) {
+        let a = running[3u * j];
+        let b = running[3u * j + 1u];
+        let c = running[3u * j + 2u];
+        centre = a.xyz;
+        weight = a.w;
+        normal = b.xyz;
+        flux = c.xyz;
+        texel = vec2<f32>(b.w, c.w);
+    }
+    for (var t = begin; t < to; t = t + 1u) {
         let v = vpls[order[t]];
         let w = v.flux.x + v.flux.y + v.flux.z;
         weight = weight + w;
@@ -508,6 +526,12 @@ fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         normal = normal + v.normal * w;
         flux = flux + v.flux;
         texel = texel + texel_of(v, m);
+    }
+    if (to < r.y) {
+        running[3u * j] = vec4<f32>(centre, weight);
+        running[3u * j + 1u] = vec4<f32>(normal, texel.x);
+        running[3u * j + 2u] = vec4<f32>(flux, texel.y);
+        return;
     }
     if (weight > 0.0) {
         s.centre = centre / weight;
@@ -525,6 +549,8 @@ fn update(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     states[j] = s;
 }
 
+// Each cluster's member nearest its centre, `params.chunk` members per dispatch like update, the
+// nearest so far carried in `reps` and `running`.
 @compute @workgroup_size(64)
 fn representatives(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let j = thread_index(gid, groups);
@@ -532,12 +558,21 @@ fn representatives(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
         return;
     }
     let r = ranges[j];
+    let begin = r.x + params.first;
+    if (params.first > 0u && r.y <= begin) {
+        return;
+    }
+    let to = min(r.y, begin + params.chunk);
     let c = states[j].centre;
     let inf = bitcast<f32>(0x7f800000u);
     var best_d = inf;
     var best = MISS;
+    if (params.first > 0u) {
+        best_d = running[3u * j].x;
+        best = reps[j];
+    }
     // Members in ascending VPL order: the first of equal distances is the lowest index.
-    for (var t = r.x; t < r.y; t = t + 1u) {
+    for (var t = begin; t < to; t = t + 1u) {
         let i = order[t];
         let d = dot(vpls[i].position - c, vpls[i].position - c);
         if (d < best_d) {
@@ -546,6 +581,7 @@ fn representatives(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
         }
     }
     reps[j] = best;
+    running[3u * j].x = best_d;
     flags[j] = select(0u, 1u, r.y > r.x);
 }
 

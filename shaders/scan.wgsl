@@ -1,14 +1,16 @@
 // Exclusive prefix sum of counts[0..n) into offsets[0..n], with offsets[n] = the total, by one
-// workgroup: each thread sums a contiguous chunk, the 256 partial sums are scanned in
-// workgroup memory (Hillis-Steele), then each thread writes the offsets of its chunk. Integer
-// sums: the result does not depend on scheduling. Used by trace_vpls (VPL compaction), cluster
-// (grid cells, surviving clusters) and the frame (hit shading points).
+// workgroup per dispatch over the items [first, first + count): each thread sums a contiguous
+// chunk, the 256 partial sums are scanned in workgroup memory (Hillis-Steele), then each thread
+// writes the offsets of its chunk, starting from offsets[first], the total of the dispatches
+// before (vplgi-gpu/src/scan.rs sizes the ranges against lavapipe's loop limiter). Integer sums:
+// the result does not depend on scheduling. Used by trace_vpls (VPL compaction), cluster (grid
+// cells, surviving clusters) and the frame (hit shading points).
 
 struct Params {
     n: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    first: u32,
+    count: u32,
+    pad: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -20,9 +22,12 @@ var<workgroup> partial: array<u32, 256>;
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_id) lid: vec3<u32>) {
     let t = lid.x;
-    let chunk = (params.n + 255u) / 256u;
-    let begin = min(t * chunk, params.n);
-    let end = min(begin + chunk, params.n);
+    let last = params.first + params.count;
+    // Read before any thread writes offsets (after the barriers below).
+    let base = select(0u, offsets[params.first], params.first > 0u);
+    let chunk = (params.count + 255u) / 256u;
+    let begin = min(params.first + t * chunk, last);
+    let end = min(begin + chunk, last);
     var s = 0u;
     for (var i = begin; i < end; i = i + 1u) {
         s = s + counts[i];
@@ -38,12 +43,12 @@ fn main(@builtin(local_invocation_id) lid: vec3<u32>) {
         partial[t] = partial[t] + add;
         workgroupBarrier();
     }
-    var running = partial[t] - s;
+    var running = base + partial[t] - s;
     for (var i = begin; i < end; i = i + 1u) {
         offsets[i] = running;
         running = running + counts[i];
     }
     if (t == 255u) {
-        offsets[params.n] = partial[255];
+        offsets[last] = base + partial[255];
     }
 }

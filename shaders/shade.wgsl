@@ -29,6 +29,8 @@ struct Params {
     light_first: u32,     // this dispatch's VPL lights: light_first .. light_end
     light_end: u32,
     direct: u32,          // shade_finish: 1 adds emission and direct light, 0 the VPLs' only
+    sample_first: u32,    // shade_finish: this dispatch's samples of each pixel, first .. end
+    sample_end: u32,
 }
 
 // Visibility rows per shading point: F in mode 1, 1 in mode 0; a pipeline per value, so that the
@@ -404,7 +406,10 @@ fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 }
 
 // Per pixel: the mean over its samples of emitted + direct + the VPL lights' sum (in `running`,
-// complete after the last range of shade_lights) times albedo / pi.
+// complete after the last range of shade_lights) times albedo / pi. A dispatch sums the samples
+// sample_first .. sample_end onto the pixel's sum so far in `out` (shade::samples_per_dispatch:
+// each sample traces shadow rays, and lavapipe ends an invocation's loops after 65,535
+// iterations); the last divides, so the sum is the CPU's sequential one.
 @compute @workgroup_size(64)
 fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let local = thread_index(gid, groups);
@@ -413,7 +418,10 @@ fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     let px = params.first_pixel + local;
     var sum = vec3<f32>(0.0);
-    for (var s = 0u; s < params.spp; s = s + 1u) {
+    if (params.sample_first > 0u) {
+        sum = out[local].xyz;
+    }
+    for (var s = params.sample_first; s < params.sample_end; s = s + 1u) {
         let i = px * params.spp + s;
         let sp = sps[i - params.sp_first];
         if (sp.triangle != MISS) {
@@ -428,5 +436,8 @@ fn shade_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
             sum = sum + sp.emitted;
         }
     }
-    out[local] = vec4<f32>(sum / f32(params.spp), 0.0);
+    if (params.sample_end == params.spp) {
+        sum = sum / f32(params.spp);
+    }
+    out[local] = vec4<f32>(sum, 0.0);
 }

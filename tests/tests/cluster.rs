@@ -389,3 +389,147 @@ proptest! {
         vplgi_tests::hold(&checks)?;
     }
 }
+
+/// `n` points drawn from `distinct` positions on `shape` (in [0, 10]^3 flattened by `shape`),
+/// normals +z, in a scrambled order: few distinct cells, so the grid shrinks to its bound.
+fn degenerate_points(n: usize, distinct: usize, shape: Vec3, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng = vplgi_types::Rng::new(seed, vplgi_types::Stream::Oracle, 0);
+    let spots: Vec<Vec3> = (0..distinct).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0 * shape).collect();
+    let ps: Vec<Vec3> = (0..n).map(|_| spots[rng.next_u32() as usize % distinct]).collect();
+    (ps, vec![Vec3::Z; n])
+}
+
+/// Flat and degenerate data: points on a plane, on a line, or all at one point, with few
+/// distinct positions so that the grid shrinks as far as it may. The grid stays within
+/// MAX_CELLS cells (a degenerate axis gets at most two, not thousands), and the whole clustering
+/// agrees on both backends (SPEC: cluster count, label rows), for Eq. 7 and Eq. 2.
+#[test]
+fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
+    let Some(gpu) = vplgi_tests::shared_gpu("degenerate_point_sets_get_bounded_grids_and_the_same_clusters") else {
+        return;
+    };
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    for (name, shape, distinct) in [
+        ("a plane", Vec3::new(1.0, 1.0, 0.0), 100),
+        ("a near-plane", Vec3::new(1.0, 1.0, 1e-4), 100),
+        ("a line", Vec3::new(1.0, 0.0, 0.0), 100),
+        ("one point", Vec3::ZERO, 1),
+    ] {
+        let (ps, ns) = degenerate_points(20_000, distinct, shape, 3);
+        let k = 1_000;
+        let grid = Grid::for_data(bounds(&ps), &ps, k);
+        let cells: f64 = grid.dims.iter().map(|&d| d as f64).product();
+        println!("{name}: grid {:?} ({cells} cells)", grid.dims);
+        assert!(cells <= 1.1 * vplgi_types::clustering::MAX_CELLS, "{name}: {:?} is {cells} cells", grid.dims);
+        for a in 0..3 {
+            if shape[a] < 1e-3 {
+                assert!(grid.dims[a] <= 2, "{name}: axis {a} of extent {} gets {} cells", 10.0 * shape[a], grid.dims[a]);
+            }
+        }
+        for metric in [Metric::Eq7 { normal_threshold: 0.866 }, Metric::Ward { alpha: 0.03 }] {
+            let params = ClusterParams {
+                k: k as u32,
+                gamma: 4,
+                iterations: 4,
+                f: 4,
+                fuzzy: FuzzyMode::Weighted,
+                metric,
+                representative: Representative::Nearest,
+                seed: 5,
+            };
+            let checks =
+                vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
+            for c in &checks {
+                println!("{name}, {metric:?}: {c}");
+                c.check();
+            }
+        }
+    }
+}
+
+/// K = 100,000 centroids in one grid cell, the nearest of them the last: points there search
+/// all of them in their 27 cells, points at the far corner of the data scan them all. The
+/// assignment finds each point's F nearest (ties to the lower index) on the GPU as on the CPU:
+/// lavapipe's loop limiter must not end either search early.
+#[test]
+fn a_hundred_thousand_centroids_in_one_cell_are_all_searched() {
+    let Some(gpu) = vplgi_tests::shared_gpu("a_hundred_thousand_centroids_in_one_cell_are_all_searched") else {
+        return;
+    };
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    let ps: Vec<Vec3> = (0..512).map(|i| if i % 2 == 0 { Vec3::ZERO } else { Vec3::ONE }).collect();
+    let ns = vec![Vec3::Z; ps.len()];
+    let mut cp = vec![Vec3::splat(1e-4); 100_000];
+    cp[99_999] = Vec3::ZERO;
+    let cn = vec![Vec3::Z; cp.len()];
+    let grid = Grid::for_data(bounds(&ps), &ps, cp.len()).fill(&cp, &cn);
+    assert!(grid.cell > 1e-3, "the centroids must share a cell: {}", grid.cell);
+    for rule in [
+        AssignRule { metric: Metric::Eq7 { normal_threshold: 0.866 }, f: 1, fuzzy: FuzzyMode::Hard },
+        AssignRule { metric: Metric::Ward { alpha: 0.03 }, f: 6, fuzzy: FuzzyMode::Weighted },
+    ] {
+        let checks = compare_assign(device, queue, kernel, (&ps, &ns), (&cp, &cn), rule).unwrap();
+        for c in &checks {
+            println!("{:?}: {c}", rule.metric);
+            c.check();
+        }
+    }
+}
+
+/// K = 100,000 shading-point clusters of a 640x480 Cornell box frame (about 250,000 points),
+/// whole on both backends: the SPEC's cluster count and label rows.
+#[test]
+fn a_hundred_thousand_shading_point_clusters_match_the_cpu() {
+    let Some(gpu) = vplgi_tests::shared_gpu("a_hundred_thousand_shading_point_clusters_match_the_cpu") else {
+        return;
+    };
+    let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
+    let (ps, ns) = vplgi_tests::inputs::cornell_points(640, 480, 2);
+    let params = ClusterParams {
+        k: 100_000,
+        gamma: 2,
+        iterations: 2,
+        f: 6,
+        fuzzy: FuzzyMode::Weighted,
+        metric: Metric::Eq7 { normal_threshold: 0.866 },
+        representative: Representative::Nearest,
+        seed: 7,
+    };
+    println!("{} points, K = {}", ps.len(), params.k);
+    let checks = vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
+    for c in &checks {
+        println!("{c}");
+        c.check();
+    }
+}
+
+/// Shadow-map VPLs at --rsm-size 512 (over 200,000) in two clusters, so each cluster's update
+/// and representative walk over about 100,000 members: the RSM clustering agrees on both
+/// backends (SPEC: assignment and update rows), cold and warm.
+#[test]
+fn two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu() {
+    let Some(gpu) = vplgi_tests::shared_gpu("two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu") else {
+        return;
+    };
+    let cfg = vplgi_types::FrameConfig {
+        rsm_size: 512,
+        k_vpl: 2,
+        iterations: 2,
+        rsm_seeding: vplgi_types::RsmSeeding::Halton,
+        vpl_source: vplgi_types::VplSource::Rsm,
+        vpl_cluster: vplgi_types::VplClustering::Rsm,
+        bounces: 1,
+        ..vplgi_types::FrameConfig::verify()
+    };
+    let scene = vplgi_scene::cornell::cornell_box();
+    let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
+        let frame = vplgi_verify::inputs::CpuFrame::new(t.cpu, &cfg);
+        vplgi_verify::cluster::compare_rsm(t, &frame, &cfg)
+    })
+    .expect("GPU");
+    assert!(!checks.is_empty(), "no RSM rows");
+    for c in &checks {
+        println!("{c}");
+        c.check();
+    }
+}

@@ -206,7 +206,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
 }
 
 /// The lights of VPL clusters read every VPL past lavapipe's loop limit too: 70,000 VPLs in three
-/// clusters, as disks and as polygons, on both backends from the same clustering: the same flux
+/// clusters and in one, as disks and as polygons, on both backends from the same clustering: the same flux
 /// and R², bit for bit, and the same outlines (each GPU thread summed only the first 65,535 VPLs,
 /// or half of them for a disk's two passes, before cluster_lights read them in ranges).
 #[test]
@@ -223,56 +223,62 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
             Vpl { position: [x, 0.0, (i / 250) as f32 * 0.004], path: i, normal: [0.0, 1.0, 0.0], bounce: 1, flux: [1e-4, 2e-4 * x, 3e-5], _pad: 0 }
         })
         .collect();
-    let labels: Vec<u32> = (0..n).map(|i| (i % 250) / 84).collect();
-    let representatives = vec![0u32, 84, 168];
-    let clustering = vplgi_cpu::cluster::Clustering {
-        positions: vec![Vec3::ZERO; 3],
-        normals: vec![Vec3::Y; 3],
-        representatives: representatives.clone(),
-        members: vec![0; 3],
-        f: 1,
-        labels: labels.clone(),
-        weights: vec![1.0; n as usize],
-        widened: 0,
-        incompatible: 0,
-        kept: 0,
-        fresh: 0,
-    };
-    let scene = cornell_box();
-    for shape in [LightShape::Disk, LightShape::DiskExact, LightShape::Polygon] {
-        let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), shape);
-        let (got, outlines) = vplgi_tests::with_twins(gpu, &scene, |t| {
-            let device = t.device();
-            let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
-            let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
-            let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k: 3, shape }).expect("lights");
-            assert_eq!(b.exact_shapes, shape != LightShape::Disk);
-            let outlines = b.outlines.as_ref().map(|o| read_back::<vplgi_types::LightOutline>(device, t.queue(), o, 3).expect("read back"));
-            (read_back::<VplLight>(device, t.queue(), &b.buffer, 3).expect("read back"), outlines)
-        });
-        for (c, g) in cpu.lights.iter().zip(&got) {
-            println!("{shape:?}: CPU flux {:?} R² {} exact {}, GPU flux {:?} R² {} exact {}", c.flux, c.radius2, c.exact, g.flux, g.radius2, g.exact);
-        }
-        assert!(cpu.lights[0].radius2 > 0.0);
-        let exact = match shape {
-            LightShape::DiskExact => vplgi_types::pod::EXACT_DISK,
-            LightShape::Polygon => vplgi_types::pod::EXACT_POLYGON,
-            _ => 0,
+    // Three clusters sharing every range of VPLs, and one cluster holding all of them.
+    for k in [3u32, 1] {
+        let labels: Vec<u32> = (0..n).map(|i| if k == 1 { 0 } else { (i % 250) / 84 }).collect();
+        let representatives = [0u32, 84, 168][..k as usize].to_vec();
+        let clustering = vplgi_cpu::cluster::Clustering {
+            positions: vec![Vec3::ZERO; k as usize],
+            normals: vec![Vec3::Y; k as usize],
+            representatives: representatives.clone(),
+            members: vec![0; k as usize],
+            f: 1,
+            labels: labels.clone(),
+            weights: vec![1.0; n as usize],
+            widened: 0,
+            incompatible: 0,
+            kept: 0,
+            fresh: 0,
         };
-        assert_eq!(cpu.lights[0].exact, exact);
-        if shape != LightShape::Polygon {
-            assert_eq!(cpu.lights, got);
-            continue;
-        }
-        // A polygon's support values are dot products, which the GPU may round differently (a
-        // fused multiply-add): the flux bit for bit, the outline and its area to 1e-6.
-        let outlines = outlines.expect("a polygon set has outlines");
-        for ((c, g), (co, go)) in cpu.lights.iter().zip(&got).zip(cpu.outlines.iter().zip(&outlines)) {
-            assert_eq!((c.flux, c.exact), (g.flux, g.exact));
-            assert!((c.radius2 / g.radius2 - 1.0).abs() < 1e-6, "R² {} vs {}", c.radius2, g.radius2);
-            assert_eq!(co.count(), go.count());
-            for (a, b) in co.vertices.iter().zip(&go.vertices) {
-                assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(1.0)), "outline vertex {a:?} vs {b:?}");
+        let scene = cornell_box();
+        for shape in [LightShape::Disk, LightShape::DiskExact, LightShape::Polygon] {
+            let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), shape);
+            let (got, outlines) = vplgi_tests::with_twins(gpu, &scene, |t| {
+                let device = t.device();
+                let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
+                let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
+                let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k, shape }).expect("lights");
+                assert_eq!(b.exact_shapes, shape != LightShape::Disk);
+                let outlines = b.outlines.as_ref().map(|o| read_back::<vplgi_types::LightOutline>(device, t.queue(), o, k as usize).expect("read back"));
+                (read_back::<VplLight>(device, t.queue(), &b.buffer, k as usize).expect("read back"), outlines)
+            });
+            for (c, g) in cpu.lights.iter().zip(&got) {
+                println!(
+                    "{k} clusters, {shape:?}: CPU flux {:?} R² {} exact {}, GPU flux {:?} R² {} exact {}",
+                    c.flux, c.radius2, c.exact, g.flux, g.radius2, g.exact
+                );
+            }
+            assert!(cpu.lights[0].radius2 > 0.0);
+            let exact = match shape {
+                LightShape::DiskExact => vplgi_types::pod::EXACT_DISK,
+                LightShape::Polygon => vplgi_types::pod::EXACT_POLYGON,
+                _ => 0,
+            };
+            assert_eq!(cpu.lights[0].exact, exact);
+            if shape != LightShape::Polygon {
+                assert_eq!(cpu.lights, got);
+                continue;
+            }
+            // A polygon's support values are dot products, which the GPU may round differently (a
+            // fused multiply-add): the flux bit for bit, the outline and its area to 1e-6.
+            let outlines = outlines.expect("a polygon set has outlines");
+            for ((c, g), (co, go)) in cpu.lights.iter().zip(&got).zip(cpu.outlines.iter().zip(&outlines)) {
+                assert_eq!((c.flux, c.exact), (g.flux, g.exact));
+                assert!((c.radius2 / g.radius2 - 1.0).abs() < 1e-6, "R² {} vs {}", c.radius2, g.radius2);
+                assert_eq!(co.count(), go.count());
+                for (a, b) in co.vertices.iter().zip(&go.vertices) {
+                    assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(1.0)), "outline vertex {a:?} vs {b:?}");
+                }
             }
         }
     }
@@ -374,4 +380,21 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
         indirect(&sp, 1, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY),
     );
     assert_ne!(a, b, "the two rows see different lights");
+}
+
+/// Direct light of many samples per pixel past lavapipe's loop limit: every sample traces shadow
+/// rays through the conference room's BVH, and 256 of them in one invocation run past the limit
+/// (the pixels then lose about a third of their direct light), so shade_finish adds a pixel's
+/// samples in ranges. The same inputs on both backends: the SPEC's shading row.
+#[test]
+fn shade_sums_every_sample_past_lavapipes_loop_limit() {
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_sample_past_lavapipes_loop_limit") else { return };
+    let scene = vplgi_scene::generate::generate("conference", 20_000).expect("conference");
+    let cfg =
+        vplgi_types::FrameConfig { width: 8, height: 6, spp: 256, vpls: 100, cluster: vplgi_types::ClusterMode::None, ..vplgi_types::FrameConfig::verify() };
+    let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
+    for c in &checks {
+        println!("{c}");
+        c.check();
+    }
 }

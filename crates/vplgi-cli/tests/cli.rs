@@ -244,6 +244,27 @@ fn base64(data: &[u8]) -> String {
     s
 }
 
+/// Inputs past what a GPU loop covers on lavapipe (K of a search, samples a pixel's seeding walks)
+/// are refused before any work, naming the option and the limit, with nothing written.
+#[test]
+fn gpu_refuses_cluster_counts_past_its_search_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, option, limit) in [
+        (&["--k-sp", "131073"][..], "--k-sp", "131072"),
+        (&["--vpl-source", "rsm", "--vpl-cluster", "rsm", "--bounces", "1", "--k-vpl", "40000"][..], "--k-vpl", "32768"),
+        (&["--seeding", "adaptive", "--spp", "16384"][..], "--spp", "4363"),
+    ] {
+        let out = dir.path().join(option);
+        let mut all = vec!["render", "--backend", "gpu", "--width", "8", "--height", "8", "--out", out.to_str().unwrap()];
+        all.extend_from_slice(args);
+        let o = vplgi(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{option}: accepted");
+        assert!(err.contains(option) && err.contains(limit) && err.contains("loop"), "{option}: {err}");
+        assert!(!out.join("image.exr").exists(), "{option}: wrote an image");
+    }
+}
+
 /// `--backend gpu` renders through the chained GPU pipeline and names the adapter in the report;
 /// the image is close to the CPU's (see tests/tests/gpu_differential.rs for the exact bounds).
 #[test]

@@ -32,7 +32,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
-use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint};
+use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_centroids, FixedPoint, CROWDED_CENTROIDS};
 pub use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric, Representative};
 use vplgi_types::config::MAX_F;
 use vplgi_types::temporal::new_seeds;
@@ -111,6 +111,10 @@ pub struct Grid {
     /// The centroids by index (for a search that starts from a known centroid).
     centroids: Vec<Vec3>,
     centroid_normals: Vec<Vec3>,
+    /// Whether some neighbourhood may be crowded ([`CROWDED_CENTROIDS`]): its 27 cells could hold
+    /// that many cells and centroids. False for any grid whose fullest cell is small, so most
+    /// searches skip the count.
+    may_crowd: bool,
 }
 
 impl Grid {
@@ -128,6 +132,7 @@ impl Grid {
             item_normals: Vec::new(),
             centroids: Vec::new(),
             centroid_normals: Vec::new(),
+            may_crowd: false,
         }
     }
 
@@ -136,7 +141,9 @@ impl Grid {
         let (starts, items) = self.cell_order(centroids);
         let item_positions = items.iter().map(|&k| centroids[k as usize]).collect();
         let item_normals = items.iter().map(|&k| normals[k as usize]).collect();
-        Grid { starts, items, item_positions, item_normals, centroids: centroids.to_vec(), centroid_normals: normals.to_vec(), ..self.clone() }
+        let fullest = starts.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0) as u64;
+        let may_crowd = 27 * (fullest + 1) >= CROWDED_CENTROIDS as u64;
+        Grid { starts, items, item_positions, item_normals, centroids: centroids.to_vec(), centroid_normals: normals.to_vec(), may_crowd, ..self.clone() }
     }
 
     /// A counting sort of `points` by grid cell: where each cell's run starts (one entry per cell,
@@ -184,6 +191,22 @@ impl Grid {
     #[inline]
     fn linear(&self, c: [i32; 3]) -> usize {
         (c[0] as usize) + self.dims[0] as usize * ((c[1] as usize) + self.dims[1] as usize * c[2] as usize)
+    }
+
+    /// Whether the 27-cell neighbourhood of cell `c` is crowded: its cells inside the grid and
+    /// their centroids number at least [`CROWDED_CENTROIDS`].
+    fn crowded(&self, c: [i32; 3]) -> bool {
+        if !self.may_crowd {
+            return false;
+        }
+        let (x0, x1) = ((c[0] - 1).max(0), (c[0] + 1).min(self.dims[0] - 1));
+        let mut load = 0usize;
+        for z in (c[2] - 1).max(0)..=(c[2] + 1).min(self.dims[2] - 1) {
+            for y in (c[1] - 1).max(0)..=(c[1] + 1).min(self.dims[1] - 1) {
+                load += (x1 - x0 + 1) as usize + self.row_items(x0, x1, y, z).len();
+            }
+        }
+        load >= CROWDED_CENTROIDS as usize
     }
 
     /// The item range of cells `x0..=x1` of row (`y`, `z`), all inside the grid.
@@ -307,7 +330,8 @@ impl Grid {
     /// current F-th best cannot change the answer and are skipped. The bound of a neighbour cell
     /// is the point's distance to the shared faces ([`Metric::key_bound`]); it is lowered by
     /// 1e-4 cell against rounding in [`Grid::coords`] and compared with a relative margin of
-    /// 1e-5, so only cells that cannot even tie are skipped (ties go to the lower index).
+    /// 1e-5, so only cells that cannot even tie are skipped (ties go to the lower index). A
+    /// crowded neighbourhood ([`CROWDED_CENTROIDS`]) is not visited: every centroid is scanned.
     fn search_from(&self, p: Vec3, n: Vec3, c: [i32; 3], metric: Metric, best: &mut [(f32, u32)], start: Option<(f32, u32)>) -> (usize, SearchOutcome) {
         let f = best.len();
         let mut count = 0usize;
@@ -342,54 +366,61 @@ impl Grid {
                 }
             }
         };
-        // Squared gaps to the lower and upper neighbour cells along each axis (0 for the own).
-        let q = (p - self.origin) / self.cell;
-        let gaps = |a: usize| {
-            let below = ((q[a] - c[a] as f32) - 1e-4).max(0.0) * self.cell;
-            let above = ((c[a] as f32 + 1.0 - q[a]) - 1e-4).max(0.0) * self.cell;
-            [below * below, 0.0, above * above]
-        };
-        let (gx, gy, gz) = (gaps(0), gaps(1), gaps(2));
-        // The point's own row first, then the rows sharing a face with it, then the diagonal ones.
-        const ROWS: [(i32, i32); 9] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
-        for (dy, dz) in ROWS {
-            let (y, z) = (c[1] + dy, c[2] + dz);
-            if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
-                continue;
+        if self.crowded(c) {
+            // Too many centroids around the point to visit (CROWDED_CENTROIDS): all of them,
+            // exactly, as the GPU's search does.
+            count = 0;
+            consider(0..self.items.len(), best, &mut count);
+        } else {
+            // Squared gaps to the lower and upper neighbour cells along each axis (0 for the own).
+            let q = (p - self.origin) / self.cell;
+            let gaps = |a: usize| {
+                let below = ((q[a] - c[a] as f32) - 1e-4).max(0.0) * self.cell;
+                let above = ((c[a] as f32 + 1.0 - q[a]) - 1e-4).max(0.0) * self.cell;
+                [below * below, 0.0, above * above]
+            };
+            let (gx, gy, gz) = (gaps(0), gaps(1), gaps(2));
+            // The point's own row first, then the rows sharing a face with it, then the diagonal ones.
+            const ROWS: [(i32, i32); 9] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
+            for (dy, dz) in ROWS {
+                let (y, z) = (c[1] + dy, c[2] + dz);
+                if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
+                    continue;
+                }
+                let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
+                let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
+                if metric.key_bound(row) > limit {
+                    continue;
+                }
+                let x0 = if c[0] > 0 && metric.key_bound(row + gx[0]) <= limit { c[0] - 1 } else { c[0] };
+                let x1 = if c[0] + 1 < self.dims[0] && metric.key_bound(row + gx[2]) <= limit { c[0] + 1 } else { c[0] };
+                consider(self.row_items(x0, x1, y, z), best, &mut count);
             }
-            let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
-            let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
-            if metric.key_bound(row) > limit {
-                continue;
+            // Eq. 7 keeps the paper's approximation: what the 27 cells hold, if anything. Eq. 2 is
+            // searched exactly: cells beyond are at least one cell away.
+            let done = match metric {
+                Metric::Eq7 { .. } => count > 0,
+                Metric::Ward { .. } => count == f && metric.settled(best[f - 1].0, self.cell),
+            };
+            if done {
+                return (count, SearchOutcome::Neighbourhood);
             }
-            let x0 = if c[0] > 0 && metric.key_bound(row + gx[0]) <= limit { c[0] - 1 } else { c[0] };
-            let x1 = if c[0] + 1 < self.dims[0] && metric.key_bound(row + gx[2]) <= limit { c[0] + 1 } else { c[0] };
-            consider(self.row_items(x0, x1, y, z), best, &mut count);
-        }
-        // Eq. 7 keeps the paper's approximation: what the 27 cells hold, if anything. Eq. 2 is
-        // searched exactly: cells beyond are at least one cell away.
-        let done = match metric {
-            Metric::Eq7 { .. } => count > 0,
-            Metric::Ward { .. } => count == f && metric.settled(best[f - 1].0, self.cell),
-        };
-        if done {
-            return (count, SearchOutcome::Neighbourhood);
-        }
-        let last = self.max_ring(c);
-        for r in 2..=last {
-            if ((2 * r + 1) as f64).powi(3) > 8.0 * self.items.len() as f64 + 64.0 {
-                // The rings now hold more cells than there are centroids: scanning all
-                // centroids is cheaper, and exact.
-                count = 0;
-                consider(0..self.items.len(), best, &mut count);
-                break;
-            }
-            self.visit_ring(c, r, |items| consider(items, best, &mut count));
-            // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
-            // so it is at least r cells away: once the F-th best is that near, nothing unvisited
-            // can enter the list, and the widened answer is the exact F nearest.
-            if count == f && metric.settled(best[f - 1].0, r as f32 * self.cell) {
-                return (count, SearchOutcome::Widened);
+            let last = self.max_ring(c);
+            for r in 2..=last {
+                if ((2 * r + 1) as f64).powi(3) > 8.0 * self.items.len() as f64 + 64.0 {
+                    // The rings now hold more cells than there are centroids: scanning all
+                    // centroids is cheaper, and exact.
+                    count = 0;
+                    consider(0..self.items.len(), best, &mut count);
+                    break;
+                }
+                self.visit_ring(c, r, |items| consider(items, best, &mut count));
+                // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
+                // so it is at least r cells away: once the F-th best is that near, nothing unvisited
+                // can enter the list, and the widened answer is the exact F nearest.
+                if count == f && metric.settled(best[f - 1].0, r as f32 * self.cell) {
+                    return (count, SearchOutcome::Widened);
+                }
             }
         }
         if count > 0 {

@@ -22,7 +22,9 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::sync::OnceLock;
-use vplgi_types::clustering::{downsample, grid_geometry, seed_centroids, ClusterParams, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
+use vplgi_types::clustering::{
+    downsample, grid_geometry, seed_centroids, ClusterParams, ClusterStart, FixedPoint, GridGeometry, Metric, Representative, MAX_ASSIGN_CENTROIDS,
+};
 use vplgi_types::config::MAX_F;
 use vplgi_types::temporal::new_seeds;
 use vplgi_types::FuzzyMode;
@@ -49,6 +51,19 @@ pub(crate) struct Params {
     /// METRIC_EQ7 or METRIC_WARD, for the passes that take it as data (cluster_temporal.wgsl).
     pub(crate) metric: u32,
     pub(crate) pad: u32,
+}
+
+/// Refuses K beyond [`MAX_ASSIGN_CENTROIDS`]: a search may scan every centroid in one
+/// invocation, and lavapipe would end it early, silently.
+pub fn searchable(k: u32, what: &str) -> Result<(), GpuError> {
+    if k > MAX_ASSIGN_CENTROIDS {
+        return Err(GpuError::TooLarge {
+            what: format!("{what} (a GPU search may scan all of them in one invocation, and lavapipe ends an invocation's loops after 65,535 iterations)"),
+            needed: k as u64,
+            limit: MAX_ASSIGN_CENTROIDS as u64,
+        });
+    }
+    Ok(())
 }
 
 /// A grid filled with centroids, on the device.
@@ -349,6 +364,7 @@ impl ClusterKernel {
         (centroids, k): (&wgpu::Buffer, u32),
         rule: AssignRule,
     ) -> Result<Assignment, GpuError> {
+        searchable(k, "centroids one assignment searches")?;
         let AssignRule { metric, f, fuzzy } = rule;
         let mut p = self.grid_params(&grid.geometry, grid.brute_ring);
         (p.k, p.f) = (k, f);
@@ -462,6 +478,7 @@ impl ClusterKernel {
         if m == 0 || k == 0 {
             return Ok(self.empty(device, f));
         }
+        searchable(k, "clusters")?;
         let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
         let sample = downsample(m as usize, gamma, params.seed);
         let s = sample.len() as u32;

@@ -32,8 +32,14 @@ pub(crate) struct Params {
     pub(crate) inv_extent: f32,
     pub(crate) importance: u32,
     pub(crate) rows: u32,
-    pub(crate) pad: [u32; 2],
+    /// `update` and `representatives`: the members [first, first + chunk) of each cluster.
+    pub(crate) first: u32,
+    pub(crate) chunk: u32,
 }
+
+/// Members of one cluster that one `update` or `representatives` dispatch reads: lavapipe ends an
+/// invocation's loops after 65,535 iterations, and a cluster may hold every VPL.
+const MEMBERS_PER_DISPATCH: u32 = 32_768;
 
 /// `MapInfo` of `rsm_cluster.wgsl`: one map's VPLs, clusters and grid cells.
 #[repr(C)]
@@ -170,7 +176,8 @@ impl RsmClusterKernel {
             inv_extent: 1.0 / p.extent.max(f32::MIN_POSITIVE),
             importance: importance.is_some() as u32,
             rows: maps.iter().map(|m| m.size).sum(),
-            pad: [0; 2],
+            first: 0,
+            chunk: MEMBERS_PER_DISPATCH,
         };
         let map_buf = storage(device, "rsm maps", maps);
         let vb = &vpls.buffer;
@@ -218,7 +225,13 @@ impl RsmClusterKernel {
         let flags = storage_zeroed::<u32>(device, "rsm flags", n.max(k) as usize);
         let ranges = storage_zeroed::<[u32; 2]>(device, "rsm ranges", k as usize);
         let reps = storage_zeroed::<u32>(device, "rsm representatives", k as usize);
+        let running = storage_zeroed::<[f32; 4]>(device, "rsm running sums", 3 * k as usize);
         let pb = kernel_params(device, "rsm params", &params);
+        // The params of each range of members `update` and `representatives` read: every cluster
+        // has at most n members.
+        let ranges_of_members: Vec<wgpu::Buffer> = (0..n.div_ceil(MEMBERS_PER_DISPATCH))
+            .map(|i| kernel_params(device, "rsm member range params", &Params { first: i * MEMBERS_PER_DISPATCH, ..params }))
+            .collect();
         let zero = |b: &wgpu::Buffer| queue.write_buffer(b, 0, &vec![0u8; b.size() as usize]);
 
         // Each map's importance as integer weights summed by rows (Alg. 1 lines 5-7), then the
@@ -298,7 +311,15 @@ impl RsmClusterKernel {
             zero(&ranges);
             validated(device, "rsm_cluster ranges + update", || {
                 dispatch_bound(device, queue, &self.ranges, &[(0, &pb), (8, &labels), (9, order), (11, &ranges)], groups(n));
-                dispatch_bound(device, queue, &self.update, &[(0, &pb), (1, &map_buf), (3, vb), (4, &states), (9, order), (11, &ranges)], groups(k));
+                for range in &ranges_of_members {
+                    dispatch_bound(
+                        device,
+                        queue,
+                        &self.update,
+                        &[(0, range), (1, &map_buf), (3, vb), (4, &states), (9, order), (11, &ranges), (21, &running)],
+                        groups(k),
+                    );
+                }
             })?;
         }
 
@@ -313,13 +334,15 @@ impl RsmClusterKernel {
         // Representatives, then the kept clusters renumbered.
         let order = &sorted[sorted_at];
         validated(device, "rsm_cluster representatives", || {
-            dispatch_bound(
-                device,
-                queue,
-                &self.representatives,
-                &[(0, &pb), (3, vb), (4, &states), (9, order), (10, &flags), (11, &ranges), (12, &reps)],
-                groups(k),
-            );
+            for range in &ranges_of_members {
+                dispatch_bound(
+                    device,
+                    queue,
+                    &self.representatives,
+                    &[(0, range), (3, vb), (4, &states), (9, order), (10, &flags), (11, &ranges), (12, &reps), (21, &running)],
+                    groups(k),
+                );
+            }
         })?;
         self.scan.run(device, queue, &flags, k, &offsets)?;
         let kept = read_word(device, queue, &offsets, k as u64)?;

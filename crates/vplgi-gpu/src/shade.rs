@@ -32,6 +32,9 @@ pub(crate) struct Params {
     pub(crate) light_end: u32,
     /// 1: shade_finish adds emission and direct light (`ShadeParams::direct`).
     pub(crate) direct: u32,
+    /// shade_finish: the samples of each pixel this dispatch adds, `sample_first .. sample_end`.
+    pub(crate) sample_first: u32,
+    pub(crate) sample_end: u32,
 }
 
 /// Loop iterations one invocation may run. lavapipe (llvmpipe) ends every loop of an invocation
@@ -50,6 +53,19 @@ pub const LOOP_BUDGET: u32 = 48_000;
 pub fn lights_per_dispatch(rows: u32) -> u32 {
     let per_light = SHADE_POINTS * (rows + 1) + 2;
     (LOOP_BUDGET / per_light / 64 * 64).max(64)
+}
+
+/// Loop iterations a shadow ray's traversal is budgeted: node visits and triangle tests, about
+/// what the paper-scale scenes' deepest rays take, with room to spare.
+pub const RAY_ITERATIONS: u32 = 2_048;
+
+/// Samples of each pixel one dispatch of `shade_finish` adds: a sample's direct light loops over
+/// the light groups, then per direct sample over them again, through the emitter table's binary
+/// search and a shadow ray, then a shadow ray per punctual light. At least one.
+pub fn samples_per_dispatch(direct_samples: u32, punctual_lights: u32) -> u32 {
+    let groups = vplgi_types::light_groups::MAX_GROUPS as u32;
+    let per_sample = groups + direct_samples * (groups + 32 + RAY_ITERATIONS) + punctual_lights * RAY_ITERATIONS + 1;
+    (LOOP_BUDGET / per_sample).max(1)
 }
 
 /// Where each shading point's visibility comes from (the twin of
@@ -173,6 +189,8 @@ impl ShadeKernel {
             light_first: 0,
             light_end: 0,
             direct: 0,
+            sample_first: 0,
+            sample_end: 0,
         };
         validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
@@ -227,13 +245,21 @@ impl ShadeKernel {
             light_first: 0,
             light_end: 0,
             direct: direct as u32,
+            sample_first: 0,
+            sample_end: 0,
         };
+        let chunk = if direct { samples_per_dispatch(direct_samples, scene.lights.punctual_count) } else { spp };
         validated(device, "shade", || {
             let out = storage_zeroed::<[f32; 4]>(device, "pixels", count as usize);
-            let p = kernel_params(device, "shade params", &params);
-            let mut bindings = bind(&[(0, &p), (7, sps), (13, &out), (14, running)]);
-            bindings.extend(self.finish.scene_bindings(scene));
-            in_kernel("shade finish", || dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64)));
+            let mut first = 0;
+            while first < spp {
+                let end = spp.min(first + chunk);
+                let p = kernel_params(device, "shade params", &Params { sample_first: first, sample_end: end, ..params });
+                let mut bindings = bind(&[(0, &p), (7, sps), (13, &out), (14, running)]);
+                bindings.extend(self.finish.scene_bindings(scene));
+                in_kernel("shade finish", || dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64)));
+                first = end;
+            }
             out
         })
     }

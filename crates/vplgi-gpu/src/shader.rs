@@ -216,6 +216,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
         ("REDUCE_ITEMS", REDUCE_ITEMS),
         ("VISIBILITY_ROW_LANES", crate::visibility::ROW_LANES),
+        ("CROWDED_CENTROIDS", vplgi_types::clustering::CROWDED_CENTROIDS),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),

@@ -137,6 +137,20 @@ impl Representative {
     }
 }
 
+/// A search's 27-cell neighbourhood holding at least this many cells and centroids together is
+/// crowded: instead of visiting it, the search scans every centroid and returns the exact F
+/// nearest (`Grid::search`, `cluster_assign.wgsl`). Eq. 7's neighbourhood answer is meant for
+/// grids of about two centroids per occupied cell; thousands in one neighbourhood come only from
+/// degenerate data (many centroids at one point), where the GPU's visit would otherwise outrun
+/// lavapipe's loop limiter (65,535 loop iterations per invocation, all loops together).
+pub const CROWDED_CENTROIDS: u32 = 8_192;
+
+/// The most centroids one assignment may search: a GPU search costs at most the crowded budget,
+/// the ring walk's (`WALK_BUDGET` in `cluster_assign.wgsl`, a few thousand iterations) and a
+/// scan of K / 4 iterations, which stays well inside lavapipe's loop limiter up to here. Larger
+/// K is refused up front (`vplgi_gpu::cluster`), never truncated.
+pub const MAX_ASSIGN_CENTROIDS: u32 = 131_072;
+
 /// At most about this many grid cells; the cell size grows to respect it.
 pub const MAX_CELLS: f64 = (1u64 << 21) as f64;
 
@@ -150,9 +164,15 @@ pub struct GridGeometry {
 }
 
 /// Smallest cell size allowed for data of extent `ext`: keeps the cell count near [`MAX_CELLS`]
-/// and at most 4096 cells per axis.
+/// and at most 4096 cells per axis, whatever the data's dimension. A volume's bound alone lets
+/// flat data (a wall, a floor: one extent near 0) take 4097 x 4097 x 1 cells; so the two largest
+/// extents are bounded as an area too, and an axis thinner than the cell gets one cell.
 pub fn min_cell(ext: Vec3) -> f64 {
-    (ext.x as f64 * ext.y as f64 * ext.z as f64 / MAX_CELLS).cbrt().max(ext.max_element() as f64 / 4096.0).max(1e-12)
+    let mut e = ext.to_array().map(f64::from);
+    e.sort_by(|a, b| b.total_cmp(a));
+    let volume = (e[0] * e[1] * e[2] / MAX_CELLS).cbrt();
+    let area = (e[0] * e[1] / MAX_CELLS).sqrt();
+    volume.max(area).max(e[0] / 4096.0).max(1e-12)
 }
 
 /// Chooses the grid for clustering data spanning [`min`, `max`] into `k` clusters. The cell size
@@ -308,9 +328,17 @@ mod tests {
         let cube = grid_geometry(Vec3::ZERO, Vec3::splat(10.0), 1 << 20, |_| 1);
         let cells: f64 = cube.dims.iter().map(|&d| d as f64).product();
         assert!(cells <= 1.1 * MAX_CELLS, "{cube:?}: {cells} cells");
-        for max in [Vec3::new(100.0, 1e-3, 1.0), Vec3::new(10.0, 10.0, 0.0)] {
+        // Flat, near-flat, linear and point-like data: at most about MAX_CELLS cells too, and
+        // at most two cells across an axis far thinner than the others.
+        for max in [Vec3::new(100.0, 1e-3, 1.0), Vec3::new(10.0, 10.0, 0.0), Vec3::new(10.0, 1e-3, 10.0), Vec3::new(0.0, 0.0, 7.0), Vec3::ZERO] {
             let g = grid_geometry(Vec3::ZERO, max, 1 << 20, |_| 1);
-            assert!(g.dims.iter().all(|&d| (1..=4097).contains(&d)), "{max}: {g:?}");
+            let cells: f64 = g.dims.iter().map(|&d| d as f64).product();
+            assert!(g.dims.iter().all(|&d| (1..=4097).contains(&d)) && cells <= 1.1 * MAX_CELLS, "{max}: {g:?}, {cells} cells");
+            for a in 0..3 {
+                if max[a] <= 1e-3 {
+                    assert!(g.dims[a] <= 2, "{max}: axis {a}: {g:?}");
+                }
+            }
         }
         let n = 100;
         let mut points = Vec::new();

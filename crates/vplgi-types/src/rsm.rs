@@ -300,6 +300,11 @@ pub fn warm_slots(previous: &[RsmCentre], k: &[u32]) -> Vec<Vec<RsmCentre>> {
 /// How far (in grid cells, Chebyshev) a VPL looks for clusters: the paper's r = 2.
 pub const NEIGHBOURHOOD: i32 = 2;
 
+/// The most RSM-space clusters (`--k-vpl` with `--vpl-cluster rsm`): a VPL's assignment on the
+/// GPU visits the clusters of its 5 x 5 cells, up to all of its map's, in one invocation, which
+/// lavapipe's loop limiter ends after 65,535 loop iterations. Larger K is refused up front.
+pub const MAX_RSM_CLUSTERS: u32 = 32_768;
+
 /// Φ / |Φ| (the RGB vector's Euclidean norm): hue and saturation without brightness; 0 for black.
 pub fn chroma(flux: Vec3) -> Vec3 {
     let len = flux.length();

@@ -77,6 +77,14 @@ impl Quadtree {
 /// The child (0 ..= 3) order: (0, 0), (1, 0), (0, 1), (1, 1).
 pub const CHILDREN: [(u32, u32); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
 
+/// The most samples per pixel the GPU's adaptive seeding takes for a quadtree of `levels`: a
+/// pixel's invocation walks its hits once per level, and a first-level node's the hits of its
+/// four pixels, all in one invocation, which lavapipe ends after 65,535 loop iterations (48,000
+/// budgeted, as `vplgi_gpu::shade::LOOP_BUDGET`). Larger spp is refused up front.
+pub fn max_spp(levels: u32) -> u32 {
+    48_000 / (levels + 8)
+}
+
 /// Scale of a quantized Eq. 2 error: 2^16 per unit.
 pub const ERROR_ONE: f32 = 65_536.0;
 

@@ -107,6 +107,37 @@ fn widened_search_when_neighbourhood_is_empty() {
     assert_eq!(best[0].1, 63);
 }
 
+/// A crowded neighbourhood (CROWDED_CENTROIDS cells and centroids around the point) is not
+/// visited: every centroid is scanned, so Eq. 7 gives the exact nearest of all (here one just
+/// outside the 27 cells, nearer than those inside them), reported as widened. With fewer
+/// centroids inside, the neighbourhood's own nearest is the answer, as the paper has it.
+#[test]
+fn crowded_neighbourhoods_are_scanned_exactly() {
+    // Data along x from 0 to 1; positions below are in cells of its grid along that line.
+    let line: Vec<Vec3> = (0..=100).map(|i| Vec3::new(i as f32 * 0.01, 0.0, 0.0)).collect();
+    let geometry = Grid::for_data(bounds(&line), &line, 100);
+    let at = |cells: f32| geometry.origin + Vec3::new(cells * geometry.cell, 0.0, 0.0);
+    assert!(geometry.dims[0] > 60, "{:?}", geometry.dims);
+    // The point near the top of cell 50: its neighbourhood is cells 49 to 51. A heap 1.9 cells
+    // below (cell 49, inside), one centroid 1.1 cells above (cell 52, outside).
+    let p = at(50.95);
+    for heap in [CROWDED_CENTROIDS as usize, 100] {
+        let mut cs = vec![at(49.05); heap];
+        cs.push(at(52.05));
+        let cn = vec![Vec3::Z; cs.len()];
+        let grid = geometry.fill(&cs, &cn);
+        let mut best = [(f32::INFINITY, MISS)];
+        let (count, outcome) = grid.search(p, Vec3::Z, eq7(0.5), &mut best);
+        if heap >= CROWDED_CENTROIDS as usize {
+            let exact = brute_nearest(p, Vec3::Z, &cs, &cn, 0.5).unwrap();
+            assert_eq!(exact.1 as usize, heap, "the lone centroid is the nearest");
+            assert_eq!((count, outcome, best[0]), (1, SearchOutcome::Widened, exact), "crowded: the exact nearest");
+        } else {
+            assert_eq!((count, outcome, best[0].1), (1, SearchOutcome::Neighbourhood, 0), "the neighbourhood's own nearest");
+        }
+    }
+}
+
 #[test]
 fn centroid_update_does_not_depend_on_point_order() {
     let (ps, ns) = cube_surface(5000, 9);
