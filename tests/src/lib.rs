@@ -87,6 +87,15 @@ pub fn proptest_config(default_cases: u32) -> Config {
     Config { cases: cases(default_cases), failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))), ..Config::default() }
 }
 
+/// Prints the checks, each after `label`, and panics at the first that does not hold (with its
+/// measurement): [`hold`] for tests that are not property tests.
+pub fn check_all(label: &str, checks: &[tolerance::Disagreement]) {
+    for c in checks {
+        print!("{label}");
+        c.check();
+    }
+}
+
 /// Fails the property-test case (with the measurement) unless every judged check holds; prints
 /// them all.
 pub fn hold(checks: &[tolerance::Disagreement]) -> Result<(), proptest::test_runner::TestCaseError> {

@@ -439,10 +439,7 @@ fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
             };
             let checks =
                 vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
-            for c in &checks {
-                println!("{name}, {metric:?}: {c}");
-                c.check();
-            }
+            vplgi_tests::check_all(&format!("{name}, {metric:?}: "), &checks);
         }
     }
 }
@@ -469,10 +466,7 @@ fn a_hundred_thousand_centroids_in_one_cell_are_all_searched() {
         AssignRule { metric: Metric::Ward { alpha: 0.03 }, f: 6, fuzzy: FuzzyMode::Weighted },
     ] {
         let checks = compare_assign(device, queue, kernel, (&ps, &ns), (&cp, &cn), rule).unwrap();
-        for c in &checks {
-            println!("{:?}: {c}", rule.metric);
-            c.check();
-        }
+        vplgi_tests::check_all(&format!("{:?}: ", rule.metric), &checks);
     }
 }
 
@@ -497,10 +491,7 @@ fn a_hundred_thousand_shading_point_clusters_match_the_cpu() {
     };
     println!("{} points, K = {}", ps.len(), params.k);
     let checks = vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
-    for c in &checks {
-        println!("{c}");
-        c.check();
-    }
+    vplgi_tests::check_all("", &checks);
 }
 
 /// Shadow-map VPLs at --rsm-size 512 (over 200,000) in two clusters, so each cluster's update
@@ -528,8 +519,5 @@ fn two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu() {
     })
     .expect("GPU");
     assert!(!checks.is_empty(), "no RSM rows");
-    for c in &checks {
-        println!("{c}");
-        c.check();
-    }
+    vplgi_tests::check_all("", &checks);
 }

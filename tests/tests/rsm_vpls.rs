@@ -17,9 +17,7 @@ fn rsm_vpls_matches_the_cpu() {
     ] {
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128)).expect("GPU");
-        for c in &checks {
-            c.check();
-        }
+        vplgi_tests::check_all("", &checks);
     }
 }
 

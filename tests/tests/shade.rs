@@ -301,9 +301,7 @@ fn shade_matches_the_cpu_under_a_directional_light() {
             ..vplgi_types::FrameConfig::verify()
         });
         let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
-        for c in &checks {
-            c.check();
-        }
+        vplgi_tests::check_all("", &checks);
     }
 }
 
@@ -393,8 +391,5 @@ fn shade_sums_every_sample_past_lavapipes_loop_limit() {
     let cfg =
         vplgi_types::FrameConfig { width: 8, height: 6, spp: 256, vpls: 100, cluster: vplgi_types::ClusterMode::None, ..vplgi_types::FrameConfig::verify() };
     let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
-    for c in &checks {
-        println!("{c}");
-        c.check();
-    }
+    vplgi_tests::check_all("", &checks);
 }

@@ -219,9 +219,6 @@ fn centred_camera_rays_find_no_cracks_between_meshes() {
         println!("{name}: {} camera rays, {holes} hit on Embree but miss on the GPU, {extra} the other way", cpu.len());
         assert_eq!(holes, 0, "{name}: camera rays slip through cracks between meshes on the GPU");
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shading_points::compare(t, &camera)).expect("GPU");
-        for c in &checks {
-            println!("{name}: {c}");
-            c.check();
-        }
+        vplgi_tests::check_all(&format!("{name}: "), &checks);
     }
 }
