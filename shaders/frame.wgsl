@@ -8,7 +8,7 @@ struct Params {
     first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
     hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
     hit_count: u32,  // hits in that window
-    disk: u32,       // cluster_lights: 1 for disks lit by Eq. 2, 2 for exact disks, 3 for polygons
+    shape: u32,      // cluster_lights: LIGHT_SHAPE_* of the lights
     pad1: u32,
     pad2: u32,
 }
@@ -145,7 +145,7 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         let all = light_sums[4u * k];
         let sums = light_sums[4u * k + 1u];
         a = all;
-        if (params.disk == 3u) {
+        if (params.shape == LIGHT_SHAPE_POLYGON) {
             polygon_support(k);
             b = sums;
         } else if (all.w > 0.0) {
@@ -281,17 +281,17 @@ fn cluster_lights_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
     var radius2 = 0.0;
     // VplLight::exact, in the normal's w.
     var exact = 0u;
-    if (params.disk == 3u) {
+    if (params.shape == LIGHT_SHAPE_POLYGON) {
         let area = polygon_outline(k, r.position, r.normal);
         if (area > 0.0) {
             radius2 = area / PI;
             exact = EXACT_POLYGON;
         }
     } else {
-        if (params.disk >= 1u && a.w > 0.0) {
+        if (params.shape != LIGHT_SHAPE_POINT && a.w > 0.0) {
             radius2 = 2.0 * b.w / a.w;
         }
-        exact = select(0u, EXACT_DISK, params.disk == 2u && radius2 > 0.0);
+        exact = select(0u, EXACT_DISK, params.shape == LIGHT_SHAPE_DISK_EXACT && radius2 > 0.0);
     }
     lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, bitcast<f32>(exact)), vec4<f32>(a.xyz, 0.0));
 }

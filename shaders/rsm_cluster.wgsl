@@ -79,7 +79,6 @@ struct ClusterState {
 // Σ flux, Σ texel.y); representatives: its nearest distance so far in [0].x.
 @group(0) @binding(21) var<storage, read_write> running: array<vec4<f32>>;
 
-const NEIGHBOURHOOD: i32 = 2;
 
 // rsm::chroma
 fn chroma(flux: vec3<f32>) -> vec3<f32> {
@@ -417,8 +416,9 @@ fn assign(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let inf = bitcast<f32>(0x7f800000u);
     var best_mu = inf;
     var best = MISS;
-    for (var y = max(c.y - NEIGHBOURHOOD, 0); y <= min(c.y + NEIGHBOURHOOD, g); y = y + 1) {
-        for (var x = max(c.x - NEIGHBOURHOOD, 0); x <= min(c.x + NEIGHBOURHOOD, g); x = x + 1) {
+    let r = i32(RSM_NEIGHBOURHOOD);
+    for (var y = max(c.y - r, 0); y <= min(c.y + r, g); y = y + 1) {
+        for (var x = max(c.x - r, 0); x <= min(c.x + r, g); x = x + 1) {
             let cell = mp.cell_first + u32(y) * mp.grid + u32(x);
             for (var t = offsets[cell]; t < offsets[cell + 1u]; t = t + 1u) {
                 let j = items[t];

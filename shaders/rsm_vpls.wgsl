@@ -18,10 +18,6 @@ struct Params {
 @group(0) @binding(13) var<storage, read_write> offsets: array<u32>;
 @group(0) @binding(15) var<storage, read_write> vpls: array<Vpl>;
 
-const RSM_AREA: u32 = 0u;
-const RSM_POINT: u32 = 1u;
-const RSM_DIRECTIONAL: u32 = 3u;
-
 // rsm::map_of: the last map whose first texel is at or before t.
 fn map_of(t: u32) -> u32 {
     var lo = 0u;

@@ -308,7 +308,7 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     var sum = area / f32(max(params.direct_samples, 1u));
     for (var k = 0u; k < light_counts.y; k = k + 1u) {
         let l = punctual[k];
-        if (l.position.w == 2.0) {
+        if (l.position.w == PUNCTUAL_DIRECTIONAL) {
             // Directional: E cos, along a ray to infinity.
             let cos_d = -dot(n, l.direction.xyz);
             if (cos_d > 0.0 && visible_toward(p, n, -l.direction.xyz, params.eps)) {

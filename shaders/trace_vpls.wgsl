@@ -82,10 +82,10 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         } else {
             let l = punctual[i - light_counts.x];
             origin = l.position.xyz;
-            if (l.position.w == 0.0) {
+            if (l.position.w == PUNCTUAL_POINT) {
                 dir = uniform_sphere(u3, u4);
                 power = l.intensity.xyz * (4.0 * PI) / pmf;
-            } else if (l.position.w == 2.0) {
+            } else if (l.position.w == PUNCTUAL_DIRECTIONAL) {
                 // Directional: SunFrame's disk, E pi R^2.
                 let radius = l.direction.w;
                 origin = sun_origin(l.position.xyz, l.direction.xyz, radius, u3, u4);

@@ -8,9 +8,6 @@ fn uniform_triangle(u1: f32, u2: f32) -> vec2<f32> {
     return vec2<f32>(s * (1.0 - u2), s * u2);
 }
 
-// light_groups::ANY_ORIENTATION
-const ANY_ORIENTATION: f32 = -2.0;
-
 // light_groups::cos_bound: cos(max(theta - beta, 0)) from cos theta and (cos beta, sin beta).
 fn cos_bound(cos_t: f32, cos_b: f32, sin_b: f32) -> f32 {
     if (cos_t >= cos_b) {
@@ -59,7 +56,7 @@ fn punctual_falloff(l: Punctual, dir_from_light: vec3<f32>) -> f32 {
 
 // PunctualLight::falloff_cos
 fn punctual_falloff_cos(l: Punctual, cos_axis: f32) -> f32 {
-    if (l.position.w == 0.0) {
+    if (l.position.w == PUNCTUAL_POINT) {
         return 1.0;
     }
     let cos_inner = l.direction.w;

@@ -75,10 +75,8 @@ pub(crate) struct GlueParams {
     pub(crate) first: u32,
     pub(crate) hit_first: u32,
     pub(crate) hit_count: u32,
-    /// cluster_lights: 0 for points, 1 for disks lit by Eq. 2 (`LightShape::Disk`), 2 for disks
-    /// lit by their exact form factor (`LightShape::DiskExact`), 3 for polygons
-    /// (`LightShape::Polygon`).
-    pub(crate) disk: u32,
+    /// cluster_lights: the lights' shape (`LightShape::code`).
+    pub(crate) shape: u32,
     pub(crate) pad: [u32; 2],
 }
 
@@ -384,26 +382,25 @@ impl Backend for GpuBackend<'_> {
                     (10, sums.as_entire_buffer_binding()),
                     (11, outlines.as_entire_buffer_binding()),
                 ];
-                let disk = match shape {
-                    LightShape::Point => 0,
-                    LightShape::Disk => 1,
-                    LightShape::DiskExact => 2,
-                    LightShape::Polygon => 3,
-                };
                 // Each thread reads the VPLs in ranges of VPLS_PER_DISPATCH, continuing its sums
                 // (lavapipe's loop limiter, see shade::LOOP_BUDGET); a disk or a polygon needs a
                 // second pass.
-                for pass in 0..=disk.min(1) {
+                for pass in 0..=shape.is_area() as u32 {
                     let mut first = 0;
                     while first < n {
                         let end = n.min(first + VPLS_PER_DISPATCH);
                         let sum = [b[0].clone(), b[1].clone(), b[2].clone(), b[4].clone()];
-                        self.glue(&g.cluster_lights, GlueParams { n, k, first, hit_first: end, hit_count: pass, disk, ..Default::default() }, &sum, k)?;
+                        self.glue(
+                            &g.cluster_lights,
+                            GlueParams { n, k, first, hit_first: end, hit_count: pass, shape: shape.code(), ..Default::default() },
+                            &sum,
+                            k,
+                        )?;
                         first = end;
                     }
                 }
                 let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone(), b[5].clone()];
-                self.glue(&g.cluster_lights_finish, GlueParams { n, k, disk, ..Default::default() }, &finish, k)?;
+                self.glue(&g.cluster_lights_finish, GlueParams { n, k, shape: shape.code(), ..Default::default() }, &finish, k)?;
                 VplLightSet {
                     buffer: lights,
                     outlines: polygons.then_some(outlines),

@@ -5,6 +5,7 @@ use crate::buffers::{kernel_params, storage};
 use vplgi_scene::lights::LightSampler;
 use vplgi_scene::{PunctualLight, Scene};
 pub use vplgi_types::device::{Emitter, LightGroup, Punctual};
+use vplgi_types::device::{PUNCTUAL_DIRECTIONAL, PUNCTUAL_POINT, PUNCTUAL_SPOT};
 
 pub struct GpuLights {
     pub counts: wgpu::Buffer,
@@ -46,15 +47,19 @@ impl GpuLights {
             .iter()
             .map(|l| match *l {
                 PunctualLight::Point { position: p, intensity: i } => {
-                    Punctual { position: [p.x, p.y, p.z, 0.0], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] }
+                    Punctual { position: [p.x, p.y, p.z, PUNCTUAL_POINT], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] }
                 }
                 PunctualLight::Spot { position: p, direction: d, intensity: i, cos_inner, cos_outer } => {
-                    Punctual { position: [p.x, p.y, p.z, 1.0], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
+                    Punctual { position: [p.x, p.y, p.z, PUNCTUAL_SPOT], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
                 }
                 PunctualLight::Directional { direction: d, irradiance: e } => {
                     // The centre of the disk its particles start from, and the disk's radius.
                     let c = sampler.sun.disk_centre(d);
-                    Punctual { position: [c.x, c.y, c.z, 2.0], direction: [d.x, d.y, d.z, sampler.sun.radius], intensity: [e.x, e.y, e.z, 0.0] }
+                    Punctual {
+                        position: [c.x, c.y, c.z, PUNCTUAL_DIRECTIONAL],
+                        direction: [d.x, d.y, d.z, sampler.sun.radius],
+                        intensity: [e.x, e.y, e.z, 0.0],
+                    }
                 }
             })
             .collect();

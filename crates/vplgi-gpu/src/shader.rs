@@ -217,6 +217,15 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("REDUCE_ITEMS", REDUCE_ITEMS),
         ("VISIBILITY_ROW_LANES", crate::visibility::ROW_LANES),
         ("CROWDED_CENTROIDS", vplgi_types::clustering::CROWDED_CENTROIDS),
+        ("LIGHT_SHAPE_POINT", vplgi_types::LightShape::Point.code()),
+        ("LIGHT_SHAPE_DISK", vplgi_types::LightShape::Disk.code()),
+        ("LIGHT_SHAPE_DISK_EXACT", vplgi_types::LightShape::DiskExact.code()),
+        ("LIGHT_SHAPE_POLYGON", vplgi_types::LightShape::Polygon.code()),
+        ("RSM_AREA", vplgi_types::rsm::RSM_AREA),
+        ("RSM_POINT", vplgi_types::rsm::RSM_POINT),
+        ("RSM_SPOT", vplgi_types::rsm::RSM_SPOT),
+        ("RSM_DIRECTIONAL", vplgi_types::rsm::RSM_DIRECTIONAL),
+        ("RSM_NEIGHBOURHOOD", vplgi_types::rsm::NEIGHBOURHOOD as u32),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
@@ -231,6 +240,10 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
         ("FACING_COS", vplgi_types::params::FACING_COS),
         ("MIN_INTERPOLATION_ERROR", vplgi_types::interpolation::MIN_ERROR),
+        ("ANY_ORIENTATION", vplgi_types::light_groups::ANY_ORIENTATION),
+        ("PUNCTUAL_POINT", vplgi_types::device::PUNCTUAL_POINT),
+        ("PUNCTUAL_SPOT", vplgi_types::device::PUNCTUAL_SPOT),
+        ("PUNCTUAL_DIRECTIONAL", vplgi_types::device::PUNCTUAL_DIRECTIONAL),
     ];
     (u, f)
 }
@@ -561,15 +574,15 @@ mod tests {
             [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative, metric }
             [crate::seeding::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
             [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
-            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct }
-            [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, disk }
+            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct, sample_first, sample_end }
+            [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, shape }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
             [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
             [crate::gather_radius::Params] "gather_radius.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
             [crate::interpolate::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
             [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
             [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
-            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows }
+            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows, first, chunk }
             [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first, row_first }
             [crate::rsm_importance::Params] "rsm_importance.wgsl" "Params" { n, count, d_min2 }
             [vplgi_types::rsm::RsmCentre] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }

@@ -71,6 +71,11 @@ impl LightShape {
     pub fn is_area(self) -> bool {
         self != LightShape::Point
     }
+
+    /// The shape's code in the GPU's uniforms (`LIGHT_SHAPE_*` in the generated WGSL prelude).
+    pub fn code(self) -> u32 {
+        self as u32
+    }
 }
 
 /// Where the VPLs come from.

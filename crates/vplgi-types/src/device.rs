@@ -88,9 +88,10 @@ pub struct LightGroup {
     pub range: [u32; 4],
 }
 
-/// `Punctual` in `lights.wgsl`. Point: position, w 0. Spot: position, w 1; direction, w
-/// cos_inner; intensity, w cos_outer. Directional: the centre of the disk its particles start
-/// from, w 2; the direction it travels in, w the disk's radius; irradiance.
+/// `Punctual` in `lights.wgsl`. Point: position, w [`PUNCTUAL_POINT`]. Spot: position, w
+/// [`PUNCTUAL_SPOT`]; direction, w cos_inner; intensity, w cos_outer. Directional: the centre of
+/// the disk its particles start from, w [`PUNCTUAL_DIRECTIONAL`]; the direction it travels in, w
+/// the disk's radius; irradiance.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Punctual {
@@ -98,3 +99,8 @@ pub struct Punctual {
     pub direction: [f32; 4],
     pub intensity: [f32; 4],
 }
+
+/// The kinds of [`Punctual`] light, in its `position.w`.
+pub const PUNCTUAL_POINT: f32 = 0.0;
+pub const PUNCTUAL_SPOT: f32 = 1.0;
+pub const PUNCTUAL_DIRECTIONAL: f32 = 2.0;
