@@ -47,7 +47,7 @@ demo: build
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
-CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report repository
 # The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
 # (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
 GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify

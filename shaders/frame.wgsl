@@ -1,6 +1,6 @@
-// Glue between the stages of the chained GPU frame (vplgi-gpu/src/pipeline.rs), the twin of the
-// bookkeeping in vplgi-cpu/src/pipeline.rs: which shading points hit something and their rows,
-// clustering inputs, lights for shading, visibility columns.
+// Glue between the stages of the chained GPU frame (crates/vplgi-gpu/src/backend.rs), the twin
+// of the bookkeeping in crates/vplgi-cpu/src/backend.rs: which shading points hit something and
+// their rows, clustering inputs, lights for shading, visibility columns.
 
 struct Params {
     n: u32,

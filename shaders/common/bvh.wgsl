@@ -113,7 +113,7 @@ fn ray_shear(d: vec3<f32>) -> RayShear {
 // vertices alone, so two triangles sharing an edge compute that edge's function from the same
 // numbers with opposite signs: a ray through the edge cannot miss both (Möller–Trumbore, used
 // before, computes each triangle's edges from its own v0 and let 18 of 726 segments aimed at a
-// grid's shared edges through; tests/tests/gpu_differential.rs). Edge values of exactly 0 count
+// grid's shared edges through; tests/tests/visibility.rs). Edge values of exactly 0 count
 // as inside, as in the paper; its double-precision fallback for them is not used (no f64 on
 // lavapipe), so a ray through a shared vertex may hit both triangles, never neither.
 // Watertightness needs the edge's vertices to be the same numbers. Meshes placed by their own

@@ -4,10 +4,10 @@
 //!
 //! A ledger row holds the outcome, the commit the run started on, and the mutant's key: its file,
 //! a hash of the text of the function it mutates, its place relative to that function's first line,
-//! and what cargo-mutants says it does ("crates/x/src/f.rs 1f0c…a2 +3:5: replace a with b in g"). A
-//! row counts only while that function's text is unchanged: editing a function sends its mutants
-//! back to be tested, while an edit elsewhere in the file (a test module, another function, lines
-//! added above) leaves them counted. (Tests added since do not lapse rows either: a caught mutant
+//! and what cargo-mutants says it does ("crates/vplgi-cpu/src/shade.rs 1f0c…a2 +3:5: replace a
+//! with b in g"). A row counts only while that function's text is unchanged: editing a function
+//! sends its mutants back to be tested, while an edit elsewhere in the file (a test module,
+//! another function, lines added above) leaves them counted. (Tests added since do not lapse rows either: a caught mutant
 //! stays caught as tests grow, and `MUTANTS_RETEST=1` tests the survivors the harmless table does
 //! not explain, not the timeouts, again after new tests.)
 //!

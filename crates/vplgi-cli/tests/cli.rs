@@ -266,7 +266,7 @@ fn gpu_refuses_cluster_counts_past_its_search_limit() {
 }
 
 /// `--backend gpu` renders through the chained GPU pipeline and names the adapter in the report;
-/// the image is close to the CPU's (see tests/tests/gpu_differential.rs for the exact bounds).
+/// the image is close to the CPU's (see tests/tests/frame.rs for the exact bounds).
 #[test]
 fn gpu_backend_renders_and_reports_its_adapter() {
     let dir = tempfile::tempdir().unwrap();
