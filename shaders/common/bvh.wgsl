@@ -163,7 +163,7 @@ fn intersect_tri(tri: BvhTri, o: vec3<f32>, ray: RayShear, tmin: f32, tmax: f32,
 // largest coordinate the test computes with (the scene's, from bvh_frame, plus the origin's),
 // which covers separately placed meshes meeting a few ulps apart and the rounding of the sheared
 // vertices. Far below the f64 tie oracle's 64 ulps (vplgi_verify::segment), so a ray the GPU
-// now hits within the crack of an edge is a tie there, never a disagreement. The node boxes keep
+// hits only within the crack of an edge is a tie there, never a disagreement. The node boxes keep
 // at least this much room around their triangles (vplgi_gpu::bvh::quantize).
 fn crack_width(o: vec3<f32>) -> f32 {
     let lo = abs(bvh_frame[0].xyz);

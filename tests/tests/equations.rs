@@ -368,7 +368,7 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
 /// placed corners in f64: the outline's frame and every corner mix all three axes. Receivers on
 /// its axis facing it, on it and 1e-6 off it with their horizon through the polygon, and off the
 /// axis. The rule shares only the placed corners with the backends, nothing of their contour
-/// sums (whose only check at a tilted plane was twin agreement in verify).
+/// sums.
 #[test]
 fn polygon_lights_are_right_on_a_tilted_axis_on_both_backends() {
     let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends") else { return };
