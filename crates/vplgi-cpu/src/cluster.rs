@@ -36,7 +36,7 @@ use vplgi_types::clustering::{downsample, fuzzy_weights, grid_geometry, seed_cen
 pub use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric, Representative};
 use vplgi_types::config::MAX_F;
 use vplgi_types::temporal::new_seeds;
-use vplgi_types::{FuzzyMode, MISS};
+use vplgi_types::MISS;
 
 /// The result of clustering M points into K' <= K non-empty clusters.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -651,10 +651,7 @@ pub fn cluster(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams) -> 
 /// ([`temporal::admit`]).
 pub fn cluster_from(positions: &[Vec3], normals: &[Vec3], params: &ClusterParams, start: ClusterStart<'_>) -> Clustering {
     let m = positions.len();
-    let f = match params.fuzzy {
-        FuzzyMode::Hard => 1,
-        _ => params.f.clamp(1, MAX_F) as usize,
-    };
+    let f = params.effective_f() as usize;
     let k = match start {
         ClusterStart::Seeds(given) => given.len(),
         _ => params.k as usize,

@@ -466,10 +466,7 @@ impl ClusterKernel {
         params: &ClusterParams,
         start: ClusterStart<'_>,
     ) -> Result<GpuClustering, GpuError> {
-        let f = match params.fuzzy {
-            FuzzyMode::Hard => 1,
-            _ => params.f.clamp(1, MAX_F),
-        };
+        let f = params.effective_f();
         let k = match start {
             ClusterStart::Seeds(given) => given.len() as u32,
             _ => params.k,

@@ -25,6 +25,22 @@ pub struct ClusterParams {
     pub seed: u32,
 }
 
+/// The clusters each point keeps: 1 for a hard assignment, else F within 1 ..= MAX_F. The one
+/// place F is decided, for the frame and both backends' clusterings.
+pub fn effective_f(fuzzy: FuzzyMode, f: u32) -> u32 {
+    match fuzzy {
+        FuzzyMode::Hard => 1,
+        _ => f.clamp(1, crate::config::MAX_F),
+    }
+}
+
+impl ClusterParams {
+    /// [`effective_f`] of these parameters.
+    pub fn effective_f(&self) -> u32 {
+        effective_f(self.fuzzy, self.f)
+    }
+}
+
 /// Where a clustering's initial centroids come from.
 #[derive(Clone, Copy, Debug)]
 pub enum ClusterStart<'a> {
@@ -323,6 +339,18 @@ mod tests {
     /// occupy (each step then shrinks the cell fourfold), at most 4096 cells per axis, and for
     /// a volume about MAX_CELLS in all. On a surface the cell settles where about k / 2 cells
     /// are occupied (two centroids per occupied cell), within a factor 2.
+    /// F is 1 for a hard assignment whatever is asked, else what is asked within 1 ..= MAX_F;
+    /// the frame's F is the same.
+    #[test]
+    fn effective_f_is_one_when_hard_and_within_max_f_otherwise() {
+        let max = crate::config::MAX_F;
+        assert_eq!([0, 6, 40].map(|f| effective_f(FuzzyMode::Hard, f)), [1, 1, 1]);
+        assert_eq!([0, 6, 40].map(|f| effective_f(FuzzyMode::Weighted, f)), [1, 6, max]);
+        assert_eq!(effective_f(FuzzyMode::Average, max), max);
+        let frame = crate::FrameConfig { fuzzy: FuzzyMode::Weighted, f: 6, ..crate::FrameConfig::default() };
+        assert_eq!(frame.effective_f(), 6);
+    }
+
     #[test]
     fn grid_is_bounded_and_settles_near_half_k_occupied_cells() {
         let cube = grid_geometry(Vec3::ZERO, Vec3::splat(10.0), 1 << 20, |_| 1);

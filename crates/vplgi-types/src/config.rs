@@ -412,10 +412,7 @@ impl FrameConfig {
 
     /// The fuzziness actually used: `Hard` means one cluster whatever `f` says.
     pub fn effective_f(&self) -> u32 {
-        match self.fuzzy {
-            FuzzyMode::Hard => 1,
-            _ => self.f.max(1),
-        }
+        crate::clustering::effective_f(self.fuzzy, self.f)
     }
 
     /// The clustering of the VPLs (hard, K_VPL clusters), as every backend runs it.

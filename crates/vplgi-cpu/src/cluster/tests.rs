@@ -1,7 +1,7 @@
 use super::*;
 use proptest::prelude::*;
 use vplgi_types::clustering::{ward_error, FixedPoint};
-use vplgi_types::{Rng, Stream};
+use vplgi_types::{FuzzyMode, Rng, Stream};
 
 /// Eq. 7 with normal threshold `nt`.
 fn eq7(nt: f32) -> Metric {
