@@ -371,58 +371,64 @@ impl Grid {
             // exactly, as the GPU's search does.
             count = 0;
             consider(0..self.items.len(), best, &mut count);
-        } else {
-            // Squared gaps to the lower and upper neighbour cells along each axis (0 for the own).
-            let q = (p - self.origin) / self.cell;
-            let gaps = |a: usize| {
-                let below = ((q[a] - c[a] as f32) - 1e-4).max(0.0) * self.cell;
-                let above = ((c[a] as f32 + 1.0 - q[a]) - 1e-4).max(0.0) * self.cell;
-                [below * below, 0.0, above * above]
-            };
-            let (gx, gy, gz) = (gaps(0), gaps(1), gaps(2));
-            // The point's own row first, then the rows sharing a face with it, then the diagonal ones.
-            const ROWS: [(i32, i32); 9] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
-            for (dy, dz) in ROWS {
-                let (y, z) = (c[1] + dy, c[2] + dz);
-                if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
-                    continue;
-                }
-                let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
-                let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
-                if metric.key_bound(row) > limit {
-                    continue;
-                }
-                let x0 = if c[0] > 0 && metric.key_bound(row + gx[0]) <= limit { c[0] - 1 } else { c[0] };
-                let x1 = if c[0] + 1 < self.dims[0] && metric.key_bound(row + gx[2]) <= limit { c[0] + 1 } else { c[0] };
-                consider(self.row_items(x0, x1, y, z), best, &mut count);
+            return self.widened_or_nearest(p, count, best);
+        }
+        // Squared gaps to the lower and upper neighbour cells along each axis (0 for the own).
+        let q = (p - self.origin) / self.cell;
+        let gaps = |a: usize| {
+            let below = ((q[a] - c[a] as f32) - 1e-4).max(0.0) * self.cell;
+            let above = ((c[a] as f32 + 1.0 - q[a]) - 1e-4).max(0.0) * self.cell;
+            [below * below, 0.0, above * above]
+        };
+        let (gx, gy, gz) = (gaps(0), gaps(1), gaps(2));
+        // The point's own row first, then the rows sharing a face with it, then the diagonal ones.
+        const ROWS: [(i32, i32); 9] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
+        for (dy, dz) in ROWS {
+            let (y, z) = (c[1] + dy, c[2] + dz);
+            if y < 0 || y >= self.dims[1] || z < 0 || z >= self.dims[2] {
+                continue;
             }
-            // Eq. 7 keeps the paper's approximation: what the 27 cells hold, if anything. Eq. 2 is
-            // searched exactly: cells beyond are at least one cell away.
-            let done = match metric {
-                Metric::Eq7 { .. } => count > 0,
-                Metric::Ward { .. } => count == f && metric.settled(best[f - 1].0, self.cell),
-            };
-            if done {
-                return (count, SearchOutcome::Neighbourhood);
+            let limit = if count == f { best[f - 1].0 * (1.0 + 1e-5) } else { f32::INFINITY };
+            let row = gy[(dy + 1) as usize] + gz[(dz + 1) as usize];
+            if metric.key_bound(row) > limit {
+                continue;
             }
-            let last = self.max_ring(c);
-            for r in 2..=last {
-                if ((2 * r + 1) as f64).powi(3) > 8.0 * self.items.len() as f64 + 64.0 {
-                    // The rings now hold more cells than there are centroids: scanning all
-                    // centroids is cheaper, and exact.
-                    count = 0;
-                    consider(0..self.items.len(), best, &mut count);
-                    break;
-                }
-                self.visit_ring(c, r, |items| consider(items, best, &mut count));
-                // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
-                // so it is at least r cells away: once the F-th best is that near, nothing unvisited
-                // can enter the list, and the widened answer is the exact F nearest.
-                if count == f && metric.settled(best[f - 1].0, r as f32 * self.cell) {
-                    return (count, SearchOutcome::Widened);
-                }
+            let x0 = if c[0] > 0 && metric.key_bound(row + gx[0]) <= limit { c[0] - 1 } else { c[0] };
+            let x1 = if c[0] + 1 < self.dims[0] && metric.key_bound(row + gx[2]) <= limit { c[0] + 1 } else { c[0] };
+            consider(self.row_items(x0, x1, y, z), best, &mut count);
+        }
+        // Eq. 7 keeps the paper's approximation: what the 27 cells hold, if anything. Eq. 2 is
+        // searched exactly: cells beyond are at least one cell away.
+        let done = match metric {
+            Metric::Eq7 { .. } => count > 0,
+            Metric::Ward { .. } => count == f && metric.settled(best[f - 1].0, self.cell),
+        };
+        if done {
+            return (count, SearchOutcome::Neighbourhood);
+        }
+        let last = self.max_ring(c);
+        for r in 2..=last {
+            if ((2 * r + 1) as f64).powi(3) > 8.0 * self.items.len() as f64 + 64.0 {
+                // The rings now hold more cells than there are centroids: scanning all
+                // centroids is cheaper, and exact.
+                count = 0;
+                consider(0..self.items.len(), best, &mut count);
+                break;
+            }
+            self.visit_ring(c, r, |items| consider(items, best, &mut count));
+            // A centroid in ring r + 1 or beyond has r whole cells between it and the point's cell,
+            // so it is at least r cells away: once the F-th best is that near, nothing unvisited
+            // can enter the list, and the widened answer is the exact F nearest.
+            if count == f && metric.settled(best[f - 1].0, r as f32 * self.cell) {
+                return (count, SearchOutcome::Widened);
             }
         }
+        self.widened_or_nearest(p, count, best)
+    }
+
+    /// How a search beyond the 27 cells ends: its `count` compatible centroids in `best`, or, if
+    /// none is compatible, the nearest centroid by position.
+    fn widened_or_nearest(&self, p: Vec3, count: usize, best: &mut [(f32, u32)]) -> (usize, SearchOutcome) {
         if count > 0 {
             return (count, SearchOutcome::Widened);
         }

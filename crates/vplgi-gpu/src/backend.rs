@@ -6,7 +6,7 @@
 use crate::bias_points::BiasPointsKernel;
 use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
 use crate::cluster::{ClusterKernel, GpuClustering};
-use crate::context::validated;
+use crate::context::{validated, within_loop_limit};
 use crate::gather_radius::GatherRadiusKernel;
 use crate::interpolate::{GpuIrradianceSamples, InterpolateInputs, InterpolateKernel, SampleLighting};
 use crate::rsm_cluster::RsmClusterKernel;
@@ -214,27 +214,25 @@ impl Backend for GpuBackend<'_> {
         }
         if cfg.cluster.clusters_sps() {
             crate::cluster::searchable(cfg.k_sp, "--k-sp: shading-point clusters")?;
-            let levels = vplgi_types::seeding::Quadtree::new(cfg.width, cfg.height).levels;
-            let max_spp = vplgi_types::seeding::max_spp(levels);
-            if cfg.seeding == vplgi_types::Seeding::Adaptive && cfg.spp > max_spp {
-                return Err(GpuError::TooLarge {
-                    what: format!("--spp with --seeding adaptive at {}x{} (a pixel's GPU invocation walks its samples once per quadtree level, and lavapipe ends an invocation's loops after 65,535 iterations)", cfg.width, cfg.height),
-                    needed: cfg.spp as u64,
-                    limit: max_spp as u64,
-                });
+            if cfg.seeding == vplgi_types::Seeding::Adaptive {
+                let levels = vplgi_types::seeding::Quadtree::new(cfg.width, cfg.height).levels;
+                within_loop_limit(
+                    &format!("--spp with --seeding adaptive at {}x{}", cfg.width, cfg.height),
+                    cfg.spp,
+                    vplgi_types::seeding::max_spp(levels),
+                    "a pixel's GPU invocation walks its samples once per quadtree level",
+                )?;
             }
         }
         if cfg.cluster.clusters_vpls() {
             match cfg.vpl_cluster {
                 vplgi_types::VplClustering::Eq7 => crate::cluster::searchable(cfg.k_vpl, "--k-vpl: VPL clusters")?,
-                vplgi_types::VplClustering::Rsm if cfg.k_vpl > vplgi_types::rsm::MAX_RSM_CLUSTERS => {
-                    return Err(GpuError::TooLarge {
-                        what: "--k-vpl: RSM-space clusters (a VPL's GPU assignment may visit all of its map's in one invocation, which lavapipe ends after 65,535 loop iterations)".into(),
-                        needed: cfg.k_vpl as u64,
-                        limit: vplgi_types::rsm::MAX_RSM_CLUSTERS as u64,
-                    })
-                }
-                vplgi_types::VplClustering::Rsm => {}
+                vplgi_types::VplClustering::Rsm => within_loop_limit(
+                    "--k-vpl: RSM-space clusters",
+                    cfg.k_vpl,
+                    vplgi_types::rsm::MAX_RSM_CLUSTERS,
+                    "a VPL's GPU assignment may visit all of its map's in one invocation",
+                )?,
             }
         }
         let per_point = n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);

@@ -11,7 +11,7 @@
 //! downsampled set, representatives) run over every pair of output and point windows.
 
 use crate::buffers::{batched, dispatch_windows, kernel_params, read_back, record, storage, storage_zeroed, Window};
-use crate::context::validated;
+use crate::context::{validated, within_loop_limit};
 use crate::scan::ScanKernel;
 use crate::shader::{
     pipeline_with, pipelines, METRIC_EQ7, METRIC_WARD, REDUCE_ITEMS, REPRESENTATIVE_MIN_ERROR, REPRESENTATIVE_NEAREST, WEIGHTS_INVERSE_DISTANCE,
@@ -56,14 +56,7 @@ pub(crate) struct Params {
 /// Refuses K beyond [`MAX_ASSIGN_CENTROIDS`]: a search may scan every centroid in one
 /// invocation, and lavapipe would end it early, silently.
 pub fn searchable(k: u32, what: &str) -> Result<(), GpuError> {
-    if k > MAX_ASSIGN_CENTROIDS {
-        return Err(GpuError::TooLarge {
-            what: format!("{what} (a GPU search may scan all of them in one invocation, and lavapipe ends an invocation's loops after 65,535 iterations)"),
-            needed: k as u64,
-            limit: MAX_ASSIGN_CENTROIDS as u64,
-        });
-    }
-    Ok(())
+    within_loop_limit(what, k, MAX_ASSIGN_CENTROIDS, "a GPU search may scan all of them in one invocation")
 }
 
 /// A grid filled with centroids, on the device.
@@ -475,7 +468,6 @@ impl ClusterKernel {
         if m == 0 || k == 0 {
             return Ok(self.empty(device, f));
         }
-        searchable(k, "clusters")?;
         let gamma = (params.gamma as usize).clamp(1, (m as usize / k as usize).max(1));
         let sample = downsample(m as usize, gamma, params.seed);
         let s = sample.len() as u32;

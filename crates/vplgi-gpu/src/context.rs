@@ -20,6 +20,19 @@ pub enum GpuError {
     TooLarge { what: String, needed: u64, limit: u64 },
 }
 
+/// Refuses `needed` of `what` past `limit`, the bound that keeps one invocation's loops inside
+/// lavapipe's loop limiter; `why` says which loop grows with it.
+pub fn within_loop_limit(what: &str, needed: u32, limit: u32, why: &str) -> Result<(), GpuError> {
+    if needed > limit {
+        return Err(GpuError::TooLarge {
+            what: format!("{what} ({why}, and lavapipe ends an invocation's loops after 65,535 iterations)"),
+            needed: needed as u64,
+            limit: limit as u64,
+        });
+    }
+    Ok(())
+}
+
 /// A device ready for the vplgi kernels.
 pub struct GpuContext {
     pub adapter: wgpu::Adapter,
