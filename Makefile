@@ -8,9 +8,14 @@ SHELL := /bin/bash
 
 CARGO ?= cargo
 DEMO_OUT ?= out/demo
+# The stages and their parts, read from the stage table (crates/vplgi-frame/src/stages.rs: one
+# row per line, `name Trait [part Trait, ...],`); tests/tests/stages.rs checks this reading.
+STAGE_TABLE := crates/vplgi-frame/src/stages.rs
+STAGES := $(shell sed -n 's/^ *\([a-z_]*\) [A-Z][A-Za-z]* \[.*\],$$/\1/p' $(STAGE_TABLE))
+STAGE_MODULES := $(shell sed -n 's/^ *\([a-z_]*\) [A-Z][A-Za-z]* \[\(.*\)\],$$/\1,\2/p' $(STAGE_TABLE) | tr ',' '\n' | awk 'NF {print $$1}')
 VPLGI := target/release/vplgi
 
-.PHONY: all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants rsm validate test-slurm clean
+.PHONY: stages cli-doc all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants rsm validate test-slurm clean
 
 all: build
 
@@ -47,7 +52,7 @@ demo: build
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
-CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report repository
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report repository stages
 # The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
 # (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
 GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify
@@ -64,7 +69,7 @@ test: setup
 # table, through vplgi-verify's comparisons) at 10,000 cases each instead of make test's few.
 # Override with VPLGI_PROPTEST_CASES=N. Shrunk failures are written next to the test file
 # (tests/tests/<stage>.proptest-regressions): commit them, every later run replays them first.
-PROPERTY_TESTS := rng trace_vpls shading_points visibility shade cluster seeding gather_radius interpolate bias_points rsm_vpls
+PROPERTY_TESTS := rng $(STAGES)
 verify-long: setup
 	@for t in $(PROPERTY_TESTS); do \
 	  start=$$(date +%s); \
@@ -96,12 +101,8 @@ verify-long: setup
 # the arguments each mutant's run gets (--workspace comes from --test-workspace); and the ledger
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
 # as caught.
-MUTANTS_ALL := crates/vplgi-types/src/*.rs crates/vplgi-cpu/src/cluster.rs crates/vplgi-cpu/src/shade.rs crates/vplgi-cpu/src/bias_points.rs \
-  crates/vplgi-cpu/src/shading_points.rs crates/vplgi-cpu/src/trace_vpls.rs crates/vplgi-cpu/src/visibility.rs crates/vplgi-cpu/src/seeding.rs \
-  crates/vplgi-cpu/src/gather_radius.rs crates/vplgi-cpu/src/interpolate.rs crates/vplgi-cpu/src/rsm_vpls.rs crates/vplgi-cpu/src/rsm_importance.rs \
-  crates/vplgi-cpu/src/rsm_cluster.rs
-MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng trace_vpls shading_points visibility shade cluster bias_points \
-  seeding gather_radius interpolate rsm_vpls
+MUTANTS_ALL := crates/vplgi-types/src/*.rs $(foreach m,$(STAGE_MODULES),crates/vplgi-cpu/src/$(m).rs)
+MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng $(STAGES)
 MUTANTS_FILES := $(MUTANTS_ALL)
 # Property tests draw the same cases for the baseline and every mutant. A failing case is saved to a
 # .proptest-regressions file and replayed first for every later mutant, so one that fails without
@@ -162,24 +163,26 @@ fuzz: setup
 	done
 
 # Criterion benches of every stage, CPU and GPU, small and paper size (about 10 minutes on 2 cores
-# with lavapipe). One stage: make bench BENCH=visibility. The first run saves its times as the
+# with lavapipe). One stage: make bench BENCH=visibility (a stage of the table, or frame). The first run saves its times as the
 # baseline BENCH_BASELINE (target/criterion/.../main); later runs are compared with it, and
 # bench_compare prints each benchmark as slower, faster or within the noise it measured (the two
 # medians' 95 % intervals). make bench-baseline saves the current code's times as the baseline.
 BENCH_BASELINE ?= main
 BENCH_ENV = XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
+# The bench target and criterion's filter for BENCH: the stages share one binary.
+BENCH_ARGS = $(if $(filter frame,$(BENCH)),--bench frame --,$(if $(BENCH),--bench stages -- '^$(BENCH)/',--))
 bench: setup
 	@start=$$(date +%s); \
 	if find target/criterion -type d -name $(BENCH_BASELINE) 2>/dev/null | grep -q .; then \
-	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --baseline-lenient $(BENCH_BASELINE) || exit 1; \
+	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(BENCH_ARGS) --baseline-lenient $(BENCH_BASELINE) || exit 1; \
 	  $(CARGO) run -q --release -p vplgi-benches --bin bench_compare -- --baseline $(BENCH_BASELINE) --since $$start; \
 	else \
-	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --save-baseline $(BENCH_BASELINE) || exit 1; \
+	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(BENCH_ARGS) --save-baseline $(BENCH_BASELINE) || exit 1; \
 	  echo "make bench: no baseline '$(BENCH_BASELINE)' yet: these times are saved as it; the next make bench compares with them"; \
 	fi
 
 bench-baseline: setup
-	$(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(if $(BENCH),--bench $(BENCH)) -- --save-baseline $(BENCH_BASELINE)
+	$(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(BENCH_ARGS) --save-baseline $(BENCH_BASELINE)
 
 # vplgi side by side with faiss-cpu (k-means), raw Embree (visibility), its GPU backend and its
 # unclustered reference, in one run: docs/PERFORMANCE.md. About 5 minutes. faiss-cpu is
@@ -254,3 +257,12 @@ test-slurm: build
 clean:
 	$(CARGO) clean
 	rm -rf out
+
+# The stage table as the make targets read it: the stages, then every stage and part module.
+stages:
+	@echo $(STAGES)
+	@echo $(STAGE_MODULES)
+
+# docs/CLI.md: every command's --help, written from clap's definitions (a test fails when stale).
+cli-doc:
+	VPLGI_WRITE_CLI_DOC=1 $(CARGO) test -q --release -p vplgi-cli --bin vplgi cli_doc

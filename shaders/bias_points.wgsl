@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/scene.wgsl
 // Stage bias_points: the bias compensation of the geometry-term clamp (vplgi-cpu/src/bias_points.rs).
 // From each parent shading point, one cosine-sampled segment (stream (seed, STREAM_BIAS, i)) to
 // the surface it sees; kept as a shading point where the clamp bites, with albedo = its albedo x

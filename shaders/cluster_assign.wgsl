@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: each point's F nearest compatible centroids (Grid::search of
 // vplgi-cpu/src/cluster.rs: the 27 cells, then widening rings, then the nearest by position),
 // with their weights (Eq. 10 or Eq. 8's plain mean) and how the search ended. "Nearest" is by

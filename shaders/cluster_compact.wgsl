@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: dropping the clusters nobody is nearest to after the final hard assignment.
 
 @group(0) @binding(3) var<storage, read> centroids: array<Endpoint>;

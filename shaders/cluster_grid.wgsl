@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: the grid over the centroids, filled by a counting sort (count per cell, a scan
 // on the host's ScanKernel, scatter).
 

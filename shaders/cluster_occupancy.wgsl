@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: how many grid cells a candidate cell size (params.origin.w) occupies, over the
 // downsampled points (vplgi_types::clustering::grid_geometry chooses the size from the counts).
 

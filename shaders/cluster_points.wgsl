@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: work over a point set on its own: gathering points by index (seeds, the
 // downsampled set, the representatives' rows), the points' bounding box, and the totals of the
 // search outcomes.

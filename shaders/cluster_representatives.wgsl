@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: each cluster's representative, the member (by first label) nearest its centroid,
 // or of smallest Eq. 2 error to it (Representative::key of vplgi-types/src/clustering.rs).
 

@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster passes of `--temporal on` (vplgi-cpu/src/cluster/temporal.rs): each point against
 // its nearest previous centre (admitted when its key is at most the centre's threshold), and
 // each cluster's largest member key, the next frame's threshold.

@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/metric.wgsl common/cluster.wgsl
 // Cluster pass: the centroid update of Alg. 1 with FixedPoint sums (vplgi_types::clustering):
 // 64-bit sums as (lo, hi) u32 pairs with a carry, so the result does not depend on thread order.
 

@@ -1,19 +1,23 @@
+// include: common/types.wgsl
 // Glue between the stages of the chained GPU frame (crates/vplgi-gpu/src/backend.rs), the twin
 // of the bookkeeping in crates/vplgi-cpu/src/backend.rs: which shading points hit something and
 // their rows, clustering inputs, lights for shading, visibility columns.
 
 struct Params {
-    n: u32,
-    k: u32,
-    first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact)
-    hit_first: u32,  // first hit of the bound `endpoints` window (sp_compact)
-    hit_count: u32,  // hits in that window
+    n: u32,          // items of the dispatch: samples of the chunk, VPLs, lights
+    k: u32,          // cluster_lights: clusters
+    first: u32,      // first sample of the bound `sps` chunk (sp_flags, sp_compact); first VPL of
+                     // a cluster_lights range (a range: see GpuBackend::vpl_lights)
+    end: u32,        // cluster_lights: the range's end
+    hit_first: u32,  // sp_compact: first hit of the bound `endpoints` window
+    hit_count: u32,  // sp_compact: hits in that window
+    phase: u32,      // cluster_lights: 0 the sums, 1 the disk's spread or the polygon's support
+    max_bounce: u32, // vpl_lights: VPLs deposited at more surfaces carry no flux
     shape: u32,      // cluster_lights: LIGHT_SHAPE_* of the lights
     pad1: u32,
     pad2: u32,
+    pad3: u32,
 }
-// cluster_lights reads VPLs first .. hit_first of a pass (a range: see GpuBackend::vpl_lights),
-// pass hit_count: 0 the sums, 1 the disk's spread or the polygon's support.
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> sps: array<ShadingPoint>;
@@ -73,8 +77,8 @@ fn vpl_endpoints(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     endpoints[i] = Endpoint(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0));
 }
 
-// One light per VPL; VPLs deposited at more than params.k surfaces carry no flux (the lights of
-// a bias-compensation level).
+// One light per VPL; VPLs deposited at more than params.max_bounce surfaces carry no flux (the
+// lights of a bias-compensation level).
 @compute @workgroup_size(64)
 fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -82,16 +86,15 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         return;
     }
     let v = vpls[i];
-    let flux = select(v.flux, vec3<f32>(0.0), v.bounce > params.k);
+    let flux = select(v.flux, vec3<f32>(0.0), v.bounce > params.max_bounce);
     lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(flux, 0.0));
 }
 
 // Which of the VPLs base .. base + 31 (below `end`) belong to cluster k, as bits. The loops over
 // a cluster's members test 32 labels in step, then visit the set bits in ascending order (the
 // same order as one VPL after the other): lavapipe runs a loop's body for all lanes whenever one
-// lane needs it, so a label test and a member's loads in one loop loaded every VPL's record for
-// every cluster (conference room, 1,000 clusters of 10,000 VPLs, device time of the frame's glue
-// kernels on lavapipe, median of 5: 25.5 -> 13.2 ms).
+// lane needs it, so a label test and a member's loads in one loop would load every VPL's record
+// for every cluster.
 fn members_in_block(k: u32, base: u32, end: u32) -> u32 {
     var found = 0u;
     for (var j = 0u; j < 32u; j = j + 1u) {
@@ -123,12 +126,12 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         a = light_sums[4u * k];
         b = light_sums[4u * k + 1u];
     }
-    if (params.hit_count == 0u) {
+    if (params.phase == 0u) {
         var flux = a.xyz;
         var weight = a.w;
         var moment = b.xyz;
-        for (var base = params.first; base < params.hit_first; base = base + 32u) {
-            var found = members_in_block(k, base, params.hit_first);
+        for (var base = params.first; base < params.end; base = base + 32u) {
+            var found = members_in_block(k, base, params.end);
             while (found != 0u) {
                 let v = vpls[base + firstTrailingBit(found)];
                 found = found & (found - 1u);
@@ -155,8 +158,8 @@ fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
             if (params.first > 0u) {
                 spread = sums.w;
             }
-            for (var base = params.first; base < params.hit_first; base = base + 32u) {
-                var found = members_in_block(k, base, params.hit_first);
+            for (var base = params.first; base < params.end; base = base + 32u) {
+                var found = members_in_block(k, base, params.end);
                 while (found != 0u) {
                     let v = vpls[base + firstTrailingBit(found)];
                     found = found & (found - 1u);
@@ -183,8 +186,8 @@ fn polygon_support(k: u32) {
         lo = light_sums[4u * k + 2u];
         hi = light_sums[4u * k + 3u];
     }
-    for (var base = params.first; base < params.hit_first; base = base + 32u) {
-        var found = members_in_block(k, base, params.hit_first);
+    for (var base = params.first; base < params.end; base = base + 32u) {
+        var found = members_in_block(k, base, params.end);
         while (found != 0u) {
             let v = vpls[base + firstTrailingBit(found)];
             found = found & (found - 1u);

@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/sampling.wgsl common/scene.wgsl
 // Stage gather_radius (vplgi-cpu/src/gather_radius.rs): per sample point, 1 / R_j, the mean over
 // its gather rays of 1 / t for hits beyond the offset eps (an escaped ray adds 0), R_j being the harmonic mean distance of Wang
 // et al.'s interpolation weight. Ray r draws two numbers from stream (seed, STREAM_GATHER, j) at

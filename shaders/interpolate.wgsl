@@ -1,3 +1,4 @@
+// include: common/types.wgsl
 // Stage interpolate (vplgi-cpu/src/interpolate.rs), --shade interpolate (Wang et al. 2009).
 //
 // `sample_points` turns the K sample points (the shading-point clusters' representatives) into

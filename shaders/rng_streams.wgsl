@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl
 // Diagnostic kernel: `draws` numbers of the stream (seed, stream, first_index + i) per thread,
 // for the bit-identity test against vplgi_types::Rng.
 

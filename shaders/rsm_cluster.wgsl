@@ -1,3 +1,4 @@
+// include: common/types.wgsl
 // VPL clustering in reflective-shadow-map space (vplgi-cpu/src/rsm_cluster.rs; Prutkin et al.
 // 2012, Alg. 1), one kernel per step:
 //   map_starts:  the first VPL of each map (VPLs are in texel order);

@@ -1,3 +1,4 @@
+// include: common/types.wgsl
 // The bidirectional importance map of the RSM clustering (vplgi-cpu/src/rsm_importance.rs;
 // Prutkin et al. 2012, Alg. 1 lines 2-4; vplgi_types::rsm_importance), two kernels:
 //   importance_points: the G-buffer point of each listed camera sample (a zero normal where the

@@ -1,3 +1,4 @@
+// include:
 // Exclusive prefix sum of counts[0..n) into offsets[0..n], with offsets[n] = the total, by one
 // workgroup per dispatch over the items [first, first + count): each thread sums a contiguous
 // chunk, the 256 partial sums are scanned in workgroup memory (Hillis-Steele), then each thread

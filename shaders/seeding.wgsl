@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/metric.wgsl
 // Stage 3's first step with --seeding adaptive, `seeding`: Wang et al.'s screen-space quadtree
 // (the rules are vplgi_types::seeding; the CPU twin is vplgi-cpu/src/seeding.rs). Three passes:
 // node_sums level by level bottom up, node_variation once over the pixels, distribute level by

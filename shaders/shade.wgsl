@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
 // Stage 5, shade (vplgi-cpu/src/shade.rs): per pixel, the mean over its spp shading points of
 // emitted + direct + indirect radiance, indirect by Eq. 6 with the clamped geometry term and
 // the visibility of Eq. 8 / 9-10 (mode 1) or the point's own row (mode 0).

@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/scene.wgsl
 // Stage 2, shading_points: one primary ray per camera sample (vplgi-cpu/src/shading_points.rs).
 // Sample i belongs to pixel i / spp; with spp = 1 it goes through the pixel centre, otherwise it
 // is jittered with the stream (seed, STREAM_CAMERA, i), and its emission is the pixel's,

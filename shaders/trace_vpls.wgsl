@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
 // Stage 1, trace_vpls (vplgi-cpu/src/trace_vpls.rs), in three kernels:
 //   trace:   one thread per light particle; its VPLs go to `bounces` fixed slots, with a count;
 //   (scan.wgsl turns the counts into exclusive offsets and the batch total);

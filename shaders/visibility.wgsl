@@ -1,3 +1,4 @@
+// include: common/types.wgsl common/bvh.wgsl common/scene.wgsl
 // Stage 4, visibility (vplgi-cpu/src/visibility.rs): one thread per row and 32-bit word of the
 // bit matrix, i.e. 32 shadow rays, and VISIBILITY_ROW_LANES consecutive threads take the same
 // word of as many consecutive rows. The rows are shading-point clusters seeded at evenly spaced

@@ -1,4 +1,4 @@
-//! Shared set-up of the criterion benches (`benches/benches/<stage>.rs`, one per stage plus
+//! Shared set-up of the criterion benches (`benches/benches/stages/<stage>.rs`, one per stage plus
 //! `frame`): the two sizes, every stage's inputs made once by the CPU reference (not timed), the
 //! GPU context with device copies of those inputs, and the GPU clock.
 //!

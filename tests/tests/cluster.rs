@@ -1,6 +1,10 @@
 //! `cluster`: assignment, update and the whole clustering, GPU against CPU (SPEC: >= 99.99 %
 //! same labels, >= 99.9 % same F-sets, weights within 1e-5, bit-identical centroid sums).
-//! Each test prints the adapter it ran on and the measured disagreement.
+//! Each test prints the adapter it ran on and the measured disagreement. Its parts' tests are
+//! modules of this one: `seeding`.
+
+#[path = "cluster/seeding.rs"]
+mod seeding;
 
 use glam::Vec3;
 use proptest::prelude::*;

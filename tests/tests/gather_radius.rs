@@ -5,8 +5,9 @@
 
 use glam::Vec3;
 use proptest::prelude::*;
-use vplgi_frame::Backend;
-use vplgi_gpu::buffers::{read_back, storage};
+use vplgi_frame::prelude::*;
+use vplgi_gpu::buffers::read_back;
+use vplgi_gpu::GpuPoints;
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::Endpoint;
 
@@ -46,7 +47,7 @@ fn facing_a_plane_the_gpu_finds_three_halves_of_the_height() {
     let scene = vplgi_scene::cornell::plane_with_point_light(100.0 * h, 1.0, 0.5, 1.0);
     let points: Vec<Endpoint> = (0..8).map(|j| Endpoint::new(Vec3::new(0.1 * j as f32, h, 0.0), -Vec3::Y)).collect();
     let (got, eps) = vplgi_tests::with_twins(gpu, &scene, |t| {
-        let out = t.gpu.gather_radius(&storage(t.device(), "points", &points), 8, &GatherParams { seed: 3, rays: 4096 }).expect("gather_radius");
+        let out = t.gpu.gather_radius(&GpuPoints::upload(t.device(), "points", &points), &GatherParams { seed: 3, rays: 4096 }).expect("gather_radius");
         (read_back::<f32>(t.device(), t.queue(), &out, 8).expect("read back"), t.cpu.eps)
     });
     let mean = got.iter().sum::<f32>() / got.len() as f32;

@@ -211,7 +211,8 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
 /// or half of them for a disk's two passes, before cluster_lights read them in ranges).
 #[test]
 fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
-    use vplgi_frame::{Backend, LightSet};
+    use vplgi_frame::prelude::*;
+    use vplgi_frame::LightSet;
     use vplgi_gpu::buffers::{read_back, storage};
     use vplgi_gpu::shade::VplLight;
     use vplgi_types::Vpl;
@@ -247,7 +248,7 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
                 let device = t.device();
                 let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
                 let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
-                let b = t.gpu.vpl_lights(&gv, n, LightSet::Clusters { clusters: &gc, k, shape }).expect("lights");
+                let b = t.gpu.vpl_lights(&gv, LightSet::Clusters { clusters: &gc, shape }).expect("lights");
                 assert_eq!(b.exact_shapes, shape != LightShape::Disk);
                 let outlines = b.outlines.as_ref().map(|o| read_back::<vplgi_types::LightOutline>(device, t.queue(), o, k as usize).expect("read back"));
                 (read_back::<VplLight>(device, t.queue(), &b.buffer, k as usize).expect("read back"), outlines)

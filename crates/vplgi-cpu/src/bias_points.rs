@@ -78,6 +78,12 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
     }
 }
 
+impl vplgi_frame::stages::BiasPoints for CpuScene<'_> {
+    fn bias_points(&self, parent: &Vec<ShadingPoint>, samples: std::ops::Range<u32>, params: &BiasParams) -> Result<Vec<ShadingPoint>, vplgi_frame::FrameError> {
+        Ok(bias_points(self, parent, samples.start, params))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,6 +37,10 @@ pub use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric, Represent
 use vplgi_types::config::MAX_F;
 use vplgi_types::temporal::new_seeds;
 use vplgi_types::MISS;
+use crate::visibility::Endpoint;
+use crate::CpuScene;
+use vplgi_frame::{ClusterCounts, FrameError};
+use vplgi_types::clustering::Centre;
 
 /// The result of clustering M points into K' <= K non-empty clusters.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -833,6 +837,35 @@ fn representatives(
 }
 
 pub mod temporal;
+
+impl vplgi_frame::Counted for Clustering {
+    fn count(&self) -> u32 {
+        self.k() as u32
+    }
+}
+
+/// The points' positions and normals, as the clustering reads them.
+fn positions_and_normals(points: &[Endpoint]) -> (Vec<Vec3>, Vec<Vec3>) {
+    (points.iter().map(Endpoint::p).collect(), points.iter().map(Endpoint::n).collect())
+}
+
+impl vplgi_frame::stages::Cluster for CpuScene<'_> {
+    fn cluster(&self, points: &Vec<Endpoint>, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(Clustering, ClusterCounts), FrameError> {
+        let (pos, nor) = positions_and_normals(points);
+        let c = cluster_from(&pos, &nor, params, start);
+        let counts = ClusterCounts { widened: c.widened as u32, kept: c.kept as u32, fresh: c.fresh as u32 };
+        Ok((c, counts))
+    }
+
+    fn cluster_centres(&self, c: &Clustering, points: &Vec<Endpoint>, metric: Metric) -> Result<Vec<Centre>, FrameError> {
+        let (pos, nor) = positions_and_normals(points);
+        Ok(temporal::centres(c, &pos, &nor, metric))
+    }
+
+    fn representatives(&self, c: &Clustering, points: &Vec<Endpoint>) -> Result<Vec<Endpoint>, FrameError> {
+        Ok(c.representatives.iter().map(|&r| points[r as usize]).collect())
+    }
+}
 
 #[cfg(test)]
 mod tests;

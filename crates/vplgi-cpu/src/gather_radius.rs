@@ -45,6 +45,12 @@ pub fn rays(p: Vec3, n: Vec3, eps: f32, index: u32, params: &GatherParams) -> (V
     (origin, dirs)
 }
 
+impl vplgi_frame::stages::GatherRadius for CpuScene<'_> {
+    fn gather_radius(&self, points: &Vec<Endpoint>, params: &GatherParams) -> Result<Vec<f32>, vplgi_frame::FrameError> {
+        Ok(gather_radius(self, points, params))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,8 +9,12 @@
 use glam::Vec3;
 use vplgi_types::interpolation::weight;
 use vplgi_types::{Endpoint, MISS};
+use crate::shade::{sample_irradiance, VplLights};
+use crate::visibility::BitMatrix;
+use crate::CpuScene;
+use vplgi_frame::FrameError;
 
-/// The sample points of a frame: where they are, their 1 / R_j (`gather_radius`) and the
+/// The sample points of a frame: where they are, their 1 / R_j (from their gather rays) and the
 /// irradiance of the VPL lights there.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct IrradianceSamples {
@@ -34,6 +38,13 @@ pub fn interpolate(p: Vec3, n: Vec3, labels: &[u32], samples: &IrradianceSamples
         sum / total
     } else {
         Vec3::ZERO
+    }
+}
+
+impl vplgi_frame::stages::Interpolate for CpuScene<'_> {
+    fn sample_irradiance(&self, points: Vec<Endpoint>, inv_radius: Vec<f32>, lights: &VplLights, matrix: &BitMatrix, g_max: f32) -> Result<IrradianceSamples, FrameError> {
+        let irradiance = sample_irradiance(&points, lights, matrix, g_max);
+        Ok(IrradianceSamples { points, inv_radius, irradiance })
     }
 }
 

@@ -11,18 +11,9 @@
 //! bit-identical results.
 
 mod backend;
-pub mod bias_points;
-pub mod cluster;
-pub mod gather_radius;
-pub mod interpolate;
-pub mod rsm_cluster;
-pub mod rsm_importance;
-pub mod rsm_vpls;
-pub mod seeding;
-pub mod shade;
-pub mod shading_points;
-pub mod trace_vpls;
-pub mod visibility;
+use vplgi_frame::stage_modules;
+// One module per stage and part of the table, each implementing its stage trait.
+vplgi_frame::stage_table!(stage_modules);
 
 /// Light tables live with the scene so every backend shares them.
 pub use vplgi_scene::lights;

@@ -38,6 +38,8 @@ pub use vplgi_types::rsm::RsmClusterParams;
 use vplgi_types::rsm::{self, RsmCentre, RsmLight, RsmWeights, NEIGHBOURHOOD};
 use vplgi_types::rsm_importance;
 use vplgi_types::{Vpl, MISS};
+use crate::CpuScene;
+use vplgi_frame::{ClusterCounts, FrameError, RsmStart};
 
 /// One cluster's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -275,6 +277,20 @@ pub fn rsm_cluster_from(vpls: &[Vpl], maps: &[RsmLight], params: &RsmClusterPara
     }
     let kept = warm.iter().map(|w| w.len() as u32).sum::<u32>();
     RsmClusters { clustering: out, centres, kept, fresh: per_map.iter().sum::<u32>() - kept }
+}
+
+impl vplgi_frame::stages::RsmCluster for CpuScene<'_> {
+    fn rsm_cluster(
+        &self,
+        vpls: &Vec<Vpl>,
+        rsm_size: u32,
+        params: &RsmClusterParams,
+        start: RsmStart<'_, Vec<f32>>,
+    ) -> Result<(Clustering, ClusterCounts, Vec<RsmCentre>), FrameError> {
+        let r = rsm_cluster_from(vpls, &self.lights.rsm_maps(rsm_size), params, start.importance.map(|i| &i[..]), start.previous);
+        let counts = ClusterCounts { kept: r.kept, fresh: r.fresh, ..Default::default() };
+        Ok((r.clustering, counts, if start.carry { r.centres } else { Vec::new() }))
+    }
 }
 
 #[cfg(test)]

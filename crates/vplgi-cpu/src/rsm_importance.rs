@@ -7,6 +7,9 @@ use rayon::prelude::*;
 use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::rsm_importance;
 use vplgi_types::{Endpoint, Vpl};
+use crate::backend::CpuHits;
+use crate::CpuScene;
+use vplgi_frame::FrameError;
 
 /// The importance of every texel of `maps` (texel order; 0 where no VPL is) for the VPLs `vpls`
 /// seen from `points`, their distances floored at `d_min`.
@@ -18,6 +21,13 @@ pub fn rsm_importance(vpls: &[Vpl], maps: &[RsmLight], points: &[Endpoint], d_mi
         out[t as usize] = x;
     }
     out
+}
+
+impl vplgi_frame::stages::RsmImportance for CpuScene<'_> {
+    fn rsm_importance(&self, vpls: &Vec<Vpl>, rsm_size: u32, hits: &CpuHits, samples: &[u32], d_min: f32) -> Result<Vec<f32>, FrameError> {
+        let points = hits.gbuffer_points(samples);
+        Ok(rsm_importance(vpls, &self.lights.rsm_maps(rsm_size), &points, d_min))
+    }
 }
 
 #[cfg(test)]

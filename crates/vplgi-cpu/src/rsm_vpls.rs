@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use vplgi_frame::Progress;
 use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::Vpl;
+use vplgi_frame::FrameError;
 
 /// The VPL of texel `t` of `maps`, if its ray hits a surface.
 pub fn texel_vpl(cs: &CpuScene, maps: &[RsmLight], t: u32) -> Option<Vpl> {
@@ -29,6 +30,13 @@ pub fn rsm_vpls(cs: &CpuScene, size: u32, progress: &dyn Progress) -> VplSet {
     let vpls: Vec<Vpl> = (0..texels).into_par_iter().filter_map(|t| texel_vpl(cs, &maps, t)).collect();
     progress.finish();
     VplSet { vpls, particles: texels }
+}
+
+impl vplgi_frame::stages::RsmVpls for CpuScene<'_> {
+    fn rsm_vpls(&self, size: u32, progress: &dyn Progress) -> Result<(Vec<Vpl>, u32), FrameError> {
+        let set = rsm_vpls(self, size, progress);
+        Ok((set.vpls, set.particles))
+    }
 }
 
 #[cfg(test)]

@@ -9,6 +9,11 @@ use rayon::prelude::*;
 use vplgi_types::clustering::{ward_error, FixedPoint};
 use vplgi_types::seeding::{capped_shares, quantize_error, ranks, Quadtree, SeedParams, CHILDREN};
 use vplgi_types::MISS;
+use crate::backend::CpuHits;
+use crate::visibility::Endpoint;
+use crate::CpuScene;
+use vplgi_frame::FrameError;
+use vplgi_types::CameraParams;
 
 /// The hits of an image, located: hit `i` is a surface point (`positions[i]`, `normals[i]`),
 /// and pixel `p`'s hits are `pixel_first[p] .. pixel_first[p + 1]` (hits are numbered in sample
@@ -193,6 +198,18 @@ pub fn seeding(hits: &ImageHits, params: &SeedParams) -> Vec<u32> {
         }
     }
     slots.into_iter().filter(|&h| h != MISS).collect()
+}
+
+impl vplgi_frame::stages::Seeding for CpuScene<'_> {
+    fn seeding(&self, hits: &CpuHits, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, FrameError> {
+        let pos: Vec<Vec3> = hits.points.iter().map(Endpoint::p).collect();
+        let nor: Vec<Vec3> = hits.points.iter().map(Endpoint::n).collect();
+        // Hits are in sample order: pixel p's are those of samples p spp .. (p + 1) spp.
+        let pixels = camera.width as usize * camera.height as usize;
+        let pixel_first: Vec<u32> = (0..=pixels).map(|p| hits.samples.partition_point(|&s| (s as usize) < p * camera.spp as usize) as u32).collect();
+        let image = ImageHits { positions: &pos, normals: &nor, pixel_first: &pixel_first, width: camera.width, height: camera.height };
+        Ok(seeding(&image, params))
+    }
 }
 
 #[cfg(test)]

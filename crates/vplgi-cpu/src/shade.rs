@@ -28,6 +28,8 @@ use vplgi_types::pod::{EXACT_DISK, EXACT_POLYGON};
 use vplgi_types::{disk, polygon, sampling, Endpoint, LightOutline, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 pub use vplgi_types::VplLight;
+use std::ops::Range;
+use vplgi_frame::{FrameError, ShadeInput, ShadeVisibility};
 
 /// Lights for indirect shading (the CPU backend's `Lights`): one [`VplLight`] each and, for a set
 /// with polygon lights (`LightShape::Polygon`), each light's outline in light order (an empty
@@ -437,5 +439,24 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
                 .collect();
             VplLights { lights, outlines }
         }
+    }
+}
+
+impl vplgi_frame::Counted for VplLights {
+    fn count(&self) -> u32 {
+        self.lights.len() as u32
+    }
+}
+
+impl vplgi_frame::stages::Shade for CpuScene<'_> {
+    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, FrameError> {
+        let (matrix, row_of) = (input.matrix, input.hits.row_of());
+        let src = match input.visibility {
+            ShadeVisibility::Own { first_row } => VisibilitySource::Own { matrix, row_of, first_row },
+            ShadeVisibility::Fuzzy { clustering: c, .. } => VisibilitySource::Fuzzy { matrix, row_of, labels: &c.labels, weights: &c.weights, f: c.f },
+            ShadeVisibility::Interpolated { clustering: c, samples, .. } => VisibilitySource::Interpolated { row_of, labels: &c.labels, f: c.f, samples },
+        };
+        let pixels = pixels.start as usize..pixels.end as usize;
+        Ok(shade(self, &input.chunk.samples, input.chunk.first as usize, pixels, input.lights, &src, params))
     }
 }

@@ -70,3 +70,9 @@ fn pixel_emission(cs: &CpuScene, camera: &Camera, (width, height): (u32, u32), (
     }
     sum / (n * n) as f32
 }
+
+impl vplgi_frame::stages::ShadingPoints for CpuScene<'_> {
+    fn shading_points(&self, p: &CameraParams, samples: std::ops::Range<u32>) -> Result<Vec<ShadingPoint>, vplgi_frame::FrameError> {
+        Ok(shading_points_of(self, p, samples))
+    }
+}

@@ -16,6 +16,8 @@ use vplgi_frame::Progress;
 use vplgi_types::{sampling, Rng, Stream, Vpl};
 
 use vplgi_types::params::MAX_SURVIVAL;
+use vplgi_frame::FrameError;
+use vplgi_types::TraceParams;
 
 /// The VPLs of one frame.
 #[derive(Clone, Debug, Default)]
@@ -109,4 +111,11 @@ pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: 
         v.flux = (Vec3::from(v.flux) * inv).to_array();
     }
     set
+}
+
+impl vplgi_frame::stages::TraceVpls for CpuScene<'_> {
+    fn trace_vpls(&self, p: &TraceParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, u32), FrameError> {
+        let set = trace_vpls(self, p.seed, p.count, p.bounces, progress);
+        Ok((set.vpls, set.particles))
+    }
 }

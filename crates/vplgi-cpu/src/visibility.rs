@@ -12,6 +12,8 @@ use vplgi_frame::Progress;
 use vplgi_types::params::FACING_COS;
 
 pub use vplgi_types::Endpoint;
+use std::ops::Range;
+use vplgi_frame::FrameError;
 
 /// A rows x cols matrix of bits, each row padded to whole 64-bit words.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -203,6 +205,13 @@ pub fn visibility(cs: &CpuScene, rows: &[Endpoint], cols: &[Endpoint], progress:
         .sum();
     progress.finish();
     (m, rays)
+}
+
+impl vplgi_frame::stages::Visibility for CpuScene<'_> {
+    fn visibility(&self, row_points: &Vec<Endpoint>, rows: Range<u32>, cols: &Vec<Endpoint>, progress: &dyn Progress) -> Result<(BitMatrix, Option<u64>), FrameError> {
+        let (m, rays) = visibility(self, &row_points[rows.start as usize..rows.end as usize], cols, progress);
+        Ok((m, Some(rays)))
+    }
 }
 
 #[cfg(test)]

@@ -1,8 +1,9 @@
 //! The frame, written once over [`Backend`]: which stages run in which variant, how work is cut
 //! into chunks that fit the backend, and what is timed and counted.
 
-use crate::backend::{Backend, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility};
-use crate::frame::{Frame, FrameError, FrameStats, Progress, Stage, StageTimings};
+use crate::backend::{Counted, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility};
+use crate::frame::{Frame, FrameError, FrameStats, Progress, StageTimings};
+use crate::stages::{Backend, Stage};
 use std::ops::Range;
 use std::time::Instant;
 use vplgi_types::clustering::Centre;
@@ -67,11 +68,11 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     let n_samples = cfg.width * cfg.height * spp;
     let mut stats = FrameStats { scene_extent: extent, shading_points: n_samples, g_clamp_d_min: cfg.g_clamp_rel * extent, ..Default::default() };
 
-    let (vpls, counts) = match cfg.vpl_source {
+    let (vpls, particles) = match cfg.vpl_source {
         VplSource::Paths => timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?,
         VplSource::Rsm => timed(b, &mut t, Stage::RsmVpls, || b.rsm_vpls(cfg.rsm_size, progress))?,
     };
-    (stats.vpls, stats.light_particles) = (counts.vpls, counts.particles);
+    (stats.vpls, stats.light_particles) = (vpls.count(), particles);
 
     // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay
     // global: the RNG streams use them, so a tile's pixels equal the whole frame's.
@@ -95,39 +96,38 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     // cluster or one per VPL; shading points are clustered or each their own visibility row.
     progress.start(Stage::Cluster.name(), 1);
     let (mut centres, mut rsm_centres) = (Vec::new(), Vec::new());
-    let (hits, n_hits, lights, n_lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
-        let (hits, n_hits) = b.compact_hits(&chunks, n_samples)?;
-        stats.shading_point_hits = n_hits;
-        let n_vpls = counts.vpls;
-        let (lights, n_lights) = if cfg.cluster.clusters_vpls() && n_vpls > 0 {
+    let (hits, lights, cols, sp_clusters) = timed(b, &mut t, Stage::Cluster, || {
+        let hits = b.compact_hits(&chunks, n_samples)?;
+        stats.shading_point_hits = hits.count();
+        let lights = if cfg.cluster.clusters_vpls() && vpls.count() > 0 {
             let (c, k) = match cfg.vpl_cluster {
-                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls, n_vpls)?, n_vpls, &cfg.vpl_cluster_params(), ClusterStart::Stride)?,
+                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls)?, &cfg.vpl_cluster_params(), ClusterStart::Stride)?,
                 VplClustering::Rsm => {
                     let importance = match cfg.rsm_seeding {
                         RsmSeeding::Halton => None,
                         RsmSeeding::Importance => {
                             let samples = rsm_importance::pixel_samples(cfg.width, cfg.height, spp);
-                            Some(b.rsm_importance(&vpls, n_vpls, cfg.rsm_size, &hits, &samples, rsm_importance::D_MIN_REL * extent)?)
+                            Some(b.rsm_importance(&vpls, cfg.rsm_size, &hits, &samples, rsm_importance::D_MIN_REL * extent)?)
                         }
                     };
                     let temporal = cfg.temporal == Temporal::On;
                     let start = RsmStart { importance: importance.as_ref(), previous: view.previous_rsm.filter(|_| temporal), carry: temporal };
-                    let (c, k, carried) = b.rsm_cluster(&vpls, n_vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), start)?;
+                    let (c, k, carried) = b.rsm_cluster(&vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), start)?;
                     (stats.vpl_kept, stats.vpl_fresh, rsm_centres) = (k.kept, k.fresh, carried);
                     (c, k)
                 }
             };
-            (stats.vpl_clusters, stats.vpl_widened) = (k.k, k.widened);
-            (b.vpl_lights(&vpls, n_vpls, LightSet::Clusters { clusters: &c, k: k.k, shape: cfg.light_shape })?, k.k)
+            (stats.vpl_clusters, stats.vpl_widened) = (c.count(), k.widened);
+            b.vpl_lights(&vpls, LightSet::Clusters { clusters: &c, shape: cfg.light_shape })?
         } else {
-            (b.vpl_lights(&vpls, n_vpls, LightSet::EachVpl { max_bounce: cfg.bounces })?, n_vpls)
+            b.vpl_lights(&vpls, LightSet::EachVpl { max_bounce: cfg.bounces })?
         };
-        let cols = b.light_points(&lights, n_lights)?;
-        let sp_clusters = if cfg.cluster.clusters_sps() && n_hits > 0 {
+        let cols = b.light_points(&lights)?;
+        let sp_clusters = if cfg.cluster.clusters_sps() && hits.count() > 0 {
             let points = b.hit_points(&hits);
             let seeds = match cfg.seeding {
                 Seeding::Stride => None,
-                Seeding::Adaptive => Some(b.seeding(&hits, n_hits, &camera, &cfg.seed_params(extent))?),
+                Seeding::Adaptive => Some(b.seeding(&hits, &camera, &cfg.seed_params(extent))?),
             };
             let params = cfg.sp_cluster_params(extent);
             let start = match (cfg.temporal, view.previous, seeds.as_deref()) {
@@ -135,17 +135,17 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
                 (_, _, Some(s)) => ClusterStart::Seeds(s),
                 (_, _, None) => ClusterStart::Stride,
             };
-            let (c, k) = b.cluster(points, n_hits, &params, start)?;
-            (stats.sp_clusters, stats.sp_widened, stats.sp_kept, stats.sp_fresh) = (k.k, k.widened, k.kept, k.fresh);
+            let (c, k) = b.cluster(points, &params, start)?;
+            (stats.sp_clusters, stats.sp_widened, stats.sp_kept, stats.sp_fresh) = (c.count(), k.widened, k.kept, k.fresh);
             if cfg.temporal == Temporal::On {
-                centres = b.cluster_centres(&c, k.k, points, n_hits, params.metric)?;
+                centres = b.cluster_centres(&c, points, params.metric)?;
             }
-            let reps = b.representatives(&c, k.k, points, n_hits)?;
-            Some((c, k.k, reps))
+            let reps = b.representatives(&c, points)?;
+            Some((c, reps))
         } else {
             None
         };
-        Ok((hits, n_hits, lights, n_lights, cols, sp_clusters))
+        Ok((hits, lights, cols, sp_clusters))
     })?;
     progress.finish();
 
@@ -160,15 +160,15 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     // `--shade interpolate` the rows' points (the representatives) become the sample points:
     // their gather rays, then the irradiance of the lights at each with its own row.
     let clustered = match sp_clusters {
-        Some((c, k, reps)) => {
-            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(&reps, k, 0..k, &cols, n_lights, progress))?;
+        Some((c, reps)) => {
+            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(&reps, 0..reps.count(), &cols, progress))?;
             count_rays(r);
             let samples = match cfg.shade {
                 ShadeMode::Fuzzy => None,
                 ShadeMode::Interpolate => {
                     progress.start(Stage::Interpolate.name(), 1);
-                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || b.gather_radius(&reps, k, &cfg.gather_params()))?;
-                    let samples = timed(b, &mut t, Stage::Interpolate, || b.sample_irradiance(reps, k, inv_radius, &lights, n_lights, &matrix, shade.g_max))?;
+                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || b.gather_radius(&reps, &cfg.gather_params()))?;
+                    let samples = timed(b, &mut t, Stage::Interpolate, || b.sample_irradiance(reps, inv_radius, &lights, &matrix, shade.g_max))?;
                     progress.finish();
                     Some(samples)
                 }
@@ -188,12 +188,12 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
                     None => ShadeVisibility::Fuzzy { clustering: c, hits: h },
                     Some(samples) => ShadeVisibility::Interpolated { clustering: c, hits: h, samples },
                 };
-                let input = ShadeInput { chunk, hits: &hits, lights: &lights, light_count: n_lights, matrix, visibility };
+                let input = ShadeInput { chunk, hits: &hits, lights: &lights, matrix, visibility };
                 pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px0..px1, &shade))?);
                 progress.finish();
             }
             None => {
-                let own = OwnRows { chunk, hits: &hits, n_hits, lights: &lights, cols: &cols, n_lights };
+                let own = OwnRows { chunk, hits: &hits, lights: &lights, cols: &cols };
                 pixels.extend(shade_own_rows(b, &mut t, &own, &shade, progress, &mut count_rays)?);
             }
         }
@@ -204,14 +204,12 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     // row) by the VPLs of at most bounces - j surfaces, so no path is longer than the frame's.
     // Their radiance, already weighted by their parents' albedos and clamped shares, adds to the
     // pixels. Without a clamp or without VPLs nothing was clamped.
-    if cfg.bias_compensation && shade.g_max.is_finite() && counts.vpls > 0 {
+    if cfg.bias_compensation && shade.g_max.is_finite() && vpls.count() > 0 {
         for level in 1..=cfg.bounces {
             let max_bounce = cfg.bounces - level;
-            let (lights, n_lights) = timed(b, &mut t, Stage::BiasPoints, || {
-                let n = if max_bounce == 0 { 0 } else { counts.vpls };
-                Ok((b.vpl_lights(&vpls, n, LightSet::EachVpl { max_bounce })?, n))
-            })?;
-            let cols = b.light_points(&lights, n_lights)?;
+            let set = if max_bounce == 0 { LightSet::Nothing } else { LightSet::EachVpl { max_bounce } };
+            let lights = timed(b, &mut t, Stage::BiasPoints, || b.vpl_lights(&vpls, set))?;
+            let cols = b.light_points(&lights)?;
             let bias = cfg.bias_params(extent, level);
             // A bias point's emission and direct light reach the camera after a bounce: they
             // are indirect light, kept whatever `--lighting` says.
@@ -221,13 +219,13 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
                 let range = chunk.first..chunk.first + chunk.count;
                 let samples = timed(b, &mut t, Stage::BiasPoints, || b.bias_points(&chunk.samples, range, &bias))?;
                 chunk.samples = samples;
-                let (hits, n_hits) = timed(b, &mut t, Stage::BiasPoints, || b.compact_hits(std::slice::from_ref(chunk), n_samples))?;
-                if n_hits == 0 {
+                let hits = timed(b, &mut t, Stage::BiasPoints, || b.compact_hits(std::slice::from_ref(chunk), n_samples))?;
+                if hits.count() == 0 {
                     continue;
                 }
                 any = true;
-                stats.bias_points += n_hits as u64;
-                let own = OwnRows { chunk, hits: &hits, n_hits, lights: &lights, cols: &cols, n_lights };
+                stats.bias_points += hits.count() as u64;
+                let own = OwnRows { chunk, hits: &hits, lights: &lights, cols: &cols };
                 let added = shade_own_rows(b, &mut t, &own, &level_shade, progress, &mut count_rays)?;
                 let px0 = ((chunk.first - first_sample) / spp) as usize;
                 for (p, a) in pixels[px0..px0 + added.len()].iter_mut().zip(added) {
@@ -251,10 +249,8 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
 struct OwnRows<'a, B: Backend> {
     chunk: &'a SampleChunk<B::Samples>,
     hits: &'a B::Hits,
-    n_hits: u32,
     lights: &'a B::Lights,
     cols: &'a B::Points,
-    n_lights: u32,
 }
 
 /// The radiance of a chunk's pixels when each hit is its own visibility row: visibility and
@@ -267,10 +263,10 @@ fn shade_own_rows<B: Backend>(
     progress: &dyn Progress,
     count_rays: &mut impl FnMut(Option<u64>),
 ) -> Result<Vec<[f32; 3]>, B::Error> {
-    let OwnRows { chunk, hits, n_hits, lights, cols, n_lights } = *own;
+    let OwnRows { chunk, hits, lights, cols } = *own;
     let spp = shade.spp;
-    let row_bits = 64 * (n_lights as u64).div_ceil(64).max(1);
-    let row_budget = (ROW_CHUNK_BITS / row_bits).min(b.max_visibility_rows(n_lights));
+    let row_bits = 64 * (cols.count() as u64).div_ceil(64).max(1);
+    let row_budget = (ROW_CHUNK_BITS / row_bits).min(b.max_visibility_rows(cols.count()));
     let px_block = ((row_budget / spp as u64).min(u32::MAX as u64) as u32).max(1);
     let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
     let mut pixels = Vec::with_capacity((px1 - px0) as usize);
@@ -281,9 +277,9 @@ fn shade_own_rows<B: Backend>(
     while px < px1 {
         let end = px.saturating_add(px_block).min(px1);
         let last_row = b.hits_before(hits, end * spp)?;
-        let (matrix, r) = timed(b, t, Stage::Visibility, || b.visibility(b.hit_points(hits), n_hits, first_row..last_row, cols, n_lights, progress))?;
+        let (matrix, r) = timed(b, t, Stage::Visibility, || b.visibility(b.hit_points(hits), first_row..last_row, cols, progress))?;
         count_rays(r);
-        let input = ShadeInput { chunk, hits, lights, light_count: n_lights, matrix: &matrix, visibility: ShadeVisibility::Own { first_row } };
+        let input = ShadeInput { chunk, hits, lights, matrix: &matrix, visibility: ShadeVisibility::Own { first_row } };
         pixels.extend(timed(b, t, Stage::Shade, || b.shade(&input, px..end, shade))?);
         (px, first_row) = (end, last_row);
     }

@@ -1,72 +1,12 @@
 //! What a frame returns, whatever backend rendered it.
 
+use crate::stages::Stage;
 use serde::de::Error as _;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
 use vplgi_types::clustering::Centre;
 use vplgi_types::rsm::RsmCentre;
-
-/// The stages of a frame, in pipeline order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Stage {
-    TraceVpls,
-    /// Stage 1 with `--vpl-source rsm`: VPLs from reflective shadow maps.
-    RsmVpls,
-    ShadingPoints,
-    Cluster,
-    Visibility,
-    /// `--shade interpolate`: the sample points' gather rays.
-    GatherRadius,
-    /// `--shade interpolate`: the irradiance at the sample points (the interpolation itself is
-    /// part of `shade`).
-    Interpolate,
-    Shade,
-    /// The bias compensation's segments (their visibility and shading count as `visibility` and
-    /// `shade`).
-    BiasPoints,
-}
-
-impl Stage {
-    /// Every stage, in pipeline order.
-    pub const ALL: [Stage; 9] = [
-        Stage::TraceVpls,
-        Stage::RsmVpls,
-        Stage::ShadingPoints,
-        Stage::Cluster,
-        Stage::Visibility,
-        Stage::GatherRadius,
-        Stage::Interpolate,
-        Stage::Shade,
-        Stage::BiasPoints,
-    ];
-
-    /// The stage's name: the same for the CPU function, the GPU kernel, the shader, the test and
-    /// the bench.
-    pub fn name(self) -> &'static str {
-        match self {
-            Stage::TraceVpls => "trace_vpls",
-            Stage::RsmVpls => "rsm_vpls",
-            Stage::ShadingPoints => "shading_points",
-            Stage::Cluster => "cluster",
-            Stage::Visibility => "visibility",
-            Stage::Shade => "shade",
-            Stage::GatherRadius => "gather_radius",
-            Stage::Interpolate => "interpolate",
-            Stage::BiasPoints => "bias_points",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Stage> {
-        Stage::ALL.into_iter().find(|s| s.name() == name)
-    }
-}
-
-impl std::fmt::Display for Stage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
 
 /// Wall time of each stage in milliseconds, an ordered list over [`Stage`], and of the frame.
 /// A frame's total is the sum of its stages; a summary of several frames ([`Self::combine`])

@@ -1,36 +1,24 @@
-//! The GPU twin as a [`Backend`]: every stage on device buffers, chained without read-backs
-//! except the few counters the host needs to size the next dispatches (the VPL batch totals, the
-//! hit count and the hit numbers at block boundaries, each clustering's data box and occupancy
-//! counts) and the shaded pixels. The frame itself is [`vplgi_frame::render`].
+//! The GPU twin's storage for a frame (device buffers) and the glue between its stages, chained
+//! without read-backs except the few counters the host needs to size the next dispatches (the
+//! VPL batch totals, the hit count and the hit numbers at block boundaries, each clustering's
+//! data box and occupancy counts) and the shaded pixels. Each stage implements its trait of
+//! [`vplgi_frame::stages`] in its own module; the frame itself is [`vplgi_frame::render`].
 
-use crate::bias_points::BiasPointsKernel;
-use crate::buffers::{dispatch_windows, kernel_params, read_back, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
-use crate::cluster::{ClusterKernel, GpuClustering};
+use crate::buffers::{dispatch_windows, kernel_params, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
+use crate::cluster::GpuClustering;
 use crate::context::{validated, within_loop_limit};
-use crate::gather_radius::GatherRadiusKernel;
-use crate::interpolate::{GpuIrradianceSamples, InterpolateInputs, InterpolateKernel, SampleLighting};
-use crate::rsm_cluster::RsmClusterKernel;
-use crate::rsm_importance::RsmImportanceKernel;
-use crate::rsm_vpls::RsmVplsKernel;
+use crate::interpolate::GpuIrradianceSamples;
 use crate::scan::ScanKernel;
 use crate::scene::GpuScene;
-use crate::seeding::{GpuImageHits, SeedingKernel};
-use crate::shade::{ShadeInputs, ShadeKernel, Visibility, VplLight, VplLightSet};
+use crate::shade::{VplLight, VplLightSet};
 use crate::shader::pipelines;
-use crate::shading_points::ShadingPointsKernel;
-use crate::trace_vpls::{GpuVpls, TraceVplsKernel};
-use crate::visibility::{words_per_row, Endpoint, VisibilityKernel};
+use crate::trace_vpls::GpuVpls;
+use crate::visibility::{words_per_row, Endpoint};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use std::ops::Range;
-use vplgi_frame::{Backend, ClusterCounts, Frame, FrameError, LightSet, NoProgress, Progress, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, VplCounts};
+use vplgi_frame::{Counted, Frame, FrameError, LightSet, NoProgress, SampleChunk, Storage};
 use vplgi_scene::Scene;
-use vplgi_types::clustering::Centre;
-use vplgi_types::clustering::{ClusterParams, ClusterStart, Metric};
-use vplgi_types::interpolation::GatherParams;
-use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
-use vplgi_types::seeding::SeedParams;
-use vplgi_types::{BiasParams, Camera, CameraParams, FrameConfig, LightOutline, LightShape, ShadeParams, ShadingPoint, TraceParams};
+use vplgi_types::{Camera, FrameConfig, LightOutline, LightShape, ShadingPoint};
 
 /// The glue kernels of `frame.wgsl` between the stages.
 struct GlueKernels {
@@ -43,24 +31,29 @@ struct GlueKernels {
     light_endpoints: wgpu::ComputePipeline,
 }
 
-/// Every pipeline of the frame, compiled once per device. The stage kernels are public so a
-/// stage can be run alone on inputs from elsewhere (`vplgi verify` feeds them the CPU's).
-pub struct GpuKernels {
-    pub trace: TraceVplsKernel,
-    pub rsm: RsmVplsKernel,
-    pub rsm_cluster: RsmClusterKernel,
-    pub rsm_importance: RsmImportanceKernel,
-    pub shading_points: ShadingPointsKernel,
-    pub cluster: ClusterKernel,
-    pub visibility: VisibilityKernel,
-    pub shade: ShadeKernel,
-    pub bias_points: BiasPointsKernel,
-    pub seeding: SeedingKernel,
-    pub gather_radius: GatherRadiusKernel,
-    pub interpolate: InterpolateKernel,
-    scan: ScanKernel,
-    glue: GlueKernels,
+macro_rules! kernels {
+    ($($(#[$doc:meta])* $name:ident $Trait:ident [$($part:ident $Part:ident),*],)*) => {
+        /// Every pipeline of the frame, compiled once per device: one kernel per stage and part of
+        /// the table (each module's `Kernel`), and the glue. The stage kernels are public so a
+        /// stage can be run alone on inputs from elsewhere (`vplgi verify` feeds them the CPU's).
+        pub struct GpuKernels {
+            $($(#[$doc])* pub $name: crate::$name::Kernel, $(pub $part: crate::$part::Kernel,)*)*
+            scan: ScanKernel,
+            glue: GlueKernels,
+        }
+
+        impl GpuKernels {
+            pub fn new(device: &wgpu::Device) -> Result<GpuKernels, GpuError> {
+                Ok(GpuKernels {
+                    $($name: crate::$name::Kernel::new(device)?, $($part: crate::$part::Kernel::new(device)?,)*)*
+                    scan: ScanKernel::new(device)?,
+                    glue: GlueKernels::new(device)?,
+                })
+            }
+        }
+    };
 }
+vplgi_frame::stage_table!(kernels);
 
 /// VPLs one `cluster_lights` dispatch reads per cluster: lavapipe ends an invocation's loops
 /// after 65,535 iterations (see `shade::LOOP_BUDGET`).
@@ -73,16 +66,19 @@ pub(crate) struct GlueParams {
     pub(crate) n: u32,
     pub(crate) k: u32,
     pub(crate) first: u32,
+    pub(crate) end: u32,
     pub(crate) hit_first: u32,
     pub(crate) hit_count: u32,
+    pub(crate) phase: u32,
+    pub(crate) max_bounce: u32,
     /// cluster_lights: the lights' shape (`LightShape::code`).
     pub(crate) shape: u32,
-    pub(crate) pad: [u32; 2],
+    pub(crate) pad: [u32; 3],
 }
 
-impl GpuKernels {
-    pub fn new(device: &wgpu::Device) -> Result<GpuKernels, GpuError> {
-        let glue = validated(device, "frame pipelines", || {
+impl GlueKernels {
+    fn new(device: &wgpu::Device) -> Result<GlueKernels, GpuError> {
+        validated(device, "frame pipelines", || {
             let [sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, cluster_lights_finish, light_endpoints]: [wgpu::ComputePipeline; 7] =
                 pipelines(
                     device,
@@ -92,41 +88,50 @@ impl GpuKernels {
                 .try_into()
                 .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
             GlueKernels { sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, cluster_lights_finish, light_endpoints }
-        })?;
-        Ok(GpuKernels {
-            trace: TraceVplsKernel::new(device)?,
-            rsm: RsmVplsKernel::new(device)?,
-            rsm_cluster: RsmClusterKernel::new(device)?,
-            rsm_importance: RsmImportanceKernel::new(device)?,
-            shading_points: ShadingPointsKernel::new(device)?,
-            cluster: ClusterKernel::new(device)?,
-            visibility: VisibilityKernel::new(device)?,
-            shade: ShadeKernel::new(device)?,
-            bias_points: BiasPointsKernel::new(device)?,
-            seeding: SeedingKernel::new(device)?,
-            gather_radius: GatherRadiusKernel::new(device)?,
-            interpolate: InterpolateKernel::new(device)?,
-            scan: ScanKernel::new(device)?,
-            glue,
         })
     }
 }
 
 /// A scene on one device, ready to render frames of.
 pub struct GpuBackend<'a> {
-    device: &'a wgpu::Device,
-    queue: &'a wgpu::Queue,
-    kernels: &'a GpuKernels,
-    scene: GpuScene,
+    pub(crate) device: &'a wgpu::Device,
+    pub(crate) queue: &'a wgpu::Queue,
+    pub(crate) kernels: &'a GpuKernels,
+    pub(crate) scene: GpuScene,
     extent: f32,
+}
+
+/// Surface points on the device: `count` Endpoints.
+pub struct GpuPoints {
+    pub buffer: wgpu::Buffer,
+    pub count: u32,
+}
+
+impl GpuPoints {
+    /// `points` copied to the device.
+    pub fn upload(device: &wgpu::Device, label: &str, points: &[Endpoint]) -> GpuPoints {
+        GpuPoints { buffer: crate::buffers::storage(device, label, points), count: points.len() as u32 }
+    }
+}
+
+impl Counted for GpuPoints {
+    fn count(&self) -> u32 {
+        self.count
+    }
 }
 
 /// The hits of a frame on the device: each sample's hit number (an exclusive scan of the hit
 /// flags, `n_samples + 1` words), each sample's row (or `MISS`), and the hits as Endpoints.
 pub struct GpuHits {
-    offsets: wgpu::Buffer,
-    row_of: wgpu::Buffer,
-    points: wgpu::Buffer,
+    pub(crate) offsets: wgpu::Buffer,
+    pub(crate) row_of: wgpu::Buffer,
+    pub(crate) points: GpuPoints,
+}
+
+impl Counted for GpuHits {
+    fn count(&self) -> u32 {
+        self.points.count
+    }
 }
 
 /// Renders one frame of `scene` on the device (uploading the scene first).
@@ -177,11 +182,11 @@ impl<'a> GpuBackend<'a> {
     }
 }
 
-impl Backend for GpuBackend<'_> {
+impl Storage for GpuBackend<'_> {
     type Error = GpuError;
     type Vpls = GpuVpls;
     type Samples = wgpu::Buffer;
-    type Points = wgpu::Buffer;
+    type Points = GpuPoints;
     type Hits = GpuHits;
     type Lights = VplLightSet;
     type Clustering = GpuClustering;
@@ -260,23 +265,7 @@ impl Backend for GpuBackend<'_> {
         sync(self.device)
     }
 
-    fn trace_vpls(&self, p: &TraceParams, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
-        let v = self.kernels.trace.run(self.device, self.queue, &self.scene, p)?;
-        let counts = VplCounts { vpls: v.count, particles: v.particles };
-        Ok((v, counts))
-    }
-
-    fn rsm_vpls(&self, size: u32, _progress: &dyn Progress) -> Result<(GpuVpls, VplCounts), GpuError> {
-        let v = self.kernels.rsm.run(self.device, self.queue, &self.scene, &self.scene.sampler.rsm_maps(size))?;
-        let counts = VplCounts { vpls: v.count, particles: v.particles };
-        Ok((v, counts))
-    }
-
-    fn shading_points(&self, p: &CameraParams, samples: Range<u32>) -> Result<wgpu::Buffer, GpuError> {
-        self.kernels.shading_points.dispatch_range(self.device, self.queue, &self.scene, p, samples)
-    }
-
-    fn compact_hits(&self, chunks: &[SampleChunk<wgpu::Buffer>], n_samples: u32) -> Result<(GpuHits, u32), GpuError> {
+    fn compact_hits(&self, chunks: &[SampleChunk<wgpu::Buffer>], n_samples: u32) -> Result<GpuHits, GpuError> {
         let (device, g) = (self.device, &self.kernels.glue);
         let flags = storage_zeroed::<u32>(device, "hit flags", n_samples as usize);
         let offsets = storage_zeroed::<u32>(device, "hit offsets", n_samples as usize + 1);
@@ -301,18 +290,19 @@ impl Backend for GpuBackend<'_> {
                 self.glue(&g.sp_compact, p, &b, c.count)?;
             }
         }
-        Ok((GpuHits { offsets, row_of, points }, hits))
+        Ok(GpuHits { offsets, row_of, points: GpuPoints { buffer: points, count: hits } })
     }
 
     fn hits_before(&self, hits: &GpuHits, sample: u32) -> Result<u32, GpuError> {
         read_word(self.device, self.queue, &hits.offsets, sample as u64)
     }
 
-    fn hit_points<'h>(&self, hits: &'h GpuHits) -> &'h wgpu::Buffer {
+    fn hit_points<'h>(&self, hits: &'h GpuHits) -> &'h GpuPoints {
         &hits.points
     }
 
-    fn vpl_points(&self, vpls: &GpuVpls, n: u32) -> Result<wgpu::Buffer, GpuError> {
+    fn vpl_points(&self, vpls: &GpuVpls) -> Result<GpuPoints, GpuError> {
+        let n = vpls.count;
         let pts = storage_zeroed::<Endpoint>(self.device, "vpl points", n as usize);
         self.glue(
             &self.kernels.glue.vpl_endpoints,
@@ -320,54 +310,16 @@ impl Backend for GpuBackend<'_> {
             &[(5, pts.as_entire_buffer_binding()), (6, vpls.buffer.as_entire_buffer_binding())],
             n,
         )?;
-        Ok(pts)
+        Ok(GpuPoints { buffer: pts, count: n })
     }
 
-    fn cluster(&self, points: &wgpu::Buffer, n: u32, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(GpuClustering, ClusterCounts), GpuError> {
-        let c = self.kernels.cluster.cluster_from(self.device, self.queue, (points, n), params, start)?;
-        let [_, widened, incompatible] = self.kernels.cluster.outcome_counts(self.device, self.queue, &c.outcome, n)?;
-        let counts = ClusterCounts { k: c.k, widened: widened + incompatible, kept: c.kept, fresh: c.fresh };
-        Ok((c, counts))
-    }
-
-    fn cluster_centres(&self, c: &GpuClustering, _k: u32, points: &wgpu::Buffer, n: u32, metric: Metric) -> Result<Vec<Centre>, GpuError> {
-        self.kernels.cluster.centres(self.device, self.queue, c, (points, n), metric)
-    }
-
-    fn seeding(&self, hits: &GpuHits, n: u32, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, GpuError> {
-        let image = GpuImageHits { points: &hits.points, count: n, offsets: &hits.offsets, width: camera.width, height: camera.height, spp: camera.spp };
-        self.kernels.seeding.run(self.device, self.queue, &self.kernels.cluster, &image, params)
-    }
-
-    fn rsm_importance(&self, vpls: &GpuVpls, n: u32, rsm_size: u32, hits: &GpuHits, samples: &[u32], d_min: f32) -> Result<wgpu::Buffer, GpuError> {
-        let k = &self.kernels.rsm_importance;
-        let points = k.gbuffer_points(self.device, self.queue, samples, &hits.offsets, &hits.points)?;
-        k.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), &points, samples.len() as u32, d_min)
-    }
-
-    fn rsm_cluster(
-        &self,
-        vpls: &GpuVpls,
-        n: u32,
-        rsm_size: u32,
-        params: &RsmClusterParams,
-        start: RsmStart<'_, wgpu::Buffer>,
-    ) -> Result<(GpuClustering, ClusterCounts, Vec<RsmCentre>), GpuError> {
-        let r = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, n, &self.scene.sampler.rsm_maps(rsm_size), params, start)?;
-        Ok((r.clustering, ClusterCounts { k: r.k, kept: r.kept, fresh: r.fresh, ..Default::default() }, r.centres))
-    }
-
-    fn representatives(&self, c: &GpuClustering, k: u32, points: &wgpu::Buffer, n: u32) -> Result<wgpu::Buffer, GpuError> {
-        let rows = storage_zeroed::<Endpoint>(self.device, "cluster rows", k as usize);
-        self.kernels.cluster.gather(self.device, self.queue, &rows, (&c.representatives, k), (points, n))?;
-        Ok(rows)
-    }
-
-    fn vpl_lights(&self, vpls: &GpuVpls, n: u32, set: LightSet<'_, GpuClustering>) -> Result<VplLightSet, GpuError> {
+    fn vpl_lights(&self, vpls: &GpuVpls, set: LightSet<'_, GpuClustering>) -> Result<VplLightSet, GpuError> {
+        let n = vpls.count;
         let g = &self.kernels.glue;
         let vb = vpls.buffer.as_entire_buffer_binding();
         Ok(match set {
-            LightSet::Clusters { clusters: c, k, shape } => {
+            LightSet::Clusters { clusters: c, shape } => {
+                let k = c.k;
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
                 let sums = storage_zeroed::<[f32; 4]>(self.device, "cluster light sums", 4 * k.max(1) as usize);
                 let polygons = shape == LightShape::Polygon;
@@ -388,12 +340,7 @@ impl Backend for GpuBackend<'_> {
                     while first < n {
                         let end = n.min(first + VPLS_PER_DISPATCH);
                         let sum = [b[0].clone(), b[1].clone(), b[2].clone(), b[4].clone()];
-                        self.glue(
-                            &g.cluster_lights,
-                            GlueParams { n, k, first, hit_first: end, hit_count: pass, shape: shape.code(), ..Default::default() },
-                            &sum,
-                            k,
-                        )?;
+                        self.glue(&g.cluster_lights, GlueParams { n, k, first, end, phase: pass, shape: shape.code(), ..Default::default() }, &sum, k)?;
                         first = end;
                     }
                 }
@@ -401,19 +348,22 @@ impl Backend for GpuBackend<'_> {
                 self.glue(&g.cluster_lights_finish, GlueParams { n, k, shape: shape.code(), ..Default::default() }, &finish, k)?;
                 VplLightSet {
                     buffer: lights,
+                    count: k,
                     outlines: polygons.then_some(outlines),
                     exact_shapes: matches!(shape, LightShape::DiskExact | LightShape::Polygon),
                 }
             }
             LightSet::EachVpl { max_bounce } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
-                self.glue(&g.vpl_lights, GlueParams { n, k: max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
-                VplLightSet { buffer: lights, outlines: None, exact_shapes: false }
+                self.glue(&g.vpl_lights, GlueParams { n, max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
+                VplLightSet { buffer: lights, count: n, outlines: None, exact_shapes: false }
             }
+            LightSet::Nothing => VplLightSet { buffer: storage_zeroed::<VplLight>(self.device, "no lights", 0), count: 0, outlines: None, exact_shapes: false },
         })
     }
 
-    fn light_points(&self, lights: &VplLightSet, n: u32) -> Result<wgpu::Buffer, GpuError> {
+    fn light_points(&self, lights: &VplLightSet) -> Result<GpuPoints, GpuError> {
+        let n = lights.count;
         let cols = storage_zeroed::<Endpoint>(self.device, "light endpoints", n as usize);
         self.glue(
             &self.kernels.glue.light_endpoints,
@@ -421,85 +371,7 @@ impl Backend for GpuBackend<'_> {
             &[(5, cols.as_entire_buffer_binding()), (9, lights.buffer.as_entire_buffer_binding())],
             n,
         )?;
-        Ok(cols)
-    }
-
-    fn visibility(
-        &self,
-        row_points: &wgpu::Buffer,
-        n_rows: u32,
-        rows: Range<u32>,
-        cols: &wgpu::Buffer,
-        n_cols: u32,
-        _progress: &dyn Progress,
-    ) -> Result<(wgpu::Buffer, Option<u64>), GpuError> {
-        let words = self.kernels.visibility.run_on_device(self.device, self.queue, &self.scene, (row_points, n_rows), (cols, n_cols), rows)?;
-        Ok((words, None))
-    }
-
-    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, GpuError> {
-        let (device, queue, k) = (self.device, self.queue, self.kernels);
-        let sps = &input.chunk.samples;
-        let own = |visibility| ShadeInputs {
-            sps,
-            sp_first: input.chunk.first,
-            row_of: &input.hits.row_of,
-            words: input.matrix,
-            words_per_row: words_per_row(input.light_count as usize) as u32,
-            vpl_lights: &input.lights.buffer,
-            outlines: input.lights.outlines.as_ref(),
-            light_count: input.light_count,
-            exact_shapes: input.lights.exact_shapes,
-            visibility,
-        };
-        let running = match input.visibility {
-            ShadeVisibility::Own { first_row } => {
-                k.shade.light_sums(device, queue, &own(Visibility::Own { first_row }), pixels.clone(), params.spp, params.g_max)?
-            }
-            ShadeVisibility::Fuzzy { clustering: c, ref hits } => {
-                let window = Window::covering(hits.start as u64, hits.end as u64);
-                let inputs = own(Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window });
-                k.shade.light_sums(device, queue, &inputs, pixels.clone(), params.spp, params.g_max)?
-            }
-            ShadeVisibility::Interpolated { clustering: c, ref hits, samples } => {
-                let window = Window::covering(hits.start as u64, hits.end as u64);
-                let inputs = InterpolateInputs { sps, sp_first: input.chunk.first, row_of: &input.hits.row_of, labels: &c.labels, f: c.f, window };
-                k.interpolate.run(device, queue, samples, &inputs, pixels.start * params.spp..pixels.end * params.spp)?
-            }
-        };
-        let n = (pixels.end - pixels.start) as usize;
-        let out = k.shade.finish(device, queue, &self.scene, sps, input.chunk.first, &running, pixels, params)?;
-        Ok(read_back::<[f32; 4]>(device, queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
-    }
-
-    fn gather_radius(&self, points: &wgpu::Buffer, n: u32, params: &GatherParams) -> Result<wgpu::Buffer, GpuError> {
-        self.kernels.gather_radius.run(self.device, self.queue, &self.scene, points, n, params)
-    }
-
-    fn sample_irradiance(
-        &self,
-        points: wgpu::Buffer,
-        n: u32,
-        inv_radius: wgpu::Buffer,
-        lights: &VplLightSet,
-        n_lights: u32,
-        matrix: &wgpu::Buffer,
-        g_max: f32,
-    ) -> Result<GpuIrradianceSamples, GpuError> {
-        let lighting = SampleLighting {
-            words: matrix,
-            words_per_row: words_per_row(n_lights as usize) as u32,
-            vpl_lights: &lights.buffer,
-            outlines: lights.outlines.as_ref(),
-            light_count: n_lights,
-            exact_shapes: lights.exact_shapes,
-            g_max,
-        };
-        self.kernels.interpolate.sample_irradiance(self.device, self.queue, &self.kernels.shade, (points, n), inv_radius, &lighting)
-    }
-
-    fn bias_points(&self, parent: &wgpu::Buffer, samples: Range<u32>, params: &BiasParams) -> Result<wgpu::Buffer, GpuError> {
-        self.kernels.bias_points.run(self.device, self.queue, &self.scene, parent, samples, params)
+        Ok(GpuPoints { buffer: cols, count: n })
     }
 }
 

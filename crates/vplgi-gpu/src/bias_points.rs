@@ -8,6 +8,7 @@ use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::{BiasParams, ShadingPoint};
+use crate::backend::GpuBackend;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -19,6 +20,9 @@ pub(crate) struct Params {
     pub(crate) eps: f32,
     pub(crate) pad: [u32; 3],
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = BiasPointsKernel;
 
 pub struct BiasPointsKernel {
     pipeline: RayPipeline,
@@ -51,5 +55,22 @@ impl BiasPointsKernel {
             dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, count.div_ceil(64));
             out
         })
+    }
+}
+
+impl vplgi_frame::stages::BiasPoints for GpuBackend<'_> {
+    fn bias_points(&self, parent: &wgpu::Buffer, samples: std::ops::Range<u32>, params: &BiasParams) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.bias_points.run(self.device, self.queue, &self.scene, parent, samples, params)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
+        });
     }
 }

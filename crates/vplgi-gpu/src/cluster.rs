@@ -28,6 +28,9 @@ use vplgi_types::clustering::{
 use vplgi_types::config::MAX_F;
 use vplgi_types::temporal::new_seeds;
 use vplgi_types::FuzzyMode;
+use crate::backend::{GpuBackend, GpuPoints};
+use vplgi_frame::ClusterCounts;
+use vplgi_types::clustering::Centre;
 
 mod temporal;
 
@@ -119,6 +122,9 @@ pub struct AssignRule {
     pub f: u32,
     pub fuzzy: FuzzyMode,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = ClusterKernel;
 
 /// The clustering passes, one shader file each (`shaders/cluster_*.wgsl`).
 pub struct ClusterKernel {
@@ -659,5 +665,42 @@ impl ClusterKernel {
         }
         let c = read_back::<u32>(device, queue, &counts, 3)?;
         Ok([c[0], c[1], c[2]])
+    }
+}
+
+impl vplgi_frame::Counted for GpuClustering {
+    fn count(&self) -> u32 {
+        self.k
+    }
+}
+
+impl vplgi_frame::stages::Cluster for GpuBackend<'_> {
+    fn cluster(&self, points: &GpuPoints, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(GpuClustering, ClusterCounts), GpuError> {
+        let k = &self.kernels.cluster;
+        let c = k.cluster_from(self.device, self.queue, (&points.buffer, points.count), params, start)?;
+        let [_, widened, incompatible] = k.outcome_counts(self.device, self.queue, &c.outcome, points.count)?;
+        let counts = ClusterCounts { widened: widened + incompatible, kept: c.kept, fresh: c.fresh };
+        Ok((c, counts))
+    }
+
+    fn cluster_centres(&self, c: &GpuClustering, points: &GpuPoints, metric: Metric) -> Result<Vec<Centre>, GpuError> {
+        self.kernels.cluster.centres(self.device, self.queue, c, (&points.buffer, points.count), metric)
+    }
+
+    fn representatives(&self, c: &GpuClustering, points: &GpuPoints) -> Result<GpuPoints, GpuError> {
+        let rows = storage_zeroed::<Endpoint>(self.device, "cluster rows", c.k as usize);
+        self.kernels.cluster.gather(self.device, self.queue, &rows, (&c.representatives, c.k), (&points.buffer, points.count))?;
+        Ok(GpuPoints { buffer: rows, count: c.k })
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative, metric }
+        });
     }
 }

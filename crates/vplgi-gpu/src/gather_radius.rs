@@ -8,6 +8,7 @@ use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::interpolation::GatherParams;
+use crate::backend::{GpuBackend, GpuPoints};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -25,6 +26,9 @@ pub(crate) struct Params {
 /// 65,535 iterations per invocation (see `shade::LOOP_BUDGET`) in scenes of millions of
 /// triangles.
 pub const RAYS_PER_DISPATCH: u32 = 8;
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = GatherRadiusKernel;
 
 pub struct GatherRadiusKernel {
     pipeline: RayPipeline,
@@ -60,5 +64,22 @@ impl GatherRadiusKernel {
             }
             out
         })
+    }
+}
+
+impl vplgi_frame::stages::GatherRadius for GpuBackend<'_> {
+    fn gather_radius(&self, points: &GpuPoints, params: &GatherParams) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.gather_radius.run(self.device, self.queue, &self.scene, &points.buffer, points.count, params)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "gather_radius.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
+        });
     }
 }

@@ -12,6 +12,9 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
 use vplgi_types::ShadingPoint;
+use crate::backend::{GpuBackend, GpuPoints};
+use crate::shade::VplLightSet;
+use crate::visibility::words_per_row;
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
@@ -59,6 +62,9 @@ pub struct InterpolateInputs<'a> {
     pub f: u32,
     pub window: Window,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = InterpolateKernel;
 
 pub struct InterpolateKernel {
     sample_points: wgpu::ComputePipeline,
@@ -138,5 +144,39 @@ impl InterpolateKernel {
             in_kernel("interpolate", || dispatch_windows(device, queue, &self.interpolate, &b, count.div_ceil(64).max(1)));
             running
         })
+    }
+}
+
+impl vplgi_frame::stages::Interpolate for GpuBackend<'_> {
+    fn sample_irradiance(
+        &self,
+        points: GpuPoints,
+        inv_radius: wgpu::Buffer,
+        lights: &VplLightSet,
+        matrix: &wgpu::Buffer,
+        g_max: f32,
+    ) -> Result<GpuIrradianceSamples, GpuError> {
+        let lighting = SampleLighting {
+            words: matrix,
+            words_per_row: words_per_row(lights.count as usize) as u32,
+            vpl_lights: &lights.buffer,
+            outlines: lights.outlines.as_ref(),
+            light_count: lights.count,
+            exact_shapes: lights.exact_shapes,
+            g_max,
+        };
+        let k = self.kernels;
+        k.interpolate.sample_irradiance(self.device, self.queue, &k.shade, (points.buffer, points.count), inv_radius, &lighting)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
+        });
     }
 }

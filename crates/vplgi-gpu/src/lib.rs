@@ -11,28 +11,20 @@
 //! frame driver ([`vplgi_frame::render`]) chains them.
 
 pub mod backend;
-pub mod bias_points;
 pub mod buffers;
 pub mod bvh;
-pub mod cluster;
 pub mod context;
-pub mod gather_radius;
-pub mod interpolate;
 pub mod lights;
 pub mod rng;
-pub mod rsm_cluster;
-pub mod rsm_importance;
-pub mod rsm_vpls;
 pub mod scan;
 pub mod scene;
-pub mod seeding;
-pub mod shade;
 pub mod shader;
-pub mod shading_points;
 pub mod timing;
-pub mod trace_vpls;
-pub mod visibility;
 pub mod wait;
 
-pub use backend::{render, GpuBackend, GpuKernels};
+use vplgi_frame::stage_modules;
+// One module per stage and part of the table, each implementing its stage trait.
+vplgi_frame::stage_table!(stage_modules);
+
+pub use backend::{render, GpuBackend, GpuHits, GpuKernels, GpuPoints};
 pub use context::{GpuContext, GpuError};

@@ -18,6 +18,8 @@ use vplgi_frame::RsmStart;
 use vplgi_types::rsm::{self, RsmCentre, RsmClusterParams, RsmLight};
 use vplgi_types::rsm_importance;
 use vplgi_types::Endpoint;
+use crate::backend::GpuBackend;
+use vplgi_frame::ClusterCounts;
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
@@ -66,6 +68,9 @@ pub struct GpuRsmClusters {
     pub kept: u32,
     pub fresh: u32,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = RsmClusterKernel;
 
 pub struct RsmClusterKernel {
     map_starts: wgpu::ComputePipeline,
@@ -133,20 +138,19 @@ impl RsmClusterKernel {
         })
     }
 
-    /// Clusters the `n` VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order), seeded
+    /// Clusters the VPLs of `vpls` (made by `rsm_vpls` from `maps`, in texel order), seeded
     /// through `start.importance` (`rsm_importance`, one value per texel) if given, the previous
     /// frame's live clusters `start.previous` keeping their slots.
-    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         vpls: &GpuVpls,
-        n: u32,
         maps: &[RsmLight],
         p: &RsmClusterParams,
         start: RsmStart<'_, wgpu::Buffer>,
     ) -> Result<GpuRsmClusters, GpuError> {
+        let n = vpls.count;
         let importance = start.importance;
         let empty = || GpuClustering {
             centroids: storage_zeroed::<Endpoint>(device, "rsm centroids", 1),
@@ -370,5 +374,30 @@ impl RsmClusterKernel {
             fresh: 0,
         };
         Ok(GpuRsmClusters { clustering, k: kept, centres, kept: kept_slots, fresh: k - kept_slots })
+    }
+}
+
+impl vplgi_frame::stages::RsmCluster for GpuBackend<'_> {
+    fn rsm_cluster(
+        &self,
+        vpls: &GpuVpls,
+        rsm_size: u32,
+        params: &RsmClusterParams,
+        start: RsmStart<'_, wgpu::Buffer>,
+    ) -> Result<(GpuClustering, ClusterCounts, Vec<RsmCentre>), GpuError> {
+        let r = self.kernels.rsm_cluster.run(self.device, self.queue, vpls, &self.scene.sampler.rsm_maps(rsm_size), params, start)?;
+        Ok((r.clustering, ClusterCounts { kept: r.kept, fresh: r.fresh, ..Default::default() }, r.centres))
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows, first, chunk }
+            [super::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first, row_first }
+        });
     }
 }

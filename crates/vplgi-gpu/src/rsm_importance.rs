@@ -11,6 +11,7 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::Endpoint;
+use crate::backend::{GpuBackend, GpuHits};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -20,6 +21,9 @@ pub(crate) struct Params {
     pub(crate) d_min2: f32,
     pub(crate) pad: u32,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = RsmImportanceKernel;
 
 pub struct RsmImportanceKernel {
     points: wgpu::ComputePipeline,
@@ -59,20 +63,18 @@ impl RsmImportanceKernel {
         Ok(points)
     }
 
-    /// The importance of every texel of `maps` (0 where no VPL is) for the `n` VPLs of `vpls`,
-    /// seen from the `count` G-buffer points `points`, distances floored at `d_min`.
-    #[allow(clippy::too_many_arguments)]
+    /// The importance of every texel of `maps` (0 where no VPL is) for the VPLs of `vpls`, seen
+    /// from the `count` G-buffer points `points`, distances floored at `d_min`.
     pub fn run(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         vpls: &GpuVpls,
-        n: u32,
         maps: &[RsmLight],
-        points: &wgpu::Buffer,
-        count: u32,
+        (points, count): (&wgpu::Buffer, u32),
         d_min: f32,
     ) -> Result<wgpu::Buffer, GpuError> {
+        let n = vpls.count;
         let importance = storage_zeroed::<f32>(device, "rsm importance", rsm::texel_count(maps) as usize);
         if n == 0 {
             return Ok(importance);
@@ -82,5 +84,24 @@ impl RsmImportanceKernel {
             dispatch_bound(device, queue, &self.texels, &[(0, &pb), (1, &vpls.buffer), (5, points), (6, &importance)], n.div_ceil(64));
         })?;
         Ok(importance)
+    }
+}
+
+impl vplgi_frame::stages::RsmImportance for GpuBackend<'_> {
+    fn rsm_importance(&self, vpls: &GpuVpls, rsm_size: u32, hits: &GpuHits, samples: &[u32], d_min: f32) -> Result<wgpu::Buffer, GpuError> {
+        let k = &self.kernels.rsm_importance;
+        let points = k.gbuffer_points(self.device, self.queue, samples, &hits.offsets, &hits.points.buffer)?;
+        k.run(self.device, self.queue, vpls, &self.scene.sampler.rsm_maps(rsm_size), (&points, samples.len() as u32), d_min)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "rsm_importance.wgsl" "Params" { n, count, d_min2 }
+        });
     }
 }

@@ -12,6 +12,8 @@ use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::Vpl;
+use crate::backend::GpuBackend;
+use vplgi_frame::Progress;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -21,6 +23,9 @@ pub(crate) struct Params {
     pub(crate) eps: f32,
     pub(crate) pad: u32,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = RsmVplsKernel;
 
 pub struct RsmVplsKernel {
     texel: RayPipeline,
@@ -71,5 +76,24 @@ impl RsmVplsKernel {
             dispatch_bound(device, queue, &self.compact, &[(0, &params), (11, &slots), (12, &counts), (13, &offsets), (15, &vpls)], texels.div_ceil(64));
         })?;
         Ok(GpuVpls { buffer: vpls, count, particles: texels })
+    }
+}
+
+impl vplgi_frame::stages::RsmVpls for GpuBackend<'_> {
+    fn rsm_vpls(&self, size: u32, _progress: &dyn Progress) -> Result<(GpuVpls, u32), GpuError> {
+        let v = self.kernels.rsm_vpls.run(self.device, self.queue, &self.scene, &self.scene.sampler.rsm_maps(size))?;
+        let particles = v.particles;
+        Ok((v, particles))
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
+        });
     }
 }

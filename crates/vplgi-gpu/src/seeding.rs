@@ -13,6 +13,8 @@ use bytemuck::{Pod, Zeroable};
 use vplgi_types::clustering::FixedPoint;
 use vplgi_types::seeding::{Quadtree, SeedParams};
 use vplgi_types::MISS;
+use crate::backend::{GpuBackend, GpuHits};
+use vplgi_types::CameraParams;
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
@@ -41,6 +43,9 @@ pub struct GpuImageHits<'a> {
     pub height: u32,
     pub spp: u32,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = SeedingKernel;
 
 pub struct SeedingKernel {
     node_sums: wgpu::ComputePipeline,
@@ -115,5 +120,30 @@ impl SeedingKernel {
         }
         let slots: Vec<u32> = read_back(device, queue, &slots, total as usize)?;
         Ok(slots.into_iter().filter(|&h| h != MISS).collect())
+    }
+}
+
+impl vplgi_frame::stages::Seeding for GpuBackend<'_> {
+    fn seeding(&self, hits: &GpuHits, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, GpuError> {
+        let image = GpuImageHits {
+            points: &hits.points.buffer,
+            count: hits.points.count,
+            offsets: &hits.offsets,
+            width: camera.width,
+            height: camera.height,
+            spp: camera.spp,
+        };
+        self.kernels.seeding.run(self.device, self.queue, &self.kernels.cluster, &image, params)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
+        });
     }
 }

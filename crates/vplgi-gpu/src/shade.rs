@@ -7,11 +7,17 @@ use crate::shader::{pipeline_with, RayPipeline, SHADE_FUZZY, SHADE_OWN_ROW, SHAD
 use crate::timing::in_kernel;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
+use std::ops::Range;
 use std::sync::OnceLock;
 use vplgi_types::config::MAX_F;
 use vplgi_types::ShadeParams;
 
 pub use vplgi_types::VplLight;
+use crate::backend::GpuBackend;
+use crate::buffers::read_back;
+use crate::interpolate::InterpolateInputs;
+use crate::visibility::words_per_row;
+use vplgi_frame::{ShadeInput, ShadeVisibility};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -98,7 +104,9 @@ pub struct ShadeInputs<'a> {
 /// Lights for indirect shading on the device, the polygon lights' outlines, and whether any
 /// light is an exact disk or a polygon (the GPU backend's `Lights`).
 pub struct VplLightSet {
+    /// `count` lights.
     pub buffer: wgpu::Buffer,
+    pub count: u32,
     pub outlines: Option<wgpu::Buffer>,
     pub exact_shapes: bool,
 }
@@ -106,6 +114,9 @@ pub struct VplLightSet {
 fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
     own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect()
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = ShadeKernel;
 
 pub struct ShadeKernel {
     /// Emission, direct light and the per-point light sums, per pixel.
@@ -262,5 +273,60 @@ impl ShadeKernel {
             }
             out
         })
+    }
+}
+
+impl vplgi_frame::Counted for VplLightSet {
+    fn count(&self) -> u32 {
+        self.count
+    }
+}
+
+impl vplgi_frame::stages::Shade for GpuBackend<'_> {
+    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, GpuError> {
+        let (device, queue, k) = (self.device, self.queue, self.kernels);
+        let sps = &input.chunk.samples;
+        let lights = input.lights;
+        let own = |visibility| ShadeInputs {
+            sps,
+            sp_first: input.chunk.first,
+            row_of: &input.hits.row_of,
+            words: input.matrix,
+            words_per_row: words_per_row(lights.count as usize) as u32,
+            vpl_lights: &lights.buffer,
+            outlines: lights.outlines.as_ref(),
+            light_count: lights.count,
+            exact_shapes: lights.exact_shapes,
+            visibility,
+        };
+        let running = match input.visibility {
+            ShadeVisibility::Own { first_row } => {
+                k.shade.light_sums(device, queue, &own(Visibility::Own { first_row }), pixels.clone(), params.spp, params.g_max)?
+            }
+            ShadeVisibility::Fuzzy { clustering: c, ref hits } => {
+                let window = Window::covering(hits.start as u64, hits.end as u64);
+                let inputs = own(Visibility::Fuzzy { labels: &c.labels, weights: &c.weights, f: c.f, window });
+                k.shade.light_sums(device, queue, &inputs, pixels.clone(), params.spp, params.g_max)?
+            }
+            ShadeVisibility::Interpolated { clustering: c, ref hits, samples } => {
+                let window = Window::covering(hits.start as u64, hits.end as u64);
+                let inputs = InterpolateInputs { sps, sp_first: input.chunk.first, row_of: &input.hits.row_of, labels: &c.labels, f: c.f, window };
+                k.interpolate.run(device, queue, samples, &inputs, pixels.start * params.spp..pixels.end * params.spp)?
+            }
+        };
+        let n = (pixels.end - pixels.start) as usize;
+        let out = k.shade.finish(device, queue, &self.scene, sps, input.chunk.first, &running, pixels, params)?;
+        Ok(read_back::<[f32; 4]>(device, queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct, sample_first, sample_end }
+        });
     }
 }

@@ -34,58 +34,7 @@ pub const COMMON: &[(&str, &str)] = &[
     ("common/scene.wgsl", SCENE),
 ];
 
-/// What every clustering pass includes.
-const CLUSTER: &[&str] = &["common/types.wgsl", "common/metric.wgsl", "common/cluster.wgsl"];
-
-/// Stage files: (name, source, the common files it includes, in order).
-pub const STAGES: &[(&str, &str, &[&str])] = &[
-    ("rng_streams.wgsl", include_str!("../../../shaders/rng_streams.wgsl"), &["common/types.wgsl", "common/rng.wgsl"]),
-    (
-        "shading_points.wgsl",
-        include_str!("../../../shaders/shading_points.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/scene.wgsl"],
-    ),
-    (
-        "trace_vpls.wgsl",
-        include_str!("../../../shaders/trace_vpls.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
-    ),
-    (
-        "rsm_vpls.wgsl",
-        include_str!("../../../shaders/rsm_vpls.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
-    ),
-    ("rsm_importance.wgsl", include_str!("../../../shaders/rsm_importance.wgsl"), &["common/types.wgsl"]),
-    ("rsm_cluster.wgsl", include_str!("../../../shaders/rsm_cluster.wgsl"), &["common/types.wgsl"]),
-    ("visibility.wgsl", include_str!("../../../shaders/visibility.wgsl"), &["common/types.wgsl", "common/bvh.wgsl", "common/scene.wgsl"]),
-    ("cluster_points.wgsl", include_str!("../../../shaders/cluster_points.wgsl"), CLUSTER),
-    ("cluster_occupancy.wgsl", include_str!("../../../shaders/cluster_occupancy.wgsl"), CLUSTER),
-    ("cluster_grid.wgsl", include_str!("../../../shaders/cluster_grid.wgsl"), CLUSTER),
-    ("cluster_assign.wgsl", include_str!("../../../shaders/cluster_assign.wgsl"), CLUSTER),
-    ("cluster_update.wgsl", include_str!("../../../shaders/cluster_update.wgsl"), CLUSTER),
-    ("cluster_compact.wgsl", include_str!("../../../shaders/cluster_compact.wgsl"), CLUSTER),
-    ("cluster_representatives.wgsl", include_str!("../../../shaders/cluster_representatives.wgsl"), CLUSTER),
-    ("cluster_temporal.wgsl", include_str!("../../../shaders/cluster_temporal.wgsl"), CLUSTER),
-    ("seeding.wgsl", include_str!("../../../shaders/seeding.wgsl"), &["common/types.wgsl", "common/rng.wgsl", "common/metric.wgsl"]),
-    ("frame.wgsl", include_str!("../../../shaders/frame.wgsl"), &["common/types.wgsl"]),
-    ("scan.wgsl", include_str!("../../../shaders/scan.wgsl"), &[]),
-    (
-        "shade.wgsl",
-        include_str!("../../../shaders/shade.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/sampling.wgsl", "common/lights.wgsl", "common/scene.wgsl"],
-    ),
-    (
-        "gather_radius.wgsl",
-        include_str!("../../../shaders/gather_radius.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/sampling.wgsl", "common/scene.wgsl"],
-    ),
-    ("interpolate.wgsl", include_str!("../../../shaders/interpolate.wgsl"), &["common/types.wgsl"]),
-    (
-        "bias_points.wgsl",
-        include_str!("../../../shaders/bias_points.wgsl"),
-        &["common/types.wgsl", "common/rng.wgsl", "common/bvh.wgsl", "common/surface.wgsl", "common/sampling.wgsl", "common/scene.wgsl"],
-    ),
-];
+include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 
 /// Sources read from a directory, by the names of [`COMMON`] and [`STAGES`]; set once per process.
 static REPLACED: OnceLock<BTreeMap<&'static str, String>> = OnceLock::new();
@@ -167,6 +116,9 @@ pub const SHADE_POINTS: u32 = 4;
 /// `cluster_points.wgsl`) before its atomics: an atomic is a locked instruction per lane on
 /// lavapipe.
 pub const REDUCE_ITEMS: u32 = 64;
+/// Consecutive rows whose same word consecutive invocations of `visibility` compute
+/// (`visibility.wgsl` says why).
+pub const VISIBILITY_ROW_LANES: u32 = 8;
 /// Codes of `fuzzy` in the clustering passes' parameters (`common/cluster.wgsl`): how a point's F clusters are weighted.
 pub const WEIGHTS_PLAIN_MEAN: u32 = 0;
 pub const WEIGHTS_INVERSE_DISTANCE: u32 = 1;
@@ -215,7 +167,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
         ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
         ("REDUCE_ITEMS", REDUCE_ITEMS),
-        ("VISIBILITY_ROW_LANES", crate::visibility::ROW_LANES),
+        ("VISIBILITY_ROW_LANES", VISIBILITY_ROW_LANES),
         ("CROWDED_CENTROIDS", vplgi_types::clustering::CROWDED_CENTROIDS),
         ("LIGHT_SHAPE_POINT", vplgi_types::LightShape::Point.code()),
         ("LIGHT_SHAPE_DISK", vplgi_types::LightShape::Disk.code()),
@@ -428,6 +380,68 @@ fn compile(device: &wgpu::Device, name: &str, entries: &[&str], variant: SceneVa
         .collect()
 }
 
+/// The layout check of records shared with WGSL: a Rust record, the WGSL struct it is read as,
+/// and the record's named fields, against naga's layout of the composed module.
+#[cfg(test)]
+pub(crate) mod layout {
+    use super::compose;
+
+    /// One row of the layout table: a Rust record, the WGSL struct it is read as, and the
+    /// record's named fields (padding is covered by the size).
+    pub(crate) struct Row {
+        pub(crate) stage: &'static str,
+        pub(crate) wgsl: &'static str,
+        pub(crate) rust: &'static str,
+        pub(crate) size: usize,
+        pub(crate) fields: Vec<(&'static str, usize)>,
+    }
+
+    /// `[Type] "stage.wgsl" WgslName { field, ... }`: the row of a record whose fields have the
+    /// same names on both sides.
+    #[macro_export]
+    macro_rules! layout_rows {
+        ($([$ty:path] $stage:literal $wgsl:literal { $($field:ident),* $(,)? })*) => {
+            vec![$($crate::shader::layout::Row {
+                stage: $stage,
+                wgsl: $wgsl,
+                rust: stringify!($ty),
+                size: std::mem::size_of::<$ty>(),
+                fields: vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),*],
+            }),*]
+        };
+    }
+
+    /// Size and member offsets of a WGSL struct, from naga's layouter.
+    fn wgsl_layout(stage: &str, name: &str) -> (u32, Vec<(String, u32)>) {
+        let src = compose(stage);
+        let module = naga::front::wgsl::parse_str(&src).expect("parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).expect("layout");
+        for (handle, ty) in module.types.iter() {
+            if ty.name.as_deref() == Some(name) {
+                if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                    assert_eq!(layouter[handle].size, *span);
+                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                }
+            }
+        }
+        panic!("struct {name} not found in {stage}");
+    }
+
+    /// Every row has the size and field offsets naga lays out in WGSL.
+    pub(crate) fn check(table: Vec<Row>) {
+        for row in table {
+            let (size, members) = wgsl_layout(row.stage, row.wgsl);
+            assert_eq!(size as usize, row.size, "{} ({}): WGSL size {size}, Rust size {}", row.rust, row.stage, row.size);
+            for (field, offset) in row.fields {
+                let m =
+                    members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{}.{field}: no such member of {} in {}", row.rust, row.wgsl, row.stage));
+                assert_eq!(m.1 as usize, offset, "{}.{field}: WGSL offset {}, Rust offset {offset}", row.rust, m.1);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -463,23 +477,6 @@ mod tests {
         let mut map = BTreeMap::new();
         map.insert("shade.wgsl", "// replaced".to_string());
         assert!(compose_from("shade.wgsl", &map).ends_with("// replaced\n") && !empty.ends_with("// replaced\n"));
-    }
-
-    /// Size and member offsets of a WGSL struct, from naga's layouter.
-    fn wgsl_layout(stage: &str, name: &str) -> (u32, Vec<(String, u32)>) {
-        let src = compose(stage);
-        let module = naga::front::wgsl::parse_str(&src).expect("parses");
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).expect("layout");
-        for (handle, ty) in module.types.iter() {
-            if ty.name.as_deref() == Some(name) {
-                if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                    assert_eq!(layouter[handle].size, *span);
-                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
-                }
-            }
-        }
-        panic!("struct {name} not found in {stage}");
     }
 
     /// `scene.wgsl` declares the scene's arrays at the bindings and under the names of
@@ -524,40 +521,16 @@ mod tests {
         }
     }
 
-    /// One row of the layout table: a Rust record, the WGSL struct it is read as, and the
-    /// record's named fields (padding is covered by the size).
-    struct Row {
-        stage: &'static str,
-        wgsl: &'static str,
-        rust: &'static str,
-        size: usize,
-        fields: Vec<(&'static str, usize)>,
-    }
-
-    /// `[Type] "stage.wgsl" WgslName { field, ... }`: the row of a record whose fields have the
-    /// same names on both sides.
-    macro_rules! rows {
-        ($([$ty:path] $stage:literal $wgsl:literal { $($field:ident),* $(,)? })*) => {
-            vec![$(Row {
-                stage: $stage,
-                wgsl: $wgsl,
-                rust: stringify!($ty),
-                size: std::mem::size_of::<$ty>(),
-                fields: vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),*],
-            }),*]
-        };
-    }
-
-    /// Every record that crosses between host and device, and every kernel's parameters,
-    /// has the same size and field offsets in Rust as naga lays out in WGSL. One table: a new
-    /// record is one row.
+    /// Every record that crosses between host and device, and the glue's parameters, has the
+    /// same size and field offsets in Rust as naga lays out in WGSL. A stage's own parameters
+    /// are checked in its module.
     #[test]
     fn shared_structs_match_their_wgsl_layout() {
         use crate::bvh::BvhTri;
         use crate::lights::{Emitter, LightGroup, Punctual};
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
-        let table = rows! {
+        let table = crate::layout_rows! {
             [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, emitted }
             [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux }
             [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
@@ -569,32 +542,11 @@ mod tests {
             [Emitter] "shade.wgsl" "Emitter" { v0, e1, e2, normal, radiance }
             [LightGroup] "shade.wgsl" "LightGroup" { sphere, cone, power, range }
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
-            [crate::trace_vpls::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
-            [crate::shading_points::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
-            [crate::cluster::Params] "cluster_assign.wgsl" "Params" { origin, dims, fix_min, fix_ext, n, k, f, threshold, fuzzy, cells, first, window, alpha, representative, metric }
-            [crate::seeding::Params] "seeding.wgsl" "Params" { fix_min, fix_ext, width, height, spp, levels, level, side, level_first, seed, alpha }
-            [crate::visibility::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
-            [crate::shade::Params] "shade.wgsl" "Params" { spp, seed, direct_samples, f, mode, first_row, words_per_row, first_pixel, pixel_count, g_max, eps, sp_first, light_first, light_end, direct, sample_first, sample_end }
-            [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, hit_first, hit_count, shape }
+            [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, end, hit_first, hit_count, phase, max_bounce, shape }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
-            [crate::bias_points::Params] "bias_points.wgsl" "Params" { first, count, seed, g_max, eps }
-            [crate::gather_radius::Params] "gather_radius.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
-            [crate::interpolate::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
             [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
-            [crate::rsm_vpls::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
-            [crate::rsm_cluster::Params] "rsm_cluster.wgsl" "Params" { n, maps, k, bit, w_position, w_normal, w_flux, inv_extent, importance, rows, first, chunk }
-            [crate::rsm_cluster::MapInfo] "rsm_cluster.wgsl" "MapInfo" { vpl_start, vpl_end, cluster_first, k, grid, cell_first, row_first }
-            [crate::rsm_importance::Params] "rsm_importance.wgsl" "Params" { n, count, d_min2 }
             [vplgi_types::rsm::RsmCentre] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
         };
-        for row in table {
-            let (size, members) = wgsl_layout(row.stage, row.wgsl);
-            assert_eq!(size as usize, row.size, "{} ({}): WGSL size {size}, Rust size {}", row.rust, row.stage, row.size);
-            for (field, offset) in row.fields {
-                let m =
-                    members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{}.{field}: no such member of {} in {}", row.rust, row.wgsl, row.stage));
-                assert_eq!(m.1 as usize, offset, "{}.{field}: WGSL offset {}, Rust offset {offset}", row.rust, m.1);
-            }
-        }
+        crate::shader::layout::check(table);
     }
 }

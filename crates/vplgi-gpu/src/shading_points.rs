@@ -8,6 +8,7 @@ use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::{CameraParams, ShadingPoint};
+use crate::backend::GpuBackend;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -24,6 +25,9 @@ pub(crate) struct Params {
     pub(crate) count: u32,
     pub(crate) pad: [u32; 2],
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = ShadingPointsKernel;
 
 pub struct ShadingPointsKernel {
     pipeline: RayPipeline,
@@ -92,5 +96,22 @@ impl ShadingPointsKernel {
             first += count;
         }
         Ok(out)
+    }
+}
+
+impl vplgi_frame::stages::ShadingPoints for GpuBackend<'_> {
+    fn shading_points(&self, p: &CameraParams, samples: std::ops::Range<u32>) -> Result<wgpu::Buffer, GpuError> {
+        self.kernels.shading_points.dispatch_range(self.device, self.queue, &self.scene, p, samples)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
+        });
     }
 }

@@ -11,6 +11,8 @@ use crate::shader::{pipelines, RayPipeline};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::{TraceParams, Vpl};
+use crate::backend::GpuBackend;
+use vplgi_frame::Progress;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -33,6 +35,9 @@ pub struct GpuVpls {
     /// Light particles traced to make them.
     pub particles: u32,
 }
+
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = TraceVplsKernel;
 
 pub struct TraceVplsKernel {
     trace: RayPipeline,
@@ -109,5 +114,30 @@ impl TraceVplsKernel {
             dispatch_bound(device, queue, &self.normalize, &[(0, &p), (14, &totals), (15, &vpls)], kept.div_ceil(64));
         })?;
         Ok(GpuVpls { buffer: vpls, count: kept, particles })
+    }
+}
+
+impl vplgi_frame::Counted for GpuVpls {
+    fn count(&self) -> u32 {
+        self.count
+    }
+}
+
+impl vplgi_frame::stages::TraceVpls for GpuBackend<'_> {
+    fn trace_vpls(&self, p: &TraceParams, _progress: &dyn Progress) -> Result<(GpuVpls, u32), GpuError> {
+        let v = self.kernels.trace_vpls.run(self.device, self.queue, &self.scene, p)?;
+        let particles = v.particles;
+        Ok((v, particles))
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps }
+        });
     }
 }

@@ -6,11 +6,14 @@
 use crate::buffers::{dispatch_windows, kernel_params, read_back, storage, storage_zeroed, Window};
 use crate::context::validated;
 use crate::scene::GpuScene;
-use crate::shader::RayPipeline;
+use crate::shader::{RayPipeline, VISIBILITY_ROW_LANES};
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 
 pub use vplgi_types::Endpoint;
+use crate::backend::{GpuBackend, GpuPoints};
+use std::ops::Range;
+use vplgi_frame::Progress;
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -24,12 +27,13 @@ pub(crate) struct Params {
     pub(crate) pad: [u32; 2],
 }
 
+/// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
+pub type Kernel = VisibilityKernel;
+
 pub struct VisibilityKernel {
     pipeline: RayPipeline,
 }
 
-/// Consecutive rows whose same word consecutive invocations compute (`visibility.wgsl` says why).
-pub const ROW_LANES: u32 = 8;
 
 /// 32-bit words per matrix row: the CPU's 64-bit words, doubled.
 pub fn words_per_row(cols: usize) -> usize {
@@ -67,7 +71,7 @@ impl VisibilityKernel {
                 b.push((i, x.as_entire_buffer_binding()));
             }
             b.extend(self.pipeline.scene_bindings(scene));
-            dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count.div_ceil(ROW_LANES) * ROW_LANES * wpr).div_ceil(64));
+            dispatch_windows(device, queue, self.pipeline.get(device, scene), &b, (row_count.div_ceil(VISIBILITY_ROW_LANES) * VISIBILITY_ROW_LANES * wpr).div_ceil(64));
             words
         })
     }
@@ -101,5 +105,30 @@ impl VisibilityKernel {
             first += n;
         }
         Ok(out)
+    }
+}
+
+impl vplgi_frame::stages::Visibility for GpuBackend<'_> {
+    fn visibility(&self, row_points: &GpuPoints, rows: Range<u32>, cols: &GpuPoints, _progress: &dyn Progress) -> Result<(wgpu::Buffer, Option<u64>), GpuError> {
+        let words = self.kernels.visibility.run_on_device(
+            self.device,
+            self.queue,
+            &self.scene,
+            (&row_points.buffer, row_points.count),
+            (&cols.buffer, cols.count),
+            rows,
+        )?;
+        Ok((words, None))
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    /// The stage's records have the size and field offsets naga lays out for its shader.
+    #[test]
+    fn records_match_their_wgsl_layouts() {
+        crate::shader::layout::check(crate::layout_rows! {
+            [super::Params] "visibility.wgsl" "Params" { rows, cols, words_per_row, first_row, row_count, eps }
+        });
     }
 }

@@ -460,7 +460,7 @@ impl FrameConfig {
         crate::seeding::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
     }
 
-    /// The parameters of `gather_radius` (`ShadeMode::Interpolate`).
+    /// The parameters of the sample points' gather rays (`ShadeMode::Interpolate`).
     pub fn gather_params(&self) -> crate::interpolation::GatherParams {
         crate::interpolation::GatherParams { seed: self.seed, rays: self.gather_rays }
     }

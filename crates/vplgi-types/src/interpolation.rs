@@ -8,7 +8,7 @@
 //! ```
 //!
 //! R_j is the harmonic mean distance from s_j to the surfaces it sees, measured with gather rays
-//! (`gather_radius`). Both backends keep 1 / R_j, the mean of 1 / t over the rays (a ray that
+//! (a stage of its own). Both backends keep 1 / R_j, the mean of 1 / t over the rays (a ray that
 //! escapes counts 1 / ∞ = 0): a sample point that sees nothing near has 1 / R_j = 0 and is
 //! weighted by its normal alone, with no infinity anywhere.
 
@@ -25,7 +25,7 @@ pub const DEFAULT_GATHER_RAYS: u32 = 16;
 /// Most gather rays per sample point.
 pub const MAX_GATHER_RAYS: u32 = 4096;
 
-/// The parameters of `gather_radius`.
+/// The parameters of the gather rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GatherParams {
     pub seed: u32,

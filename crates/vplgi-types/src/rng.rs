@@ -34,7 +34,7 @@ pub enum Stream {
     /// seeds (`vplgi_types::seeding`).
     Seeding = 8,
     /// The directions of the gather rays that measure a sample point's harmonic mean distance
-    /// (`gather_radius`, `--shade interpolate`).
+    /// (`--shade interpolate`).
     Gather = 9,
 }
 

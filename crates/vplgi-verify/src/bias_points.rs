@@ -4,11 +4,11 @@
 
 use crate::shading_points::hit_differences;
 use crate::tolerance::{Disagreement, BIAS_POINTS_WEIGHT_ABS, SHADING_POINTS_SAME_SURFACE};
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
-use vplgi_frame::Backend;
+use vplgi_frame::prelude::*;
 use vplgi_gpu::buffers::{read_back, storage};
-use vplgi_types::{BiasParams, FrameConfig, ShadingPoint};
+use vplgi_types::{BiasParams, ShadingPoint};
 
 /// One compensation level on both backends, from the same parents (camera samples `0 ..`).
 pub fn both(twins: &Twins, parents: &[ShadingPoint], params: &BiasParams) -> Result<(Vec<ShadingPoint>, Vec<ShadingPoint>), VerifyError> {
@@ -92,7 +92,8 @@ pub fn compare(twins: &Twins, parents: &[ShadingPoint], (width, spp): (u32, u32)
 
 /// The frame's camera samples (the CPU's) and their first two compensation levels, with the
 /// frame's clamp.
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::BiasPoints);
     let camera = cfg.camera_params(twins.scene.camera);
     let mut parents = vplgi_cpu::shading_points::shading_points(twins.cpu, camera.width, camera.height, camera.spp, camera.seed);

@@ -7,7 +7,7 @@ use crate::tolerance::{
     Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_IMPORTANCE_REL, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS,
     TEMPORAL_DIFFERING_THRESHOLDS, TEMPORAL_SAME_ADMISSION, UPDATE_DIFFERING_CENTROIDS,
 };
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, cluster_from, update, ClusterParams, Grid};
 use vplgi_frame::RsmStart;
@@ -275,7 +275,8 @@ fn describe(params: &ClusterParams) -> String {
 
 /// All of the above on the frame's two point sets: its hits (the shading-point clustering's
 /// parameters) and its VPLs (the VPL clustering's), with centroids and labels from the CPU.
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::Cluster);
     let frame = CpuFrame::new(twins.cpu, cfg);
     let (device, queue, kernel) = (twins.device(), twins.queue(), &twins.gpu.kernels().cluster);
@@ -396,7 +397,7 @@ impl RsmTwins<'_> {
         let (device, queue) = (self.twins.device(), self.twins.queue());
         let cpu = vplgi_cpu::rsm_cluster::rsm_cluster_from(self.vpls, self.maps, self.params, self.importance, previous);
         let start = RsmStart { importance: self.gpu_importance, previous, carry: true };
-        let g = self.twins.gpu.kernels().rsm_cluster.run(device, queue, self.gpu_vpls, self.vpls.len() as u32, self.maps, self.params, start)?;
+        let g = self.twins.gpu.kernels().rsm_cluster.run(device, queue, self.gpu_vpls, self.maps, self.params, start)?;
         let labels: Vec<u32> = read_back(device, queue, &g.clustering.labels, self.vpls.len())?;
         let c = &cpu.clustering;
         let same = (0..labels.len()).filter(|&i| labels[i] == c.hard_label(i)).count();
@@ -442,7 +443,7 @@ pub fn compare_rsm_importance(
     let cpu = vplgi_cpu::rsm_importance::rsm_importance(vpls, maps, points, d_min);
     let gpu_points = storage(device, "importance points", points);
     let kernel = &twins.gpu.kernels().rsm_importance;
-    let buffer = kernel.run(device, queue, gpu_vpls, vpls.len() as u32, maps, &gpu_points, points.len() as u32, d_min)?;
+    let buffer = kernel.run(device, queue, gpu_vpls, maps, (&gpu_points, points.len() as u32), d_min)?;
     let gpu: Vec<f32> = read_back(device, queue, &buffer, cpu.len())?;
     let mut worst = (0.0f64, None);
     for m in maps {

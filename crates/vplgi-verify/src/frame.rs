@@ -6,7 +6,7 @@
 use crate::shade::{rel_mse, worst_pixel};
 use crate::shading_points::{hit_differences, HitDifferences};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE, SHADING_POINTS_SAME_SURFACE};
-use crate::{count, result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, ImagePair, Mode, Plan, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint, VplSource};
 
 /// What the modes of one frame share: both backends' primary hits, and how far the VPLs differ
@@ -102,7 +102,8 @@ fn compare(twins: &Twins, cfg: &FrameConfig, shared: &Shared) -> Result<(Vec<Dis
 }
 
 /// The frame of every mode in `modes`.
-pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let (cfg, modes) = (&plan.config, &plan.modes[..]);
     let mut r = result(VerifyStage::Frame);
     let shared = Shared::new(twins, cfg, modes)?;
     for mode in modes {

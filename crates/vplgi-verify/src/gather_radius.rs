@@ -4,24 +4,17 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::TieOracle;
 use crate::tolerance::{gather_radius_bound, gather_radius_same_share, Disagreement, GATHER_RADIUS_REL, SHADING_POINTS_POSITION_REL};
-use crate::{count, result, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_frame::Backend;
-use vplgi_gpu::buffers::{read_back, storage};
+use crate::{count, interpolating, result, Plan, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_frame::prelude::*;
+use vplgi_gpu::buffers::read_back;
+use vplgi_gpu::GpuPoints;
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::{ClusterMode, Endpoint, FrameConfig, ShadeMode};
-
-/// `cfg` interpolating: its own clustering of shading points, or both point sets clustered if it
-/// clusters none.
-pub fn interpolating(cfg: &FrameConfig) -> FrameConfig {
-    let cluster = if cfg.cluster.clusters_sps() { cfg.cluster } else { ClusterMode::Both };
-    FrameConfig { shade: ShadeMode::Interpolate, cluster, ..cfg.clone() }
-}
+use vplgi_types::Endpoint;
 
 /// 1 / R_j of `points` on both backends.
 pub fn both(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Result<(Vec<f32>, Vec<f32>), VerifyError> {
     let cpu = vplgi_cpu::gather_radius::gather_radius(twins.cpu, points, params);
-    let n = points.len() as u32;
-    let out = twins.gpu.gather_radius(&storage(twins.device(), "sample points", points), n, params)?;
+    let out = twins.gpu.gather_radius(&GpuPoints::upload(twins.device(), "sample points", points), params)?;
     let gpu = read_back::<f32>(twins.device(), twins.queue(), &out, points.len())?;
     Ok((cpu, gpu))
 }
@@ -89,7 +82,8 @@ pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Res
 /// differ beyond them are counted as differing, and how many is reported.
 pub const MAX_TIE_CHECKS: usize = 2_000;
 
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let cfg = interpolating(cfg);
     let frame = CpuFrame::new(twins.cpu, &cfg);
     let clusters = CpuClusters::new(twins.cpu, &frame, &cfg);

@@ -126,4 +126,9 @@ impl CpuClusters {
         };
         CpuClusters { lights, vpl_clusters, cols, rows, sp_clusters }
     }
+
+    /// The sample points' 1 / R_j (`--shade interpolate`: the rows are the sample points).
+    pub fn inv_radius(&self, cs: &CpuScene, cfg: &FrameConfig) -> Vec<f32> {
+        vplgi_cpu::gather_radius::gather_radius(cs, &self.rows, &cfg.gather_params())
+    }
 }

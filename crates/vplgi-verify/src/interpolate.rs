@@ -2,11 +2,10 @@
 //! (from the CPU's radii, lights and visibility rows) against the CPU's, and the interpolated
 //! final image of each mode that clusters shading points (SPEC: the shade row, relMSE ≤ 1e-4).
 
-use crate::gather_radius::interpolating;
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::shade::{compare_on, rel_mse, worst_item, Pixels};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE};
-use crate::{count, result, v3, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, interpolating, result, v3, Mode, Plan, StageResult, Twins, VerifyError, VerifyStage};
 use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::interpolate::SampleLighting;
 use vplgi_gpu::visibility::words_per_row;
@@ -59,7 +58,8 @@ pub fn compare_samples(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Re
 
 /// The samples of the plan's frame, interpolating, and the interpolated image of each mode of
 /// `modes` that clusters shading points (of none does, `both/weighted`).
-pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let (cfg, modes) = (&plan.config, &plan.modes[..]);
     let mut r = result(VerifyStage::Interpolate);
     let cfg = interpolating(cfg);
     let frame = CpuFrame::new(twins.cpu, &cfg);

@@ -10,21 +10,20 @@
 //! One module per stage, named like the stage, holds the comparison both `vplgi verify` and the
 //! property tests in `tests/` run: the measurement is written once.
 
-pub mod bias_points;
-pub mod cluster;
 pub mod frame;
-pub mod gather_radius;
 pub mod inputs;
-pub mod interpolate;
 pub mod report;
 pub mod rng;
-pub mod rsm_vpls;
 pub mod segment;
-pub mod shade;
-pub mod shading_points;
 pub mod tolerance;
-pub mod trace_vpls;
-pub mod visibility;
+use vplgi_frame::stage_table;
+// One comparison module per stage of the table (its parts are compared in the stage's module).
+macro_rules! verify_modules {
+    ($($(#[$doc:meta])* $name:ident $Trait:ident [$($part:ident $Part:ident),*],)*) => {
+        $(pub mod $name;)*
+    };
+}
+stage_table!(verify_modules);
 
 use serde::Serialize;
 use std::time::Instant;
@@ -61,68 +60,47 @@ pub enum VerifyError {
     TooLarge(String),
 }
 
-/// The stages `verify` runs, in pipeline order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum VerifyStage {
-    /// The counter-based RNG streams.
-    Rng,
-    /// Stage 1: VPLs from light particles.
-    TraceVpls,
-    /// Stage 1 with `--vpl-source rsm`: VPLs from reflective shadow maps.
-    RsmVpls,
-    /// Stage 2: camera rays' first hits.
-    ShadingPoints,
-    /// Stage 3: assignment, update, fuzzy assignment and the whole clustering, on the CPU's points.
-    Cluster,
-    /// Stage 4: shadow rays between the CPU's rows and columns, three ways (Embree, obvhs, GPU).
-    Visibility,
-    /// `--shade interpolate`: the sample points' gather rays, on the CPU's sample points.
-    GatherRadius,
-    /// `--shade interpolate`: the irradiance samples and the interpolated image, on the CPU's
-    /// sample points, radii, lights, clusters and visibility.
-    Interpolate,
-    /// Stage 5 and the final image: the GPU's shade on the CPU's shading points, lights,
-    /// clusters and visibility, in every mode.
-    Shade,
-    /// The clamp's bias compensation: compensation points of the CPU's shading points.
-    BiasPoints,
-    /// The whole frame, each backend chaining its own stages.
-    Frame,
+macro_rules! verify_stages {
+    ($($(#[$doc:meta])* $name:ident $Trait:ident [$($part:ident $Part:ident),*],)*) => {
+        /// What `verify` compares, in pipeline order: the RNG, every stage of the table (each
+        /// chained: on the CPU's outputs of the stages before it), and the whole frame.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum VerifyStage {
+            /// The counter-based RNG streams.
+            Rng,
+            $($(#[$doc])* $Trait,)*
+            /// The whole frame, each backend chaining its own stages.
+            Frame,
+        }
+
+        impl VerifyStage {
+            pub const ALL: [VerifyStage; [VerifyStage::Rng, $(VerifyStage::$Trait,)* VerifyStage::Frame].len()] =
+                [VerifyStage::Rng, $(VerifyStage::$Trait,)* VerifyStage::Frame];
+
+            /// The stage's name: the CPU module's, the GPU kernel's and the `.wgsl` file's.
+            pub fn name(self) -> &'static str {
+                match self {
+                    VerifyStage::Rng => "rng",
+                    $(VerifyStage::$Trait => stringify!($name),)*
+                    VerifyStage::Frame => "frame",
+                }
+            }
+
+            /// Measures this stage of the plan.
+            fn verify(self, twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+                match self {
+                    VerifyStage::Rng => rng::verify(twins, plan),
+                    $(VerifyStage::$Trait => $name::verify(twins, plan),)*
+                    VerifyStage::Frame => frame::verify(twins, plan),
+                }
+            }
+        }
+    };
 }
+stage_table!(verify_stages);
 
 impl VerifyStage {
-    pub const ALL: [VerifyStage; 11] = [
-        VerifyStage::Rng,
-        VerifyStage::TraceVpls,
-        VerifyStage::RsmVpls,
-        VerifyStage::ShadingPoints,
-        VerifyStage::Cluster,
-        VerifyStage::Visibility,
-        VerifyStage::GatherRadius,
-        VerifyStage::Interpolate,
-        VerifyStage::Shade,
-        VerifyStage::BiasPoints,
-        VerifyStage::Frame,
-    ];
-
-    /// The stage's name: the CPU module's, the GPU kernel's and the `.wgsl` file's.
-    pub fn name(self) -> &'static str {
-        match self {
-            VerifyStage::Rng => "rng",
-            VerifyStage::TraceVpls => "trace_vpls",
-            VerifyStage::RsmVpls => "rsm_vpls",
-            VerifyStage::ShadingPoints => "shading_points",
-            VerifyStage::Cluster => "cluster",
-            VerifyStage::Visibility => "visibility",
-            VerifyStage::GatherRadius => "gather_radius",
-            VerifyStage::Interpolate => "interpolate",
-            VerifyStage::Shade => "shade",
-            VerifyStage::BiasPoints => "bias_points",
-            VerifyStage::Frame => "frame",
-        }
-    }
-
     pub fn from_name(name: &str) -> Option<VerifyStage> {
         VerifyStage::ALL.into_iter().find(|s| s.name() == name)
     }
@@ -177,6 +155,13 @@ impl Mode {
             c
         }
     }
+}
+
+/// `cfg` interpolating: its own clustering of shading points, or both point sets clustered if it
+/// clusters none.
+pub fn interpolating(cfg: &FrameConfig) -> FrameConfig {
+    let cluster = if cfg.cluster.clusters_sps() { cfg.cluster } else { ClusterMode::Both };
+    FrameConfig { shade: ShadeMode::Interpolate, cluster, ..cfg.clone() }
 }
 
 /// Two images of the same thing, one per backend, shown side by side in the report.
@@ -241,19 +226,7 @@ pub fn run(twins: &Twins, plan: &Plan, listener: &dyn Listener) -> Result<Vec<St
     for stage in stages {
         listener.started(stage);
         let clock = Instant::now();
-        let mut r = match stage {
-            VerifyStage::Rng => rng::verify(twins, &plan.config)?,
-            VerifyStage::TraceVpls => trace_vpls::verify(twins, &plan.config)?,
-            VerifyStage::RsmVpls => rsm_vpls::verify(twins, &plan.config)?,
-            VerifyStage::ShadingPoints => shading_points::verify(twins, &plan.config)?,
-            VerifyStage::Cluster => cluster::verify(twins, &plan.config)?,
-            VerifyStage::Visibility => visibility::verify(twins, &plan.config)?,
-            VerifyStage::GatherRadius => gather_radius::verify(twins, &plan.config)?,
-            VerifyStage::Interpolate => interpolate::verify(twins, &plan.config, &plan.modes)?,
-            VerifyStage::Shade => shade::verify(twins, &plan.config, &plan.modes)?,
-            VerifyStage::BiasPoints => bias_points::verify(twins, &plan.config)?,
-            VerifyStage::Frame => frame::verify(twins, &plan.config, &plan.modes)?,
-        };
+        let mut r = stage.verify(twins, plan)?;
         r.seconds = clock.elapsed().as_secs_f64();
         listener.finished(&r);
         results.push(r);

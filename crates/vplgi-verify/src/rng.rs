@@ -1,8 +1,8 @@
 //! `rng`: the WGSL twin of the counter-based RNG against the Rust one (SPEC: bit-identical).
 
 use crate::tolerance::{Disagreement, RNG_DIFFERING_DRAWS};
-use crate::{result, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_types::{FrameConfig, Rng, Stream};
+use crate::{result, Plan, StageResult, Twins, VerifyError, VerifyStage};
+use vplgi_types::{Rng, Stream};
 
 /// Every stream the pipeline draws from.
 pub const STREAMS: [Stream; 8] =
@@ -30,7 +30,8 @@ pub fn compare(device: &wgpu::Device, queue: &wgpu::Queue, seed: u32, stream: St
 
 /// Every stream at the frame's seed, at the first counters and at the last ones (where a
 /// counter's arithmetic would wrap).
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::Rng);
     let (count, draws) = (4096, 8);
     for stream in STREAMS {

@@ -5,17 +5,17 @@
 
 use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
 use crate::trace_vpls::{difference, on_an_edge, on_two_triangles};
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use vplgi_gpu::buffers::read_back;
-use vplgi_types::{FrameConfig, Vpl};
+use vplgi_types::Vpl;
 
 /// Both backends' VPLs of the maps of budget `size` (texel order).
 pub fn both(twins: &Twins, size: u32) -> Result<(Vec<Vpl>, Vec<Vpl>, u32), VerifyError> {
     let cpu = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, size, &vplgi_cpu::NoProgress);
     let maps = twins.gpu.scene().sampler.rsm_maps(size);
-    let g = twins.gpu.kernels().rsm.run(twins.device(), twins.queue(), twins.gpu.scene(), &maps)?;
+    let g = twins.gpu.kernels().rsm_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), &maps)?;
     let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
     Ok((cpu.vpls, gpu, cpu.particles))
 }
@@ -76,7 +76,8 @@ pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyErro
 }
 
 /// The reflective shadow maps of the frame's `--rsm-size` (whatever its VPL source).
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::RsmVpls);
     r.checks = compare(twins, cfg.rsm_size)?;
     r.notes.push(

@@ -5,12 +5,13 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::{TieOracle, Verdict};
 use crate::tolerance::{polygon_outline_bounds, Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
-use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
 use vplgi_cpu::interpolate::IrradianceSamples;
 use vplgi_cpu::shade::{sample_irradiance, VisibilitySource};
 use vplgi_cpu::CpuScene;
-use vplgi_frame::{Backend, LightSet};
+use vplgi_frame::prelude::*;
+use vplgi_frame::LightSet;
 use vplgi_gpu::buffers::{read_back, storage, Window};
 use vplgi_gpu::cluster::GpuClustering;
 use vplgi_gpu::interpolate::{InterpolateInputs, SampleLighting};
@@ -75,11 +76,11 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     }
     let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
     let params = cfg.shade_params(cs.extent);
-    // Interpolating, the sample points' 1 / R_j are the CPU's for both (gather_radius is judged
-    // on its own); each backend sums the irradiance samples itself.
+    // Interpolating, the sample points' 1 / R_j are the CPU's for both (their stage is judged on
+    // its own); each backend sums the irradiance samples itself.
     let samples = match &clusters.sp_clusters {
         Some(_) if cfg.shade == ShadeMode::Interpolate => {
-            let inv_radius = vplgi_cpu::gather_radius::gather_radius(cs, &clusters.rows, &cfg.gather_params());
+            let inv_radius = clusters.inv_radius(cs, cfg);
             let irradiance = sample_irradiance(&clusters.rows, &clusters.lights, &matrix, params.g_max);
             Some(IrradianceSamples { points: clusters.rows.clone(), inv_radius, irradiance })
         }
@@ -164,7 +165,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let hard: Vec<u32> = (0..frame.vpls.len()).map(|i| vc.hard_label(i)).collect();
     let gc = GpuClustering::of_labels(device, &hard, &vc.representatives);
     let vpls = GpuVpls { buffer: storage(device, "vpls", &frame.vpls), count: n, particles: 0 };
-    let buffer = twins.gpu.vpl_lights(&vpls, n, LightSet::Clusters { clusters: &gc, k, shape: cfg.light_shape })?;
+    let buffer = twins.gpu.vpl_lights(&vpls, LightSet::Clusters { clusters: &gc, shape: cfg.light_shape })?;
     let gpu: Vec<VplLight> = read_back(device, queue, &buffer.buffer, k as usize)?;
     let polygons = buffer.outlines.is_some();
     let mut worst = (0.0f64, None);
@@ -367,7 +368,8 @@ fn direct_ties(cs: &CpuScene, oracle: &TieOracle, sps: &[ShadingPoint], params: 
 }
 
 /// The final image of every mode in `modes`, each on its own CPU inputs.
-pub fn verify(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let (cfg, modes) = (&plan.config, &plan.modes[..]);
     let mut r = result(VerifyStage::Shade);
     let frame = CpuFrame::new(twins.cpu, cfg);
     for mode in modes {

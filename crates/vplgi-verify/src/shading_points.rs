@@ -5,10 +5,10 @@ use crate::tolerance::{
     shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SHADING_POINTS_EMISSION_SUMS,
     SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE, SHADING_POINTS_UNREACHABLE_EMISSION,
 };
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
 use vplgi_scene::Scene;
-use vplgi_types::{CameraParams, FrameConfig, ShadingPoint};
+use vplgi_types::{CameraParams, ShadingPoint};
 
 /// How two backends' shading points of the same samples differ.
 #[derive(Clone, Debug, Default)]
@@ -216,7 +216,8 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
 }
 
 /// The frame's camera samples.
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::ShadingPoints);
     r.checks = compare(twins, &cfg.camera_params(twins.scene.camera))?;
     r.notes.push(format!(

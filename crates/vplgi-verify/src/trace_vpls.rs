@@ -2,11 +2,11 @@
 //! fluxes within 1e-4 relative; at most 0.1 % of paths diverge, counted).
 
 use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::{BTreeMap, BTreeSet};
 use vplgi_gpu::buffers::read_back;
-use vplgi_types::{FrameConfig, TraceParams, Vpl};
+use vplgi_types::{TraceParams, Vpl};
 
 /// The VPLs of each light path, in order.
 fn by_path(v: &[Vpl]) -> BTreeMap<u32, Vec<Vpl>> {
@@ -63,7 +63,7 @@ pub(crate) fn on_two_triangles(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) ->
 pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>, VerifyError> {
     let cs = twins.cpu;
     let cpu = vplgi_cpu::trace_vpls::trace_vpls(cs, params.seed, params.count, params.bounces, &vplgi_cpu::NoProgress);
-    let g = twins.gpu.kernels().trace.run(twins.device(), twins.queue(), twins.gpu.scene(), params)?;
+    let g = twins.gpu.kernels().trace_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), params)?;
     let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
     let (cp, gp) = (by_path(&cpu.vpls), by_path(&gpu));
     let paths: BTreeSet<u32> = cp.keys().chain(gp.keys()).copied().collect();
@@ -153,7 +153,8 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
 }
 
 /// The frame's VPLs.
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::TraceVpls);
     r.checks = compare(twins, &cfg.trace_params())?;
     r.notes.push(

@@ -4,11 +4,11 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::{TieOracle, Verdict};
 use crate::tolerance::{Disagreement, VISIBILITY_SAME_BITS};
-use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage};
+use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{Vec3, Vec3A};
 use vplgi_cpu::CpuScene;
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::{Endpoint, FrameConfig};
+use vplgi_types::Endpoint;
 
 /// Most row x column pairs compared: obvhs' traversal runs on one core.
 pub const MAX_PAIRS: usize = 4 << 20;
@@ -158,7 +158,8 @@ fn tie_verdict(cs: &CpuScene, oracle: &TieOracle, a: &Endpoint, b: &Endpoint) ->
 
 /// The frame's shadow rays in its mode: rows are its hits (or its shading-point clusters'
 /// representatives), columns its lights (VPLs or VPL clusters), from the CPU's stages.
-pub fn verify(twins: &Twins, cfg: &FrameConfig) -> Result<StageResult, VerifyError> {
+pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
+    let cfg = &plan.config;
     let mut r = result(VerifyStage::Visibility);
     let frame = CpuFrame::new(twins.cpu, cfg);
     let clusters = CpuClusters::new(twins.cpu, &frame, cfg);

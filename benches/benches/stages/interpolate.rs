@@ -3,7 +3,7 @@
 //! point, CPU and GPU, from the same clusters, lights, matrix and radii. Direct light, which
 //! `shade` adds in either mode, is not part of it: compare with `shade`'s light sums.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_cpu::interpolate::IrradianceSamples;
 use vplgi_cpu::shade::{irradiance, sample_irradiance, LightArrays, VisibilitySource};
@@ -69,4 +69,3 @@ fn interpolate_stage(c: &mut Criterion) {
 }
 
 criterion_group!(benches, interpolate_stage);
-criterion_main!(benches);

@@ -1,6 +1,6 @@
 //! Stage 1, `trace_vpls`: light particles traced into VPLs, CPU (Embree) and GPU.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, sizes, Gpu};
 use vplgi_cpu::NoProgress;
 use vplgi_gpu::trace_vpls::TraceVplsKernel;
@@ -28,4 +28,3 @@ fn trace_vpls(c: &mut Criterion) {
 }
 
 criterion_group!(benches, trace_vpls);
-criterion_main!(benches);

@@ -2,7 +2,7 @@
 //! lights into VPLs, CPU (Embree) and GPU, at the paper's map sizes (Table 1: 128² and 256²;
 //! 16² and 32² for the smoke run).
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, smoke, Gpu};
 use vplgi_cpu::NoProgress;
 use vplgi_gpu::rsm_vpls::RsmVplsKernel;
@@ -29,4 +29,3 @@ fn rsm_vpls(c: &mut Criterion) {
 }
 
 criterion_group!(benches, rsm_vpls);
-criterion_main!(benches);

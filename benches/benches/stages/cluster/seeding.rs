@@ -1,14 +1,14 @@
 //! Stage 3's first step with `--seeding adaptive`, `seeding`: Wang et al.'s screen-space quadtree
 //! over the frame's hits (K_SP seeds, the frame's alpha), CPU and GPU, from the same hits.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_gpu::cluster::ClusterKernel;
 use vplgi_gpu::seeding::{GpuImageHits, SeedingKernel};
 use vplgi_types::MISS;
 
-fn seeding_stage(c: &mut Criterion) {
+pub(super) fn seeding_stage(c: &mut Criterion) {
     let mut group = c.benchmark_group("seeding");
     configure(&mut group);
     let gpu = Gpu::new("seeding");
@@ -43,5 +43,3 @@ fn seeding_stage(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, seeding_stage);
-criterion_main!(benches);

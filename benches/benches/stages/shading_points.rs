@@ -1,6 +1,6 @@
 //! Stage 2, `shading_points`: camera rays to the first hit, CPU (Embree) and GPU.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, sizes, Gpu};
 use vplgi_gpu::shading_points::ShadingPointsKernel;
 
@@ -29,4 +29,3 @@ fn shading_points(c: &mut Criterion) {
 }
 
 criterion_group!(benches, shading_points);
-criterion_main!(benches);

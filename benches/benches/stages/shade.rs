@@ -1,7 +1,7 @@
 //! Stage 5, `shade`: every pixel's direct light and its F clusters' VPL-cluster lights, weighted
 //! by the clusters' visibility rows, CPU and GPU on identical inputs.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_cpu::shade::VisibilitySource;
 use vplgi_gpu::buffers::{storage, Window};
@@ -60,4 +60,3 @@ fn shade(c: &mut Criterion) {
 }
 
 criterion_group!(benches, shade);
-criterion_main!(benches);

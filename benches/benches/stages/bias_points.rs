@@ -2,7 +2,7 @@
 //! every shading point to the surface it sees, kept where the clamp bites), CPU (Embree) and
 //! GPU, on the camera's shading points with the default clamp.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, sizes, Gpu};
 use vplgi_gpu::bias_points::BiasPointsKernel;
 use vplgi_gpu::buffers::storage;
@@ -33,4 +33,3 @@ fn bias_points(c: &mut Criterion) {
 }
 
 criterion_group!(benches, bias_points);
-criterion_main!(benches);

@@ -1,7 +1,7 @@
 //! Stage 4, `visibility`: the bit matrix between the shading-point clusters' representatives and
 //! the VPL clusters' lights (K_SP x K_VPL shadow rays), CPU (Embree) and GPU.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_cpu::NoProgress;
 use vplgi_gpu::visibility::VisibilityKernel;
@@ -32,4 +32,3 @@ fn visibility(c: &mut Criterion) {
 }
 
 criterion_group!(benches, visibility);
-criterion_main!(benches);

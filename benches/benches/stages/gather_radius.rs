@@ -2,7 +2,7 @@
 //! shading-point clusters' representatives) from the frame's gather rays, CPU and GPU, from the
 //! same points.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_gpu::gather_radius::GatherRadiusKernel;
 
@@ -31,4 +31,3 @@ fn gather_radius_stage(c: &mut Criterion) {
 }
 
 criterion_group!(benches, gather_radius_stage);
-criterion_main!(benches);

@@ -5,7 +5,9 @@
 //! on`), with the centres read back for the next frame; and `kmeans`, the
 //! k-means problem `make perf-report` compares with faiss (1M uniform points, K = 8,192).
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+mod seeding;
+
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, kmeans_problem, kmeans_size, sizes, Gpu, Inputs};
 use vplgi_cpu::cluster::temporal::centres;
 use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart};
@@ -105,21 +107,21 @@ fn cluster_stage(c: &mut Criterion) {
             let buf = vplgi_gpu::trace_vpls::GpuVpls { buffer: vplgi_gpu::buffers::storage(device, "vpls", &vpls), count: n, particles: 0 };
             let points = vplgi_gpu::buffers::storage(device, "importance points", &gbuffer);
             let run = || {
-                kernel.run(device, queue, &buf, n, &maps, &params, RsmStart { importance: None, previous: None, carry: false }).expect("rsm_cluster");
+                kernel.run(device, queue, &buf, &maps, &params, RsmStart { importance: None, previous: None, carry: false }).expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
             let run = || {
-                let importance = importance_kernel.run(device, queue, &buf, n, &maps, &points, gbuffer.len() as u32, d_min).expect("rsm_importance");
+                let importance = importance_kernel.run(device, queue, &buf, &maps, (&points, gbuffer.len() as u32), d_min).expect("rsm_importance");
                 kernel
-                    .run(device, queue, &buf, n, &maps, &params, RsmStart { importance: Some(&importance), previous: None, carry: false })
+                    .run(device, queue, &buf, &maps, &params, RsmStart { importance: Some(&importance), previous: None, carry: false })
                     .expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm-importance", name), |b| b.iter_custom(|iters| g.time(iters, run)));
             let run = || {
                 let start = RsmStart { importance: None, previous: Some(&previous), carry: true };
-                kernel.run(device, queue, &buf, n, &maps, &params, start).expect("rsm_cluster");
+                kernel.run(device, queue, &buf, &maps, &params, start).expect("rsm_cluster");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu-rsm-warm", name), |b| b.iter_custom(|iters| g.time(iters, run)));
@@ -131,5 +133,4 @@ fn cluster_stage(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, cluster_stage);
-criterion_main!(benches);
+criterion_group!(benches, cluster_stage, seeding::seeding_stage);
