@@ -121,7 +121,7 @@ MUTANTS_LEDGER := ../../ci/mutants-ledger.tsv
 MUTANTS_HARMLESS := ../../ci/mutants-harmless.tsv
 MUTANTS_MINUTES ?= 0
 MUTANTS_RETEST ?=
-MUTANTS_TOOL = $(CARGO) run -q --profile mutants -p vplgi-benches --bin mutants_report --
+MUTANTS_TOOL = $(CARGO) run -q --profile mutants -p vplgi-reports --bin mutants_report --
 mutants: setup
 	@command -v cargo-mutants >/dev/null 2>&1 || cargo install --locked --quiet cargo-mutants --version 27.1.0
 	@command -v cargo-nextest >/dev/null 2>&1 || cargo install --locked --quiet cargo-nextest
@@ -175,7 +175,7 @@ bench: setup
 	@start=$$(date +%s); \
 	if find target/criterion -type d -name $(BENCH_BASELINE) 2>/dev/null | grep -q .; then \
 	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(BENCH_ARGS) --baseline-lenient $(BENCH_BASELINE) || exit 1; \
-	  $(CARGO) run -q --release -p vplgi-benches --bin bench_compare -- --baseline $(BENCH_BASELINE) --since $$start; \
+	  $(CARGO) run -q --release -p vplgi-reports --bin bench_compare -- --baseline $(BENCH_BASELINE) --since $$start; \
 	else \
 	  $(BENCH_ENV) $(CARGO) bench -p vplgi-benches $(BENCH_ARGS) --save-baseline $(BENCH_BASELINE) || exit 1; \
 	  echo "make bench: no baseline '$(BENCH_BASELINE)' yet: these times are saved as it; the next make bench compares with them"; \
@@ -190,7 +190,7 @@ bench-baseline: setup
 PERF_PY := target/perf-python
 perf-report: build
 	@test -d $(PERF_PY)/faiss || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(PERF_PY) "faiss-cpu==1.15.1" "numpy<3"
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" PYTHONPATH=$(PERF_PY) $(CARGO) run --release -p vplgi-benches --bin perf_report -- --out docs/PERFORMANCE.md
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" PYTHONPATH=$(PERF_PY) $(CARGO) run --release -p vplgi-reports --bin perf_report -- --out docs/PERFORMANCE.md
 
 # The small references the regression tests compare against (tests/tests/regression.rs), made
 # with the CPU reference: 128x128, 1,000 VPLs, 16 seeds, for the built-in Cornell box and the
@@ -218,21 +218,21 @@ references: build
 # dominate) and 25 of GPU frames on lavapipe. RESULTS_ARGS=--cpu-only skips the GPU frames;
 # RESULTS_ARGS=--reuse keeps frames already in target/results (after an interrupted run).
 results: build
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
 
 # The core paper's and Wang et al.'s shading-point choices (seeding, metric, representative,
 # fuzzy visibility or interpolation) at equal time on the three generated scenes, one
 # `vplgi sweep --figure variants` each on the CPU, and flicker along a camera walk of each with
 # and without --temporal on: docs/VARIANTS.md. About ten minutes.
 variants: build
-	$(CARGO) run --release -p vplgi-benches --bin variants -- --out docs/VARIANTS.md
+	$(CARGO) run --release -p vplgi-reports --bin variants -- --out docs/VARIANTS.md
 
 # Prutkin et al.'s shadow-map clusters lit as clamped points, as disks through their Eq. 2 and
 # as disks through the exact form factor, against converged references of the Cornell box and
 # the sun-lit living room (error and light kept), and the clustering's time at the paper's
 # Table 1 sizes on the CPU and on lavapipe: docs/RSM.md. About 15 minutes.
 rsm: build
-	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-benches --bin rsm -- --out docs/RSM.md
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin rsm -- --out docs/RSM.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
 # under target/ with numpy (nothing system-wide): each of the four scenes exported with
@@ -243,7 +243,7 @@ rsm: build
 MITSUBA_PY := target/mitsuba-python
 validate: build
 	@test -d $(MITSUBA_PY)/mitsuba || python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore --target $(MITSUBA_PY) "mitsuba==3.9.1" "numpy<3"
-	PYTHONPATH=$(MITSUBA_PY) $(CARGO) run --release -p vplgi-benches --bin validate -- --out docs/VALIDATION.md $(VALIDATE_ARGS)
+	PYTHONPATH=$(MITSUBA_PY) $(CARGO) run --release -p vplgi-reports --bin validate -- --out docs/VALIDATION.md $(VALIDATE_ARGS)
 
 # References past one machine (opt-in, not in make test; needs root or sudo): starts a single-node
 # Slurm cluster (Debian's slurm-wlm and munge, installed if missing) in target/slurm-test, submits

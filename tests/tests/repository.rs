@@ -9,7 +9,7 @@ const NAMING: [&str; 7] = ["rs", "wgsl", "md", "sh", "toml", "py", "yaml"];
 
 /// Folders of the repository a path may start with; a crate's folder may be named without
 /// `crates/` (`vplgi-gpu/src/bvh.rs`).
-const ROOTS: [&str; 9] = ["crates/", "shaders/", "tests/", "benches/", "docs/", "ci/", "fixtures/", "fuzz/", "vplgi-"];
+const ROOTS: [&str; 10] = ["crates/", "shaders/", "tests/", "benches/", "reports/", "docs/", "ci/", "fixtures/", "fuzz/", "vplgi-"];
 
 /// Paths that name what runs make, not what the repository holds.
 const MADE: [&str; 5] = ["fuzz/target", "fuzz/corpus", "fuzz/artifacts", "target/", "out/"];

@@ -17,7 +17,7 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::Command;
-use vplgi_benches::run;
+use vplgi_reports::run;
 
 #[derive(Parser)]
 #[command(about = "Compares the shading-point variants at equal time on the generated scenes; writes docs/VARIANTS.md")]
@@ -103,7 +103,7 @@ fn main() -> Result<()> {
         let walk = flicker(&o, &work, &docs, name, (&w, &h), vpls, q)?;
         rows.push(json!({"scene": name, "width": w, "height": h, "vpls": vpls, "frames": frames, "walk": walk}));
     }
-    let (date, commit) = vplgi_benches::date_and_commit()?;
+    let (date, commit) = vplgi_reports::date_and_commit()?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("variants.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
@@ -165,7 +165,7 @@ fn markdown(r: &Value) -> Result<String> {
     let variants: Vec<&str> = VARIANTS.split(',').collect();
     let mut s = String::new();
     writeln!(s, "# Shading-point variants at equal time\n")?;
-    writeln!(s, "{} Numbers: [variants/variants.json](variants/variants.json).\n", vplgi_benches::generated_by("variants", r, "comparison"))?;
+    writeln!(s, "{} Numbers: [variants/variants.json](variants/variants.json).\n", vplgi_reports::generated_by("variants", r, "comparison"))?;
     writeln!(
         s,
         "The core paper clusters shading points with Eq. 7, evenly spread seeds and the member nearest the centroid, and shades every pixel from every light through its F clusters' visibility (`eq7+nearest+stride+fuzzy`). Wang et al. 2009 seed by a screen-space quadtree (`adaptive`), cluster by their Eq. 2 (`ward`), take the member of smallest error (`min-error`), and interpolate irradiance computed at those members only (`interpolate`). Each scene is one `vplgi sweep --figure variants` on the CPU (this machine's 2 cores) with `--cluster sp`: every VPL is its own light, so the variants differ in shading points only. Error is FLIP against the unclustered reference of the same VPLs; time is the frame's total, the median of the runs.\n"

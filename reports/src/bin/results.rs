@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vplgi_benches::run;
+use vplgi_reports::run;
 use vplgi_frame::Report;
 
 #[derive(Parser)]
@@ -154,7 +154,7 @@ fn main() -> Result<()> {
         }
         rows.push(json!({"scene": sc.name, "paper": sc.paper, "width": sc.width, "height": sc.height, "vpls": sc.vpls, "frames": frames}));
     }
-    let (date, commit) = vplgi_benches::date_and_commit()?;
+    let (date, commit) = vplgi_reports::date_and_commit()?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("results.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
@@ -180,7 +180,7 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(
         s,
         "{} The scenes come from `vplgi scene generate` (see the README). Numbers: [results/results.json](results/results.json); full-size images under `target/results/` after a run.\n",
-        vplgi_benches::generated_by("results", r, "table")
+        vplgi_reports::generated_by("results", r, "table")
     )?;
     writeln!(s, "Every frame is one `vplgi render` process on this machine's 2 cores: time is the frame's total (`timings_ms.total`), memory the process's peak resident set (scene, acceleration structure, buffers; on the GPU also lavapipe's). GPU frames (backend `gpu`) ran on **{}**: where that is Mesa lavapipe, software Vulkan on the same two cores, their times say nothing about a real GPU. Speed-up is over the reference, which is rendered on the CPU only; MSE and FLIP are against it. Peak memory is given for every frame of both backends (cornell-fine is at its paper resolution, 1024x1024, not 1024x720). [PERFORMANCE.md](PERFORMANCE.md) compares the backends stage by stage on the Cornell box.\n", gpu_adapter(r))?;
     for sc in r["scenes"].as_array().cloned().unwrap_or_default() {

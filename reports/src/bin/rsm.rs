@@ -20,7 +20,7 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vplgi_benches::{median, run};
+use vplgi_reports::{median, run};
 
 #[derive(Parser)]
 #[command(about = "Measures reflective-shadow-map clusters as points and disks against converged references; writes docs/RSM.md")]
@@ -220,7 +220,7 @@ fn main() -> Result<()> {
         timings.push(row);
     }
     let sequence = moving_sun(&o, &work, q)?;
-    let (date, commit) = vplgi_benches::date_and_commit()?;
+    let (date, commit) = vplgi_reports::date_and_commit()?;
     let result = json!({"date": date, "commit": commit, "quick": q, "scenes": scenes, "table_1": timings, "sequence": sequence});
     std::fs::write(docs.join("rsm.json"), serde_json::to_string_pretty(&result)?)?;
     std::fs::write(&o.out, markdown(&result)?)?;
@@ -371,7 +371,7 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(
         s,
         "{} Numbers: [rsm/rsm.json](rsm/rsm.json). CPU times on this machine's 2 cores; GPU times on Mesa's lavapipe (software Vulkan) on the same cores, not a GPU.\n",
-        vplgi_benches::generated_by("rsm", r, "measurement")
+        vplgi_reports::generated_by("rsm", r, "measurement")
     )?;
     writeln!(
         s,

@@ -249,7 +249,7 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
     // shows what it learned, then the rows of files this run did not select, untouched: a run
     // narrowed with MUTANTS_FILES must not erase what other runs learned.
     let mut text = String::from(
-        "# make mutants' ledger (see benches/src/bin/mutants_report.rs): outcome, commit the run started on, and the\n\
+        "# make mutants' ledger (see reports/src/bin/mutants_report.rs): outcome, commit the run started on, and the\n\
          # mutant's key (file, hash of its function's text, line in that function:column: what it does). Do not edit.\n",
     );
     for (k, r) in keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed)) {

@@ -26,7 +26,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
-use vplgi_benches::{history, median};
+use vplgi_reports::{history, median};
 use vplgi_cpu::cluster::cluster;
 use vplgi_cpu::visibility::{facing, visibility, Endpoint};
 use vplgi_cpu::{CpuScene, NoProgress};
@@ -307,15 +307,15 @@ fn frame_pair(
 }
 
 /// The floor: brute-force nearest of 64 centroids for `n` points, the GPU kernel against its
-/// rayon twin (vplgi_benches::floor).
+/// rayon twin (vplgi_reports::floor).
 fn floor(ctx: &vplgi_gpu::GpuContext, n: usize, runs: usize) -> Result<Value> {
-    eprintln!("floor: nearest of {} centroids for {n} points, CPU and GPU", vplgi_benches::floor::CENTROIDS);
+    eprintln!("floor: nearest of {} centroids for {n} points, CPU and GPU", vplgi_reports::floor::CENTROIDS);
     let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 1);
     let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
     let points: Vec<Vec3> = (0..n).map(|_| v()).collect();
-    let centroids: Vec<Vec3> = (0..vplgi_benches::floor::CENTROIDS).map(|_| v()).collect();
-    let cpu = vplgi_benches::floor::cpu(&points, &centroids, runs);
-    let gpu = vplgi_benches::floor::gpu(ctx, &points, &centroids, runs)?;
+    let centroids: Vec<Vec3> = (0..vplgi_reports::floor::CENTROIDS).map(|_| v()).collect();
+    let cpu = vplgi_reports::floor::cpu(&points, &centroids, runs);
+    let gpu = vplgi_reports::floor::gpu(ctx, &points, &centroids, runs)?;
     let agree = cpu.labels.iter().zip(&gpu.labels).filter(|(a, b)| a == b).count();
     Ok(
         json!({"points": n, "centroids": centroids.len(), "cpu_s": cpu.seconds, "gpu_s": gpu.seconds, "ratio": gpu.seconds / cpu.seconds, "labels_agree": agree}),
@@ -406,9 +406,9 @@ fn main() -> Result<()> {
 
     let json_path = dir.join("perf.json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&report)? + "\n").with_context(|| format!("cannot write {}", json_path.display()))?;
-    let history = vplgi_benches::history::append(&dir.join("history.json"), vplgi_benches::history::entry(&report))?;
+    let history = vplgi_reports::history::append(&dir.join("history.json"), vplgi_reports::history::entry(&report))?;
     let chart = dir.join("history.svg");
-    std::fs::write(&chart, vplgi_benches::history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
+    std::fs::write(&chart, vplgi_reports::history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
     report["history"] = json!(history);
     let md = markdown(&report, lavapipe, &opts, &dir)?;
     std::fs::write(&opts.out, md).with_context(|| format!("cannot write {}", opts.out.display()))?;
@@ -493,7 +493,7 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
     if fl.is_object() {
         writeln!(
             s,
-            "\n**The floor.** The simplest kernel that maps perfectly to SIMT hardware (every point tests the same {} centroids in the same order: no divergence, no gathers, no private arrays; `benches/src/floor.rs`) takes **{:.2}×** its rayon twin's time for {} points ({:.1} ms against {:.1} ms; {} of {} labels agree). On lavapipe that ratio is what the adapter costs by itself; a stage's ratio above it is the kernel's.",
+            "\n**The floor.** The simplest kernel that maps perfectly to SIMT hardware (every point tests the same {} centroids in the same order: no divergence, no gathers, no private arrays; `reports/src/floor.rs`) takes **{:.2}×** its rayon twin's time for {} points ({:.1} ms against {:.1} ms; {} of {} labels agree). On lavapipe that ratio is what the adapter costs by itself; a stage's ratio above it is the kernel's.",
             fl["centroids"], f(&fl["ratio"]), fl["points"], f(&fl["gpu_s"]) * 1e3, f(&fl["cpu_s"]) * 1e3, fl["labels_agree"], fl["points"]
         )?;
     }
