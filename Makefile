@@ -101,7 +101,7 @@ verify-long: setup
 # the arguments each mutant's run gets (--workspace comes from --test-workspace); and the ledger
 # refuses a run whose logs show cargo rejecting those arguments, which would count every mutant
 # as caught.
-MUTANTS_ALL := crates/vplgi-types/src/*.rs $(foreach m,$(STAGE_MODULES),crates/vplgi-cpu/src/$(m).rs)
+MUTANTS_ALL := crates/vplgi-types/src/*.rs crates/vplgi-shared/src/*.rs $(foreach m,$(STAGE_MODULES),crates/vplgi-cpu/src/$(m).rs)
 MUTANTS_TESTS := equations analytic edge_cases path_tracer_oracle regression rng $(STAGES)
 MUTANTS_FILES := $(MUTANTS_ALL)
 # Property tests draw the same cases for the baseline and every mutant. A failing case is saved to a

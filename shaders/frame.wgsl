@@ -109,10 +109,10 @@ fn members_in_block(k: u32, base: u32, end: u32) -> u32 {
 // member's record loaded only for its own cluster (members_in_block); deterministic. The
 // VPLs are read in ranges, each dispatch continuing the running sums of the one before (the
 // same sequential sums, cut: lavapipe stops an invocation's loops after 65,535 iterations).
-// Disk lights (vplgi_types::disk::radius2) also sum, in the same order, the members' flux
+// Disk lights (vplgi_shared::disk::radius2) also sum, in the same order, the members' flux
 // weights and weighted positions, then (pass 1) their weighted squared distances in the plane of
 // the representative's normal from the weighted centre: R² is twice their mean. Polygon lights
-// (vplgi_types::polygon::support) take instead, in pass 1, the members' largest offsets from the
+// (vplgi_shared::polygon::support) take instead, in pass 1, the members' largest offsets from the
 // representative in the 8 directions of its plane.
 @compute @workgroup_size(64)
 fn cluster_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {

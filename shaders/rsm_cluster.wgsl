@@ -5,7 +5,7 @@
 //   importance_max, importance_rows, importance_cumulate, importance_cap (with an importance
 //                map): each map's largest importance, its texels' integer weights summed by row,
 //                the rows' running totals, the cap of one seed's share, recomputed CAP_PASSES
-//                times (vplgi_types::rsm_importance::map_weights);
+//                times (vplgi_shared::rsm_importance::map_weights);
 //   seed:        cluster j of map m starts at the VPL at or after Halton texel j - first + 1,
 //                warped by the map's weights when there are any (rsm_importance::warp), unless
 //                its slot holds a cluster of the previous frame (--temporal on);

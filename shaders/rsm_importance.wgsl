@@ -1,6 +1,6 @@
 // include: common/types.wgsl
 // The bidirectional importance map of the RSM clustering (vplgi-cpu/src/rsm_importance.rs;
-// Prutkin et al. 2012, Alg. 1 lines 2-4; vplgi_types::rsm_importance), two kernels:
+// Prutkin et al. 2012, Alg. 1 lines 2-4; vplgi_shared::rsm_importance), two kernels:
 //   importance_points: the G-buffer point of each listed camera sample (a zero normal where the
 //                      sample missed, which adds nothing below);
 //   importance:        each VPL's texel: its flux times the geometry terms toward those points,

@@ -1,6 +1,6 @@
 // include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
 // Stage 1 with --vpl-source rsm, rsm_vpls (vplgi-cpu/src/rsm_vpls.rs): one reflective shadow map
-// per light (vplgi_types::rsm), in two kernels around scan.wgsl:
+// per light (vplgi_shared::rsm), in two kernels around scan.wgsl:
 //   rsm_texel: one thread per texel: its ray (rsm::texel_ray), its first hit, a VPL in slot t and
 //            a count of 1, or a count of 0 where the ray escapes or a spot sends nothing;
 //   compact: the VPLs in texel order behind the exclusive offsets of the counts.

@@ -1,6 +1,6 @@
 // include: common/types.wgsl common/rng.wgsl common/metric.wgsl
 // Stage 3's first step with --seeding adaptive, `seeding`: Wang et al.'s screen-space quadtree
-// (the rules are vplgi_types::seeding; the CPU twin is vplgi-cpu/src/seeding.rs). Three passes:
+// (the rules are vplgi_shared::seeding; the CPU twin is vplgi-cpu/src/seeding.rs). Three passes:
 // node_sums level by level bottom up, node_variation once over the pixels, distribute level by
 // level top down. Nodes of every level share one array, finest (level 1, 2 x 2 pixels) first.
 
@@ -56,7 +56,7 @@ fn pixel_hits(x: u32, y: u32) -> vec2<u32> {
     return vec2<u32>(offsets[p * params.spp], offsets[(p + 1u) * params.spp]);
 }
 
-// The child order of vplgi_types::seeding::CHILDREN: (0, 0), (1, 0), (0, 1), (1, 1).
+// The child order of vplgi_shared::seeding::CHILDREN: (0, 0), (1, 0), (0, 1), (1, 1).
 fn child(j: u32) -> vec2<u32> {
     return vec2<u32>(j & 1u, j >> 1u);
 }

@@ -101,7 +101,13 @@ fn panel(svg: &mut String, y0: f64, title: &str, series: &[Series], target: f64,
     let f = |v: f64| if log { v.log2() } else { v };
     let (x0, x1, top, bottom) = (LEFT, WIDTH - RIGHT, y0 + TOP, y0 + PANEL - BOTTOM);
     let n = commits.len().max(1);
-    let x = |i: usize| if n == 1 { (x0 + x1) / 2.0 } else { x0 + (x1 - x0) * i as f64 / (n - 1) as f64 };
+    let x = |i: usize| {
+        if n == 1 {
+            (x0 + x1) / 2.0
+        } else {
+            x0 + (x1 - x0) * i as f64 / (n - 1) as f64
+        }
+    };
     let y = |v: f64| bottom - (bottom - top) * (f(v) - lo) / (hi - lo);
     let _ = writeln!(svg, r#"<text x="{x0}" y="{}" font-size="14" font-weight="bold">{}</text>"#, y0 + 20.0, escape(title));
     let ticks: Vec<f64> = if log { (lo as i32..=hi as i32).map(|e| 2f64.powi(e)).collect() } else { (0..=4).map(|k| hi * k as f64 / 4.0).collect() };

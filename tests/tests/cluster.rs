@@ -291,7 +291,7 @@ fn cluster_bounds_and_outcome_counts_are_exact() {
 /// several clusters; taking the first would put them all in one.
 #[test]
 fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
-    use vplgi_types::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
+    use vplgi_shared::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
     let n = 32u32;
     let vpls: Vec<vplgi_types::Vpl> = (0..n * n)
         .map(|t| {
@@ -312,7 +312,7 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
 /// One map of `flux.len()` texels in a row (map side that count), VPL t at `positions[t]`
 /// facing +y with flux `flux[t]`, clustered with K = `k` and no iteration beyond the first update.
 fn rsm_row(positions: &[[f32; 3]], flux: &[[f32; 3]], k: u32) -> vplgi_cpu::cluster::Clustering {
-    use vplgi_types::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
+    use vplgi_shared::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
     let vpls: Vec<vplgi_types::Vpl> = (0..positions.len())
         .map(|t| vplgi_types::Vpl { position: positions[t], path: t as u32, normal: [0.0, 1.0, 0.0], bounce: 1, flux: flux[t], _pad: 0 })
         .collect();
@@ -371,7 +371,7 @@ proptest! {
         importance in proptest::bool::ANY,
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("rsm_cluster_matches_the_cpu_on_random_scenes") else { return Ok(()) };
-        let weights = vplgi_types::rsm::RsmWeights { position: wd, normal: wn, flux: wphi + 0.01 };
+        let weights = vplgi_shared::rsm::RsmWeights { position: wd, normal: wn, flux: wphi + 0.01 };
         let rsm_seeding = if importance { vplgi_types::RsmSeeding::Importance } else { vplgi_types::RsmSeeding::Halton };
         let cfg = vplgi_types::FrameConfig {
             rsm_size,

@@ -82,7 +82,9 @@ fn eq_7_is_strict_at_the_threshold() {
     for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
         assert_eq!(labels, [0, 1, 2], "{name}: n · m = n_t is not compatible");
     }
-    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, eq7(0.8f32.next_down())) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, tilted, eq7(0.8f32.next_down())) else {
+        return;
+    };
     for (name, (labels, _)) in ["CPU", "GPU"].iter().zip(both) {
         assert_eq!(labels, [3, 0, 1], "{name}: n · m just above n_t is compatible, and nearest");
     }
@@ -95,7 +97,9 @@ fn eq_7_is_strict_at_the_threshold() {
 #[test]
 fn eq_2_of_wang_et_al_on_a_hand_checked_point() {
     let alpha = 0.4f64;
-    let Some(both) = assign_both(FuzzyMode::Weighted, Vec3::new(0.6, 0.8, 0.0), Metric::Ward { alpha: alpha as f32 }) else { return };
+    let Some(both) = assign_both(FuzzyMode::Weighted, Vec3::new(0.6, 0.8, 0.0), Metric::Ward { alpha: alpha as f32 }) else {
+        return;
+    };
     let errors = [alpha, 2.0 * alpha, 0.5 * alpha + (2.0f64 - 2.0 * 0.8).sqrt()];
     let total: f64 = errors.iter().map(|e| 1.0 / e).sum();
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
@@ -176,7 +180,9 @@ fn one_light_on_both_backends(
 /// π d²); no clamp applies.
 #[test]
 fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
-    let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points") else {
+        return;
+    };
     let (h, rho) = (0.8f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
     let point = VplLight::new(Vec3::new(0.0, h, 0.0), -Vec3::Y, flux);
@@ -254,7 +260,9 @@ fn disk_form_factor_by_quadrature(p: [f64; 3], np: [f64; 3], centre: [f64; 3], n
 /// the disk (as in a room's corners), and tilted.
 #[test]
 fn exact_disk_lights_give_the_form_factor_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends") else {
+        return;
+    };
     let (radius, rho) = (0.6f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
     let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux) };
@@ -277,7 +285,9 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
 /// the normal as much as in the disk's plane; a frame built on it gave 13 % too much light.
 #[test]
 fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends") else {
+        return;
+    };
     let (radius, rho) = (0.6f32, 0.5f32);
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
     let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
@@ -301,7 +311,9 @@ fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
 /// into wholly above the horizon, cut by it, or below it before the exact form.)
 #[test]
 fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends") else {
+        return;
+    };
     let disk =
         |centre: Vec3, normal: Vec3| VplLight { radius2: 0.36, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
@@ -340,15 +352,17 @@ fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
 /// cuts it, and tilted.
 #[test]
 fn polygon_lights_give_the_form_factor_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_give_the_form_factor_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_give_the_form_factor_on_both_backends") else {
+        return;
+    };
     let rho = 0.5f32;
     let flux = Vec3::new(2.0, 1.0, 0.5);
     let (centre, normal) = (Vec3::new(0.0, 1.0, 0.0), -Vec3::Y);
     // Supports in the light's plane frame: +-0.6 along t, +-0.4 along b, one corner cut.
-    let outline = vplgi_types::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
+    let outline = vplgi_shared::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
     assert_eq!(outline.count, 5);
     let area = outline.area();
-    let placed = vplgi_types::LightOutline::placed(&outline, centre, normal);
+    let placed = outline.light_outline(centre, normal);
     let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, flux) };
     let receivers: [([f32; 3], [f32; 3]); 6] = [
         ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
@@ -371,17 +385,19 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
 /// sums.
 #[test]
 fn polygon_lights_are_right_on_a_tilted_axis_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends") else {
+        return;
+    };
     let rho = 0.5f32;
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
-    let outline = vplgi_types::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
+    let outline = vplgi_shared::polygon::Outline::new(&[0.6, 0.5, 0.4, 9.0, 0.6, 9.0, 0.4, 9.0]);
     assert_eq!(outline.count, 5);
     let area = outline.area();
-    let placed = vplgi_types::LightOutline::placed(&outline, centre, normal);
+    let placed = outline.light_outline(centre, normal);
     let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
     // (height over the plane, offset along b as a share of the height, tilt of the receiver's
     // normal toward t): a tilt k puts its horizon at k s + h = 0, s along t, inside ±0.6.
-    let (t, b) = vplgi_types::polygon::frame(normal);
+    let (t, b) = vplgi_shared::polygon::frame(normal);
     let receivers: Vec<([f32; 3], [f32; 3])> =
         [(0.5f32, 0.0f32, 0.0f32), (0.5, 0.0, 1.0), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5), (0.4, 0.75, 0.3)]
             .iter()
@@ -476,7 +492,9 @@ fn polygon_form_factor_by_quadrature(p: glam::DVec3, np: glam::DVec3, corners: &
 /// 1e-6 of the data's extent).
 #[test]
 fn alg_1_centroids_are_the_means_of_their_members() {
-    let Some(gpu) = vplgi_tests::shared_gpu("alg_1_centroids_are_the_means_of_their_members") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("alg_1_centroids_are_the_means_of_their_members") else {
+        return;
+    };
     let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Oracle, 0);
     let mut ps = Vec::new();
     for centre in [Vec3::new(-5.0, 0.0, 0.0), Vec3::new(5.0, 1.0, 0.0)] {

@@ -208,7 +208,9 @@ fn a_white_furnace_interpolates_to_its_irradiance_everywhere() {
 /// both backends: every stage ran (the report counts them) and the images agree where the hits do.
 #[test]
 fn interpolated_frames_render_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("interpolated_frames_render_on_both_backends") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("interpolated_frames_render_on_both_backends") else {
+        return;
+    };
     let scene = vplgi_scene::cornell::cornell_box();
     let cfg = FrameConfig { width: 48, height: 48, k_sp: 200, fuzzy: FuzzyMode::Weighted, shade: ShadeMode::Interpolate, ..FrameConfig::verify() };
     let (cpu, gpu_frame) = vplgi_tests::with_twins(gpu, &scene, |t| {

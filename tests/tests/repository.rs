@@ -60,7 +60,9 @@ fn named_paths(text: &str) -> Vec<String> {
 
 /// Whether `path` (relative to the repository, at most one `*` in its last part) names something.
 fn exists(repo: &Path, path: &str) -> bool {
-    let Some((dir, last)) = path.rsplit_once('/').filter(|_| path.contains('*')) else { return repo.join(path).exists() };
+    let Some((dir, last)) = path.rsplit_once('/').filter(|_| path.contains('*')) else {
+        return repo.join(path).exists();
+    };
     let (head, tail) = last.split_once('*').unwrap_or((last, ""));
     std::fs::read_dir(repo.join(dir)).is_ok_and(|d| {
         d.flatten().any(|e| {

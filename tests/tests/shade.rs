@@ -158,7 +158,9 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
     use vplgi_gpu::buffers::{read_back, storage};
     use vplgi_gpu::shade::{ShadeInputs, Visibility, VplLight};
     use vplgi_types::ShadingPoint;
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_light_past_lavapipes_loop_limit") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_light_past_lavapipes_loop_limit") else {
+        return;
+    };
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     scene.lights.clear();
     let (n, f) = (12_000u32, 6u32);
@@ -216,7 +218,9 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
     use vplgi_gpu::buffers::{read_back, storage};
     use vplgi_gpu::shade::VplLight;
     use vplgi_types::Vpl;
-    let Some(gpu) = vplgi_tests::shared_gpu("cluster_lights_sum_every_vpl_past_lavapipes_loop_limit") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("cluster_lights_sum_every_vpl_past_lavapipes_loop_limit") else {
+        return;
+    };
     let n = 70_000u32;
     let vpls: Vec<Vpl> = (0..n)
         .map(|i| {
@@ -289,7 +293,9 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
 /// the VPLs it leaves, on the CPU's inputs in every mode: the SPEC's shading row.
 #[test]
 fn shade_matches_the_cpu_under_a_directional_light() {
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_under_a_directional_light") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_under_a_directional_light") else {
+        return;
+    };
     let scene = vplgi_tests::inputs::sunlit_plane_with_box();
     for mode in vplgi_verify::Mode::ALL {
         let cfg = mode.apply(&vplgi_types::FrameConfig {
@@ -387,7 +393,9 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
 /// samples in ranges. The same inputs on both backends: the SPEC's shading row.
 #[test]
 fn shade_sums_every_sample_past_lavapipes_loop_limit() {
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_sample_past_lavapipes_loop_limit") else { return };
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_sample_past_lavapipes_loop_limit") else {
+        return;
+    };
     let scene = vplgi_scene::generate::generate("conference", 20_000).expect("conference");
     let cfg =
         vplgi_types::FrameConfig { width: 8, height: 6, spp: 256, vpls: 100, cluster: vplgi_types::ClusterMode::None, ..vplgi_types::FrameConfig::verify() };

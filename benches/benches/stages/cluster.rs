@@ -71,13 +71,13 @@ fn cluster_stage(c: &mut Criterion) {
     let cs = vplgi_benches::cpu_scene();
     let view = vplgi_types::FrameConfig::default();
     let sps = vplgi_cpu::shading_points::shading_points(&cs, view.width, view.height, view.spp, view.seed);
-    let gbuffer: Vec<vplgi_types::Endpoint> = vplgi_types::rsm_importance::pixel_samples(view.width, view.height, view.spp)
+    let gbuffer: Vec<vplgi_types::Endpoint> = vplgi_shared::rsm_importance::pixel_samples(view.width, view.height, view.spp)
         .into_iter()
         .map(|s| &sps[s as usize])
         .filter(|sp| !sp.is_miss())
         .map(vplgi_types::Endpoint::of)
         .collect();
-    let d_min = vplgi_types::rsm_importance::D_MIN_REL * cs.extent;
+    let d_min = vplgi_shared::rsm_importance::D_MIN_REL * cs.extent;
     let table1: [(&str, u32, u32); 3] = if vplgi_benches::smoke() {
         [("16-16", 16, 16), ("16-64", 16, 64), ("32-64", 32, 64)]
     } else {
@@ -86,7 +86,7 @@ fn cluster_stage(c: &mut Criterion) {
     for (name, size, k) in table1 {
         let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, size, &vplgi_cpu::NoProgress).vpls;
         let maps = cs.lights.rsm_maps(size);
-        let params = vplgi_types::rsm::RsmClusterParams { k, iterations: 10, weights: Default::default(), extent: cs.extent };
+        let params = vplgi_shared::rsm::RsmClusterParams { k, iterations: 10, weights: Default::default(), extent: cs.extent };
         group.bench_function(BenchmarkId::new("cpu-rsm", name), |b| b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, None).k()));
         group.bench_function(BenchmarkId::new("cpu-rsm-importance", name), |b| {
             b.iter(|| {

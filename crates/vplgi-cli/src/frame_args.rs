@@ -7,8 +7,8 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
+use vplgi_shared::rsm::RsmWeights;
 use vplgi_types::config::MAX_F;
-use vplgi_types::rsm::RsmWeights;
 use vplgi_types::{
     ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
     VplSource,

@@ -100,7 +100,9 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     }
     let target = args.target_error.as_deref().map(parse_error).transpose()?;
     let (min_seeds, max_seeds) = match target {
-        Some(_) if args.max_seeds < MIN_SEEDS => bail!("--max-seeds {}: a target error needs at least {MIN_SEEDS} seeds", args.max_seeds),
+        Some(_) if args.max_seeds < MIN_SEEDS => {
+            bail!("--max-seeds {}: a target error needs at least {MIN_SEEDS} seeds", args.max_seeds)
+        }
         Some(_) => (MIN_SEEDS, args.max_seeds),
         None => (args.seeds, args.seeds),
     };

@@ -97,7 +97,9 @@ fn a_broken_shader_fails_naming_the_stage() {
     assert!(original.contains(clamp), "shade.wgsl changed: update this test's edit");
     std::fs::write(shaders.join("shade.wgsl"), original.replace(clamp, "let capped = g;")).expect("write");
     let out = dir.path().join("out");
-    let Some(o) = verify(&out, &["--shaders", shaders.to_str().expect("utf-8"), "--stages", "shade", "--cluster", "both"]) else { return };
+    let Some(o) = verify(&out, &["--shaders", shaders.to_str().expect("utf-8"), "--stages", "shade", "--cluster", "both"]) else {
+        return;
+    };
     let stderr = String::from_utf8_lossy(&o.stderr);
     println!("{stderr}");
     assert!(!o.status.success(), "a shader without the clamp passed verify");

@@ -2,16 +2,16 @@
 //! Alg. 1 and section 4), the CPU reference.
 //!
 //! Each light's map is clustered on its own (a cluster never spans two lights), with K shared
-//! among the maps by their VPLs (`vplgi_types::rsm::clusters_per_map`). In a map of n × n texels
+//! among the maps by their VPLs (`vplgi_shared::rsm::clusters_per_map`). In a map of n × n texels
 //! with k clusters:
 //!
 //! * **seeds**: point s = 1..=k of the 2-D Halton sequence (bases 2, 3) picks a texel, warped by
-//!   the map's importance when it is given (Alg. 1 lines 5-7, `vplgi_types::rsm_importance::warp`,
+//!   the map's importance when it is given (Alg. 1 lines 5-7, `vplgi_shared::rsm_importance::warp`,
 //!   which lands on texels with importance, so with VPLs); the seed is the first VPL at or after
 //!   the texel in texel order (wrapping), so a seed always lands on a surface; two seeds on one
 //!   VPL leave the second cluster empty;
 //! * **assignment** (Alg. 1, line 14): each VPL takes the cluster of smallest μ (Eq. 1,
-//!   `vplgi_types::rsm::mu`; ties to the lower index) among the clusters whose map position lies
+//!   `vplgi_shared::rsm::mu`; ties to the lower index) among the clusters whose map position lies
 //!   in the ⌈√k⌉ × ⌈√k⌉ grid cells at most r = 2 cells from the VPL's own (5 × 5 cells); a VPL with
 //!   no cluster there looks at all of the map's clusters;
 //! * **sort** (lines 16-17): the VPL indices stably sorted by cluster, so each cluster's members
@@ -34,9 +34,9 @@
 use crate::cluster::Clustering;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-pub use vplgi_types::rsm::RsmClusterParams;
-use vplgi_types::rsm::{self, RsmCentre, RsmLight, RsmWeights, NEIGHBOURHOOD};
-use vplgi_types::rsm_importance;
+pub use vplgi_shared::rsm::RsmClusterParams;
+use vplgi_shared::rsm::{self, RsmCentre, RsmLight, RsmWeights, NEIGHBOURHOOD};
+use vplgi_shared::rsm_importance;
 use vplgi_types::{Vpl, MISS};
 use crate::CpuScene;
 use vplgi_frame::{ClusterCounts, FrameError, RsmStart};
@@ -296,7 +296,7 @@ impl vplgi_frame::stages::RsmCluster for CpuScene<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vplgi_types::rsm::point;
+    use vplgi_shared::rsm::point;
 
     /// A map of `n` × `n` texels, all hitting: VPLs on two walls meeting at a corner (left half
     /// of the map on the floor, facing up; right half on a wall rising from the floor's edge,

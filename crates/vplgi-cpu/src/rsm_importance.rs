@@ -1,11 +1,11 @@
 //! The bidirectional importance map of the RSM clustering (`rsm_importance`, Prutkin et al. 2012,
 //! Alg. 1 lines 2-4), the CPU reference: each texel's VPL weighted by the geometry terms toward
-//! [`rsm_importance::PIXELS`] G-buffer points (`vplgi_types::rsm_importance`; the backend takes them
+//! [`rsm_importance::PIXELS`] G-buffer points (`vplgi_shared::rsm_importance`; the backend takes them
 //! from its hits, `CpuHits::gbuffer_points`).
 
 use rayon::prelude::*;
-use vplgi_types::rsm::{self, RsmLight};
-use vplgi_types::rsm_importance;
+use vplgi_shared::rsm::{self, RsmLight};
+use vplgi_shared::rsm_importance;
 use vplgi_types::{Endpoint, Vpl};
 use crate::backend::CpuHits;
 use crate::CpuScene;

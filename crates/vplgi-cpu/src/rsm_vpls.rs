@@ -1,6 +1,6 @@
 //! Stage 1 with `--vpl-source rsm`, `rsm_vpls`: a reflective shadow map per light (Prutkin et
 //! al. 2012, after Dachsbacher and Stamminger 2005), each texel whose ray hits a surface a VPL
-//! there, its flux the texel's power times the albedo (`vplgi_types::rsm`). One bounce only.
+//! there, its flux the texel's power times the albedo (`vplgi_shared::rsm`). One bounce only.
 //!
 //! Texel t's ray is a pure function of the maps and t, so the VPLs, in texel order with `path` =
 //! t, do not depend on threads; a texel whose ray escapes (or a spot texel outside the outer
@@ -10,7 +10,7 @@ use crate::trace_vpls::VplSet;
 use crate::CpuScene;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
-use vplgi_types::rsm::{self, RsmLight};
+use vplgi_shared::rsm::{self, RsmLight};
 use vplgi_types::Vpl;
 use vplgi_frame::FrameError;
 

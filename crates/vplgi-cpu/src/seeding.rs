@@ -1,13 +1,13 @@
 //! Stage 3's first step with `--seeding adaptive`, `seeding`: K initial centroids among the
 //! hits by Wang et al.'s screen-space quadtree (section 3.2), distributed by each node's
 //! geometric variation under Eq. 2. The rules both backends follow are in
-//! [`vplgi_types::seeding`]; this is the CPU twin of `shaders/seeding.wgsl`.
+//! [`vplgi_shared::seeding`]; this is the CPU twin of `shaders/seeding.wgsl`.
 
 use crate::cluster::{bounds, cosine, dist2};
 use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_types::clustering::{ward_error, FixedPoint};
-use vplgi_types::seeding::{capped_shares, quantize_error, ranks, Quadtree, SeedParams, CHILDREN};
+use vplgi_shared::seeding::{capped_shares, quantize_error, ranks, Quadtree, SeedParams, CHILDREN};
 use vplgi_types::MISS;
 use crate::backend::CpuHits;
 use crate::visibility::Endpoint;

@@ -14,7 +14,7 @@
 //! Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
 //! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp"). A cluster lit as a
 //! disk of radius R (`--light-shape disk`) has G = cos θ_p cos θ_c / (d² + R²) instead, Eq. 2 of
-//! Prutkin et al. 2012 (`vplgi_types::disk`), and no clamp.
+//! Prutkin et al. 2012 (`vplgi_shared::disk`), and no clamp.
 
 use crate::cluster::Clustering;
 use crate::interpolate::IrradianceSamples;
@@ -25,7 +25,8 @@ use std::f32::consts::PI;
 use vplgi_scene::PunctualLight;
 use vplgi_types::config::MAX_F;
 use vplgi_types::pod::{EXACT_DISK, EXACT_POLYGON};
-use vplgi_types::{disk, polygon, sampling, Endpoint, LightOutline, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
+use vplgi_shared::{disk, polygon};
+use vplgi_types::{sampling, Endpoint, LightOutline, LightShape, Rng, ShadeParams, ShadingPoint, Stream, Vpl, MISS};
 
 pub use vplgi_types::VplLight;
 use std::ops::Range;
@@ -58,7 +59,7 @@ pub struct LightArrays {
     /// Each light's `VplLight::exact` where any light is an exact disk or a polygon, which
     /// [`sum_lights`] evaluates light by light instead of in vectorised blocks.
     exact: Option<Vec<u32>>,
-    /// The polygon lights' vertices and areas, by light (`vplgi_types::polygon`).
+    /// The polygon lights' vertices and areas, by light (`vplgi_shared::polygon`).
     outlines: Vec<(Vec<Vec3>, f32)>,
 }
 
@@ -221,7 +222,7 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
             let inv_d = 1.0 / d2.sqrt();
             let cos_p = ((n.x * dx) + (n.y * dy) + (n.z * dz)) * inv_d;
             let cos_x = -((nx[c] * dx) + (ny[c] * dy) + (nz[c] * dz)) * inv_d;
-            // A disk (R² > 0) takes Eq. 2 of Prutkin et al. (vplgi_types::disk) and no clamp; a
+            // A disk (R² > 0) takes Eq. 2 of Prutkin et al. (vplgi_shared::disk) and no clamp; a
             // point (R² = 0, and d2 + 0 = d2 exactly) the clamped G. `f32::min` without its NaN
             // handling (the cap is never NaN, and a NaN G is discarded below), so it compiles to
             // one minps: the same value in every case.
@@ -248,7 +249,7 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
 }
 
 /// G of the exact disks and polygons among the lights `base..base + g.len()`
-/// (`vplgi_types::disk::exact_geometry_term`, `vplgi_types::polygon::geometry_term`), written over
+/// (`vplgi_shared::disk::exact_geometry_term`, `vplgi_shared::polygon::geometry_term`), written over
 /// the entries the vectorised loop computed for them. The common case for a disk, all of it
 /// above the receiver's horizon (or none of it), is one straight-line pass over the block, the
 /// same arithmetic as `exact_geometry_term`'s; only the disks the horizon cuts go through the
@@ -391,8 +392,8 @@ pub fn shade(
 
 /// Lights for indirect shading: one per VPL cluster (at its representative, with the summed
 /// flux of its members; with `LightShape::Disk` or `DiskExact`, a disk of the members' spread
-/// around the representative's normal, `vplgi_types::disk::radius2`; with `Polygon`, the
-/// members' outline in the representative's plane, `vplgi_types::polygon`), or one point per VPL.
+/// around the representative's normal, `vplgi_shared::disk::radius2`; with `Polygon`, the
+/// members' outline in the representative's plane, `vplgi_shared::polygon`), or one point per VPL.
 pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> VplLights {
     match clusters {
         None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect::<Vec<_>>().into(),
@@ -426,7 +427,7 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
                         }
                         LightShape::Polygon => {
                             let outline = polygon::Outline::new(&polygon::support(members.iter().map(of), centre, normal));
-                            let placed = LightOutline::placed(&outline, centre, normal);
+                            let placed = outline.light_outline(centre, normal);
                             if placed.area() > 0.0 {
                                 light.radius2 = placed.area() / PI;
                                 light.exact = EXACT_POLYGON;

@@ -5,7 +5,7 @@
 
 use crate::frame::FrameError;
 use std::ops::Range;
-use vplgi_types::rsm::RsmCentre;
+use vplgi_shared::rsm::RsmCentre;
 use vplgi_types::{Camera, FrameConfig, LightShape};
 
 /// A value that knows how many items it holds (a device buffer alone does not).
@@ -67,7 +67,7 @@ pub enum LightSet<'a, C> {
     /// lights of a bias-compensation level, whose paths already have surfaces of their own.
     EachVpl { max_bounce: u32 },
     /// One light per VPL cluster of `clusters`: at its representative, with its members' summed
-    /// flux, a point or a disk of the members' spread (`vplgi_types::disk`).
+    /// flux, a point or a disk of the members' spread (`vplgi_shared::disk`).
     Clusters { clusters: &'a C, shape: LightShape },
     /// No light: the last bias-compensation level, whose paths are as long as the frame's.
     Nothing,

@@ -6,10 +6,10 @@ use crate::frame::{Frame, FrameError, FrameStats, Progress, StageTimings};
 use crate::stages::{Backend, Stage};
 use std::ops::Range;
 use std::time::Instant;
+use vplgi_shared::rsm::RsmCentre;
+use vplgi_shared::rsm_importance;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
-use vplgi_types::rsm::RsmCentre;
-use vplgi_types::rsm_importance;
 use vplgi_types::{Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is

@@ -5,8 +5,8 @@ use serde::de::Error as _;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
+use vplgi_shared::rsm::RsmCentre;
 use vplgi_types::clustering::Centre;
-use vplgi_types::rsm::RsmCentre;
 
 /// Wall time of each stage in milliseconds, an ordered list over [`Stage`], and of the frame.
 /// A frame's total is the sum of its stages; a summary of several frames ([`Self::combine`])

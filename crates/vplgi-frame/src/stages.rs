@@ -16,10 +16,10 @@
 use crate::backend::{ClusterCounts, RsmStart, ShadeInput, Storage};
 use crate::frame::Progress;
 use std::ops::Range;
+use vplgi_shared::rsm::{RsmCentre, RsmClusterParams};
+use vplgi_shared::seeding::SeedParams;
 use vplgi_types::clustering::{Centre, ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::rsm::{RsmCentre, RsmClusterParams};
-use vplgi_types::seeding::SeedParams;
 use vplgi_types::{BiasParams, CameraParams, ShadeParams, TraceParams};
 
 /// The stages in pipeline order: `name Trait [part PartTrait, ...],`, one row per line (the
@@ -149,14 +149,14 @@ pub trait Cluster: Storage {
 /// Stage 3's seeds with `--seeding adaptive`.
 pub trait Seeding: Storage {
     /// At most K of the hits of the image of `camera`, by Wang et al.'s quadtree
-    /// (`vplgi_types::seeding`), as hit indices.
+    /// (`vplgi_shared::seeding`), as hit indices.
     fn seeding(&self, hits: &Self::Hits, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, Self::Error>;
 }
 
 /// Stage 3's seeds with `--vpl-cluster rsm --rsm-seeding importance`.
 pub trait RsmImportance: Storage {
     /// The importance of each texel of the maps of budget `rsm_size`
-    /// (`vplgi_types::rsm_importance`) for the VPLs of `rsm_vpls`, seen from the hits of camera
+    /// (`vplgi_shared::rsm_importance`) for the VPLs of `rsm_vpls`, seen from the hits of camera
     /// samples `samples`, distances floored at `d_min`.
     fn rsm_importance(&self, vpls: &Self::Vpls, rsm_size: u32, hits: &Self::Hits, samples: &[u32], d_min: f32) -> Result<Self::Scalars, Self::Error>;
 }

@@ -220,11 +220,11 @@ impl Storage for GpuBackend<'_> {
         if cfg.cluster.clusters_sps() {
             crate::cluster::searchable(cfg.k_sp, "--k-sp: shading-point clusters")?;
             if cfg.seeding == vplgi_types::Seeding::Adaptive {
-                let levels = vplgi_types::seeding::Quadtree::new(cfg.width, cfg.height).levels;
+                let levels = vplgi_shared::seeding::Quadtree::new(cfg.width, cfg.height).levels;
                 within_loop_limit(
                     &format!("--spp with --seeding adaptive at {}x{}", cfg.width, cfg.height),
                     cfg.spp,
-                    vplgi_types::seeding::max_spp(levels),
+                    vplgi_shared::seeding::max_spp(levels),
                     "a pixel's GPU invocation walks its samples once per quadtree level",
                 )?;
             }
@@ -235,7 +235,7 @@ impl Storage for GpuBackend<'_> {
                 vplgi_types::VplClustering::Rsm => within_loop_limit(
                     "--k-vpl: RSM-space clusters",
                     cfg.k_vpl,
-                    vplgi_types::rsm::MAX_RSM_CLUSTERS,
+                    vplgi_shared::rsm::MAX_RSM_CLUSTERS,
                     "a VPL's GPU assignment may visit all of its map's in one invocation",
                 )?,
             }

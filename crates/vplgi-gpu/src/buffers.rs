@@ -273,7 +273,9 @@ mod tests {
     /// back as an error.
     #[test]
     fn batched_dispatches_run_in_order_and_report_errors() {
-        let Some(ctx) = crate::context::tests::test_gpu("batched_dispatches_run_in_order_and_report_errors") else { return };
+        let Some(ctx) = crate::context::tests::test_gpu("batched_dispatches_run_in_order_and_report_errors") else {
+            return;
+        };
         let (device, queue) = (&ctx.device, &ctx.queue);
         // Each dispatch doubles every word and adds 1, so the result tells how many ran, in order.
         let src = "@group(0) @binding(0) var<storage, read_write> a: array<u32>;\n\

@@ -9,7 +9,7 @@ use crate::shader::pipelines;
 use crate::trace_vpls::GpuVpls;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use vplgi_types::rsm::{self, RsmLight};
+use vplgi_shared::rsm::{self, RsmLight};
 use vplgi_types::Endpoint;
 use crate::backend::{GpuBackend, GpuHits};
 

@@ -1,5 +1,5 @@
 //! Stage 1 with `--vpl-source rsm` on the GPU, `rsm_vpls` (`shaders/rsm_vpls.wgsl`), the twin of
-//! `vplgi_cpu::rsm_vpls::rsm_vpls`: the same maps (built on the host, `vplgi_types::rsm`), the
+//! `vplgi_cpu::rsm_vpls::rsm_vpls`: the same maps (built on the host, `vplgi_shared::rsm`), the
 //! same texel rays, the VPLs compacted in texel order. One read-back: the VPL count.
 
 use crate::buffers::{dispatch_bound, dispatch_windows, kernel_params, read_word, storage, storage_zeroed};
@@ -10,7 +10,7 @@ use crate::shader::{pipelines, RayPipeline};
 use crate::trace_vpls::GpuVpls;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
-use vplgi_types::rsm::{self, RsmLight};
+use vplgi_shared::rsm::{self, RsmLight};
 use vplgi_types::Vpl;
 use crate::backend::GpuBackend;
 use vplgi_frame::Progress;

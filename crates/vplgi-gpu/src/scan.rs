@@ -45,7 +45,9 @@ mod tests {
     /// dispatch by dispatch and recorded into one batch: every offset is the CPU's prefix sum.
     #[test]
     fn scans_past_one_dispatch_match_the_prefix_sum() {
-        let Some(ctx) = crate::context::tests::test_gpu("scans_past_one_dispatch_match_the_prefix_sum") else { return };
+        let Some(ctx) = crate::context::tests::test_gpu("scans_past_one_dispatch_match_the_prefix_sum") else {
+            return;
+        };
         let (device, queue) = (&ctx.device, &ctx.queue);
         let scan = ScanKernel::new(device).unwrap();
         for n in [0u32, 5, ITEMS_PER_DISPATCH, 2 * ITEMS_PER_DISPATCH + 3] {

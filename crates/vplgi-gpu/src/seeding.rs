@@ -11,7 +11,7 @@ use crate::shader::pipelines;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_types::clustering::FixedPoint;
-use vplgi_types::seeding::{Quadtree, SeedParams};
+use vplgi_shared::seeding::{Quadtree, SeedParams};
 use vplgi_types::MISS;
 use crate::backend::{GpuBackend, GpuHits};
 use vplgi_types::CameraParams;

@@ -115,6 +115,15 @@ fn bind<'a>(own: &[(u32, &'a wgpu::Buffer)]) -> Vec<(u32, wgpu::BufferBinding<'a
     own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect()
 }
 
+/// What `shade_finish` reads: the shaded samples (`sps`, from camera sample `sp_first` on), the
+/// irradiance summed for each (`running`, one per shading point of the range) and the pixels.
+pub struct FinishInput<'a> {
+    pub sps: &'a wgpu::Buffer,
+    pub sp_first: u32,
+    pub running: &'a wgpu::Buffer,
+    pub pixels: Range<u32>,
+}
+
 /// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
 pub type Kernel = ShadeKernel;
 
@@ -160,7 +169,7 @@ impl ShadeKernel {
         shade: &ShadeParams,
     ) -> Result<wgpu::Buffer, GpuError> {
         let running = self.light_sums(device, queue, inputs, pixels.clone(), shade.spp, shade.g_max)?;
-        self.finish(device, queue, scene, inputs.sps, inputs.sp_first, &running, pixels, shade)
+        self.finish(device, queue, scene, &FinishInput { sps: inputs.sps, sp_first: inputs.sp_first, running: &running, pixels }, shade)
     }
 
     /// `shade_lights`: the irradiance of the VPL lights at every shading point of `pixels` (`spp`
@@ -223,21 +232,11 @@ impl ShadeKernel {
         })
     }
 
-    /// `shade_finish`: per pixel of `pixels`, the mean over its samples (in `sps`, from sample
-    /// `sp_first` on) of emitted + direct light + albedo / π × the sample's irradiance in
-    /// `running` (one per shading point of the range).
-    #[allow(clippy::too_many_arguments)]
-    pub fn finish(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        scene: &GpuScene,
-        sps: &wgpu::Buffer,
-        sp_first: u32,
-        running: &wgpu::Buffer,
-        pixels: std::ops::Range<u32>,
-        shade: &ShadeParams,
-    ) -> Result<wgpu::Buffer, GpuError> {
+    /// `shade_finish`: per pixel of `input.pixels`, the mean over its samples of emitted +
+    /// direct light + albedo / π × the sample's irradiance in `input.running`.
+    pub fn finish(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, input: &FinishInput<'_>, shade: &ShadeParams) -> Result<wgpu::Buffer, GpuError> {
+        let FinishInput { sps, sp_first, running, ref pixels } = *input;
+        let pixels = pixels.clone();
         let ShadeParams { spp, seed, direct_samples, g_max, direct } = *shade;
         let count = pixels.end - pixels.start;
         let params = Params {
@@ -315,7 +314,7 @@ impl vplgi_frame::stages::Shade for GpuBackend<'_> {
             }
         };
         let n = (pixels.end - pixels.start) as usize;
-        let out = k.shade.finish(device, queue, &self.scene, sps, input.chunk.first, &running, pixels, params)?;
+        let out = k.shade.finish(device, queue, &self.scene, &FinishInput { sps, sp_first: input.chunk.first, running: &running, pixels }, params)?;
         Ok(read_back::<[f32; 4]>(device, queue, &out, n)?.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 }

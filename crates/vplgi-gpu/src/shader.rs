@@ -165,7 +165,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("REPRESENTATIVE_MIN_ERROR", REPRESENTATIVE_MIN_ERROR),
         ("EXACT_DISK", vplgi_types::pod::EXACT_DISK),
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
-        ("POLYGON_SIDES", vplgi_types::polygon::SIDES as u32),
+        ("POLYGON_SIDES", vplgi_shared::polygon::SIDES as u32),
         ("REDUCE_ITEMS", REDUCE_ITEMS),
         ("VISIBILITY_ROW_LANES", VISIBILITY_ROW_LANES),
         ("CROWDED_CENTROIDS", vplgi_types::clustering::CROWDED_CENTROIDS),
@@ -173,19 +173,19 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("LIGHT_SHAPE_DISK", vplgi_types::LightShape::Disk.code()),
         ("LIGHT_SHAPE_DISK_EXACT", vplgi_types::LightShape::DiskExact.code()),
         ("LIGHT_SHAPE_POLYGON", vplgi_types::LightShape::Polygon.code()),
-        ("RSM_AREA", vplgi_types::rsm::RSM_AREA),
-        ("RSM_POINT", vplgi_types::rsm::RSM_POINT),
-        ("RSM_SPOT", vplgi_types::rsm::RSM_SPOT),
-        ("RSM_DIRECTIONAL", vplgi_types::rsm::RSM_DIRECTIONAL),
-        ("RSM_NEIGHBOURHOOD", vplgi_types::rsm::NEIGHBOURHOOD as u32),
+        ("RSM_AREA", vplgi_shared::rsm::RSM_AREA),
+        ("RSM_POINT", vplgi_shared::rsm::RSM_POINT),
+        ("RSM_SPOT", vplgi_shared::rsm::RSM_SPOT),
+        ("RSM_DIRECTIONAL", vplgi_shared::rsm::RSM_DIRECTIONAL),
+        ("RSM_NEIGHBOURHOOD", vplgi_shared::rsm::NEIGHBOURHOOD as u32),
     ];
     let f = vec![
-        ("POLYGON_CUT_TOLERANCE", vplgi_types::polygon::CUT_TOLERANCE),
-        ("DISK_MIN_TILT", vplgi_types::disk::MIN_TILT),
-        ("DISK_MIN_OFF_AXIS", vplgi_types::disk::MIN_OFF_AXIS),
+        ("POLYGON_CUT_TOLERANCE", vplgi_shared::polygon::CUT_TOLERANCE),
+        ("DISK_MIN_TILT", vplgi_shared::disk::MIN_TILT),
+        ("DISK_MIN_OFF_AXIS", vplgi_shared::disk::MIN_OFF_AXIS),
         ("PI", std::f32::consts::PI),
         ("FIX_ONE", vplgi_types::clustering::FIX_ONE),
-        ("ERROR_ONE", vplgi_types::seeding::ERROR_ONE),
+        ("ERROR_ONE", vplgi_shared::seeding::ERROR_ONE),
         ("MAX_SURVIVAL", vplgi_types::params::MAX_SURVIVAL),
         ("SEGMENT_TNEAR", vplgi_types::params::SEGMENT_TNEAR),
         ("CRACK_ULPS", crate::bvh::CRACK_ULPS),
@@ -514,7 +514,9 @@ mod tests {
             let name = c.name.as_deref().unwrap_or_default();
             let naga::Expression::Literal(lit) = module.global_expressions[c.init] else { panic!("{name} is not a literal") };
             match lit {
-                naga::Literal::U32(v) => assert_eq!(Some(v), u.iter().find(|x| x.0 == name).map(|x| x.1), "{name}"),
+                naga::Literal::U32(v) => {
+                    assert_eq!(Some(v), u.iter().find(|x| x.0 == name).map(|x| x.1), "{name}")
+                }
                 naga::Literal::F32(v) => assert_eq!(Some(v.to_bits()), f.iter().find(|x| x.0 == name).map(|x| x.1.to_bits()), "{name}"),
                 other => panic!("{name}: unexpected literal {other:?}"),
             }
@@ -544,8 +546,8 @@ mod tests {
             [Punctual] "shade.wgsl" "Punctual" { position, direction, intensity }
             [crate::backend::GlueParams] "frame.wgsl" "Params" { n, k, first, end, hit_first, hit_count, phase, max_bounce, shape }
             [crate::rng::Params] "rng_streams.wgsl" "Params" { seed, stream, first_index, count, draws }
-            [vplgi_types::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
-            [vplgi_types::rsm::RsmCentre] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
+            [vplgi_shared::rsm::RsmLight] "rsm_vpls.wgsl" "RsmLight" { origin, kind, e1, size, e2, first, axis, cos_inner, power, cos_outer }
+            [vplgi_shared::rsm::RsmCentre] "rsm_cluster.wgsl" "ClusterState" { centre, texel_x, normal, texel_y, chroma, map }
         };
         crate::shader::layout::check(table);
     }

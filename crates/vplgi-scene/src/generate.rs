@@ -146,6 +146,14 @@ struct Builder {
     s: Scene,
 }
 
+/// The materials of a room's faces.
+#[derive(Clone, Copy)]
+struct RoomMaterials {
+    floor: u32,
+    walls: u32,
+    ceiling: u32,
+}
+
 impl Builder {
     fn new(name: &str) -> Builder {
         Builder { s: Scene { name: name.into(), ..Scene::default() } }
@@ -227,14 +235,14 @@ impl Builder {
 
     /// The inside of the room from `lo` to `hi` (all six faces facing in), each face split so
     /// that the room takes about `triangles` triangles.
-    fn room(&mut self, lo: Vec3, hi: Vec3, triangles: usize, floor: u32, walls: u32, ceiling: u32) {
-        self.room_with_window(lo, hi, triangles, floor, walls, ceiling, None);
+    fn room(&mut self, lo: Vec3, hi: Vec3, triangles: usize, materials: RoomMaterials) {
+        self.room_with_window(lo, hi, triangles, materials, None);
     }
 
     /// [`Builder::room`], the left wall (x = lo.x) with an open window over the (y, z) rectangle
     /// `window` when given: the wall is then four grids around the opening.
-    #[allow(clippy::too_many_arguments)]
-    fn room_with_window(&mut self, lo: Vec3, hi: Vec3, triangles: usize, floor: u32, walls: u32, ceiling: u32, window: Option<(Vec2, Vec2)>) {
+    fn room_with_window(&mut self, lo: Vec3, hi: Vec3, triangles: usize, materials: RoomMaterials, window: Option<(Vec2, Vec2)>) {
+        let RoomMaterials { floor, walls, ceiling } = materials;
         let d = hi - lo;
         let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
         // Square cells of one size everywhere: cells = triangles / 2.
@@ -301,7 +309,7 @@ pub fn conference(triangles: usize) -> Scene {
         }
     }
     let used = b.s.triangle_count();
-    b.room(Vec3::new(-6.0, 0.0, -4.0), Vec3::new(6.0, 3.0, 4.0), triangles.saturating_sub(used), floor, walls, ceiling);
+    b.room(Vec3::new(-6.0, 0.0, -4.0), Vec3::new(6.0, 3.0, 4.0), triangles.saturating_sub(used), RoomMaterials { floor, walls, ceiling });
     b.s.camera = Camera {
         position: Vec3::new(0.0, 1.6, 3.8),
         forward: Vec3::new(0.0, -0.25, -1.0).normalize(),
@@ -379,7 +387,13 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
     }
     b.grid(Vec3::new(-0.3, 2.79, -0.3), Vec3::X * 0.6, Vec3::Z * 0.6, 1, 1, lamp);
     let used = b.s.triangle_count();
-    b.room_with_window(Vec3::new(-3.5, 0.0, -3.0), Vec3::new(3.5, 2.8, 3.0), triangles.saturating_sub(used), floor, walls, ceiling, sun.then_some(opening));
+    b.room_with_window(
+        Vec3::new(-3.5, 0.0, -3.0),
+        Vec3::new(3.5, 2.8, 3.0),
+        triangles.saturating_sub(used),
+        RoomMaterials { floor, walls, ceiling },
+        sun.then_some(opening),
+    );
     b.s.camera = Camera { position: Vec3::new(1.5, 1.5, 2.8), forward: Vec3::new(-0.45, -0.3, -1.0).normalize(), up: Vec3::Y, yfov: 60f32.to_radians() };
     // Keep `up` orthogonal to `forward`.
     let f = b.s.camera.forward;

@@ -10,9 +10,9 @@
 use crate::{PunctualLight, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
+use vplgi_shared::rsm::{self, RsmLight};
 use vplgi_types::device::LightGroup;
 use vplgi_types::light_groups::{group_importance, ANY_ORIENTATION, MAX_GROUPS};
-use vplgi_types::rsm::{self, RsmLight};
 use vplgi_types::sampling;
 
 /// A discrete distribution over `n` items, sampled by inverting its CDF.
@@ -117,7 +117,7 @@ pub struct LightSampler {
     /// Total emitted power of every light, RGB (W).
     pub total_power: Vec3,
     /// Each light's reflective shadow map, unsized (emitters then punctual lights), and its
-    /// share of the total power (`vplgi_types::rsm`).
+    /// share of the total power (`vplgi_shared::rsm`).
     rsm: Vec<RsmLight>,
     rsm_shares: Vec<f32>,
     /// Where directional lights start.
@@ -260,7 +260,7 @@ impl LightSampler {
     }
 
     /// The reflective shadow maps of every light for a budget of about `size²` texels, sized by
-    /// power (`vplgi_types::rsm::sized`).
+    /// power (`vplgi_shared::rsm::sized`).
     pub fn rsm_maps(&self, size: u32) -> Vec<RsmLight> {
         rsm::sized(&self.rsm, &self.rsm_shares, size)
     }

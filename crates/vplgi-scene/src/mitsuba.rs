@@ -342,7 +342,9 @@ mod tests {
             let bsdf = shape.children().find(|n| n.has_tag_name("bsdf")).unwrap();
             assert_eq!(bsdf.attribute("type"), Some("twosided"), "vplgi's surfaces reflect on both sides");
             let refl = match bsdf.descendants().find(|n| n.attribute("name") == Some("reflectance")).unwrap() {
-                n if n.has_tag_name("rgb") => format!("{:?}", bits(&v3(n.attribute("value").unwrap()).to_array())),
+                n if n.has_tag_name("rgb") => {
+                    format!("{:?}", bits(&v3(n.attribute("value").unwrap()).to_array()))
+                }
                 n => named(n, "string", "filename").attribute("value").unwrap().to_string(),
             };
             let emission = shape

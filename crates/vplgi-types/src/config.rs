@@ -50,19 +50,19 @@ pub enum LightShape {
     Point,
     /// A disk at the representative whose radius comes from the members' spread, lit through the
     /// point-to-disk form factor (Eq. 2 of Prutkin et al. 2012) with no clamp; a cluster of one
-    /// VPL has no extent and stays a clamped point (`vplgi_types::disk`).
+    /// VPL has no extent and stays a clamped point (`vplgi_shared::disk`).
     Disk,
     /// The same disk lit by its exact form factor, in closed form: the integral Eq. 2
     /// approximates, with both cosines taken over the whole disk and the part below a receiver's
     /// horizon left out. It costs more per light (most where the horizon cuts the disk) and
-    /// loses far less of the clusters' light than Eq. 2 does (`vplgi_types::disk`).
+    /// loses far less of the clusters' light than Eq. 2 does (`vplgi_shared::disk`).
     #[serde(rename = "disk-exact")]
     DiskExact,
     /// A convex polygon around the members in the representative's plane (their extent in 8
     /// directions), lit by its exact form factor with no clamp: unlike the disk it ends where
     /// the members end, so a cluster against a wall does not shine through it. The paper's other
     /// shape (its Fig. 3); a cluster whose members span no area stays a clamped point
-    /// (`vplgi_types::polygon`).
+    /// (`vplgi_shared::polygon`).
     Polygon,
 }
 
@@ -456,8 +456,8 @@ impl FrameConfig {
     /// The adaptive seeding of the shading points (`Seeding::Adaptive`) in a scene of
     /// bounding-box diagonal `extent`: K_SP seeds, Eq. 2 with α per unit length, the
     /// shading-point clustering's seed.
-    pub fn seed_params(&self, extent: f32) -> crate::seeding::SeedParams {
-        crate::seeding::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
+    pub fn seed_params(&self, extent: f32) -> crate::params::SeedParams {
+        crate::params::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
     }
 
     /// The parameters of the sample points' gather rays (`ShadeMode::Interpolate`).

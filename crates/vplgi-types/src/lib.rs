@@ -11,30 +11,21 @@
 //! * [`device`]: the records the GPU reads, built on the host (BVH, shading data, lights).
 //! * [`params`]: the parameters of each stage, as every backend takes them.
 //! * [`light_groups`]: how direct light chooses among groups of area lights at a shading point.
-//! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
-//! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
-//! * [`rsm`]: reflective shadow maps, the texel rays of each light's map.
-//! * [`rsm_importance`]: the bidirectional importance map and the warp of the RSM clustering's
-//!   seeds.
+//! * [`rsm`]: the records of reflective shadow maps (their arithmetic is in `vplgi-shared`).
 //! * [`interpolation`]: `--shade interpolate`'s weights and radii (Wang et al.).
-//! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
 //! * [`temporal`]: clusters carried from frame to frame with admission thresholds (Wang et al.).
 
 pub mod camera;
 pub mod clustering;
 pub mod config;
 pub mod device;
-pub mod disk;
 pub mod interpolation;
 pub mod light_groups;
 pub mod params;
 pub mod pod;
-pub mod polygon;
 pub mod rng;
 pub mod rsm;
-pub mod rsm_importance;
 pub mod sampling;
-pub mod seeding;
 pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
@@ -42,6 +33,6 @@ pub use config::{
     ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
     VplSource,
 };
-pub use params::{BiasParams, CameraParams, ShadeParams, TraceParams};
+pub use params::{BiasParams, CameraParams, SeedParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

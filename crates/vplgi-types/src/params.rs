@@ -93,3 +93,13 @@ pub const SEGMENT_TFAR: f32 = 1.0 - SEGMENT_TNEAR;
 /// triangle soups). Their transport is cos x cos = 1e-8 of a head-on pair's at most: 0 changes
 /// no image, and every backend agrees.
 pub const FACING_COS: f32 = 1e-4;
+
+/// Parameters of the adaptive seeding.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SeedParams {
+    /// Seeds wanted (the clustering's K).
+    pub k: u32,
+    /// α of Eq. 2 per unit length.
+    pub alpha: f32,
+    pub seed: u32,
+}

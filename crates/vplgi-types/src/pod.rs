@@ -103,13 +103,13 @@ impl Endpoint {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VplLight {
     pub position: [f32; 3],
-    /// R² of the disk the light stands for (`crate::disk`); for a polygon (`crate::polygon`) the
+    /// R² of the disk the light stands for (`vplgi_shared::disk`); for a polygon (`vplgi_shared::polygon`) the
     /// R² of a disk of its area; 0 for a point light.
     pub radius2: f32,
     pub normal: [f32; 3],
     /// How its exact form factor is taken: [`EXACT_DISK`] for a disk (`radius2` > 0,
-    /// `crate::disk::exact_geometry_term`), [`EXACT_POLYGON`] for a polygon whose outline is the
-    /// light's [`LightOutline`] (`crate::polygon::geometry_term`), 0 for Eq. 2 or a point.
+    /// `vplgi_shared::disk::exact_geometry_term`), [`EXACT_POLYGON`] for a polygon whose outline is the
+    /// light's [`LightOutline`] (`vplgi_shared::polygon::geometry_term`), 0 for Eq. 2 or a point.
     pub exact: u32,
     pub flux: [f32; 3],
     pub _pad2: f32,
@@ -120,13 +120,16 @@ pub const EXACT_DISK: u32 = 1;
 /// [`VplLight::exact`] of a polygon light.
 pub const EXACT_POLYGON: u32 = 2;
 
-/// The outline of a polygon light (`crate::polygon`), the same bytes as `LightOutline` in
+/// The most vertices of a polygon light's outline (`vplgi_shared::polygon`).
+pub const OUTLINE_SIDES: usize = 8;
+
+/// The outline of a polygon light (`vplgi_shared::polygon`), the same bytes as `LightOutline` in
 /// `types.wgsl`: its vertices in space, counterclockwise about the light's normal, each with the
 /// polygon's area in w; the vertices after the last have w = 0.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightOutline {
-    pub vertices: [[f32; 4]; crate::polygon::SIDES],
+    pub vertices: [[f32; 4]; OUTLINE_SIDES],
 }
 
 impl LightOutline {
@@ -138,19 +141,6 @@ impl LightOutline {
     /// The polygon's area (0 for no polygon).
     pub fn area(&self) -> f32 {
         self.vertices[0][3]
-    }
-
-    /// `outline` on the plane through `centre` facing `normal`, each vertex carrying its area;
-    /// no vertices at all for an outline without area (a cluster that stays a point).
-    pub fn placed(outline: &crate::polygon::Outline, centre: Vec3, normal: Vec3) -> LightOutline {
-        let mut placed = LightOutline::default();
-        let area = outline.area();
-        if area > 0.0 {
-            for (slot, v) in placed.vertices.iter_mut().zip(outline.placed(centre, normal)) {
-                *slot = [v.x, v.y, v.z, area];
-            }
-        }
-        placed
     }
 }
 

@@ -31,7 +31,7 @@ pub enum Stream {
     /// particles' emission, `trace_vpls`).
     Scramble = 7,
     /// Adaptive seeding of the shading-point clustering: which hits of a quadtree node become
-    /// seeds (`vplgi_types::seeding`).
+    /// seeds (`vplgi_shared::seeding`).
     Seeding = 8,
     /// The directions of the gather rays that measure a sample point's harmonic mean distance
     /// (`--shade interpolate`).

@@ -15,8 +15,8 @@ use vplgi_gpu::buffers::{read_back, storage};
 use vplgi_gpu::cluster::{AssignRule, ClusterKernel, GpuClustering};
 use vplgi_gpu::seeding::GpuImageHits;
 use vplgi_types::clustering::{fuzzy_weights, ClusterStart, FixedPoint, GridGeometry, Metric, Representative};
-use vplgi_types::rsm::{RsmCentre, RsmClusterParams, RsmLight};
-use vplgi_types::rsm_importance;
+use vplgi_shared::rsm::{RsmCentre, RsmClusterParams, RsmLight};
+use vplgi_shared::rsm_importance;
 use vplgi_types::{Endpoint, FrameConfig, FuzzyMode, RsmSeeding, Seeding, Vpl, MISS};
 
 fn endpoints(ps: &[Vec3], ns: &[Vec3]) -> Vec<Endpoint> {

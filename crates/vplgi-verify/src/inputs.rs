@@ -5,7 +5,7 @@ use vplgi_cpu::cluster::{cluster, cluster_from, ClusterStart, Clustering};
 use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_cpu::shade::{VplLight, VplLights};
 use vplgi_cpu::CpuScene;
-use vplgi_types::rsm_importance;
+use vplgi_shared::rsm_importance;
 use vplgi_types::{Endpoint, FrameConfig, RsmSeeding, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
 
 /// Points as clustering takes them: positions and normals.

@@ -15,7 +15,7 @@ use vplgi_frame::LightSet;
 use vplgi_gpu::buffers::{read_back, storage, Window};
 use vplgi_gpu::cluster::GpuClustering;
 use vplgi_gpu::interpolate::{InterpolateInputs, SampleLighting};
-use vplgi_gpu::shade::{ShadeInputs, Visibility};
+use vplgi_gpu::shade::{FinishInput, ShadeInputs, Visibility};
 use vplgi_gpu::trace_vpls::GpuVpls;
 use vplgi_gpu::visibility::words_per_row;
 use vplgi_types::{FrameConfig, LightOutline, ShadeMode, ShadeParams, ShadingPoint, VplLight};
@@ -127,7 +127,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
             )?;
             let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: all_hits };
             let running = kernels.interpolate.run(device, queue, &gpu_samples, &at, 0..frame.sps.len() as u32)?;
-            kernels.shade.finish(device, queue, twins.gpu.scene(), &sps, 0, &running, 0..n_pixels as u32, &params)?
+            kernels.shade.finish(device, queue, twins.gpu.scene(), &FinishInput { sps: &sps, sp_first: 0, running: &running, pixels: 0..n_pixels as u32 }, &params)?
         }
         _ => {
             let visibility = match &clusters.sp_clusters {
@@ -186,7 +186,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
         // Each cluster's reach: the farthest light-carrying member from its representative.
         let mut reach = vec![0.0f64; k as usize];
         for (v, &c) in frame.vpls.iter().zip(&hard) {
-            if vplgi_types::disk::member_weight(Vec3::from(v.flux)) > 0.0 {
+            if vplgi_shared::disk::member_weight(Vec3::from(v.flux)) > 0.0 {
                 let centre = dvec(clusters.lights.lights[c as usize].position);
                 reach[c as usize] = reach[c as usize].max(dvec(v.position).distance(centre));
             }
@@ -388,20 +388,20 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vplgi_types::polygon::{support, Outline, SIDES};
+    use vplgi_shared::polygon::{support, Outline, SIDES};
 
     /// A sliver: members along a crease 0.23 long and 0.0014 wide, the representative at one
     /// end, far from the origin (the case a random soup found beyond the flat 1e-5).
     fn sliver() -> (Vec<(Vec3, Vec3)>, Vec3, Vec3) {
         let normal = Vec3::new(0.3, 0.8, 0.5).normalize();
-        let (t, b) = vplgi_types::polygon::frame(normal);
+        let (t, b) = vplgi_shared::polygon::frame(normal);
         let centre = Vec3::new(1.3, -0.7, 0.9);
         let members = (0..20).map(|i| (centre + t * (0.23 * i as f32 / 19.0) + b * (0.0014 * (i % 2) as f32), Vec3::splat(0.1))).collect();
         (members, centre, normal)
     }
 
     fn outline(s: &[f32; SIDES], centre: Vec3, normal: Vec3) -> LightOutline {
-        LightOutline::placed(&Outline::new(s), centre, normal)
+        Outline::new(s).light_outline(centre, normal)
     }
 
     /// A point light 1 above the unit square's shared diagonal; shading points 1 below it,
@@ -469,7 +469,7 @@ mod tests {
     fn round_outlines_keep_the_flat_bound() {
         // Members on a circle around the representative: a near-regular octagon.
         let normal = Vec3::Z;
-        let (t, b) = vplgi_types::polygon::frame(normal);
+        let (t, b) = vplgi_shared::polygon::frame(normal);
         let centre = Vec3::new(0.2, 0.1, 0.4);
         let members: Vec<_> = (0..32).map(|i| (centre + (t * (i as f32 * 0.196).cos() + b * (i as f32 * 0.196).sin()) * 0.1, Vec3::ONE)).collect();
         let s = support(members.iter().copied(), centre, normal);

@@ -58,7 +58,7 @@ pub const VISIBILITY_SAME_BITS: f64 = 0.999;
 /// Shading and the final image on the same inputs: relMSE(GPU, CPU) at most this.
 pub const SHADE_REL_MSE: f64 = 1e-4;
 /// The lights of VPL clusters made from the same clustering (flux summed in VPL order; a disk's
-/// R² from the members' moments, `vplgi_types::disk`): within this, relative. Sums in the same
+/// R² from the members' moments, `vplgi_shared::disk`): within this, relative. Sums in the same
 /// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice. A polygon's
 /// outline (and R², its area / π) is judged by [`polygon_outline_bounds`] instead.
 pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
@@ -69,7 +69,7 @@ pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
 /// vertex). Returns (area, vertex distance), absolute.
 ///
 /// Why a relative bound alone cannot hold: the outline is cut from support values s_a = u_a ·
-/// (x − c) over the members x around the representative c (`vplgi_types::polygon::support`).
+/// (x − c) over the members x around the representative c (`vplgi_shared::polygon::support`).
 /// x − c rounds alike on both backends (one correctly rounded subtraction), but u_a is built
 /// from the normal in multiplies and adds a kernel compiler may fuse, the dot product adds
 /// three more, and so do the clip's crossings: we allow each side of the outline to sit

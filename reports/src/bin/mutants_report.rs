@@ -238,7 +238,9 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
     let mut rows = ledger(ledger_path)?;
     let mut added = BTreeMap::<&str, usize>::new();
     for (outcome, _) in OUTCOMES {
-        let Ok(text) = std::fs::read_to_string(run.join(format!("{outcome}.txt"))) else { continue };
+        let Ok(text) = std::fs::read_to_string(run.join(format!("{outcome}.txt"))) else {
+            continue;
+        };
         for m in lines(&text) {
             let key = key_of.get(m).with_context(|| format!("{m}: not in the selection prepare saw"))?;
             rows.insert(key.to_string(), Row { outcome: outcome.into(), commit: commit.clone() });

@@ -15,8 +15,8 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vplgi_reports::run;
 use vplgi_frame::Report;
+use vplgi_reports::run;
 
 #[derive(Parser)]
 #[command(about = "Reproduces the paper's table on the generated scenes; writes docs/RESULTS.md")]

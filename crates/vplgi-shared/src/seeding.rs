@@ -6,7 +6,7 @@
 //!   (2 x 2 pixels) is the finest: a node that small chooses among its hits directly.
 //! * **Geometric variation** ε_q of a node: the sum over its hits of Eq. 2 (α |x - x̄| +
 //!   sqrt(2 - 2 n . n̄)) against the node's mean position x̄ and mean normal n̄, the mean taken
-//!   with the clustering's fixed-point sums ([`crate::clustering::FixedPoint`]). Each hit's
+//!   with the clustering's fixed-point sums (`vplgi_types::clustering::FixedPoint`). Each hit's
 //!   error is rounded to a multiple of 2^-16 ([`quantize_error`]) and summed as an integer, so
 //!   the sum does not depend on the order of addition. The sum, not the mean: a node's share of
 //!   seeds grows with its area as well as with its variation.
@@ -21,17 +21,9 @@
 //!   (0, 1), (1, 1)); a node's hits are ranked in the same order, then by hit index within a
 //!   pixel. Each node owns `s` slots from its parent's offset; unused slots are dropped.
 
-use crate::{Rng, Stream};
-
-/// Parameters of the adaptive seeding.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SeedParams {
-    /// Seeds wanted (the clustering's K).
-    pub k: u32,
-    /// α of Eq. 2 per unit length.
-    pub alpha: f32,
-    pub seed: u32,
-}
+/// The seeding's parameters, here too so one `use` reaches them with the quadtree.
+pub use vplgi_types::params::SeedParams;
+use vplgi_types::{Rng, Stream};
 
 /// The quadtree over an image of `width x height` pixels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -195,7 +187,7 @@ mod tests {
     /// (the shares' weights are sums of quantized errors and pass 2^32 on large images).
     #[test]
     fn u64s_convert_within_their_roundings() {
-        let mut rng = crate::rng::Rng::new(3, crate::rng::Stream::Seeding, 0);
+        let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Seeding, 0);
         let edges = [0u64, 1, u32::MAX as u64, 1 << 32, (1 << 32) + u32::MAX as u64, (3 << 40) | 0x8000_0000, u64::MAX];
         let random = (0..1000).map(|_| ((rng.next_u32() as u64) << (rng.next_u32() % 33)) | rng.next_u32() as u64);
         for x in edges.into_iter().chain(random) {

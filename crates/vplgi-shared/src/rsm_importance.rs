@@ -15,8 +15,8 @@
 //!   [`weight_cap`]), so every backend given the same importance picks the same texels. A map whose importance is all zero (no pixel sees its
 //!   VPLs) keeps the plain Halton seeds.
 
-use crate::pod::{Endpoint, Vpl};
 use glam::Vec3;
+use vplgi_types::{Endpoint, Vpl};
 
 /// G-buffer pixels the importance is accumulated from (the paper's 256).
 pub const PIXELS: u32 = 256;

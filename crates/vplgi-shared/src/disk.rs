@@ -212,8 +212,8 @@ pub fn in_plane2(d: Vec3, normal: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Rng, Stream};
     use std::f64::consts::PI;
+    use vplgi_types::{Rng, Stream};
 
     /// The exact form factor from the point at `p` with normal `np` to the disk of radius `r`
     /// centred at the origin in the plane z = 0, facing +z: ∫ cos cos / (π d²) dA by the

@@ -18,9 +18,10 @@
 
 use crate::disk::{member_weight, perpendicular};
 use glam::{Vec2, Vec3};
+use vplgi_types::LightOutline;
 
-/// Directions of the outline, and its most vertices.
-pub const SIDES: usize = 8;
+/// Directions of the outline, and its most vertices (the record's size).
+pub const SIDES: usize = vplgi_types::pod::OUTLINE_SIDES;
 
 /// Where [`Outline::new`] counts a vertex as on a diagonal side: within this share of the
 /// outline's largest support value.
@@ -65,6 +66,20 @@ pub struct Outline {
 }
 
 impl Outline {
+    /// The outline on the plane through `centre` facing `normal` as the light's record, each
+    /// vertex carrying the area; no vertices at all for an outline without area (a cluster that
+    /// stays a point).
+    pub fn light_outline(&self, centre: Vec3, normal: Vec3) -> LightOutline {
+        let mut record = LightOutline::default();
+        let area = self.area();
+        if area > 0.0 {
+            for (slot, v) in record.vertices.iter_mut().zip(self.placed(centre, normal)) {
+                *slot = [v.x, v.y, v.z, area];
+            }
+        }
+        record
+    }
+
     /// The polygon {q : q · u_a ≤ s_a for every a}, u_a the directions of [`directions`] in the
     /// plane frame: the rectangle of the four axis directions, its corners cut by the four
     /// diagonal ones. Each cut adds at most one vertex, so at most [`SIDES`].
@@ -183,7 +198,7 @@ fn edge(a: Vec3, b: Vec3, n: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Rng, Stream};
+    use vplgi_types::{Rng, Stream};
 
     /// (1 / A) ∫ cos θ_p cos θ_z / d² dA over the polygon above p's horizon, by a midpoint rule
     /// on a `cells` × `cells` grid over the outline's bounding box, in f64: the definition,
@@ -359,15 +374,15 @@ mod tests {
         let mut rng = Rng::new(13, Stream::Oracle, 2);
         let mut cut = 0;
         for case in 0..60 {
-            let normal = crate::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
+            let normal = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
             let centre = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let (t, b) = frame(normal);
             let members: Vec<(Vec3, Vec3)> = (0..12).map(|_| (centre + t * (rng.next_f32() - 0.5) * 2.0 + b * (rng.next_f32() - 0.5), Vec3::ONE)).collect();
             let o = Outline::new(&support(members.into_iter(), centre, normal));
             let verts = placed(&o, centre, normal);
-            let dir = crate::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
+            let dir = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
             let p = centre + normal * (0.05 + 1.5 * rng.next_f32()) + (dir - normal * dir.dot(normal)) * 1.5 * rng.next_f32();
-            let n = crate::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
+            let n = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
             let g = geometry_term(p, n, normal, &verts, o.area()) as f64;
             let want = quadrature(p, n, centre, normal, &o, 1200);
             let below = verts.iter().filter(|v| n.dot(**v - p) < 0.0).count();

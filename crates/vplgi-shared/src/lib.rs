@@ -1,0 +1,19 @@
+//! The host-side algorithms the CPU reference and the GPU twin share, each computed once on the
+//! host (or transcribed to WGSL operation for operation), each a module named for what it
+//! computes:
+//!
+//! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
+//! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
+//! * [`rsm`]: reflective shadow maps, the texel rays of each light's map, and Eq. 1 of Prutkin
+//!   et al.
+//! * [`rsm_importance`]: the bidirectional importance map and the warp of the RSM clustering's
+//!   seeds.
+//! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
+//!
+//! The records they read and write are `vplgi-types`'.
+
+pub mod disk;
+pub mod polygon;
+pub mod rsm;
+pub mod rsm_importance;
+pub mod seeding;
