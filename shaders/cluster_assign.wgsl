@@ -118,8 +118,8 @@ fn consider_run(c: vec3<i32>, len: i32, p: vec3<f32>, n: vec3<f32>) {
 // branch and every loop's first iteration for all lanes of a SIMD group, masked: a cell that
 // no lane finds anything in still costs a centroid's loads. The 27 cells visited one by one, and
 // the end cells in a branch of their own, cost 45 cell visits; as 9 runs, 9, and a centroid
-// load for each of the ~2 a cell holds (conference room 256x180: assign 116 -> 90 ms; ties and
-// order do not matter: the list is the F best by key, then index, whatever the order).
+// load for each of the ~2 a cell holds. Ties and order do not matter: the list is the F best by
+// key, then index, whatever the order.
 fn visit_ring(c: vec3<i32>, r: i32, p: vec3<f32>, n: vec3<f32>) {
     let lo = max(c - vec3<i32>(r), vec3<i32>(0));
     let hi = min(c + vec3<i32>(r), params.dims.xyz - vec3<i32>(1));

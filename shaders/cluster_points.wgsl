@@ -34,9 +34,8 @@ fn order_key(f: f32) -> u32 {
 
 // The bounds and the outcome totals are reductions: each invocation folds REDUCE_ITEMS
 // consecutive points in registers and adds its result to the global keys with one atomic each.
-// Atomics cost lavapipe a locked instruction per lane: with one invocation per point (6 atomics
-// each) the bounds of 262 k points took 19-55 ms per warm call, folded 1.4 ms; staging them in
-// workgroup atomics first saved little.
+// Atomics cost lavapipe a locked instruction per lane, so one invocation per point (6 atomics
+// each) would spend its time in them; staging them in workgroup atomics first saves little.
 @compute @workgroup_size(64)
 fn bounds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let first = thread_index(gid, groups) * REDUCE_ITEMS;

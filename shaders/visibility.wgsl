@@ -4,9 +4,9 @@
 // word of as many consecutive rows. The rows are shading-point clusters seeded at evenly spaced
 // pixels, so neighbouring rows are neighbouring surfaces: their lanes trace toward the same
 // VPLs along similar paths, face the same ones and finish together, where the lanes of one row
-// (as before) traced toward unrelated VPLs and waited for the slowest (conference room 965 ->
-// 766 ms, Cornell box 493 -> 439 ms on lavapipe, whose SIMD groups are 8 lanes). Pairs facing away from each other get 0 without a ray; both
-// ray ends are pushed off their surfaces and the segment between them is tested (any hit).
+// would trace toward unrelated VPLs and wait for the slowest (lavapipe's SIMD groups are 8
+// lanes). Pairs facing away from each other get 0 without a ray; both ray ends are pushed off
+// their surfaces and the segment between them is tested (any hit).
 // Words are little-endian halves of the CPU's u64 words, so the bytes are identical.
 
 struct Params {
@@ -58,15 +58,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     // floats): the origin is the row's alone.
     let o = a.position.xyz + a.normal.xyz * params.eps;
     // lavapipe (Mesa 22.3) runs every branch of a loop body for all 8 lanes of a SIMD group,
-    // masked: a branch no lane takes costs as much as one every lane takes (a never-taken copy of
-    // the leaf test added 30 % to this kernel on the conference room). So the rare work is kept
+    // masked: a branch no lane takes costs as much as one every lane takes. So the rare work is kept
     // out of the hot loop: the inner loop only tests boxes, and starting a segment and testing a
     // leaf's triangles happen once per round of the outer loop. A lane that meets a leaf keeps it
     // pending and goes on testing boxes until it meets a second one, so it does not idle while
-    // the other lanes of its group finish their boxes. In one loop with all three branches (as
-    // before) the conference room took 1,216-1,332 ms, in these two 847-941 ms (`--shaders`
-    // timings, which keep wgpu's loop checks). The bits are the same: any hit does not depend on
-    // the order in which leaves are tested.
+    // the other lanes of its group finish their boxes. The bits are those of one loop: any hit
+    // does not depend on the order in which leaves are tested.
     var bits = 0u;
     var b = 0u;                 // the column bit of the segment in flight
     var node = BVH_END;         // the segment's next node; BVH_END: none left

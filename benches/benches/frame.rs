@@ -14,13 +14,17 @@ fn frame(c: &mut Criterion) {
     let kernels = gpu.as_ref().map(|g| GpuKernels::new(&g.ctx.device).expect("GPU pipelines"));
     for size in sizes() {
         let cfg = &size.cfg;
-        group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::render(&cs, cfg, &NoProgress).expect("CPU frame")));
+        group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
+            b.iter(|| vplgi_cpu::render(&cs, cfg, &NoProgress).expect("CPU frame"))
+        });
         if let (Some(g), Some(k)) = (&gpu, &kernels) {
             let run = || {
                 vplgi_gpu::render(&g.ctx.device, &g.ctx.queue, k, scene(), cfg).expect("GPU frame");
             };
             run();
-            group.bench_function(BenchmarkId::new("gpu", size.name), |b| b.iter_custom(|iters| g.time(iters, run)));
+            group.bench_function(BenchmarkId::new("gpu", size.name), |b| {
+                b.iter_custom(|iters| g.time(iters, run))
+            });
         }
     }
     group.finish();

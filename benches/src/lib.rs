@@ -42,7 +42,17 @@ pub fn sizes() -> Vec<Size> {
             FrameConfig { width: 40, height: 40, vpls: 300, k_vpl: 40, k_sp: 150, ..paper.clone() },
         )
     } else {
-        (FrameConfig { width: 128, height: 128, vpls: 2000, k_vpl: 200, k_sp: 1000, ..paper.clone() }, paper)
+        (
+            FrameConfig {
+                width: 128,
+                height: 128,
+                vpls: 2000,
+                k_vpl: 200,
+                k_sp: 1000,
+                ..paper.clone()
+            },
+            paper,
+        )
     };
     vec![Size { name: "small", cfg: small }, Size { name: "paper", cfg: large }]
 }
@@ -51,10 +61,17 @@ pub fn sizes() -> Vec<Size> {
 /// with unit normals, and the parameters that make `cluster` plain Euclidean k-means on all of
 /// them: gamma 1, and Eq. 7's normal test disabled (it is `dot > threshold`, and a dot product is
 /// never below -1).
-pub fn kmeans_problem(n: usize, k: u32, iterations: u32) -> (Vec<Vec3>, Vec<Vec3>, vplgi_types::clustering::ClusterParams) {
+pub fn kmeans_problem(
+    n: usize,
+    k: u32,
+    iterations: u32,
+) -> (Vec<Vec3>, Vec<Vec3>, vplgi_types::clustering::ClusterParams) {
     let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 0);
-    let ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
-    let ns: Vec<Vec3> = (0..n).map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32())).collect();
+    let ps: Vec<Vec3> =
+        (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())).collect();
+    let ns: Vec<Vec3> = (0..n)
+        .map(|_| vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32()))
+        .collect();
     let params = vplgi_types::clustering::ClusterParams {
         k,
         gamma: 1,
@@ -80,7 +97,10 @@ pub fn kmeans_size() -> (usize, u32, u32) {
 
 /// Few samples: a paper-size GPU stage on lavapipe takes seconds per run.
 pub fn configure(group: &mut BenchmarkGroup<WallTime>) {
-    group.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(5));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(5));
 }
 
 /// The built-in Cornell box, for the life of the bench process.
@@ -119,22 +139,46 @@ pub struct Inputs {
 impl Inputs {
     pub fn new(cfg: &FrameConfig) -> Inputs {
         let cs = cpu_scene();
-        let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress).vpls;
-        let sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+        let vpls =
+            vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress)
+                .vpls;
+        let sps = vplgi_cpu::shading_points::shading_points(
+            &cs, cfg.width, cfg.height, cfg.spp, cfg.seed,
+        );
         let hits: Vec<usize> = (0..sps.len()).filter(|&i| sps[i].triangle != MISS).collect();
         let mut row_of = vec![MISS; sps.len()];
         for (r, &i) in hits.iter().enumerate() {
             row_of[i] = r as u32;
         }
-        let sp_points: (Vec<Vec3>, Vec<Vec3>) = hits.iter().map(|&i| (Vec3::from(sps[i].position), Vec3::from(sps[i].normal))).unzip();
-        let vpl_points: (Vec<Vec3>, Vec<Vec3>) = vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip();
+        let sp_points: (Vec<Vec3>, Vec<Vec3>) =
+            hits.iter().map(|&i| (Vec3::from(sps[i].position), Vec3::from(sps[i].normal))).unzip();
+        let vpl_points: (Vec<Vec3>, Vec<Vec3>) =
+            vpls.iter().map(|v| (Vec3::from(v.position), Vec3::from(v.normal))).unzip();
         let sp_clusters = cluster(&sp_points.0, &sp_points.1, &cfg.sp_cluster_params(cs.extent));
         let vpl_clusters = cluster(&vpl_points.0, &vpl_points.1, &cfg.vpl_cluster_params());
         let lights = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vpl_clusters), cfg.light_shape);
-        let rows: Vec<Endpoint> = sp_clusters.representatives.iter().map(|&r| Endpoint::of(&sps[hits[r as usize]])).collect();
+        let rows: Vec<Endpoint> = sp_clusters
+            .representatives
+            .iter()
+            .map(|&r| Endpoint::of(&sps[hits[r as usize]]))
+            .collect();
         let cols: Vec<Endpoint> = lights.lights.iter().map(|l| l.endpoint()).collect();
         let (matrix, _) = visibility(&cs, &rows, &cols, &NoProgress);
-        Inputs { cfg: cfg.clone(), cs, vpls, sps, row_of, sp_points, vpl_points, sp_clusters, vpl_clusters, lights, rows, cols, matrix }
+        Inputs {
+            cfg: cfg.clone(),
+            cs,
+            vpls,
+            sps,
+            row_of,
+            sp_points,
+            vpl_points,
+            sp_clusters,
+            vpl_clusters,
+            lights,
+            rows,
+            cols,
+            matrix,
+        }
     }
 
     pub fn pixels(&self) -> usize {
@@ -154,7 +198,11 @@ impl Gpu {
     pub fn new(bench: &str) -> Option<Gpu> {
         match GpuContext::new() {
             Ok(ctx) => {
-                let clock = if vplgi_gpu::timing::supported(&ctx.device) { "device time from timestamp queries" } else { "wall time (no timestamp queries)" };
+                let clock = if vplgi_gpu::timing::supported(&ctx.device) {
+                    "device time from timestamp queries"
+                } else {
+                    "wall time (no timestamp queries)"
+                };
                 eprintln!("{bench}: GPU variants on {} ({clock})", ctx.describe());
                 let gs = vplgi_gpu::scene::GpuScene::new(&ctx.device, scene()).expect("GPU scene");
                 Some(Gpu { ctx, scene: gs })
@@ -188,7 +236,8 @@ impl Gpu {
 
     /// Points as device Endpoints.
     pub fn endpoints(&self, (ps, ns): &(Vec<Vec3>, Vec<Vec3>)) -> wgpu::Buffer {
-        let e: Vec<vplgi_gpu::visibility::Endpoint> = ps.iter().zip(ns).map(|(&p, &n)| vplgi_gpu::visibility::Endpoint::new(p, n)).collect();
+        let e: Vec<vplgi_gpu::visibility::Endpoint> =
+            ps.iter().zip(ns).map(|(&p, &n)| vplgi_gpu::visibility::Endpoint::new(p, n)).collect();
         storage(&self.ctx.device, "points", &e)
     }
 
@@ -199,7 +248,8 @@ impl Gpu {
 
     /// The CPU's lights on the device, and their outlines if any are polygons: the same records.
     pub fn lights(&self, lights: &VplLights) -> (wgpu::Buffer, Option<wgpu::Buffer>) {
-        let outlines = (!lights.outlines.is_empty()).then(|| storage(&self.ctx.device, "light outlines", &lights.outlines));
+        let outlines = (!lights.outlines.is_empty())
+            .then(|| storage(&self.ctx.device, "light outlines", &lights.outlines));
         (storage(&self.ctx.device, "lights", &lights.lights), outlines)
     }
 }

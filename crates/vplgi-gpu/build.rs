@@ -18,13 +18,23 @@ fn main() {
     out.push_str("pub const STAGES: &[(&str, &str, &[&str])] = &[\n");
     for path in files {
         let name = path.file_name().and_then(|n| n.to_str()).expect("a UTF-8 file name");
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let Some(includes) = text.lines().next().and_then(|l| l.strip_prefix("// include:")) else {
-            panic!("{}: the first line must be `// include:` and the common files the shader uses", path.display());
+            panic!(
+                "{}: the first line must be `// include:` and the common files the shader uses",
+                path.display()
+            );
         };
         let includes: Vec<String> = includes.split_whitespace().map(|i| format!("{i:?}")).collect();
         let path = path.canonicalize().expect("the shader's path");
-        writeln!(out, "    ({name:?}, include_str!({:?}), &[{}]),", path.display().to_string(), includes.join(", ")).expect("a string");
+        writeln!(
+            out,
+            "    ({name:?}, include_str!({:?}), &[{}]),",
+            path.display().to_string(),
+            includes.join(", ")
+        )
+        .expect("a string");
     }
     out.push_str("];\n");
     let target = Path::new(&std::env::var("OUT_DIR").expect("OUT_DIR")).join("shaders.rs");

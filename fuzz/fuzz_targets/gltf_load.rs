@@ -12,7 +12,10 @@ fuzz_target!(|data: &[u8]| {
     for name in ["/nonexistent-vplgi-fuzz/input.glb", "/nonexistent-vplgi-fuzz/input.gltf"] {
         if let Err(e) = vplgi_scene::Scene::load_slice(Path::new(name), data) {
             let message = e.to_string();
-            assert!(!message.contains("malformed glTF data"), "a panic inside the gltf crate: {message}");
+            assert!(
+                !message.contains("malformed glTF data"),
+                "a panic inside the gltf crate: {message}"
+            );
         }
     }
 });

@@ -71,13 +71,21 @@ pub fn cpu(points: &[Vec3], centroids: &[Vec3], runs: usize) -> FloorRun {
 
 /// The kernel on `ctx`'s adapter, wall time from submission to completion: median of `runs`
 /// after one run that compiles.
-pub fn gpu(ctx: &vplgi_gpu::GpuContext, points: &[Vec3], centroids: &[Vec3], runs: usize) -> Result<FloorRun, vplgi_gpu::GpuError> {
+pub fn gpu(
+    ctx: &vplgi_gpu::GpuContext,
+    points: &[Vec3],
+    centroids: &[Vec3],
+    runs: usize,
+) -> Result<FloorRun, vplgi_gpu::GpuError> {
     let (device, queue) = (&ctx.device, &ctx.queue);
     let p4: Vec<[f32; 4]> = points.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect();
     let c4: Vec<[f32; 4]> = centroids.iter().map(|c| [c.x, c.y, c.z, 0.0]).collect();
     let (pb, cb) = (storage(device, "points", &p4), storage(device, "centroids", &c4));
     let lb = storage_zeroed::<u32>(device, "labels", points.len());
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("floor"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("floor"),
+        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+    });
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some("floor"),
         layout: None,
@@ -86,7 +94,11 @@ pub fn gpu(ctx: &vplgi_gpu::GpuContext, points: &[Vec3], centroids: &[Vec3], run
         compilation_options: Default::default(),
         cache: None,
     });
-    let bindings = [(0, pb.as_entire_buffer_binding()), (1, cb.as_entire_buffer_binding()), (2, lb.as_entire_buffer_binding())];
+    let bindings = [
+        (0, pb.as_entire_buffer_binding()),
+        (1, cb.as_entire_buffer_binding()),
+        (2, lb.as_entire_buffer_binding()),
+    ];
     let groups = (points.len() as u32).div_ceil(64);
     let mut times = Vec::new();
     for _ in 0..=runs {
@@ -96,5 +108,8 @@ pub fn gpu(ctx: &vplgi_gpu::GpuContext, points: &[Vec3], centroids: &[Vec3], run
         times.push(t.elapsed().as_secs_f64());
     }
     times.remove(0);
-    Ok(FloorRun { seconds: crate::median(times), labels: read_back(device, queue, &lb, points.len())? })
+    Ok(FloorRun {
+        seconds: crate::median(times),
+        labels: read_back(device, queue, &lb, points.len())?,
+    })
 }

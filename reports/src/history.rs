@@ -24,7 +24,13 @@ pub fn entry(report: &Value) -> Value {
                 .map(|f| {
                     let stages: serde_json::Map<String, Value> = f["stages"]
                         .as_array()
-                        .map(|ss| ss.iter().filter_map(|s| Some((s["stage"].as_str()?.to_string(), s["ratio"].clone()))).collect())
+                        .map(|ss| {
+                            ss.iter()
+                                .filter_map(|s| {
+                                    Some((s["stage"].as_str()?.to_string(), s["ratio"].clone()))
+                                })
+                                .collect()
+                        })
                         .unwrap_or_default();
                     json!({"name": f["name"], "ratios": stages})
                 })
@@ -32,7 +38,11 @@ pub fn entry(report: &Value) -> Value {
         })
         .unwrap_or_default();
     let rows = report["kmeans"]["rows"].as_array().cloned().unwrap_or_default();
-    let seconds = |prefix: &str| rows.iter().find(|r| r["name"].as_str().is_some_and(|n| n.starts_with(prefix))).and_then(|r| r["seconds"].as_f64());
+    let seconds = |prefix: &str| {
+        rows.iter()
+            .find(|r| r["name"].as_str().is_some_and(|n| n.starts_with(prefix)))
+            .and_then(|r| r["seconds"].as_f64())
+    };
     let speedup = match (seconds("faiss"), seconds("vplgi `cluster`, CPU, gamma = 1")) {
         (Some(f), Some(v)) if v > 0.0 => json!(f / v),
         _ => Value::Null,
@@ -53,11 +63,15 @@ pub fn entry(report: &Value) -> Value {
 
 /// Reads the history file at `path` (a JSON array of entries).
 pub fn read(path: &Path) -> Result<Vec<Value>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     match serde_json::from_str::<Value>(&text) {
         Ok(Value::Array(a)) => Ok(a),
         Ok(_) => bail!("{}: the perf history must be a JSON array of entries", path.display()),
-        Err(e) => bail!("{}: not valid JSON ({e}); fix or remove it to start a new history", path.display()),
+        Err(e) => bail!(
+            "{}: not valid JSON ({e}); fix or remove it to start a new history",
+            path.display()
+        ),
     }
 }
 
@@ -67,7 +81,8 @@ pub fn append(path: &Path, entry: Value) -> Result<Vec<Value>> {
     let mut entries = if path.exists() { read(path)? } else { Vec::new() };
     entries.push(entry);
     let tmp = path.with_extension("json.tmp");
-    std::fs::write(&tmp, serde_json::to_string_pretty(&entries)? + "\n").with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::write(&tmp, serde_json::to_string_pretty(&entries)? + "\n")
+        .with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(entries)
 }
@@ -80,7 +95,10 @@ struct Series {
     values: Vec<Option<f64>>,
 }
 
-const COLOURS: [&str; 10] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
+const COLOURS: [&str; 10] = [
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+    "#bcbd22", "#17becf",
+];
 const WIDTH: f64 = 820.0;
 const PANEL: f64 = 230.0;
 const LEFT: f64 = 60.0;
@@ -94,10 +112,26 @@ fn escape(s: &str) -> String {
 
 /// One panel at vertical offset `y0`: the series against the run index, a dashed target line,
 /// the commits under the axis. `log`: a log2 value axis (ratios).
-fn panel(svg: &mut String, y0: f64, title: &str, series: &[Series], target: f64, commits: &[String], log: bool) {
-    let values = series.iter().flat_map(|s| s.values.iter().flatten().copied()).chain([target]).filter(|v| v.is_finite() && *v > 0.0);
+fn panel(
+    svg: &mut String,
+    y0: f64,
+    title: &str,
+    series: &[Series],
+    target: f64,
+    commits: &[String],
+    log: bool,
+) {
+    let values = series
+        .iter()
+        .flat_map(|s| s.values.iter().flatten().copied())
+        .chain([target])
+        .filter(|v| v.is_finite() && *v > 0.0);
     let (lo, hi) = values.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-    let (lo, hi) = if log { (lo.log2().floor(), hi.log2().ceil().max(lo.log2().floor() + 1.0)) } else { (0.0, (hi * 1.1).max(1.0)) };
+    let (lo, hi) = if log {
+        (lo.log2().floor(), hi.log2().ceil().max(lo.log2().floor() + 1.0))
+    } else {
+        (0.0, (hi * 1.1).max(1.0))
+    };
     let f = |v: f64| if log { v.log2() } else { v };
     let (x0, x1, top, bottom) = (LEFT, WIDTH - RIGHT, y0 + TOP, y0 + PANEL - BOTTOM);
     let n = commits.len().max(1);
@@ -109,8 +143,17 @@ fn panel(svg: &mut String, y0: f64, title: &str, series: &[Series], target: f64,
         }
     };
     let y = |v: f64| bottom - (bottom - top) * (f(v) - lo) / (hi - lo);
-    let _ = writeln!(svg, r#"<text x="{x0}" y="{}" font-size="14" font-weight="bold">{}</text>"#, y0 + 20.0, escape(title));
-    let ticks: Vec<f64> = if log { (lo as i32..=hi as i32).map(|e| 2f64.powi(e)).collect() } else { (0..=4).map(|k| hi * k as f64 / 4.0).collect() };
+    let _ = writeln!(
+        svg,
+        r#"<text x="{x0}" y="{}" font-size="14" font-weight="bold">{}</text>"#,
+        y0 + 20.0,
+        escape(title)
+    );
+    let ticks: Vec<f64> = if log {
+        (lo as i32..=hi as i32).map(|e| 2f64.powi(e)).collect()
+    } else {
+        (0..=4).map(|k| hi * k as f64 / 4.0).collect()
+    };
     for t in ticks {
         let ty = y(t);
         let _ = writeln!(
@@ -129,13 +172,30 @@ fn panel(svg: &mut String, y0: f64, title: &str, series: &[Series], target: f64,
         ty + 4.0
     );
     for (i, c) in commits.iter().enumerate() {
-        let _ = writeln!(svg, r#"<text x="{:.1}" y="{}" font-size="10" text-anchor="middle">{}</text>"#, x(i), bottom + 14.0, escape(c));
+        let _ = writeln!(
+            svg,
+            r#"<text x="{:.1}" y="{}" font-size="10" text-anchor="middle">{}</text>"#,
+            x(i),
+            bottom + 14.0,
+            escape(c)
+        );
     }
     for (k, s) in series.iter().enumerate() {
-        let points: Vec<String> =
-            s.values.iter().enumerate().filter_map(|(i, v)| v.filter(|v| v.is_finite() && *v > 0.0).map(|v| format!("{:.1},{:.1}", x(i), y(v)))).collect();
+        let points: Vec<String> = s
+            .values
+            .iter()
+            .enumerate()
+            .filter_map(|(i, v)| {
+                v.filter(|v| v.is_finite() && *v > 0.0).map(|v| format!("{:.1},{:.1}", x(i), y(v)))
+            })
+            .collect();
         if points.len() > 1 {
-            let _ = writeln!(svg, r#"<polyline fill="none" stroke="{}" stroke-width="2" points="{}"/>"#, s.colour, points.join(" "));
+            let _ = writeln!(
+                svg,
+                r#"<polyline fill="none" stroke="{}" stroke-width="2" points="{}"/>"#,
+                s.colour,
+                points.join(" ")
+            );
         }
         for p in &points {
             let (px, py) = p.split_once(',').unwrap_or(("0", "0"));
@@ -159,8 +219,17 @@ fn panel(svg: &mut String, y0: f64, title: &str, series: &[Series], target: f64,
 /// history holds no full-size run.
 pub fn chart(entries: &[Value]) -> String {
     let full: Vec<&Value> = entries.iter().filter(|e| e["quick"] != Value::Bool(true)).collect();
-    let (shown, note) = if full.is_empty() { (entries.iter().collect::<Vec<_>>(), " (--quick runs: not measurements)") } else { (full, "") };
-    let commits: Vec<String> = shown.iter().map(|e| e["commit"].as_str().unwrap_or("?").split_whitespace().next().unwrap_or("?").to_string()).collect();
+    let (shown, note) = if full.is_empty() {
+        (entries.iter().collect::<Vec<_>>(), " (--quick runs: not measurements)")
+    } else {
+        (full, "")
+    };
+    let commits: Vec<String> = shown
+        .iter()
+        .map(|e| {
+            e["commit"].as_str().unwrap_or("?").split_whitespace().next().unwrap_or("?").to_string()
+        })
+        .collect();
     let mut colour = COLOURS.iter().cycle();
     let mut ratios = Vec::new();
     let frame_names: Vec<String> = {
@@ -177,7 +246,12 @@ pub fn chart(entries: &[Value]) -> String {
     for (fi, frame) in frame_names.iter().enumerate() {
         let mut stages: Vec<String> = Vec::new();
         for e in &shown {
-            for f in e["frames"].as_array().into_iter().flatten().filter(|f| f["name"].as_str() == Some(frame)) {
+            for f in e["frames"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter(|f| f["name"].as_str() == Some(frame))
+            {
                 for k in f["ratios"].as_object().into_iter().flatten().map(|(k, _)| k) {
                     if !stages.contains(k) {
                         stages.push(k.clone());
@@ -190,7 +264,12 @@ pub fn chart(entries: &[Value]) -> String {
             let values = shown
                 .iter()
                 .map(|e| {
-                    e["frames"].as_array().into_iter().flatten().find(|f| f["name"].as_str() == Some(frame)).and_then(|f| f["ratios"][stage.as_str()].as_f64())
+                    e["frames"]
+                        .as_array()
+                        .into_iter()
+                        .flatten()
+                        .find(|f| f["name"].as_str() == Some(frame))
+                        .and_then(|f| f["ratios"][stage.as_str()].as_f64())
                 })
                 .collect();
             let scene = frame.split_whitespace().next().unwrap_or(frame);
@@ -198,14 +277,30 @@ pub fn chart(entries: &[Value]) -> String {
             ratios.push(Series { name, colour: colour.next().unwrap_or(&"#000"), values });
         }
     }
-    let one = |key: &str, name: &str, c: &'static str| vec![Series { name: name.into(), colour: c, values: shown.iter().map(|e| e[key].as_f64()).collect() }];
+    let one = |key: &str, name: &str, c: &'static str| {
+        vec![Series {
+            name: name.into(),
+            colour: c,
+            values: shown.iter().map(|e| e[key].as_f64()).collect(),
+        }]
+    };
     let height = 3.0 * PANEL;
     let mut svg = String::new();
-    let _ =
-        writeln!(svg, r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" font-family="sans-serif" viewBox="0 0 {WIDTH} {height}">"#);
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" font-family="sans-serif" viewBox="0 0 {WIDTH} {height}">"#
+    );
     let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
     let first = frame_names.first().map_or("no frame".to_string(), |f| f.clone());
-    panel(&mut svg, 0.0, &format!("GPU / CPU time per stage, {first} (lower is better){note}"), &ratios, STAGE_RATIO_TARGET, &commits, true);
+    panel(
+        &mut svg,
+        0.0,
+        &format!("GPU / CPU time per stage, {first} (lower is better){note}"),
+        &ratios,
+        STAGE_RATIO_TARGET,
+        &commits,
+        true,
+    );
     panel(
         &mut svg,
         PANEL,
@@ -266,7 +361,10 @@ mod tests {
         let all = append(&path, entry(&report("bbbbbbb", false, 2.0))).expect("second");
         assert_eq!(all.len(), 2);
         let svg = chart(&all);
-        assert!(svg.find("aaaaaaa").expect("first commit") < svg.find("bbbbbbb").expect("second commit"));
+        assert!(
+            svg.find("aaaaaaa").expect("first commit")
+                < svg.find("bbbbbbb").expect("second commit")
+        );
         assert!(svg.contains("<polyline"), "two runs draw lines");
         assert!(!svg.contains("--quick"), "full-size runs are not marked as quick");
         // Quick runs are left out once a full-size run exists.
@@ -281,6 +379,10 @@ mod tests {
         std::fs::write(&path, "{ not json").expect("write");
         let e = append(&path, json!({})).expect_err("broken file");
         assert!(format!("{e:#}").contains("history.json"), "{e:#}");
-        assert_eq!(std::fs::read_to_string(&path).expect("read"), "{ not json", "the broken file is left as it was");
+        assert_eq!(
+            std::fs::read_to_string(&path).expect("read"),
+            "{ not json",
+            "the broken file is left as it was"
+        );
     }
 }

@@ -13,16 +13,30 @@ fn quick_results_write_every_scene_and_setting() {
         panic!("{} is missing: run the tests with --workspace", vplgi.display());
     }
     let o = Command::new(env!("CARGO_BIN_EXE_results"))
-        .args(["--quick", "--out", out.to_str().unwrap(), "--vplgi", vplgi.to_str().unwrap(), "--work", dir.path().join("work").to_str().unwrap()])
+        .args([
+            "--quick",
+            "--out",
+            out.to_str().unwrap(),
+            "--vplgi",
+            vplgi.to_str().unwrap(),
+            "--work",
+            dir.path().join("work").to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert!(o.status.success(), "results failed: {}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(&out).unwrap();
     for scene in ["cornell-fine", "conference", "living-room"] {
         assert!(md.contains(&format!("## {scene}")), "{scene} missing");
-        assert!(dir.path().join("results").join(format!("{scene}-intermediate-error.png")).is_file());
+        assert!(dir
+            .path()
+            .join("results")
+            .join(format!("{scene}-intermediate-error.png"))
+            .is_file());
     }
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("results/results.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("results/results.json")).unwrap())
+            .unwrap();
     for sc in json["scenes"].as_array().unwrap() {
         let frames = sc["frames"].as_array().unwrap();
         assert_eq!(frames.len(), 7, "reference + 3 settings on the CPU and on the GPU");

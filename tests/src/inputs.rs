@@ -27,7 +27,10 @@ pub fn cornell_box_with_spot() -> Scene {
 /// with a shadow, the cube's walls lit or not, and light bounced between cube and plane.
 pub fn sunlit_plane_with_box() -> Scene {
     let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 1.0, 0.6, 1.0);
-    scene.lights = vec![PunctualLight::Directional { direction: sun_direction(), irradiance: Vec3::new(3.0, 2.5, 2.0) }];
+    scene.lights = vec![PunctualLight::Directional {
+        direction: sun_direction(),
+        irradiance: Vec3::new(3.0, 2.5, 2.0),
+    }];
     let m = material(&mut scene, Vec3::new(0.7, 0.4, 0.3), Vec3::ZERO);
     open_box(&mut scene, Vec3::new(-0.05, 0.25, -0.05), Vec3::splat(0.25), 2, m);
     scene.name = "sunlit plane with a box".into();
@@ -41,7 +44,14 @@ pub fn sunlit_plane_with_box() -> Scene {
 pub fn emissive_square(half: f32, radiance: Vec3) -> Scene {
     let mut scene = Scene { name: "emissive square".into(), ..Scene::default() };
     let m = material(&mut scene, Vec3::ZERO, radiance);
-    grid_quad(&mut scene, Vec3::new(-half, -half, 0.0), (Vec3::X * (2.0 * half), Vec3::Y * (2.0 * half)), 1, Vec3::Z, m);
+    grid_quad(
+        &mut scene,
+        Vec3::new(-half, -half, 0.0),
+        (Vec3::X * (2.0 * half), Vec3::Y * (2.0 * half)),
+        1,
+        Vec3::Z,
+        m,
+    );
     scene.validate().expect("a valid scene");
     scene
 }
@@ -59,7 +69,10 @@ pub fn cornell_points(width: u32, height: u32, seed: u32) -> (Vec<Vec3>, Vec<Vec
     let device = vplgi_embree::Device::new(None).expect("Embree device");
     let cs = CpuScene::new(&scene, &device).expect("Embree scene");
     let sps = vplgi_cpu::shading_points::shading_points(&cs, width, height, 1, seed);
-    sps.iter().filter(|s| !s.is_miss()).map(|s| (Vec3::from(s.position), Vec3::from(s.normal))).unzip()
+    sps.iter()
+        .filter(|s| !s.is_miss())
+        .map(|s| (Vec3::from(s.position), Vec3::from(s.normal)))
+        .unzip()
 }
 
 /// A unit vector from two numbers in [0, 1).
@@ -74,29 +87,49 @@ fn direction(u: f32, v: f32) -> Vec3 {
 /// size and offset, with 100 to 1,500 points in all, some patches seen from both sides (normals
 /// flipped at random per point), at a random scale of the scene (1e-2 to 1e2).
 pub fn surface_points() -> impl Strategy<Value = (Vec<Vec3>, Vec<Vec3>)> {
-    let patch = (0f32..1.0, 0f32..1.0, 0f32..1.0, 0f32..1.0, -1f32..1.0, -1f32..1.0, -1f32..1.0, 0.05f32..1.0, any::<bool>());
-    (prop::collection::vec(patch, 1..=6), 100usize..1500, -2f32..2.0, any::<u64>()).prop_map(|(patches, n, log_scale, seed)| {
-        let scale = 10f32.powf(log_scale);
-        let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
-        let (mut ps, mut ns) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        for i in 0..n {
-            let (nu, nv, tu, tv, ox, oy, oz, size, two_sided) = patches[i % patches.len()];
-            let normal = direction(nu, nv);
-            let tangent = normal.cross(direction(tu, tv)).try_normalize().unwrap_or(normal.any_orthonormal_vector());
-            let bitangent = normal.cross(tangent);
-            let (a, b) = (rng.next_f32() - 0.5, rng.next_f32() - 0.5);
-            let p = Vec3::new(ox, oy, oz) + (tangent * a + bitangent * b) * size;
-            let flip = two_sided && rng.next_f32() < 0.5;
-            ps.push(p * scale);
-            ns.push(if flip { -normal } else { normal });
-        }
-        (ps, ns)
-    })
+    let patch = (
+        0f32..1.0,
+        0f32..1.0,
+        0f32..1.0,
+        0f32..1.0,
+        -1f32..1.0,
+        -1f32..1.0,
+        -1f32..1.0,
+        0.05f32..1.0,
+        any::<bool>(),
+    );
+    (prop::collection::vec(patch, 1..=6), 100usize..1500, -2f32..2.0, any::<u64>()).prop_map(
+        |(patches, n, log_scale, seed)| {
+            let scale = 10f32.powf(log_scale);
+            let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
+            let (mut ps, mut ns) = (Vec::with_capacity(n), Vec::with_capacity(n));
+            for i in 0..n {
+                let (nu, nv, tu, tv, ox, oy, oz, size, two_sided) = patches[i % patches.len()];
+                let normal = direction(nu, nv);
+                let tangent = normal
+                    .cross(direction(tu, tv))
+                    .try_normalize()
+                    .unwrap_or(normal.any_orthonormal_vector());
+                let bitangent = normal.cross(tangent);
+                let (a, b) = (rng.next_f32() - 0.5, rng.next_f32() - 0.5);
+                let p = Vec3::new(ox, oy, oz) + (tangent * a + bitangent * b) * size;
+                let flip = two_sided && rng.next_f32() < 0.5;
+                ps.push(p * scale);
+                ns.push(if flip { -normal } else { normal });
+            }
+            (ps, ns)
+        },
+    )
 }
 
 /// A material with albedo `albedo` and emission `emission`; its index.
 fn material(s: &mut Scene, albedo: Vec3, emission: Vec3) -> u32 {
-    s.materials.push(Material { name: format!("m{}", s.materials.len()), base_color: albedo, base_color_texture: None, emission });
+    s.materials.push(Material {
+        name: format!("m{}", s.materials.len()),
+        base_color: albedo,
+        base_color_texture: None,
+        emission,
+    });
     s.materials.len() as u32 - 1
 }
 
@@ -105,7 +138,10 @@ fn triangle(s: &mut Scene, mut t: [Vec3; 3], facing: Vec3, material: u32) {
     if (t[1] - t[0]).cross(t[2] - t[0]).dot(facing) < 0.0 {
         t.swap(1, 2);
     }
-    let normal = (t[1] - t[0]).cross(t[2] - t[0]).try_normalize().unwrap_or(facing.try_normalize().unwrap_or(Vec3::Y));
+    let normal = (t[1] - t[0])
+        .cross(t[2] - t[0])
+        .try_normalize()
+        .unwrap_or(facing.try_normalize().unwrap_or(Vec3::Y));
     let base = s.positions.len() as u32;
     for p in t {
         s.positions.push(p);
@@ -119,7 +155,14 @@ fn triangle(s: &mut Scene, mut t: [Vec3; 3], facing: Vec3, material: u32) {
 /// Adds the parallelogram `origin + [0, 1] u + [0, 1] v` as an `n` x `n` grid of cells of two
 /// triangles over shared vertices (so shared edges and diagonals, as in the generated scenes),
 /// front facing `facing`.
-fn grid_quad(s: &mut Scene, origin: Vec3, (u, v): (Vec3, Vec3), n: u32, facing: Vec3, material: u32) {
+fn grid_quad(
+    s: &mut Scene,
+    origin: Vec3,
+    (u, v): (Vec3, Vec3),
+    n: u32,
+    facing: Vec3,
+    material: u32,
+) {
     let (u, v) = if u.cross(v).dot(facing) < 0.0 { (v, u) } else { (u, v) };
     let normal = u.cross(v).try_normalize().unwrap_or(Vec3::Y);
     let base = s.positions.len() as u32;
@@ -171,13 +214,15 @@ fn light_kind() -> impl Strategy<Value = LightKind> {
 /// A camera at `position` looking at `target`.
 fn camera(position: Vec3, target: Vec3, yfov: f32) -> Camera {
     let forward = (target - position).try_normalize().unwrap_or(-Vec3::Z);
-    let up = (Vec3::Y - forward * forward.y).try_normalize().unwrap_or(forward.any_orthonormal_vector());
+    let up =
+        (Vec3::Y - forward * forward.y).try_normalize().unwrap_or(forward.any_orthonormal_vector());
     Camera { position, forward, up, yfov }
 }
 
 /// A punctual light of `kind` at `position`, aimed at `target` if a spot.
 fn punctual(kind: LightKind, position: Vec3, target: Vec3, rng: &mut Rng) -> PunctualLight {
-    let intensity = Vec3::new(0.5 + rng.next_f32(), 0.5 + rng.next_f32(), 0.5 + rng.next_f32()) * 3.0;
+    let intensity =
+        Vec3::new(0.5 + rng.next_f32(), 0.5 + rng.next_f32(), 0.5 + rng.next_f32()) * 3.0;
     match kind {
         LightKind::Spot => {
             let cos_outer = 0.3 + 0.6 * rng.next_f32();
@@ -193,34 +238,39 @@ fn punctual(kind: LightKind, position: Vec3, target: Vec3, rng: &mut Rng) -> Pun
 /// (a strip of copied vertices), lit by 1 to 3 lights of random kinds (emissive triangles among
 /// them, or point and spot lights outside the cube), seen from a random direction.
 pub fn triangle_soup() -> impl Strategy<Value = Scene> {
-    (4usize..80, prop::collection::vec(light_kind(), 1..=3), any::<u64>()).prop_map(|(n, lights, seed)| {
-        let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
-        let mut s = Scene { name: format!("soup of {n}"), ..Scene::default() };
-        let mut point = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
-        let corners: Vec<Vec3> = (0..n + 2).map(|_| point()).collect();
-        let mut rng = Rng::new(seed as u32, Stream::Oracle, !(seed >> 32) as u32);
-        let albedos: Vec<u32> =
-            (0..3).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.8 + 0.1).map(|a| material(&mut s, a, Vec3::ZERO)).collect();
-        let emitter = material(&mut s, Vec3::splat(0.5), Vec3::new(4.0, 3.0, 2.0));
-        let areas = lights.iter().filter(|k| matches!(k, LightKind::Area)).count();
-        for i in 0..n {
-            let t = [corners[i], corners[i + 1], corners[i + 2]];
-            let m = if i < areas { emitter } else { albedos[i % 3] };
-            let facing = (t[1] - t[0]).cross(t[2] - t[0]);
-            triangle(&mut s, t, if i % 2 == 0 { facing } else { -facing }, m);
-        }
-        // Punctual lights outside the soup's cube, aimed at its centre. Inside it, a light a few
-        // hundredths from two folded triangles sees their crease nearly edge-on, and rays that
-        // graze it (hit on one backend, missed on the other by rounding: both legitimately) were
-        // 0.1 % of the paths on their own.
-        for k in lights.iter().filter(|k| !matches!(k, LightKind::Area)) {
-            let at = direction(rng.next_f32(), rng.next_f32()) * (1.8 + rng.next_f32());
-            s.lights.push(punctual(*k, at, Vec3::ZERO, &mut rng));
-        }
-        let dir = direction(rng.next_f32(), rng.next_f32());
-        s.camera = camera(dir * 3.5, Vec3::ZERO, 0.6 + 0.6 * rng.next_f32());
-        s
-    })
+    (4usize..80, prop::collection::vec(light_kind(), 1..=3), any::<u64>()).prop_map(
+        |(n, lights, seed)| {
+            let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
+            let mut s = Scene { name: format!("soup of {n}"), ..Scene::default() };
+            let mut point =
+                || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+            let corners: Vec<Vec3> = (0..n + 2).map(|_| point()).collect();
+            let mut rng = Rng::new(seed as u32, Stream::Oracle, !(seed >> 32) as u32);
+            let albedos: Vec<u32> = (0..3)
+                .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.8 + 0.1)
+                .map(|a| material(&mut s, a, Vec3::ZERO))
+                .collect();
+            let emitter = material(&mut s, Vec3::splat(0.5), Vec3::new(4.0, 3.0, 2.0));
+            let areas = lights.iter().filter(|k| matches!(k, LightKind::Area)).count();
+            for i in 0..n {
+                let t = [corners[i], corners[i + 1], corners[i + 2]];
+                let m = if i < areas { emitter } else { albedos[i % 3] };
+                let facing = (t[1] - t[0]).cross(t[2] - t[0]);
+                triangle(&mut s, t, if i % 2 == 0 { facing } else { -facing }, m);
+            }
+            // Punctual lights outside the soup's cube, aimed at its centre. Inside it, a light a few
+            // hundredths from two folded triangles sees their crease nearly edge-on, and rays that
+            // graze it (hit on one backend, missed on the other by rounding: both legitimately) were
+            // 0.1 % of the paths on their own.
+            for k in lights.iter().filter(|k| !matches!(k, LightKind::Area)) {
+                let at = direction(rng.next_f32(), rng.next_f32()) * (1.8 + rng.next_f32());
+                s.lights.push(punctual(*k, at, Vec3::ZERO, &mut rng));
+            }
+            let dir = direction(rng.next_f32(), rng.next_f32());
+            s.camera = camera(dir * 3.5, Vec3::ZERO, 0.6 + 0.6 * rng.next_f32());
+            s
+        },
+    )
 }
 
 /// A closed room of random size (1 to 4 units a side) whose walls are tessellated 1x1 to 4x4,
@@ -231,9 +281,20 @@ pub fn room() -> impl Strategy<Value = Scene> {
         let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
         let mut r = || rng.next_f32();
         let size = Vec3::new(1.0 + 3.0 * r(), 1.0 + 3.0 * r(), 1.0 + 3.0 * r());
-        let mut s = Scene { name: format!("room {:.2} x {:.2} x {:.2}, {boxes} boxes", size.x, size.y, size.z), ..Scene::default() };
-        let wall = material(&mut s, Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()), Vec3::ZERO);
-        let other = material(&mut s, Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()), Vec3::ZERO);
+        let mut s = Scene {
+            name: format!("room {:.2} x {:.2} x {:.2}, {boxes} boxes", size.x, size.y, size.z),
+            ..Scene::default()
+        };
+        let wall = material(
+            &mut s,
+            Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()),
+            Vec3::ZERO,
+        );
+        let other = material(
+            &mut s,
+            Vec3::new(0.2 + 0.6 * r(), 0.2 + 0.6 * r(), 0.2 + 0.6 * r()),
+            Vec3::ZERO,
+        );
         let (x, y, z) = (Vec3::X * size.x, Vec3::Y * size.y, Vec3::Z * size.z);
         // Six walls facing in: origin, two sides, and the inward direction.
         for (o, u, v, inward) in [
@@ -248,24 +309,37 @@ pub fn room() -> impl Strategy<Value = Scene> {
         }
         for _ in 0..boxes {
             let half = Vec3::new(0.05 + 0.2 * r(), 0.05 + 0.3 * r(), 0.05 + 0.2 * r()) * size;
-            let c = Vec3::new(half.x + (size.x - 2.0 * half.x) * r(), half.y, half.z + (size.z - 2.0 * half.z) * r());
+            let c = Vec3::new(
+                half.x + (size.x - 2.0 * half.x) * r(),
+                half.y,
+                half.z + (size.z - 2.0 * half.z) * r(),
+            );
             open_box(&mut s, c, half, 1, other);
         }
         let centre = size * 0.5;
         match kind {
             LightKind::Area => {
-                let emitter = material(&mut s, Vec3::splat(0.5), Vec3::new(8.0, 6.0, 4.0) / (size.x * size.z));
+                let emitter = material(
+                    &mut s,
+                    Vec3::splat(0.5),
+                    Vec3::new(8.0, 6.0, 4.0) / (size.x * size.z),
+                );
                 let (lx, lz) = (size.x * (0.1 + 0.3 * r()), size.z * (0.1 + 0.3 * r()));
                 let o = Vec3::new(centre.x - 0.5 * lx, size.y * 0.999, centre.z - 0.5 * lz);
                 grid_quad(&mut s, o, (Vec3::X * lx, Vec3::Z * lz), 1, -Vec3::Y, emitter);
             }
             _ => {
-                let at = Vec3::new(size.x * (0.2 + 0.6 * r()), size.y * 0.9, size.z * (0.2 + 0.6 * r()));
+                let at =
+                    Vec3::new(size.x * (0.2 + 0.6 * r()), size.y * 0.9, size.z * (0.2 + 0.6 * r()));
                 let below = Vec3::new(at.x, 0.0, at.z);
                 s.lights.push(punctual(kind, at, below, &mut rng));
             }
         }
-        let eye = Vec3::new(size.x * (0.3 + 0.4 * rng.next_f32()), size.y * (0.3 + 0.4 * rng.next_f32()), size.z * 0.95);
+        let eye = Vec3::new(
+            size.x * (0.3 + 0.4 * rng.next_f32()),
+            size.y * (0.3 + 0.4 * rng.next_f32()),
+            size.z * 0.95,
+        );
         s.camera = camera(eye, centre - Vec3::Z * size.z * 0.2, 1.0);
         s
     })
@@ -285,7 +359,12 @@ pub fn random_scene() -> impl Strategy<Value = Scene> {
 /// graze; the rest inside a triangle. No two points share a position: a vertex drawn twice would
 /// repeat every segment through it, so one grazing tie would count as two (it once did, and
 /// doubled a 1-in-1,900 tie past the SPEC's 0.1 %).
-pub fn surface_endpoints(scene: &Scene, n: usize, seed: u64, on_edges: f32) -> Vec<vplgi_types::Endpoint> {
+pub fn surface_endpoints(
+    scene: &Scene,
+    n: usize,
+    seed: u64,
+    on_edges: f32,
+) -> Vec<vplgi_types::Endpoint> {
     let mut rng = Rng::new(seed as u32, Stream::Oracle, (seed >> 32) as u32);
     let mut taken = std::collections::HashSet::new();
     std::iter::repeat_with(|| {

@@ -68,10 +68,15 @@ pub fn shared_gpu(test: &str) -> Option<&'static SharedGpu> {
 }
 
 /// Runs `f` with `scene` ready on both backends.
-pub fn with_twins<T>(gpu: &SharedGpu, scene: &vplgi_scene::Scene, f: impl FnOnce(&Twins) -> T) -> T {
+pub fn with_twins<T>(
+    gpu: &SharedGpu,
+    scene: &vplgi_scene::Scene,
+    f: impl FnOnce(&Twins) -> T,
+) -> T {
     let device = vplgi_embree::Device::new(None).expect("Embree device");
     let cs = vplgi_cpu::CpuScene::new(scene, &device).expect("Embree scene");
-    let gb = GpuBackend::new(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels, scene).expect("scene on the GPU");
+    let gb = GpuBackend::new(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels, scene)
+        .expect("scene on the GPU");
     f(&Twins { scene, cpu: &cs, gpu: &gb })
 }
 
@@ -84,7 +89,13 @@ pub fn cases(default: u32) -> u32 {
 /// The configuration of every property test: [`cases`] cases, and shrunk failures kept in
 /// `tests/tests/<file>.proptest-regressions` (committed: each is replayed first on every run).
 pub fn proptest_config(default_cases: u32) -> Config {
-    Config { cases: cases(default_cases), failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))), ..Config::default() }
+    Config {
+        cases: cases(default_cases),
+        failure_persistence: Some(Box::new(FileFailurePersistence::WithSource(
+            "proptest-regressions",
+        ))),
+        ..Config::default()
+    }
 }
 
 /// Prints the checks, each after `label`, and panics at the first that does not hold (with its
@@ -98,7 +109,9 @@ pub fn check_all(label: &str, checks: &[tolerance::Disagreement]) {
 
 /// Fails the property-test case (with the measurement) unless every judged check holds; prints
 /// them all.
-pub fn hold(checks: &[tolerance::Disagreement]) -> Result<(), proptest::test_runner::TestCaseError> {
+pub fn hold(
+    checks: &[tolerance::Disagreement],
+) -> Result<(), proptest::test_runner::TestCaseError> {
     for c in checks {
         println!("{c}");
     }

@@ -17,8 +17,15 @@ fn point_light_over_a_plane_matches_the_closed_form() {
     let scene = plane_with_point_light(2.0, h, rho, intensity);
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let cfg = FrameConfig { width: 32, height: 32, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let cfg = FrameConfig {
+        width: 32,
+        height: 32,
+        vpls: 0,
+        cluster: ClusterMode::None,
+        ..FrameConfig::reference()
+    };
+    let sps =
+        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
     let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
     let mut checked = 0;
     let mut worst = 0.0f32;
@@ -52,15 +59,24 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
     let row_of = [0u32];
     let vis = VisibilitySource::Own { matrix: &matrix, row_of: &row_of, first_row: 0 };
     for r in [0.0f32, 0.3, 1.0, 2.5] {
-        let sp = ShadingPoint { position: [r, 0.0, 0.0], normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
+        let sp = ShadingPoint {
+            position: [r, 0.0, 0.0],
+            normal: [0.0, 1.0, 0.0],
+            albedo: [rho; 3],
+            ..Default::default()
+        };
         let d2 = h * h + r * r;
         let g = (h * h / d2) / d2;
         let expected = flux * (rho / PI) * g / PI;
         let got = indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY);
-        assert!((got - expected).abs().max_element() <= 1e-6 * expected.max_element(), "r = {r}: {got} vs {expected}");
+        assert!(
+            (got - expected).abs().max_element() <= 1e-6 * expected.max_element(),
+            "r = {r}: {got} vs {expected}"
+        );
         // With the clamp at d_min = h the geometry term at r = 0 is exactly 1/h², i.e. unclamped;
         // at d_min = 2h it is capped at 1/(4h²).
-        let capped = indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, 1.0 / (4.0 * h * h));
+        let capped =
+            indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, 1.0 / (4.0 * h * h));
         let expected_capped = flux * (rho / PI) * g.min(1.0 / (4.0 * h * h)) / PI;
         assert!((capped - expected_capped).abs().max_element() <= 1e-6 * expected.max_element());
     }
@@ -68,7 +84,10 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
     let blocked = BitMatrix::new(1, 1);
     let sp = ShadingPoint { normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
     let vis = VisibilitySource::Own { matrix: &blocked, row_of: &row_of, first_row: 0 };
-    assert_eq!(indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY), Vec3::ZERO);
+    assert_eq!(
+        indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY),
+        Vec3::ZERO
+    );
 }
 
 /// Light particles from a point light over a square: the fraction of the light's power that
@@ -90,10 +109,17 @@ fn vpl_flux_from_a_point_light_matches_the_solid_angle() {
     let p = omega / (4.0 * std::f64::consts::PI);
     let sigma = ((1.0 - p) / n as f64).sqrt();
     let rel = (total - expected) / expected;
-    println!("VPL flux {total:.5} vs ρIΩ = {expected:.5}: {:+.2} σ (σ = {:.2e} relative)", rel / sigma, sigma);
+    println!(
+        "VPL flux {total:.5} vs ρIΩ = {expected:.5}: {:+.2} σ (σ = {:.2e} relative)",
+        rel / sigma,
+        sigma
+    );
     assert!(rel.abs() < 4.0 * sigma);
     // Every VPL lies on the plane, faces up and came from one bounce.
-    assert!(set.vpls.iter().all(|v| v.position[1].abs() < 1e-5 && v.normal == [0.0, 1.0, 0.0] && v.bounce == 1));
+    assert!(set
+        .vpls
+        .iter()
+        .all(|v| v.position[1].abs() < 1e-5 && v.normal == [0.0, 1.0, 0.0] && v.bounce == 1));
 }
 
 /// The sun (a directional light of irradiance E travelling at θ from the plane's normal) over a
@@ -102,16 +128,26 @@ fn vpl_flux_from_a_point_light_matches_the_solid_angle() {
 #[test]
 fn sun_over_a_plane_matches_the_closed_form_on_both_backends() {
     let scene = vplgi_tests::inputs::sunlit_plane_with_box();
-    let vplgi_scene::PunctualLight::Directional { direction, irradiance } = scene.lights[0] else { unreachable!() };
+    let vplgi_scene::PunctualLight::Directional { direction, irradiance } = scene.lights[0] else {
+        unreachable!()
+    };
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let cfg = FrameConfig { width: 48, height: 48, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let cfg = FrameConfig {
+        width: 48,
+        height: 48,
+        vpls: 0,
+        cluster: ClusterMode::None,
+        ..FrameConfig::reference()
+    };
+    let sps =
+        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
     let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
-    let gpu = vplgi_tests::gpu("sun_over_a_plane_matches_the_closed_form_on_both_backends").map(|ctx| {
-        let kernels = vplgi_gpu::GpuKernels::new(&ctx.device).unwrap();
-        vplgi_gpu::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap().pixels
-    });
+    let gpu =
+        vplgi_tests::gpu("sun_over_a_plane_matches_the_closed_form_on_both_backends").map(|ctx| {
+            let kernels = vplgi_gpu::GpuKernels::new(&ctx.device).unwrap();
+            vplgi_gpu::render(&ctx.device, &ctx.queue, &kernels, &scene, &cfg).unwrap().pixels
+        });
     let cos = -direction.y;
     for (backend, pixels) in [("CPU", Some(&cpu)), ("GPU", gpu.as_ref())] {
         let Some(pixels) = pixels else { continue };
@@ -151,7 +187,10 @@ fn sun_over_a_plane_matches_the_closed_form_on_both_backends() {
         }
         println!("{backend}: sun over a plane: {lit} lit pixels, worst relative error {worst:.2e}; {shadowed} shadowed pixels black");
         assert!(worst < 1e-4, "{backend}: worst relative error {worst}");
-        assert!(lit > 500 && shadowed > 20, "the image must show lit plane and shadow ({lit}, {shadowed})");
+        assert!(
+            lit > 500 && shadowed > 20,
+            "the image must show lit plane and shadow ({lit}, {shadowed})"
+        );
     }
 }
 
@@ -166,7 +205,9 @@ fn sun_over_a_plane_matches_the_closed_form_on_both_backends() {
 #[test]
 fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     let scene = vplgi_tests::inputs::sunlit_plane_with_box();
-    let vplgi_scene::PunctualLight::Directional { direction, irradiance } = scene.lights[0] else { unreachable!() };
+    let vplgi_scene::PunctualLight::Directional { direction, irradiance } = scene.lights[0] else {
+        unreachable!()
+    };
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     // The flux reaching each surface, E cos A, summed with its albedo: the floor's shadow is the
@@ -175,7 +216,8 @@ fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     let d = direction.as_dvec3();
     let side = 0.5f64;
     // Cross-section the cube presents to the sun: top |d_y| + walls |d_x| + |d_z|, each side².
-    let (top, wall_x, wall_z) = (side * side * -d.y, side * side * d.x.abs(), side * side * d.z.abs());
+    let (top, wall_x, wall_z) =
+        (side * side * -d.y, side * side * d.x.abs(), side * side * d.z.abs());
     let plane_lit = (4.0 * -d.y) - (top + wall_x + wall_z);
     let e = irradiance.as_dvec3();
     let expected = e * plane_rho * plane_lit + e * box_rho * (top + wall_x + wall_z);
@@ -193,7 +235,10 @@ fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     let rsm = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, 256, &NoProgress).vpls;
     let total = rsm.iter().fold(glam::DVec3::ZERO, |a, v| a + Vec3::from(v.flux).as_dvec3());
     let rel = (total - expected) / expected;
-    println!("sun shadow-map VPL flux {total:.5}: relative {:+.2e} {:+.2e} {:+.2e}", rel.x, rel.y, rel.z);
+    println!(
+        "sun shadow-map VPL flux {total:.5}: relative {:+.2e} {:+.2e} {:+.2e}",
+        rel.x, rel.y, rel.z
+    );
     assert!(rel.abs().max_element() < 2e-3, "{rel}");
 }
 
@@ -212,17 +257,30 @@ fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
     let scene = vplgi_tests::inputs::emissive_square(half, Vec3::splat(le));
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let cfg = FrameConfig { width: 16, height: 16, spp: 64, vpls: 0, cluster: ClusterMode::None, ..FrameConfig::reference() };
+    let cfg = FrameConfig {
+        width: 16,
+        height: 16,
+        spp: 64,
+        vpls: 0,
+        cluster: ClusterMode::None,
+        ..FrameConfig::reference()
+    };
     let (w, h) = (cfg.width as f32, cfg.height as f32);
     // The square at distance 5 spans tangents +-half / 5 of tan(yfov / 2) on the film (aspect 1).
     let reach = half / (scene.camera.position.z * (0.5 * scene.camera.yfov).tan());
-    let (x0, x1, y0, y1) = (0.5 * w * (1.0 - reach), 0.5 * w * (1.0 + reach), 0.5 * h * (1.0 - reach), 0.5 * h * (1.0 + reach));
+    let (x0, x1, y0, y1) = (
+        0.5 * w * (1.0 - reach),
+        0.5 * w * (1.0 + reach),
+        0.5 * h * (1.0 - reach),
+        0.5 * h * (1.0 + reach),
+    );
     let overlap = |a: f32, b: f32, lo: f32, hi: f32| (b.min(hi) - a.max(lo)).max(0.0);
     let covered = |px: u32| {
         let (i, j) = ((px % cfg.width) as f32, (px / cfg.width) as f32);
         overlap(i, i + 1.0, x0, x1) * overlap(j, j + 1.0, y0, y1)
     };
-    let ctx = vplgi_tests::gpu("emission_through_jittered_pixels_is_the_covered_area_on_both_backends");
+    let ctx =
+        vplgi_tests::gpu("emission_through_jittered_pixels_is_the_covered_area_on_both_backends");
     let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
     let gpu = ctx.as_ref().map(|ctx| {
         let kernels = vplgi_gpu::GpuKernels::new(&ctx.device).unwrap();
@@ -242,7 +300,8 @@ fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
         assert!(edges >= 30, "the square's edges must cross pixels ({edges})");
     }
     let camera = cfg.camera_params(scene.camera);
-    let cpu_sps = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let cpu_sps =
+        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
     let gpu_sps = ctx.as_ref().map(|ctx| {
         let gs = vplgi_gpu::scene::GpuScene::new(&ctx.device, &scene).unwrap();
         let kernel = vplgi_gpu::shading_points::ShadingPointsKernel::new(&ctx.device).unwrap();
@@ -256,16 +315,24 @@ fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
             let c = covered(px as u32);
             let e: Vec<f32> = samples.iter().map(|s| s.emitted[0] / le).collect();
             for x in &e {
-                assert!((x * strata - (x * strata).round()).abs() < 1e-4, "{backend}: pixel {px}: emission {x} L is not a multiple of 1/16");
+                assert!(
+                    (x * strata - (x * strata).round()).abs() < 1e-4,
+                    "{backend}: pixel {px}: emission {x} L is not a multiple of 1/16"
+                );
             }
             if c > 0.2 && c < 0.8 {
                 let mean = e.iter().sum::<f32>() / e.len() as f32;
-                let sd = (e.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / (e.len() - 1) as f32).sqrt();
+                let sd = (e.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>()
+                    / (e.len() - 1) as f32)
+                    .sqrt();
                 // One ray: sqrt(c (1 - c)) >= 0.4 here.
                 worst_spread = worst_spread.max(sd / (c * (1.0 - c)).sqrt());
             }
         }
         println!("{backend}: a sample's emission spreads {worst_spread:.3} of one ray's at worst");
-        assert!(worst_spread < 0.35, "{backend}: stratified emission spreads {worst_spread} of one ray's");
+        assert!(
+            worst_spread < 0.35,
+            "{backend}: stratified emission spreads {worst_spread} of one ray's"
+        );
     }
 }

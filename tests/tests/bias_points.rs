@@ -13,7 +13,17 @@ use vplgi_types::{ClusterMode, FrameConfig};
 const G_CLAMP: f32 = 0.5;
 
 fn config(seed: u32) -> FrameConfig {
-    FrameConfig { width: 32, height: 32, spp: 1, vpls: 3000, bounces: 2, cluster: ClusterMode::None, seed, g_clamp_rel: G_CLAMP, ..FrameConfig::reference() }
+    FrameConfig {
+        width: 32,
+        height: 32,
+        spp: 1,
+        vpls: 3000,
+        bounces: 2,
+        cluster: ClusterMode::None,
+        seed,
+        g_clamp_rel: G_CLAMP,
+        ..FrameConfig::reference()
+    }
 }
 
 fn luminance(pixels: &[[f32; 3]]) -> f64 {
@@ -26,11 +36,14 @@ fn three_ways<B: Backend>(b: &B, seeds: std::ops::Range<u32>) -> Vec<(f64, f64, 
 where
     B::Error: std::fmt::Debug,
 {
-    let frame = |cfg: FrameConfig| luminance(&render(b, &cfg, &vplgi_frame::NoProgress).expect("frame").pixels);
+    let frame = |cfg: FrameConfig| {
+        luminance(&render(b, &cfg, &vplgi_frame::NoProgress).expect("frame").pixels)
+    };
     seeds
         .map(|seed| {
             let c = config(seed);
-            let unclamped = frame(FrameConfig { g_clamp_rel: 0.0, bias_compensation: false, ..c.clone() });
+            let unclamped =
+                frame(FrameConfig { g_clamp_rel: 0.0, bias_compensation: false, ..c.clone() });
             let clamped = frame(FrameConfig { bias_compensation: false, ..c.clone() });
             let compensated = frame(FrameConfig { bias_compensation: true, ..c });
             (unclamped, clamped, compensated)
@@ -54,9 +67,18 @@ fn check_compensation(backend: &str, runs: &[(f64, f64, f64)]) {
         100.0 * loss / unclamped,
         100.0 * mean / loss
     );
-    assert!(loss > 0.03 * unclamped, "{backend}: the clamp removes only {loss} of {unclamped}: the test would prove nothing");
-    assert!(mean.abs() <= 4.0 * se + 1e-6, "{backend}: compensated - unclamped = {mean} with standard error {se}");
-    assert!(mean.abs() <= 0.2 * loss, "{backend}: compensated - unclamped = {mean}, against {loss} removed by the clamp");
+    assert!(
+        loss > 0.03 * unclamped,
+        "{backend}: the clamp removes only {loss} of {unclamped}: the test would prove nothing"
+    );
+    assert!(
+        mean.abs() <= 4.0 * se + 1e-6,
+        "{backend}: compensated - unclamped = {mean} with standard error {se}"
+    );
+    assert!(
+        mean.abs() <= 0.2 * loss,
+        "{backend}: compensated - unclamped = {mean}, against {loss} removed by the clamp"
+    );
 }
 
 #[test]
@@ -69,7 +91,9 @@ fn compensation_puts_back_what_the_clamp_removes_on_the_cpu() {
 
 #[test]
 fn compensation_puts_back_what_the_clamp_removes_on_the_gpu() {
-    let Some(gpu) = vplgi_tests::shared_gpu("compensation_puts_back_what_the_clamp_removes_on_the_gpu") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("compensation_puts_back_what_the_clamp_removes_on_the_gpu")
+    else {
         return;
     };
     let scene = cornell_box();
@@ -94,13 +118,23 @@ fn bias_points_match_the_cpu() {
             let kept = vplgi_cpu::bias_points::bias_points(t.cpu, &parents, 0, &params);
             let n = kept.iter().filter(|p| !p.is_miss()).count();
             println!("level {level}: {n} of {} parents kept", parents.len());
-            assert!(n > 200, "level {level}: only {n} compensation points: the test would prove little");
-            for c in vplgi_verify::bias_points::compare(t, &parents, (w, spp), &params).expect("GPU") {
+            assert!(
+                n > 200,
+                "level {level}: only {n} compensation points: the test would prove little"
+            );
+            for c in
+                vplgi_verify::bias_points::compare(t, &parents, (w, spp), &params).expect("GPU")
+            {
                 c.check();
             }
             // Each level draws its own directions: level 2's from level 1's parents differ.
             if level == 1 {
-                let again = vplgi_cpu::bias_points::bias_points(t.cpu, &parents, 0, &config(5).bias_params(t.cpu.extent, 2));
+                let again = vplgi_cpu::bias_points::bias_points(
+                    t.cpu,
+                    &parents,
+                    0,
+                    &config(5).bias_params(t.cpu.extent, 2),
+                );
                 assert_ne!(kept, again, "levels 1 and 2 drew the same directions");
             }
             parents = kept;

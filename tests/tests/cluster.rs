@@ -43,16 +43,26 @@ fn metric_for(choice: Option<f32>, ps: &[Vec3]) -> Metric {
 /// Centroids for a point set: `k` of its points, each moved by up to `jitter` of the set's size
 /// and given a random normal in a quarter of the cases (centroids far from any point's normal
 /// make the search widen).
-fn centroids_of((ps, ns): (&[Vec3], &[Vec3]), k: usize, jitter: f32, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-    let mut rng = vplgi_types::Rng::new(seed as u32, vplgi_types::Stream::Oracle, (seed >> 32) as u32);
+fn centroids_of(
+    (ps, ns): (&[Vec3], &[Vec3]),
+    k: usize,
+    jitter: f32,
+    seed: u64,
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng =
+        vplgi_types::Rng::new(seed as u32, vplgi_types::Stream::Oracle, (seed >> 32) as u32);
     let (lo, hi) = bounds(ps);
     let size = (hi - lo).length().max(1e-6);
     (0..k)
         .map(|_| {
             let i = rng.next_u32() as usize % ps.len();
             let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
-            let n =
-                if rng.next_u32().is_multiple_of(4) { (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize_or(Vec3::Y) } else { ns[i] };
+            let n = if rng.next_u32().is_multiple_of(4) {
+                (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5)
+                    .normalize_or(Vec3::Y)
+            } else {
+                ns[i]
+            };
             (ps[i] + d * jitter * size, n)
         })
         .unzip()
@@ -136,45 +146,80 @@ fn cluster_assign_and_update_match_the_cpu() {
         },
     );
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
-    let rule = AssignRule { metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 }, f: 6, fuzzy: FuzzyMode::Weighted };
-    for d in compare_assign(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), rule).unwrap() {
+    let rule = AssignRule {
+        metric: vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+        f: 6,
+        fuzzy: FuzzyMode::Weighted,
+    };
+    for d in
+        compare_assign(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), rule).unwrap()
+    {
         d.with_case("cornell points").check();
     }
     let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
-    let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 }, None);
-    compare_update(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), &hard).unwrap().with_case("cornell points").check();
+    let hard = vplgi_cpu::cluster::assign(
+        &grid,
+        &ps,
+        &ns,
+        vplgi_types::clustering::Metric::Eq7 { normal_threshold: 0.866 },
+        None,
+    );
+    compare_update(device, queue, kernel, (&ps, &ns), (&c.positions, &c.normals), &hard)
+        .unwrap()
+        .with_case("cornell points")
+        .check();
 }
 
 /// Points far from every centroid: 6,000 centroids packed into a tenth of a square of 20,000
 /// points in a cube, so a point across the square walks a dozen or more rings of cells before
-/// its F nearest are settled. lavapipe stops every loop of a shader invocation once they have run 65,535
-/// iterations between them (llvmpipe's loop limiter), silently: such a walk used to exhaust it
-/// and the search's last loops ended early, leaving points of a random scene at 10,000 cases
-/// with farther clusters than the nearest, or none (1.3 % of the F = 6 sets here). The GPU's
-/// labels must be the exact nearest compatible centroids, found by brute force.
+/// its F nearest are settled. lavapipe stops every loop of a shader invocation once they have
+/// run 65,535 iterations between them (llvmpipe's loop limiter), silently: a walk that exhausts
+/// it ends the search's last loops early and leaves points with farther clusters than the
+/// nearest, or none. The GPU's labels must be the exact nearest compatible centroids, found by
+/// brute force.
 #[test]
 fn long_searches_find_the_exact_nearest_centroids() {
-    let Some(gpu) = vplgi_tests::shared_gpu("long_searches_find_the_exact_nearest_centroids") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("long_searches_find_the_exact_nearest_centroids")
+    else {
         return;
     };
     let mut rng = vplgi_types::rng::Rng::new(11, vplgi_types::rng::Stream::Oracle, 0);
     // A unit square of points in a unit cube (one point at its far corner): the grid's cells
     // are sized for the square, so a search's rings are shells of a 3-D grid, tens of thousands
     // of cells deep, as for the visible walls of a room.
-    let mut ps: Vec<Vec3> = (0..20_000).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), 0.0)).collect();
+    let mut ps: Vec<Vec3> =
+        (0..20_000).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), 0.0)).collect();
     ps.push(Vec3::ONE);
     let ns = vec![Vec3::Z; ps.len()];
-    let cp: Vec<Vec3> = ps.iter().filter(|p| p.x < 0.1).take(1_500).flat_map(|&p| (0..4).map(move |i| p + Vec3::new(0.0, 0.0, i as f32 * 1e-3))).collect();
+    let cp: Vec<Vec3> = ps
+        .iter()
+        .filter(|p| p.x < 0.1)
+        .take(1_500)
+        .flat_map(|&p| (0..4).map(move |i| p + Vec3::new(0.0, 0.0, i as f32 * 1e-3)))
+        .collect();
     let cn = vec![Vec3::Z; cp.len()];
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
     let metric = Metric::Eq7 { normal_threshold: 0.866 };
     let grid = Grid::for_data(bounds(&ps), &ps, cp.len()).fill(&cp, &cn);
-    let geometry = vplgi_types::clustering::GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims };
+    let geometry = vplgi_types::clustering::GridGeometry {
+        origin: grid.origin,
+        cell: grid.cell,
+        dims: grid.dims,
+    };
     let cents = storage(device, "centroids", &endpoints(&cp, &cn));
     let points = storage(device, "points", &endpoints(&ps, &ns));
     let ggrid = kernel.fill_grid(device, queue, &geometry, &cents, cp.len() as u32).unwrap();
     for (f, fuzzy) in [(1usize, FuzzyMode::Hard), (6, FuzzyMode::Weighted)] {
-        let a = kernel.assign(device, queue, &ggrid, (&points, ps.len() as u32), (&cents, cp.len() as u32), AssignRule { metric, f: f as u32, fuzzy }).unwrap();
+        let a = kernel
+            .assign(
+                device,
+                queue,
+                &ggrid,
+                (&points, ps.len() as u32),
+                (&cents, cp.len() as u32),
+                AssignRule { metric, f: f as u32, fuzzy },
+            )
+            .unwrap();
         let labels: Vec<u32> = read_back(device, queue, &a.labels, ps.len() * f).unwrap();
         let outcome: Vec<u32> = read_back(device, queue, &a.outcome, ps.len()).unwrap();
         let (mut wrong, mut widened, mut first) = (0usize, 0usize, None);
@@ -185,12 +230,18 @@ fn long_searches_find_the_exact_nearest_centroids() {
                 continue;
             }
             widened += 1;
-            let mut all: Vec<(f32, u32)> = cp.iter().enumerate().map(|(k, &c)| ((p - c).length_squared(), k as u32)).collect();
+            let mut all: Vec<(f32, u32)> =
+                cp.iter().enumerate().map(|(k, &c)| ((p - c).length_squared(), k as u32)).collect();
             all.sort_by(|a, b| a.partial_cmp(b).unwrap());
             let exact: Vec<u32> = all[..f].iter().map(|x| x.1).collect();
             if labels[i * f..(i + 1) * f] != exact[..] {
                 wrong += 1;
-                first.get_or_insert_with(|| format!("point {i} at {p}: GPU {:?}, exact {exact:?}", &labels[i * f..(i + 1) * f]));
+                first.get_or_insert_with(|| {
+                    format!(
+                        "point {i} at {p}: GPU {:?}, exact {exact:?}",
+                        &labels[i * f..(i + 1) * f]
+                    )
+                });
             }
         }
         println!("F = {f}: {widened} widened searches, {wrong} not the exact nearest");
@@ -215,7 +266,10 @@ fn cluster_end_to_end_matches_the_cpu() {
         (hi - lo).length()
     };
     let eq7 = (Metric::Eq7 { normal_threshold: 0.866 }, Representative::Nearest);
-    let ward = (Metric::Ward { alpha: 0.3 / diagonal }, Representative::MinError { alpha: 0.3 / diagonal });
+    let ward = (
+        Metric::Ward { alpha: 0.3 / diagonal },
+        Representative::MinError { alpha: 0.3 / diagonal },
+    );
     for (k, f, fuzzy, (metric, representative)) in [
         (400u32, 6u32, FuzzyMode::Weighted, eq7),
         (150, 1, FuzzyMode::Hard, eq7),
@@ -223,16 +277,33 @@ fn cluster_end_to_end_matches_the_cpu() {
         (400, 6, FuzzyMode::Weighted, ward),
         (150, 1, FuzzyMode::Hard, ward),
     ] {
-        let params = ClusterParams { k, gamma: 4, iterations: 10, f, fuzzy, metric, representative, seed: 7 };
+        let params = ClusterParams {
+            k,
+            gamma: 4,
+            iterations: 10,
+            f,
+            fuzzy,
+            metric,
+            representative,
+            seed: 7,
+        };
         let cpu = cluster(&ps, &ns, &params);
         let pts = storage(&ctx.device, "points", &endpoints(&ps, &ns));
         let g = kernel.cluster(&ctx.device, &ctx.queue, &pts, m as u32, &params).unwrap();
         let gl: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.labels, m * g.f as usize).unwrap();
-        let gr: Vec<u32> = read_back(&ctx.device, &ctx.queue, &g.representatives, g.k as usize).unwrap();
-        let gc: Vec<Endpoint> = read_back(&ctx.device, &ctx.queue, &g.centroids, g.k as usize).unwrap();
+        let gr: Vec<u32> =
+            read_back(&ctx.device, &ctx.queue, &g.representatives, g.k as usize).unwrap();
+        let gc: Vec<Endpoint> =
+            read_back(&ctx.device, &ctx.queue, &g.centroids, g.k as usize).unwrap();
         let same_k = g.k as usize == cpu.k();
-        let labels_same = (0..m).filter(|&i| gl[i * g.f as usize..(i + 1) * g.f as usize] == cpu.labels[i * cpu.f..(i + 1) * cpu.f]).count();
-        let centroids_same = same_k && (0..cpu.k()).all(|j| gc[j].position[..3] == cpu.positions[j].to_array());
+        let labels_same = (0..m)
+            .filter(|&i| {
+                gl[i * g.f as usize..(i + 1) * g.f as usize]
+                    == cpu.labels[i * cpu.f..(i + 1) * cpu.f]
+            })
+            .count();
+        let centroids_same =
+            same_k && (0..cpu.k()).all(|j| gc[j].position[..3] == cpu.positions[j].to_array());
         println!(
             "cluster end to end (K = {k}, F = {f}, {fuzzy:?}, {metric:?}, {representative:?}): clusters CPU {} / GPU {}; label rows identical {labels_same}/{m}; centroids bit-identical: {centroids_same}; representatives identical: {}",
             cpu.k(),
@@ -255,11 +326,14 @@ fn cluster_bounds_and_outcome_counts_are_exact() {
     let Some(ctx) = vplgi_tests::gpu("cluster_bounds_and_outcome_counts_are_exact") else {
         return;
     };
-    let small = vplgi_gpu::GpuContext::with_limits(Some(64 * 1024), None).expect("a device with small bindings");
+    let small = vplgi_gpu::GpuContext::with_limits(Some(64 * 1024), None)
+        .expect("a device with small bindings");
     let run = vplgi_gpu::shader::REDUCE_ITEMS as usize;
     let n = 40 * run + 37;
     let mut rng = vplgi_types::Rng::new(11, vplgi_types::Stream::Oracle, 0);
-    let mut ps: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0).collect();
+    let mut ps: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0)
+        .collect();
     // The extremes: -x at the end of a run, +x at the start of one, -y and +z at the very end
     // and beginning, +y and -z in the middle of runs.
     ps[run - 1].x = -5.0;
@@ -277,7 +351,9 @@ fn cluster_bounds_and_outcome_counts_are_exact() {
         println!("bounds: GPU {lo} .. {hi}, CPU {:?}", bounds(&ps));
         assert_eq!((lo, hi), bounds(&ps));
         assert_eq!((lo, hi), (Vec3::new(-5.0, -3.0, -7.0), Vec3::new(4.0, 2.5, 6.0)));
-        let counts = kernel.outcome_counts(&c.device, &c.queue, &storage(&c.device, "outcome", &outcome), n as u32).unwrap();
+        let counts = kernel
+            .outcome_counts(&c.device, &c.queue, &storage(&c.device, "outcome", &outcome), n as u32)
+            .unwrap();
         println!("outcome counts: GPU {counts:?}, CPU {want:?}");
         assert_eq!(counts, want);
     }
@@ -296,15 +372,25 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
     let vpls: Vec<vplgi_types::Vpl> = (0..n * n)
         .map(|t| {
             let (i, j) = ((t % n) as f32 / n as f32, (t / n) as f32 / n as f32);
-            let (position, normal) = if t % n < n / 2 { ([i, 0.0, j], [0.0, 1.0, 0.0]) } else { ([0.5, i - 0.5, j], [-1.0, 0.0, 0.0]) };
+            let (position, normal) = if t % n < n / 2 {
+                ([i, 0.0, j], [0.0, 1.0, 0.0])
+            } else {
+                ([0.5, i - 0.5, j], [-1.0, 0.0, 0.0])
+            };
             vplgi_types::Vpl { position, path: t, normal, bounce: 1, flux: [1e-3; 3], _pad: 0 }
         })
         .collect();
     let map = RsmLight { size: n, ..point(Vec3::ZERO, Vec3::ONE) };
     let importance: Vec<f32> = (0..n * n).map(|t| if t % n < 6 { 1.0 } else { 0.0 }).collect();
-    let params = RsmClusterParams { k: 36, iterations: 0, weights: RsmWeights::default(), extent: 3f32.sqrt() };
+    let params = RsmClusterParams {
+        k: 36,
+        iterations: 0,
+        weights: RsmWeights::default(),
+        extent: 3f32.sqrt(),
+    };
     let c = vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &[map], &params, Some(&importance));
-    let far: std::collections::BTreeSet<u32> = (0..vpls.len()).filter(|&t| t as u32 % n >= 24).map(|t| c.hard_label(t)).collect();
+    let far: std::collections::BTreeSet<u32> =
+        (0..vpls.len()).filter(|&t| t as u32 % n >= 24).map(|t| c.hard_label(t)).collect();
     println!("the wall's far VPLs (no cluster within 2 cells) are in {} clusters", far.len());
     assert!(far.len() >= 4, "the far VPLs share {} clusters", far.len());
 }
@@ -314,9 +400,17 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
 fn rsm_row(positions: &[[f32; 3]], flux: &[[f32; 3]], k: u32) -> vplgi_cpu::cluster::Clustering {
     use vplgi_shared::rsm::{point, RsmClusterParams, RsmLight, RsmWeights};
     let vpls: Vec<vplgi_types::Vpl> = (0..positions.len())
-        .map(|t| vplgi_types::Vpl { position: positions[t], path: t as u32, normal: [0.0, 1.0, 0.0], bounce: 1, flux: flux[t], _pad: 0 })
+        .map(|t| vplgi_types::Vpl {
+            position: positions[t],
+            path: t as u32,
+            normal: [0.0, 1.0, 0.0],
+            bounce: 1,
+            flux: flux[t],
+            _pad: 0,
+        })
         .collect();
-    let map = RsmLight { size: positions.len() as u32, ..point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE) };
+    let map =
+        RsmLight { size: positions.len() as u32, ..point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE) };
     let params = RsmClusterParams { k, iterations: 0, weights: RsmWeights::default(), extent: 4.0 };
     vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &[map], &params, None)
 }
@@ -341,7 +435,11 @@ fn rsm_clusters_without_flux_keep_a_finite_centre() {
     println!("centre {:?}, representative {:?}", c.positions, c.representatives);
     assert_eq!(c.k(), 1);
     assert!(c.positions[0].is_finite(), "centre {:?}", c.positions[0]);
-    assert!([0.0, 1.0, 2.0].contains(&c.positions[0].x), "the centre {:?} is not a member's position", c.positions[0]);
+    assert!(
+        [0.0, 1.0, 2.0].contains(&c.positions[0].x),
+        "the centre {:?} is not a member's position",
+        c.positions[0]
+    );
 }
 
 /// Without VPLs or with K = 0 the clustering is empty but still hard: `f` is the stride of its
@@ -398,7 +496,9 @@ proptest! {
 /// normals +z, in a scrambled order: few distinct cells, so the grid shrinks to its bound.
 fn degenerate_points(n: usize, distinct: usize, shape: Vec3, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut rng = vplgi_types::Rng::new(seed, vplgi_types::Stream::Oracle, 0);
-    let spots: Vec<Vec3> = (0..distinct).map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0 * shape).collect();
+    let spots: Vec<Vec3> = (0..distinct)
+        .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0 * shape)
+        .collect();
     let ps: Vec<Vec3> = (0..n).map(|_| spots[rng.next_u32() as usize % distinct]).collect();
     (ps, vec![Vec3::Z; n])
 }
@@ -409,7 +509,9 @@ fn degenerate_points(n: usize, distinct: usize, shape: Vec3, seed: u32) -> (Vec<
 /// agrees on both backends (SPEC: cluster count, label rows), for Eq. 7 and Eq. 2.
 #[test]
 fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
-    let Some(gpu) = vplgi_tests::shared_gpu("degenerate_point_sets_get_bounded_grids_and_the_same_clusters") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("degenerate_point_sets_get_bounded_grids_and_the_same_clusters")
+    else {
         return;
     };
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
@@ -424,10 +526,19 @@ fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
         let grid = Grid::for_data(bounds(&ps), &ps, k);
         let cells: f64 = grid.dims.iter().map(|&d| d as f64).product();
         println!("{name}: grid {:?} ({cells} cells)", grid.dims);
-        assert!(cells <= 1.1 * vplgi_types::clustering::MAX_CELLS, "{name}: {:?} is {cells} cells", grid.dims);
+        assert!(
+            cells <= 1.1 * vplgi_types::clustering::MAX_CELLS,
+            "{name}: {:?} is {cells} cells",
+            grid.dims
+        );
         for a in 0..3 {
             if shape[a] < 1e-3 {
-                assert!(grid.dims[a] <= 2, "{name}: axis {a} of extent {} gets {} cells", 10.0 * shape[a], grid.dims[a]);
+                assert!(
+                    grid.dims[a] <= 2,
+                    "{name}: axis {a} of extent {} gets {} cells",
+                    10.0 * shape[a],
+                    grid.dims[a]
+                );
             }
         }
         for metric in [Metric::Eq7 { normal_threshold: 0.866 }, Metric::Ward { alpha: 0.03 }] {
@@ -441,8 +552,15 @@ fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
                 representative: Representative::Nearest,
                 seed: 5,
             };
-            let checks =
-                vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
+            let checks = vplgi_verify::cluster::compare_clustering(
+                device,
+                queue,
+                kernel,
+                (&ps, &ns),
+                &params,
+                vplgi_types::clustering::ClusterStart::Stride,
+            )
+            .unwrap();
             vplgi_tests::check_all(&format!("{name}, {metric:?}: "), &checks);
         }
     }
@@ -454,7 +572,9 @@ fn degenerate_point_sets_get_bounded_grids_and_the_same_clusters() {
 /// lavapipe's loop limiter must not end either search early.
 #[test]
 fn a_hundred_thousand_centroids_in_one_cell_are_all_searched() {
-    let Some(gpu) = vplgi_tests::shared_gpu("a_hundred_thousand_centroids_in_one_cell_are_all_searched") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("a_hundred_thousand_centroids_in_one_cell_are_all_searched")
+    else {
         return;
     };
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
@@ -466,7 +586,11 @@ fn a_hundred_thousand_centroids_in_one_cell_are_all_searched() {
     let grid = Grid::for_data(bounds(&ps), &ps, cp.len()).fill(&cp, &cn);
     assert!(grid.cell > 1e-3, "the centroids must share a cell: {}", grid.cell);
     for rule in [
-        AssignRule { metric: Metric::Eq7 { normal_threshold: 0.866 }, f: 1, fuzzy: FuzzyMode::Hard },
+        AssignRule {
+            metric: Metric::Eq7 { normal_threshold: 0.866 },
+            f: 1,
+            fuzzy: FuzzyMode::Hard,
+        },
         AssignRule { metric: Metric::Ward { alpha: 0.03 }, f: 6, fuzzy: FuzzyMode::Weighted },
     ] {
         let checks = compare_assign(device, queue, kernel, (&ps, &ns), (&cp, &cn), rule).unwrap();
@@ -478,7 +602,9 @@ fn a_hundred_thousand_centroids_in_one_cell_are_all_searched() {
 /// whole on both backends: the SPEC's cluster count and label rows.
 #[test]
 fn a_hundred_thousand_shading_point_clusters_match_the_cpu() {
-    let Some(gpu) = vplgi_tests::shared_gpu("a_hundred_thousand_shading_point_clusters_match_the_cpu") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("a_hundred_thousand_shading_point_clusters_match_the_cpu")
+    else {
         return;
     };
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
@@ -494,7 +620,15 @@ fn a_hundred_thousand_shading_point_clusters_match_the_cpu() {
         seed: 7,
     };
     println!("{} points, K = {}", ps.len(), params.k);
-    let checks = vplgi_verify::cluster::compare_clustering(device, queue, kernel, (&ps, &ns), &params, vplgi_types::clustering::ClusterStart::Stride).unwrap();
+    let checks = vplgi_verify::cluster::compare_clustering(
+        device,
+        queue,
+        kernel,
+        (&ps, &ns),
+        &params,
+        vplgi_types::clustering::ClusterStart::Stride,
+    )
+    .unwrap();
     vplgi_tests::check_all("", &checks);
 }
 
@@ -503,7 +637,9 @@ fn a_hundred_thousand_shading_point_clusters_match_the_cpu() {
 /// backends (SPEC: assignment and update rows), cold and warm.
 #[test]
 fn two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu() {
-    let Some(gpu) = vplgi_tests::shared_gpu("two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("two_hundred_thousand_rsm_vpls_in_two_clusters_match_the_cpu")
+    else {
         return;
     };
     let cfg = vplgi_types::FrameConfig {

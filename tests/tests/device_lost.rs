@@ -31,7 +31,15 @@ impl Progress for LoseDeviceAt {
 #[test]
 fn a_device_lost_mid_frame_is_a_clear_error() {
     let scene = cornell_box();
-    let cfg = FrameConfig { width: 48, height: 40, vpls: 600, k_sp: 120, k_vpl: 60, cluster: ClusterMode::Both, ..FrameConfig::default() };
+    let cfg = FrameConfig {
+        width: 48,
+        height: 40,
+        vpls: 600,
+        k_sp: 120,
+        k_vpl: 60,
+        cluster: ClusterMode::Both,
+        ..FrameConfig::default()
+    };
     // The driver announces these stages; the device is lost as each one starts, in turn.
     for stage in ["shading_points", "cluster", "shade"] {
         let Some(ctx) = vplgi_tests::gpu("a_device_lost_mid_frame_is_a_clear_error") else {
@@ -39,7 +47,8 @@ fn a_device_lost_mid_frame_is_a_clear_error() {
         };
         let kernels = GpuKernels::new(&ctx.device).unwrap();
         let backend = GpuBackend::new(&ctx.device, &ctx.queue, &kernels, &scene).unwrap();
-        let trigger = LoseDeviceAt { device: ctx.device.clone(), stage, pulled: AtomicBool::new(false) };
+        let trigger =
+            LoseDeviceAt { device: ctx.device.clone(), stage, pulled: AtomicBool::new(false) };
         let start = Instant::now();
         let result = vplgi_frame::render(&backend, &cfg, &trigger);
         let took = start.elapsed();
@@ -49,7 +58,10 @@ fn a_device_lost_mid_frame_is_a_clear_error() {
             Err(e) => e.to_string(),
         };
         println!("device lost at the start of {stage}: error after {took:.2?}: {message}");
-        assert!(message.contains("device lost"), "device lost at {stage}: the error does not say so: {message}");
+        assert!(
+            message.contains("device lost"),
+            "device lost at {stage}: the error does not say so: {message}"
+        );
         assert!(took < Duration::from_secs(60), "device lost at {stage}: the error took {took:?}");
     }
 }

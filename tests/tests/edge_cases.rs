@@ -4,7 +4,8 @@ use vplgi_cpu::{CpuScene, NoProgress};
 use vplgi_scene::cornell::cornell_box;
 use vplgi_types::{ClusterMode, FrameConfig, FuzzyMode};
 
-const MODES: [ClusterMode; 4] = [ClusterMode::None, ClusterMode::Sp, ClusterMode::Vpl, ClusterMode::Both];
+const MODES: [ClusterMode; 4] =
+    [ClusterMode::None, ClusterMode::Sp, ClusterMode::Vpl, ClusterMode::Both];
 
 /// With 0 VPLs every mode renders exactly the direct-only image.
 #[test]
@@ -12,11 +13,19 @@ fn zero_vpls_gives_direct_light_only_in_every_mode() {
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let base = FrameConfig { width: 20, height: 20, vpls: 0, k_sp: 50, k_vpl: 10, ..FrameConfig::reference() };
+    let base = FrameConfig {
+        width: 20,
+        height: 20,
+        vpls: 0,
+        k_sp: 50,
+        k_vpl: 10,
+        ..FrameConfig::reference()
+    };
     let reference = vplgi_cpu::render(&cs, &base, &NoProgress).unwrap();
     assert!(reference.pixels.iter().any(|p| p[0] > 0.0), "direct light must be visible");
     for mode in MODES {
-        let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: mode, ..base.clone() }, &NoProgress).unwrap();
+        let f = vplgi_cpu::render(&cs, &FrameConfig { cluster: mode, ..base.clone() }, &NoProgress)
+            .unwrap();
         assert_eq!(f.pixels, reference.pixels, "{mode:?}");
         assert_eq!(f.stats.vpl_clusters, 0);
     }
@@ -30,9 +39,22 @@ fn extreme_cluster_counts() {
     let cs = CpuScene::new(&scene, &device).unwrap();
     for (k_sp, k_vpl, f) in [(1, 1, 6), (10_000, 10_000, 16), (3, 500, 16)] {
         for fuzzy in [FuzzyMode::Hard, FuzzyMode::Average, FuzzyMode::Weighted] {
-            let cfg = FrameConfig { width: 16, height: 16, vpls: 300, k_sp, k_vpl, f, fuzzy, cluster: ClusterMode::Both, ..FrameConfig::reference() };
+            let cfg = FrameConfig {
+                width: 16,
+                height: 16,
+                vpls: 300,
+                k_sp,
+                k_vpl,
+                f,
+                fuzzy,
+                cluster: ClusterMode::Both,
+                ..FrameConfig::reference()
+            };
             let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
-            assert!(frame.stats.sp_clusters >= 1 && frame.stats.sp_clusters <= frame.stats.shading_point_hits.min(k_sp));
+            assert!(
+                frame.stats.sp_clusters >= 1
+                    && frame.stats.sp_clusters <= frame.stats.shading_point_hits.min(k_sp)
+            );
             assert!(frame.stats.vpl_clusters >= 1 && frame.stats.vpl_clusters <= 300.min(k_vpl));
             assert!(frame.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
         }
@@ -46,9 +68,27 @@ fn one_cluster_per_point_reproduces_the_reference() {
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let base = FrameConfig { width: 12, height: 12, vpls: 200, k_sp: 1_000_000, k_vpl: 1_000_000, fuzzy: FuzzyMode::Hard, ..FrameConfig::reference() };
-    let reference = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::None, ..base.clone() }, &NoProgress).unwrap();
-    let vpl_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Vpl, ..base.clone() }, &NoProgress).unwrap();
+    let base = FrameConfig {
+        width: 12,
+        height: 12,
+        vpls: 200,
+        k_sp: 1_000_000,
+        k_vpl: 1_000_000,
+        fuzzy: FuzzyMode::Hard,
+        ..FrameConfig::reference()
+    };
+    let reference = vplgi_cpu::render(
+        &cs,
+        &FrameConfig { cluster: ClusterMode::None, ..base.clone() },
+        &NoProgress,
+    )
+    .unwrap();
+    let vpl_only = vplgi_cpu::render(
+        &cs,
+        &FrameConfig { cluster: ClusterMode::Vpl, ..base.clone() },
+        &NoProgress,
+    )
+    .unwrap();
     // VPL clusters sum their members' flux in a different order than the per-VPL loop, so allow
     // rounding, but nothing more.
     for (a, b) in reference.pixels.iter().zip(&vpl_only.pixels) {
@@ -56,7 +96,12 @@ fn one_cluster_per_point_reproduces_the_reference() {
             assert!((a[c] - b[c]).abs() <= 1e-5 * a[c].max(1e-3), "{a:?} vs {b:?}");
         }
     }
-    let sp_only = vplgi_cpu::render(&cs, &FrameConfig { cluster: ClusterMode::Sp, ..base.clone() }, &NoProgress).unwrap();
+    let sp_only = vplgi_cpu::render(
+        &cs,
+        &FrameConfig { cluster: ClusterMode::Sp, ..base.clone() },
+        &NoProgress,
+    )
+    .unwrap();
     assert_eq!(sp_only.pixels, reference.pixels);
 }
 
@@ -66,7 +111,9 @@ fn render_rejects_invalid_configurations() {
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let err = vplgi_cpu::render(&cs, &FrameConfig { spp: 0, ..FrameConfig::default() }, &NoProgress).unwrap_err();
+    let err =
+        vplgi_cpu::render(&cs, &FrameConfig { spp: 0, ..FrameConfig::default() }, &NoProgress)
+            .unwrap_err();
     assert!(err.to_string().contains("spp"), "{err}");
 }
 
@@ -90,17 +137,26 @@ fn row_tiles_of_a_reference_equal_the_whole_frame() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).unwrap();
     for spp in [1, 3] {
-        let cfg = vplgi_types::FrameConfig { width: 24, height: 18, spp, vpls: 300, cluster: vplgi_types::ClusterMode::None, ..Default::default() };
+        let cfg = vplgi_types::FrameConfig {
+            width: 24,
+            height: 18,
+            spp,
+            vpls: 300,
+            cluster: vplgi_types::ClusterMode::None,
+            ..Default::default()
+        };
         let whole = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
         let mut tiled = Vec::new();
         for rows in [0..7, 7..8, 8..18] {
-            let t = vplgi_cpu::render_rows(&cs, &cfg, rows.clone(), &vplgi_cpu::NoProgress).unwrap();
+            let t =
+                vplgi_cpu::render_rows(&cs, &cfg, rows.clone(), &vplgi_cpu::NoProgress).unwrap();
             assert_eq!((t.width, t.height), (24, rows.end - rows.start));
             tiled.extend(t.pixels);
         }
         assert_eq!(tiled, whole.pixels, "spp {spp}: tiles differ from the whole frame");
     }
-    let clustered = vplgi_types::FrameConfig { width: 24, height: 18, vpls: 300, ..Default::default() };
+    let clustered =
+        vplgi_types::FrameConfig { width: 24, height: 18, vpls: 300, ..Default::default() };
     assert!(vplgi_cpu::render_rows(&cs, &clustered, 0..9, &vplgi_cpu::NoProgress).is_err());
 }
 

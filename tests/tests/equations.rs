@@ -26,13 +26,23 @@ fn eq7(nt: f32) -> Metric {
 /// A point at the origin facing up, and five centroids on the +x axis: at distances 1, 2 and 4
 /// facing up, one at 0.5 with normal `tilted`, and one at 8 facing up.
 fn hand_checked_assignment(tilted: Vec3) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
-    let centroids = vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0), Vec3::new(8.0, 0.0, 0.0)];
+    let centroids = vec![
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(4.0, 0.0, 0.0),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(8.0, 0.0, 0.0),
+    ];
     let normals = vec![Vec3::Y, Vec3::Y, Vec3::Y, tilted, Vec3::Y];
     (vec![Vec3::ZERO], vec![Vec3::Y], centroids, normals)
 }
 
 /// Both backends' labels and weights for the point of [`hand_checked_assignment`] with F = 3.
-fn assign_both(fuzzy: FuzzyMode, tilted: Vec3, metric: Metric) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
+fn assign_both(
+    fuzzy: FuzzyMode,
+    tilted: Vec3,
+    metric: Metric,
+) -> Option<[(Vec<u32>, Vec<f32>); 2]> {
     let gpu = vplgi_tests::shared_gpu("equations: assignment")?;
     let (ps, ns, cs, cn) = hand_checked_assignment(tilted);
     let rule = AssignRule { metric, f: 3, fuzzy };
@@ -41,11 +51,27 @@ fn assign_both(fuzzy: FuzzyMode, tilted: Vec3, metric: Metric) -> Option<[(Vec<u
     let grid = Grid::for_data(bounds(&all), &all, cs.len()).fill(&cs, &cn);
     let cpu = vplgi_verify::cluster::cpu_assign(&grid, (&ps, &ns), rule);
     let (device, queue, kernel) = (&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels.cluster);
-    let ends = |p: &[Vec3], n: &[Vec3]| -> Vec<Endpoint> { p.iter().zip(n).map(|(&p, &n)| Endpoint::new(p, n)).collect() };
-    let (pts, cents) = (storage(device, "points", &ends(&ps, &ns)), storage(device, "centroids", &ends(&cs, &cn)));
-    let g = kernel.fill_grid(device, queue, &GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims }, &cents, cs.len() as u32).expect("grid");
-    let a = kernel.assign(device, queue, &g, (&pts, 1), (&cents, cs.len() as u32), rule).expect("assign");
-    let gpu_result = (read_back(device, queue, &a.labels, 3).expect("labels"), read_back(device, queue, &a.weights, 3).expect("weights"));
+    let ends = |p: &[Vec3], n: &[Vec3]| -> Vec<Endpoint> {
+        p.iter().zip(n).map(|(&p, &n)| Endpoint::new(p, n)).collect()
+    };
+    let (pts, cents) =
+        (storage(device, "points", &ends(&ps, &ns)), storage(device, "centroids", &ends(&cs, &cn)));
+    let g = kernel
+        .fill_grid(
+            device,
+            queue,
+            &GridGeometry { origin: grid.origin, cell: grid.cell, dims: grid.dims },
+            &cents,
+            cs.len() as u32,
+        )
+        .expect("grid");
+    let a = kernel
+        .assign(device, queue, &g, (&pts, 1), (&cents, cs.len() as u32), rule)
+        .expect("assign");
+    let gpu_result = (
+        read_back(device, queue, &a.labels, 3).expect("labels"),
+        read_back(device, queue, &a.weights, 3).expect("weights"),
+    );
     Some([cpu, gpu_result])
 }
 
@@ -64,9 +90,16 @@ fn eq_7_and_eq_10_on_a_hand_checked_point() {
     let Some(both) = assign_both(FuzzyMode::Weighted, tilted_60(), eq7(N_T)) else { return };
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
-        assert_eq!(labels, [0, 1, 2], "{name}: Eq. 7 picks the three compatible centroids, nearest first");
+        assert_eq!(
+            labels,
+            [0, 1, 2],
+            "{name}: Eq. 7 picks the three compatible centroids, nearest first"
+        );
         for (w, expected) in weights.iter().zip([4.0 / 7.0, 2.0 / 7.0, 1.0 / 7.0f32]) {
-            assert!((w - expected).abs() <= 1e-6, "{name}: Eq. 10 weights {weights:?}, expected (4/7, 2/7, 1/7)");
+            assert!(
+                (w - expected).abs() <= 1e-6,
+                "{name}: Eq. 10 weights {weights:?}, expected (4/7, 2/7, 1/7)"
+            );
         }
     }
 }
@@ -97,7 +130,11 @@ fn eq_7_is_strict_at_the_threshold() {
 #[test]
 fn eq_2_of_wang_et_al_on_a_hand_checked_point() {
     let alpha = 0.4f64;
-    let Some(both) = assign_both(FuzzyMode::Weighted, Vec3::new(0.6, 0.8, 0.0), Metric::Ward { alpha: alpha as f32 }) else {
+    let Some(both) = assign_both(
+        FuzzyMode::Weighted,
+        Vec3::new(0.6, 0.8, 0.0),
+        Metric::Ward { alpha: alpha as f32 },
+    ) else {
         return;
     };
     let errors = [alpha, 2.0 * alpha, 0.5 * alpha + (2.0f64 - 2.0 * 0.8).sqrt()];
@@ -119,7 +156,10 @@ fn eq_8_on_a_hand_checked_point() {
     for (name, (labels, weights)) in ["CPU", "GPU"].iter().zip(both) {
         println!("{name}: labels {labels:?}, weights {weights:?}");
         assert_eq!(labels, [0, 1, 2], "{name}");
-        assert!(weights.iter().all(|w| (w - 1.0 / 3.0).abs() <= 1e-6), "{name}: Eq. 8 weights {weights:?}, expected 1/3 each");
+        assert!(
+            weights.iter().all(|w| (w - 1.0 / 3.0).abs() <= 1e-6),
+            "{name}: Eq. 8 weights {weights:?}, expected 1/3 each"
+        );
     }
 }
 
@@ -136,7 +176,10 @@ fn one_light_on_both_backends(
     (matrix, row_of, labels, weights, f): (&BitMatrix, &[u32], &[u32], &[f32], u32),
     g_max: f32,
 ) -> (Vec<Vec3>, Vec<Vec3>) {
-    let set = vplgi_cpu::shade::VplLights { lights: vec![light], outlines: outline.into_iter().collect() };
+    let set = vplgi_cpu::shade::VplLights {
+        lights: vec![light],
+        outlines: outline.into_iter().collect(),
+    };
     let lights = LightArrays::new(&set);
     let vis = VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f: f as usize };
     let cpu = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
@@ -147,7 +190,11 @@ fn one_light_on_both_backends(
         let (device, queue) = (t.device(), t.queue());
         let (sb, rb) = (storage(device, "sps", sps), storage(device, "row_of", row_of));
         let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
-        let (lb, wb, lights) = (storage(device, "labels", labels), storage(device, "weights", weights), storage(device, "lights", &[light]));
+        let (lb, wb, lights) = (
+            storage(device, "labels", labels),
+            storage(device, "weights", weights),
+            storage(device, "lights", &[light]),
+        );
         let outline_buf = outline.map(|o| storage(device, "light outlines", &[o]));
         let inputs = ShadeInputs {
             sps: &sb,
@@ -159,10 +206,20 @@ fn one_light_on_both_backends(
             outlines: outline_buf.as_ref(),
             light_count: 1,
             exact_shapes: light.exact != 0,
-            visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window: vplgi_gpu::buffers::Window { first: 0, count: n as u64 } },
+            visibility: Visibility::Fuzzy {
+                labels: &lb,
+                weights: &wb,
+                f,
+                window: vplgi_gpu::buffers::Window { first: 0, count: n as u64 },
+            },
         };
         let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max, direct: true };
-        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..n as u32, &params).expect("shade");
+        let out = t
+            .gpu
+            .kernels()
+            .shade
+            .run(device, queue, t.gpu.scene(), &inputs, 0..n as u32, &params)
+            .expect("shade");
         read_back::<[f32; 4]>(device, queue, &out, n).expect("read back")
     });
     (cpu, gpu_pixels.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect())
@@ -180,7 +237,8 @@ fn one_light_on_both_backends(
 /// π d²); no clamp applies.
 #[test]
 fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
-    let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("eq_6_eq_9_and_the_clamp_on_hand_checked_points")
+    else {
         return;
     };
     let (h, rho) = (0.8f32, 0.5f32);
@@ -190,7 +248,13 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     let sps: Vec<ShadingPoint> = rs
         .iter()
         .enumerate()
-        .map(|(i, &r)| ShadingPoint { position: [r, 0.0, 0.0], normal: [0.0, 1.0, 0.0], albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .map(|(i, &r)| ShadingPoint {
+            position: [r, 0.0, 0.0],
+            normal: [0.0, 1.0, 0.0],
+            albedo: [rho; 3],
+            pixel: i as u32,
+            ..Default::default()
+        })
         .collect();
     // Three shading-point clusters; the light is visible from the first and third.
     let mut matrix = BitMatrix::new(3, 1);
@@ -201,7 +265,9 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
     let row_of: Vec<u32> = (0..rs.len() as u32).collect();
     let radius = 0.6f32;
     let disk = VplLight { radius2: radius * radius, ..point };
-    for (light, g_max) in [(point, f32::INFINITY), (point, 1.0 / (4.0 * h * h)), (disk, 1.0 / (4.0 * h * h))] {
+    for (light, g_max) in
+        [(point, f32::INFINITY), (point, 1.0 / (4.0 * h * h)), (disk, 1.0 / (4.0 * h * h))]
+    {
         let expected: Vec<Vec3> = rs
             .iter()
             .map(|&r| {
@@ -210,16 +276,39 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
                     return flux * (rho / PI) * ((h * h / d2) / d2).min(g_max) * 0.7 / PI;
                 }
                 let area = PI * radius * radius;
-                let form_factor = if r == 0.0 { radius * radius / (radius * radius + h * h) } else { area * (h * h / d2) / (area + PI * d2) };
+                let form_factor = if r == 0.0 {
+                    radius * radius / (radius * radius + h * h)
+                } else {
+                    area * (h * h / d2) / (area + PI * d2)
+                };
                 (rho / PI) * flux / area * form_factor * 0.7
             })
             .collect();
-        let (cpu, gpu_pixels) = one_light_on_both_backends(gpu, &sps, light, None, (&matrix, &row_of, &labels, &weights, 3), g_max);
+        let (cpu, gpu_pixels) = one_light_on_both_backends(
+            gpu,
+            &sps,
+            light,
+            None,
+            (&matrix, &row_of, &labels, &weights, 3),
+            g_max,
+        );
         for (i, e) in expected.iter().enumerate() {
             let g = gpu_pixels[i];
-            println!("R² {}, g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}", light.radius2, rs[i], cpu[i]);
-            assert!((cpu[i] - *e).abs().max_element() <= 1e-6 * e.max_element(), "CPU: r = {}: {} vs {e}", rs[i], cpu[i]);
-            assert!((g - *e).abs().max_element() <= 1e-6 * e.max_element(), "GPU: r = {}: {g} vs {e}", rs[i]);
+            println!(
+                "R² {}, g_max {g_max}, r = {}: expected {e}, CPU {}, GPU {g}",
+                light.radius2, rs[i], cpu[i]
+            );
+            assert!(
+                (cpu[i] - *e).abs().max_element() <= 1e-6 * e.max_element(),
+                "CPU: r = {}: {} vs {e}",
+                rs[i],
+                cpu[i]
+            );
+            assert!(
+                (g - *e).abs().max_element() <= 1e-6 * e.max_element(),
+                "GPU: r = {}: {g} vs {e}",
+                rs[i]
+            );
         }
     }
 }
@@ -227,14 +316,23 @@ fn eq_6_eq_9_and_the_clamp_on_hand_checked_points() {
 /// ∫_disk cos θ_p cos θ_z / (π d²) dA for the disk of radius `r` at `centre` facing `normal`, seen
 /// from `p` with normal `np`, the part below p's horizon left out: the midpoint rule in polar
 /// coordinates, in double precision (the independent side of the exact disk's test).
-fn disk_form_factor_by_quadrature(p: [f64; 3], np: [f64; 3], centre: [f64; 3], normal: [f64; 3], r: f64) -> f64 {
+fn disk_form_factor_by_quadrature(
+    p: [f64; 3],
+    np: [f64; 3],
+    centre: [f64; 3],
+    normal: [f64; 3],
+    r: f64,
+) -> f64 {
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    };
     let unit = |a: [f64; 3]| {
         let l = dot(a, a).sqrt();
         [a[0] / l, a[1] / l, a[2] / l]
     };
-    let e1 = unit(cross(normal, if normal[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] }));
+    let e1 =
+        unit(cross(normal, if normal[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] }));
     let e2 = cross(normal, e1);
     let (nr, nphi) = (1000, 2000);
     let mut sum = 0.0;
@@ -260,12 +358,18 @@ fn disk_form_factor_by_quadrature(p: [f64; 3], np: [f64; 3], centre: [f64; 3], n
 /// the disk (as in a room's corners), and tilted.
 #[test]
 fn exact_disk_lights_give_the_form_factor_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("exact_disk_lights_give_the_form_factor_on_both_backends")
+    else {
         return;
     };
     let (radius, rho) = (0.6f32, 0.5f32);
     let flux = Vec3::new(2.0, 1.0, 0.5);
-    let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux) };
+    let light = VplLight {
+        radius2: radius * radius,
+        exact: vplgi_types::pod::EXACT_DISK,
+        ..VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, flux)
+    };
     let receivers: [([f32; 3], [f32; 3]); 7] = [
         ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
         ([0.5, 0.2, 0.3], [0.0, 1.0, 0.0]),
@@ -275,8 +379,15 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
         ([-0.2, 0.5, 0.4], [0.577_350_3, 0.577_350_3, -0.577_350_3]),
         ([0.1, 0.05, -0.2], [0.282_216_3, 0.940_720_9, -0.188_144_2]),
     ];
-    let form_factor =
-        |p: glam::DVec3, n: glam::DVec3| disk_form_factor_by_quadrature(p.to_array(), n.to_array(), [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], radius as f64);
+    let form_factor = |p: glam::DVec3, n: glam::DVec3| {
+        disk_form_factor_by_quadrature(
+            p.to_array(),
+            n.to_array(),
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            radius as f64,
+        )
+    };
     area_light_matches_quadrature(gpu, light, None, rho, &receivers, form_factor);
 }
 
@@ -285,20 +396,38 @@ fn exact_disk_lights_give_the_form_factor_on_both_backends() {
 /// the normal as much as in the disk's plane; a frame built on it gave 13 % too much light.
 #[test]
 fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends")
+    else {
         return;
     };
     let (radius, rho) = (0.6f32, 0.5f32);
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
-    let light = VplLight { radius2: radius * radius, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    let light = VplLight {
+        radius2: radius * radius,
+        exact: vplgi_types::pod::EXACT_DISK,
+        ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5))
+    };
     let t = normal.cross(Vec3::X).normalize();
     let b = normal.cross(t);
-    let receivers: Vec<([f32; 3], [f32; 3])> = [(0.5f32, 0.0f32, 1.0f32), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5)]
-        .iter()
-        .map(|&(h, off, tilt)| ((centre + normal * h + b * (off * h)).to_array(), (-normal + t * tilt).normalize().to_array()))
-        .collect();
+    let receivers: Vec<([f32; 3], [f32; 3])> =
+        [(0.5f32, 0.0f32, 1.0f32), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5)]
+            .iter()
+            .map(|&(h, off, tilt)| {
+                (
+                    (centre + normal * h + b * (off * h)).to_array(),
+                    (-normal + t * tilt).normalize().to_array(),
+                )
+            })
+            .collect();
     let form_factor = |p: glam::DVec3, n: glam::DVec3| {
-        disk_form_factor_by_quadrature(p.to_array(), n.to_array(), centre.as_dvec3().to_array(), normal.as_dvec3().to_array(), radius as f64)
+        disk_form_factor_by_quadrature(
+            p.to_array(),
+            n.to_array(),
+            centre.as_dvec3().to_array(),
+            normal.as_dvec3().to_array(),
+            radius as f64,
+        )
     };
     area_light_matches_quadrature(gpu, light, None, rho, &receivers, form_factor);
 }
@@ -311,11 +440,16 @@ fn exact_disk_lights_are_right_on_a_tilted_axis_on_both_backends() {
 /// into wholly above the horizon, cut by it, or below it before the exact form.)
 #[test]
 fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends") else {
+    let Some(gpu) = vplgi_tests::shared_gpu(
+        "exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends",
+    ) else {
         return;
     };
-    let disk =
-        |centre: Vec3, normal: Vec3| VplLight { radius2: 0.36, exact: vplgi_types::pod::EXACT_DISK, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    let disk = |centre: Vec3, normal: Vec3| VplLight {
+        radius2: 0.36,
+        exact: vplgi_types::pod::EXACT_DISK,
+        ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5))
+    };
     let (centre, normal) = (Vec3::new(0.25, 1.0, 0.125), Vec3::new(0.3, -0.8, 0.2).normalize());
     let t = normal.cross(Vec3::X).normalize();
     let at = |h: f32, off: f32| centre + normal * h + t * off;
@@ -329,17 +463,33 @@ fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
     ];
     // A disk facing down from y = 1: h is exactly 0 in f32 for a receiver at y = 1.
     let level_centre = Vec3::new(0.25, 1.0, 0.125);
-    let level = [(level_centre + Vec3::new(0.1, 0.0, 0.05), Vec3::Y, false), (level_centre - Vec3::Y * 0.5, Vec3::Y, true)];
-    for (light, cases) in [(disk(centre, normal), &tilted[..]), (disk(level_centre, -Vec3::Y), &level[..])] {
-        let receivers: Vec<([f32; 3], [f32; 3])> = cases.iter().map(|&(p, n, _)| (p.to_array(), n.to_array())).collect();
+    let level = [
+        (level_centre + Vec3::new(0.1, 0.0, 0.05), Vec3::Y, false),
+        (level_centre - Vec3::Y * 0.5, Vec3::Y, true),
+    ];
+    for (light, cases) in
+        [(disk(centre, normal), &tilted[..]), (disk(level_centre, -Vec3::Y), &level[..])]
+    {
+        let receivers: Vec<([f32; 3], [f32; 3])> =
+            cases.iter().map(|&(p, n, _)| (p.to_array(), n.to_array())).collect();
         let (cpu, gpu_pixels) = receivers_of_one_visible_light(gpu, light, None, 0.5, &receivers);
         for (i, &(p, _, lit)) in cases.iter().enumerate() {
             let h = Vec3::from(light.normal).dot(p - Vec3::from(light.position));
-            println!("receiver at {p} (height {h:.3} over the disk): CPU {}, GPU {}", cpu[i], gpu_pixels[i]);
+            println!(
+                "receiver at {p} (height {h:.3} over the disk): CPU {}, GPU {}",
+                cpu[i], gpu_pixels[i]
+            );
             if lit {
-                assert!(cpu[i].min_element() > 0.0 && gpu_pixels[i].min_element() > 0.0, "the control at {p} must be lit");
+                assert!(
+                    cpu[i].min_element() > 0.0 && gpu_pixels[i].min_element() > 0.0,
+                    "the control at {p} must be lit"
+                );
             } else {
-                assert_eq!((cpu[i], gpu_pixels[i]), (Vec3::ZERO, Vec3::ZERO), "receiver at {p}, height {h} over the disk, is lit");
+                assert_eq!(
+                    (cpu[i], gpu_pixels[i]),
+                    (Vec3::ZERO, Vec3::ZERO),
+                    "receiver at {p}, height {h} over the disk, is lit"
+                );
             }
         }
     }
@@ -352,7 +502,8 @@ fn exact_disks_send_no_light_behind_or_beside_themselves_on_both_backends() {
 /// cuts it, and tilted.
 #[test]
 fn polygon_lights_give_the_form_factor_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_give_the_form_factor_on_both_backends") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_give_the_form_factor_on_both_backends")
+    else {
         return;
     };
     let rho = 0.5f32;
@@ -363,7 +514,11 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
     assert_eq!(outline.count, 5);
     let area = outline.area();
     let placed = outline.light_outline(centre, normal);
-    let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, flux) };
+    let light = VplLight {
+        radius2: area / PI,
+        exact: vplgi_types::pod::EXACT_POLYGON,
+        ..VplLight::new(centre, normal, flux)
+    };
     let receivers: [([f32; 3], [f32; 3]); 6] = [
         ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
         ([0.5, 0.2, 0.3], [0.0, 1.0, 0.0]),
@@ -373,7 +528,9 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
         ([0.1, 0.05, -0.2], [0.282_216_3, 0.940_720_9, -0.188_144_2]),
     ];
     let corners: Vec<glam::DVec3> = outline.placed(centre, normal).map(|v| v.as_dvec3()).collect();
-    let form_factor = |p: glam::DVec3, n: glam::DVec3| polygon_form_factor_by_quadrature(p, n, &corners, normal.as_dvec3());
+    let form_factor = |p: glam::DVec3, n: glam::DVec3| {
+        polygon_form_factor_by_quadrature(p, n, &corners, normal.as_dvec3())
+    };
     area_light_matches_quadrature(gpu, light, Some(placed), rho, &receivers, form_factor);
 }
 
@@ -385,7 +542,9 @@ fn polygon_lights_give_the_form_factor_on_both_backends() {
 /// sums.
 #[test]
 fn polygon_lights_are_right_on_a_tilted_axis_on_both_backends() {
-    let Some(gpu) = vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("polygon_lights_are_right_on_a_tilted_axis_on_both_backends")
+    else {
         return;
     };
     let rho = 0.5f32;
@@ -394,17 +553,34 @@ fn polygon_lights_are_right_on_a_tilted_axis_on_both_backends() {
     assert_eq!(outline.count, 5);
     let area = outline.area();
     let placed = outline.light_outline(centre, normal);
-    let light = VplLight { radius2: area / PI, exact: vplgi_types::pod::EXACT_POLYGON, ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5)) };
+    let light = VplLight {
+        radius2: area / PI,
+        exact: vplgi_types::pod::EXACT_POLYGON,
+        ..VplLight::new(centre, normal, Vec3::new(2.0, 1.0, 0.5))
+    };
     // (height over the plane, offset along b as a share of the height, tilt of the receiver's
     // normal toward t): a tilt k puts its horizon at k s + h = 0, s along t, inside ±0.6.
     let (t, b) = vplgi_shared::polygon::frame(normal);
-    let receivers: Vec<([f32; 3], [f32; 3])> =
-        [(0.5f32, 0.0f32, 0.0f32), (0.5, 0.0, 1.0), (0.5, 1e-6, 1.0), (0.3, 0.0, 2.0), (0.8, 1e-6, 1.5), (0.4, 0.75, 0.3)]
-            .iter()
-            .map(|&(h, off, tilt)| ((centre + normal * h + b * (off * h)).to_array(), (-normal + t * tilt).normalize().to_array()))
-            .collect();
+    let receivers: Vec<([f32; 3], [f32; 3])> = [
+        (0.5f32, 0.0f32, 0.0f32),
+        (0.5, 0.0, 1.0),
+        (0.5, 1e-6, 1.0),
+        (0.3, 0.0, 2.0),
+        (0.8, 1e-6, 1.5),
+        (0.4, 0.75, 0.3),
+    ]
+    .iter()
+    .map(|&(h, off, tilt)| {
+        (
+            (centre + normal * h + b * (off * h)).to_array(),
+            (-normal + t * tilt).normalize().to_array(),
+        )
+    })
+    .collect();
     let corners: Vec<glam::DVec3> = outline.placed(centre, normal).map(|v| v.as_dvec3()).collect();
-    let form_factor = |p: glam::DVec3, n: glam::DVec3| polygon_form_factor_by_quadrature(p, n, &corners, normal.as_dvec3());
+    let form_factor = |p: glam::DVec3, n: glam::DVec3| {
+        polygon_form_factor_by_quadrature(p, n, &corners, normal.as_dvec3())
+    };
     area_light_matches_quadrature(gpu, light, Some(placed), rho, &receivers, form_factor);
 }
 
@@ -420,12 +596,26 @@ fn receivers_of_one_visible_light(
     let sps: Vec<ShadingPoint> = receivers
         .iter()
         .enumerate()
-        .map(|(i, &(p, n))| ShadingPoint { position: p, normal: n, albedo: [rho; 3], pixel: i as u32, ..Default::default() })
+        .map(|(i, &(p, n))| ShadingPoint {
+            position: p,
+            normal: n,
+            albedo: [rho; 3],
+            pixel: i as u32,
+            ..Default::default()
+        })
         .collect();
     let mut matrix = BitMatrix::new(1, 1);
     matrix.set(0, 0);
-    let (labels, weights, row_of) = (vec![0u32; sps.len()], vec![1.0f32; sps.len()], vec![0u32; sps.len()]);
-    one_light_on_both_backends(gpu, &sps, light, outline, (&matrix, &row_of, &labels, &weights, 1), f32::INFINITY)
+    let (labels, weights, row_of) =
+        (vec![0u32; sps.len()], vec![1.0f32; sps.len()], vec![0u32; sps.len()]);
+    one_light_on_both_backends(
+        gpu,
+        &sps,
+        light,
+        outline,
+        (&matrix, &row_of, &labels, &weights, 1),
+        f32::INFINITY,
+    )
 }
 
 /// One area light (a polygon if it has an `outline`, else a disk) over `receivers` (position,
@@ -445,27 +635,48 @@ fn area_light_matches_quadrature(
     let flux = Vec3::from(light.flux);
     let (cpu, gpu_pixels) = receivers_of_one_visible_light(gpu, light, outline, rho, receivers);
     for (i, &(p, n)) in receivers.iter().enumerate() {
-        let e = (rho / PI) * flux / area * form_factor(Vec3::from(p).as_dvec3(), Vec3::from(n).as_dvec3()) as f32;
+        let e = (rho / PI) * flux / area
+            * form_factor(Vec3::from(p).as_dvec3(), Vec3::from(n).as_dvec3()) as f32;
         let (c, g) = (cpu[i], gpu_pixels[i]);
         println!("{shape}, receiver {:?}: quadrature {e}, CPU {c}, GPU {g}", receivers[i]);
         assert!(e.max_element() > 0.0, "receiver {i} sees none of the {shape}: a useless case");
-        assert!((c - e).abs().max_element() <= 2e-4 * e.max_element(), "CPU: {shape}, receiver {:?}: {c} vs {e}", receivers[i]);
-        assert!((g - e).abs().max_element() <= 2e-4 * e.max_element(), "GPU: {shape}, receiver {:?}: {g} vs {e}", receivers[i]);
+        assert!(
+            (c - e).abs().max_element() <= 2e-4 * e.max_element(),
+            "CPU: {shape}, receiver {:?}: {c} vs {e}",
+            receivers[i]
+        );
+        assert!(
+            (g - e).abs().max_element() <= 2e-4 * e.max_element(),
+            "GPU: {shape}, receiver {:?}: {g} vs {e}",
+            receivers[i]
+        );
     }
 }
 
 /// ∫ cos θ_p cos θ_z / (π d²) dA over the convex polygon `corners` (counterclockwise about
 /// `normal`, which it faces) seen from `p` with normal `np`, the part below p's horizon left
 /// out: the midpoint rule on a 2,000 x 2,000 grid over its bounding box in the plane.
-fn polygon_form_factor_by_quadrature(p: glam::DVec3, np: glam::DVec3, corners: &[glam::DVec3], normal: glam::DVec3) -> f64 {
+fn polygon_form_factor_by_quadrature(
+    p: glam::DVec3,
+    np: glam::DVec3,
+    corners: &[glam::DVec3],
+    normal: glam::DVec3,
+) -> f64 {
     let e1 = (corners[1] - corners[0]).normalize();
     let e2 = normal.cross(e1);
     let o = corners[0];
-    let (lo, hi) = corners.iter().fold((glam::DVec2::splat(f64::MAX), glam::DVec2::splat(f64::MIN)), |(lo, hi), c| {
-        let q = glam::DVec2::new((*c - o).dot(e1), (*c - o).dot(e2));
-        (lo.min(q), hi.max(q))
-    });
-    let inside = |x: glam::DVec3| (0..corners.len()).all(|i| normal.dot((corners[(i + 1) % corners.len()] - corners[i]).cross(x - corners[i])) >= 0.0);
+    let (lo, hi) = corners.iter().fold(
+        (glam::DVec2::splat(f64::MAX), glam::DVec2::splat(f64::MIN)),
+        |(lo, hi), c| {
+            let q = glam::DVec2::new((*c - o).dot(e1), (*c - o).dot(e2));
+            (lo.min(q), hi.max(q))
+        },
+    );
+    let inside = |x: glam::DVec3| {
+        (0..corners.len()).all(|i| {
+            normal.dot((corners[(i + 1) % corners.len()] - corners[i]).cross(x - corners[i])) >= 0.0
+        })
+    };
     let cells = 2000;
     let (w, h) = ((hi.x - lo.x) / cells as f64, (hi.y - lo.y) / cells as f64);
     let mut sum = 0.0;
@@ -492,7 +703,8 @@ fn polygon_form_factor_by_quadrature(p: glam::DVec3, np: glam::DVec3, corners: &
 /// 1e-6 of the data's extent).
 #[test]
 fn alg_1_centroids_are_the_means_of_their_members() {
-    let Some(gpu) = vplgi_tests::shared_gpu("alg_1_centroids_are_the_means_of_their_members") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("alg_1_centroids_are_the_means_of_their_members")
+    else {
         return;
     };
     let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Oracle, 0);
@@ -503,7 +715,9 @@ fn alg_1_centroids_are_the_means_of_their_members() {
         }
     }
     let ns = vec![Vec3::Y; ps.len()];
-    let mean = |half: &[Vec3]| half.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3()) / half.len() as f64;
+    let mean = |half: &[Vec3]| {
+        half.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3()) / half.len() as f64
+    };
     let expected = [mean(&ps[..50]), mean(&ps[50..])];
     let params = vplgi_types::clustering::ClusterParams {
         k: 2,
@@ -517,9 +731,18 @@ fn alg_1_centroids_are_the_means_of_their_members() {
     };
     let cpu = vplgi_cpu::cluster::cluster(&ps, &ns, &params);
     let (device, queue) = (&gpu.ctx.device, &gpu.ctx.queue);
-    let pts = storage(device, "points", &ps.iter().zip(&ns).map(|(&p, &n)| Endpoint::new(p, n)).collect::<Vec<_>>());
-    let g = gpu.kernels.cluster.cluster(device, queue, &pts, ps.len() as u32, &params).expect("cluster");
-    let gc: Vec<Endpoint> = read_back(device, queue, &g.centroids, g.k as usize).expect("centroids");
+    let pts = storage(
+        device,
+        "points",
+        &ps.iter().zip(&ns).map(|(&p, &n)| Endpoint::new(p, n)).collect::<Vec<_>>(),
+    );
+    let g = gpu
+        .kernels
+        .cluster
+        .cluster(device, queue, &pts, ps.len() as u32, &params)
+        .expect("cluster");
+    let gc: Vec<Endpoint> =
+        read_back(device, queue, &g.centroids, g.k as usize).expect("centroids");
     let gpu_centroids: Vec<Vec3> = gc.iter().map(Endpoint::p).collect();
     let extent = 11.0;
     for (name, mut got) in [("CPU", cpu.positions.clone()), ("GPU", gpu_centroids)] {
@@ -527,7 +750,10 @@ fn alg_1_centroids_are_the_means_of_their_members() {
         println!("{name}: centroids {got:?}, expected {expected:?}");
         assert_eq!(got.len(), 2, "{name}");
         for (c, e) in got.iter().zip(&expected) {
-            assert!((c.as_dvec3() - *e).abs().max_element() <= 1e-6 * extent, "{name}: centroid {c} is not its members' mean {e}");
+            assert!(
+                (c.as_dvec3() - *e).abs().max_element() <= 1e-6 * extent,
+                "{name}: centroid {c} is not its members' mean {e}"
+            );
         }
     }
 }

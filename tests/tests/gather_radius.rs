@@ -42,14 +42,23 @@ proptest! {
 /// the pushed-off origin (`vplgi_cpu::gather_radius`'s unit test says why), on the GPU.
 #[test]
 fn facing_a_plane_the_gpu_finds_three_halves_of_the_height() {
-    let Some(gpu) = vplgi_tests::shared_gpu("facing_a_plane_the_gpu_finds_three_halves_of_the_height") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("facing_a_plane_the_gpu_finds_three_halves_of_the_height")
+    else {
         return;
     };
     let h = 1.0f32;
     let scene = vplgi_scene::cornell::plane_with_point_light(100.0 * h, 1.0, 0.5, 1.0);
-    let points: Vec<Endpoint> = (0..8).map(|j| Endpoint::new(Vec3::new(0.1 * j as f32, h, 0.0), -Vec3::Y)).collect();
+    let points: Vec<Endpoint> =
+        (0..8).map(|j| Endpoint::new(Vec3::new(0.1 * j as f32, h, 0.0), -Vec3::Y)).collect();
     let (got, eps) = vplgi_tests::with_twins(gpu, &scene, |t| {
-        let out = t.gpu.gather_radius(&GpuPoints::upload(t.device(), "points", &points), &GatherParams { seed: 3, rays: 4096 }).expect("gather_radius");
+        let out = t
+            .gpu
+            .gather_radius(
+                &GpuPoints::upload(t.device(), "points", &points),
+                &GatherParams { seed: 3, rays: 4096 },
+            )
+            .expect("gather_radius");
         (read_back::<f32>(t.device(), t.queue(), &out, 8).expect("read back"), t.cpu.eps)
     });
     let mean = got.iter().sum::<f32>() / got.len() as f32;

@@ -8,12 +8,17 @@ use vplgi_gpu::timing::{device_time, supported};
 /// pipeline compilation and read-back), and grows with the work.
 #[test]
 fn device_time_is_positive_within_wall_time_and_grows_with_work() {
-    let Some(ctx) = vplgi_tests::gpu("device_time_is_positive_within_wall_time_and_grows_with_work") else {
+    let Some(ctx) =
+        vplgi_tests::gpu("device_time_is_positive_within_wall_time_and_grows_with_work")
+    else {
         return;
     };
     let run = |count: u32| -> (Option<Duration>, Duration) {
         let t0 = Instant::now();
-        let (draws, time) = device_time(&ctx.device, &ctx.queue, || rng_streams(&ctx.device, &ctx.queue, 1, 1, 0, count, 64)).unwrap();
+        let (draws, time) = device_time(&ctx.device, &ctx.queue, || {
+            rng_streams(&ctx.device, &ctx.queue, 1, 1, 0, count, 64)
+        })
+        .unwrap();
         assert_eq!(draws.unwrap().len(), count as usize * 64);
         (time, t0.elapsed())
     };

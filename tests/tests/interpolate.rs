@@ -12,7 +12,9 @@ use vplgi_cpu::shade::{LightArrays, VisibilitySource};
 use vplgi_gpu::buffers::{read_back, storage, Window};
 use vplgi_gpu::interpolate::{GpuIrradianceSamples, InterpolateInputs, SampleLighting};
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::{ClusterMode, Endpoint, FrameConfig, FuzzyMode, ShadeMode, ShadingPoint, VplLight, MISS};
+use vplgi_types::{
+    ClusterMode, Endpoint, FrameConfig, FuzzyMode, ShadeMode, ShadingPoint, VplLight, MISS,
+};
 use vplgi_verify::inputs::CpuFrame;
 use vplgi_verify::Mode;
 
@@ -70,12 +72,28 @@ fn both(
     let lights: vplgi_cpu::shade::VplLights = light.into_iter().collect::<Vec<VplLight>>().into();
     let mut cpu_samples = samples.clone();
     if light.is_some() {
-        cpu_samples.irradiance = vplgi_cpu::shade::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
+        cpu_samples.irradiance =
+            vplgi_cpu::shade::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
     }
-    let vis = VisibilitySource::Interpolated { row_of: &row_of, labels, f: f as usize, samples: &cpu_samples };
+    let vis = VisibilitySource::Interpolated {
+        row_of: &row_of,
+        labels,
+        f: f as usize,
+        samples: &cpu_samples,
+    };
     let arrays = LightArrays::new(&lights);
-    let cpu: Vec<Vec3> =
-        (0..sps.len()).map(|i| vplgi_cpu::shade::irradiance(sps[i].position.into(), sps[i].normal.into(), i, &arrays, &vis, f32::INFINITY)).collect();
+    let cpu: Vec<Vec3> = (0..sps.len())
+        .map(|i| {
+            vplgi_cpu::shade::irradiance(
+                sps[i].position.into(),
+                sps[i].normal.into(),
+                i,
+                &arrays,
+                &vis,
+                f32::INFINITY,
+            )
+        })
+        .collect();
     let gpu_values = vplgi_tests::with_twins(gpu, scene, |t| {
         let (device, queue) = (t.device(), t.queue());
         let k = t.gpu.kernels();
@@ -83,7 +101,8 @@ fn both(
         let inv_radius = storage(device, "inverse radii", &samples.inv_radius);
         let gs = match light {
             Some(_) => {
-                let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
+                let words =
+                    storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
                 let lb = storage(device, "lights", &lights.lights);
                 let lighting = SampleLighting {
                     words: &words,
@@ -94,23 +113,57 @@ fn both(
                     exact_shapes: false,
                     g_max: f32::INFINITY,
                 };
-                k.interpolate.sample_irradiance(device, queue, &k.shade, (points, n as u32), inv_radius, &lighting).expect("samples")
+                k.interpolate
+                    .sample_irradiance(
+                        device,
+                        queue,
+                        &k.shade,
+                        (points, n as u32),
+                        inv_radius,
+                        &lighting,
+                    )
+                    .expect("samples")
             }
             None => {
-                let e: Vec<[f32; 4]> = samples.irradiance.iter().map(|e| [e[0], e[1], e[2], 0.0]).collect();
-                GpuIrradianceSamples { points, inv_radius, irradiance: storage(device, "irradiance", &e), count: n as u32 }
+                let e: Vec<[f32; 4]> =
+                    samples.irradiance.iter().map(|e| [e[0], e[1], e[2], 0.0]).collect();
+                GpuIrradianceSamples {
+                    points,
+                    inv_radius,
+                    irradiance: storage(device, "irradiance", &e),
+                    count: n as u32,
+                }
             }
         };
-        let (sb, rb, lb) = (storage(device, "sps", sps), storage(device, "row_of", &row_of), storage(device, "labels", labels));
-        let inputs = InterpolateInputs { sps: &sb, sp_first: 0, row_of: &rb, labels: &lb, f, window: Window { first: 0, count: sps.len() as u64 } };
-        let out = k.interpolate.run(device, queue, &gs, &inputs, 0..sps.len() as u32).expect("interpolate");
+        let (sb, rb, lb) = (
+            storage(device, "sps", sps),
+            storage(device, "row_of", &row_of),
+            storage(device, "labels", labels),
+        );
+        let inputs = InterpolateInputs {
+            sps: &sb,
+            sp_first: 0,
+            row_of: &rb,
+            labels: &lb,
+            f,
+            window: Window { first: 0, count: sps.len() as u64 },
+        };
+        let out = k
+            .interpolate
+            .run(device, queue, &gs, &inputs, 0..sps.len() as u32)
+            .expect("interpolate");
         read_back::<[f32; 4]>(device, queue, &out, sps.len()).expect("read back")
     });
     Some((cpu, gpu_values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect()))
 }
 
 fn point(p: Vec3, n: Vec3) -> ShadingPoint {
-    ShadingPoint { position: p.to_array(), normal: n.to_array(), albedo: [0.5; 3], ..Default::default() }
+    ShadingPoint {
+        position: p.to_array(),
+        normal: n.to_array(),
+        albedo: [0.5; 3],
+        ..Default::default()
+    }
 }
 
 /// Wang et al.'s weight 1 / (|x − s_j| / R_j + √(2 − 2 n·n_j)) and irradiance samples lit by one
@@ -124,7 +177,8 @@ fn interpolation_weights_on_hand_checked_points() {
     let (h, flux) = (0.8f64, DVec3::new(2.0, 1.0, 0.5));
     let light = VplLight::new(Vec3::new(0.0, h as f32, 0.0), -Vec3::Y, flux.as_vec3());
     let turned = DVec3::new(-(3f64.sqrt()) / 2.0, 0.5, 0.0);
-    let sample_points = [(DVec3::ZERO, DVec3::Y), (DVec3::X, DVec3::Y), (DVec3::new(0.5, 0.0, 0.0), turned)];
+    let sample_points =
+        [(DVec3::ZERO, DVec3::Y), (DVec3::X, DVec3::Y), (DVec3::new(0.5, 0.0, 0.0), turned)];
     let inv_radius = [0.5f64, 2.0, 0.25];
     // Irradiance of the VPL at a sample: Φ cos θ_l cos θ_s / (π d²) (no clamp).
     let irradiance = |p: DVec3, n: DVec3| {
@@ -135,7 +189,11 @@ fn interpolation_weights_on_hand_checked_points() {
         flux * (cos_s.max(0.0) * cos_l / (PI * d2))
     };
     let xs = [0.1f64, 0.4, 0.75, 0.9];
-    let labels: Vec<u32> = xs.iter().enumerate().flat_map(|(i, _)| if i == 3 { [0u32, MISS, 2] } else { [2u32, 0, 1] }).collect();
+    let labels: Vec<u32> = xs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, _)| if i == 3 { [0u32, MISS, 2] } else { [2u32, 0, 1] })
+        .collect();
     let expected: Vec<DVec3> = xs
         .iter()
         .enumerate()
@@ -143,7 +201,9 @@ fn interpolation_weights_on_hand_checked_points() {
             let (mut sum, mut total) = (DVec3::ZERO, 0.0);
             for &k in labels[i * 3..i * 3 + 3].iter().filter(|&&k| k != MISS) {
                 let (s, n) = sample_points[k as usize];
-                let w = 1.0 / ((DVec3::new(x, 0.0, 0.0) - s).length() * inv_radius[k as usize] + (2.0 - 2.0 * n.dot(DVec3::Y)).sqrt());
+                let w = 1.0
+                    / ((DVec3::new(x, 0.0, 0.0) - s).length() * inv_radius[k as usize]
+                        + (2.0 - 2.0 * n.dot(DVec3::Y)).sqrt());
                 sum += irradiance(s, n) * w;
                 total += w;
             }
@@ -151,18 +211,26 @@ fn interpolation_weights_on_hand_checked_points() {
         })
         .collect();
     let samples = IrradianceSamples {
-        points: sample_points.iter().map(|(p, n)| Endpoint::new(p.as_vec3(), n.as_vec3())).collect(),
+        points: sample_points
+            .iter()
+            .map(|(p, n)| Endpoint::new(p.as_vec3(), n.as_vec3()))
+            .collect(),
         inv_radius: inv_radius.iter().map(|&r| r as f32).collect(),
         irradiance: Vec::new(),
     };
-    let sps: Vec<ShadingPoint> = xs.iter().map(|&x| point(Vec3::new(x as f32, 0.0, 0.0), Vec3::Y)).collect();
+    let sps: Vec<ShadingPoint> =
+        xs.iter().map(|&x| point(Vec3::new(x as f32, 0.0, 0.0), Vec3::Y)).collect();
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     scene.lights.clear();
     let Some((cpu, gpu)) = both(&scene, &sps, &labels, 3, &samples, Some(light)) else { return };
     for (i, e) in expected.iter().enumerate() {
         println!("x = {}: expected {e}, CPU {}, GPU {}", xs[i], cpu[i], gpu[i]);
         for (name, got) in [("CPU", cpu[i]), ("GPU", gpu[i])] {
-            assert!((got.as_dvec3() - *e).abs().max_element() <= 1e-6 * e.max_element(), "{name}: x = {}: {got} vs {e}", xs[i]);
+            assert!(
+                (got.as_dvec3() - *e).abs().max_element() <= 1e-6 * e.max_element(),
+                "{name}: x = {}: {got} vs {e}",
+                xs[i]
+            );
         }
     }
 }
@@ -182,13 +250,18 @@ fn a_white_furnace_interpolates_to_its_irradiance_everywhere() {
     let e = [0.37f32, 1.25, 3.5];
     let n_samples = 40;
     let samples = IrradianceSamples {
-        points: (0..n_samples).map(|_| Endpoint::new(Vec3::new(u(), u(), u()) * 4.0, unit(u(), u()))).collect(),
+        points: (0..n_samples)
+            .map(|_| Endpoint::new(Vec3::new(u(), u(), u()) * 4.0, unit(u(), u())))
+            .collect(),
         inv_radius: (0..n_samples).map(|_| 10f32.powf(3.0 * u() - 2.0)).collect(),
         irradiance: vec![e; n_samples],
     };
     let f = 5u32;
-    let sps: Vec<ShadingPoint> = (0..300).map(|_| point(Vec3::new(u(), u(), u()) * 4.0, unit(u(), u()))).collect();
-    let labels: Vec<u32> = (0..sps.len() * f as usize).map(|_| if u() < 0.15 { MISS } else { (u() * n_samples as f32) as u32 % n_samples as u32 }).collect();
+    let sps: Vec<ShadingPoint> =
+        (0..300).map(|_| point(Vec3::new(u(), u(), u()) * 4.0, unit(u(), u()))).collect();
+    let labels: Vec<u32> = (0..sps.len() * f as usize)
+        .map(|_| if u() < 0.15 { MISS } else { (u() * n_samples as f32) as u32 % n_samples as u32 })
+        .collect();
     let scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     let Some((cpu, gpu)) = both(&scene, &sps, &labels, f, &samples, None) else { return };
     let mut worst = 0.0f32;
@@ -200,7 +273,10 @@ fn a_white_furnace_interpolates_to_its_irradiance_everywhere() {
             worst = worst.max(if any { rel } else { got.abs().max_element() });
         }
     }
-    println!("white furnace: largest relative error {worst:e} over {} shading points, both backends", sps.len());
+    println!(
+        "white furnace: largest relative error {worst:e} over {} shading points, both backends",
+        sps.len()
+    );
     assert!(worst <= 4.0 * f32::EPSILON * f as f32, "largest relative error {worst:e}");
 }
 
@@ -212,15 +288,27 @@ fn interpolated_frames_render_on_both_backends() {
         return;
     };
     let scene = vplgi_scene::cornell::cornell_box();
-    let cfg = FrameConfig { width: 48, height: 48, k_sp: 200, fuzzy: FuzzyMode::Weighted, shade: ShadeMode::Interpolate, ..FrameConfig::verify() };
+    let cfg = FrameConfig {
+        width: 48,
+        height: 48,
+        k_sp: 200,
+        fuzzy: FuzzyMode::Weighted,
+        shade: ShadeMode::Interpolate,
+        ..FrameConfig::verify()
+    };
     let (cpu, gpu_frame) = vplgi_tests::with_twins(gpu, &scene, |t| {
         let cpu = vplgi_frame::render(t.cpu, &cfg, &vplgi_frame::NoProgress).expect("CPU frame");
-        let gpu_frame = vplgi_frame::render(t.gpu, &cfg, &vplgi_frame::NoProgress).expect("GPU frame");
+        let gpu_frame =
+            vplgi_frame::render(t.gpu, &cfg, &vplgi_frame::NoProgress).expect("GPU frame");
         (cpu, gpu_frame)
     });
     use vplgi_frame::Stage;
     for f in [&cpu, &gpu_frame] {
-        assert!(f.stats.sp_clusters > 0 && f.timings.get(Stage::GatherRadius) > 0.0 && f.timings.get(Stage::Interpolate) > 0.0);
+        assert!(
+            f.stats.sp_clusters > 0
+                && f.timings.get(Stage::GatherRadius) > 0.0
+                && f.timings.get(Stage::Interpolate) > 0.0
+        );
         assert!(f.pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
     }
     let (c, g) = (vplgi_tests::mean_rgb(&cpu.pixels), vplgi_tests::mean_rgb(&gpu_frame.pixels));

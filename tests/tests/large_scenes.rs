@@ -11,10 +11,22 @@ fn sponza_renders_when_present() {
         return;
     };
     let scene = vplgi_scene::Scene::load(std::path::Path::new(&path)).unwrap();
-    println!("{}: {} triangles, {} textures", scene.name, scene.triangle_count(), scene.textures.len());
+    println!(
+        "{}: {} triangles, {} textures",
+        scene.name,
+        scene.triangle_count(),
+        scene.textures.len()
+    );
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).unwrap();
-    let cfg = vplgi_types::FrameConfig { width: 96, height: 64, vpls: 2000, k_sp: 600, k_vpl: 200, ..Default::default() };
+    let cfg = vplgi_types::FrameConfig {
+        width: 96,
+        height: 64,
+        vpls: 2000,
+        k_sp: 600,
+        k_vpl: 200,
+        ..Default::default()
+    };
     let f = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
     assert!(f.pixels.iter().any(|p| p[0] > 0.0), "Sponza renders black");
     if let Ok(ctx) = vplgi_gpu::GpuContext::new() {

@@ -24,7 +24,14 @@ const SIZE: u32 = 24;
 
 /// Direct light leaving `x` towards anything, per unit albedo/π, from one uniform-area sample
 /// of the emitters.
-fn direct_at(cs: &CpuScene, emitters: &[(usize, f32)], total_area: f32, x: Vec3, n: Vec3, rng: &mut Rng) -> Vec3 {
+fn direct_at(
+    cs: &CpuScene,
+    emitters: &[(usize, f32)],
+    total_area: f32,
+    x: Vec3,
+    n: Vec3,
+    rng: &mut Rng,
+) -> Vec3 {
     // Pick an emitter proportionally to area, then a uniform point on it.
     let u = rng.next_f32() * total_area;
     let mut acc = 0.0;
@@ -77,7 +84,8 @@ fn path_trace(cs: &CpuScene, spp: u32) -> ([f64; 3], [f64; 3]) {
             if w.dot(h.ng) > 0.0 {
                 if let Some(x) = cs.trace(h.position + h.ng * cs.eps, w) {
                     // Cosine sampling: BRDF * cos / pdf = albedo.
-                    l += h.albedo * x.albedo / PI * direct_at(cs, &emitters, total_area, x.position, x.ns, &mut rng);
+                    l += h.albedo * x.albedo / PI
+                        * direct_at(cs, &emitters, total_area, x.position, x.ns, &mut rng);
                 }
             }
         }
@@ -115,10 +123,26 @@ fn one_bounce_path_tracer_agrees_with_the_unclustered_reference() {
     let mut loss = [0.0f64; 3];
     let mut direct_only = [0.0f64; 3];
     for &seed in &seeds {
-        let u = vplgi_cpu::render(&cs, &FrameConfig { seed, g_clamp_rel: 0.0, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
-        let c = vplgi_cpu::render(&cs, &FrameConfig { seed, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
-        let d = vplgi_cpu::render(&cs, &FrameConfig { seed, vpls: 0, ..base.clone() }, &vplgi_cpu::NoProgress).unwrap();
-        let (mu, mc, md) = (vplgi_tests::mean_rgb(&u.pixels), vplgi_tests::mean_rgb(&c.pixels), vplgi_tests::mean_rgb(&d.pixels));
+        let u = vplgi_cpu::render(
+            &cs,
+            &FrameConfig { seed, g_clamp_rel: 0.0, ..base.clone() },
+            &vplgi_cpu::NoProgress,
+        )
+        .unwrap();
+        let c =
+            vplgi_cpu::render(&cs, &FrameConfig { seed, ..base.clone() }, &vplgi_cpu::NoProgress)
+                .unwrap();
+        let d = vplgi_cpu::render(
+            &cs,
+            &FrameConfig { seed, vpls: 0, ..base.clone() },
+            &vplgi_cpu::NoProgress,
+        )
+        .unwrap();
+        let (mu, mc, md) = (
+            vplgi_tests::mean_rgb(&u.pixels),
+            vplgi_tests::mean_rgb(&c.pixels),
+            vplgi_tests::mean_rgb(&d.pixels),
+        );
         for ch in 0..3 {
             assert!(mc[ch] <= mu[ch] + 1e-9, "the clamp added energy");
             loss[ch] += (mu[ch] - mc[ch]) / seeds.len() as f64;
@@ -145,7 +169,17 @@ fn one_bounce_path_tracer_agrees_with_the_unclustered_reference() {
             loss[ch],
             100.0 * loss[ch] / indirect
         );
-        assert!((mean - pt[ch]).abs() <= 4.0 * se, "channel {ch}: VPL reference {mean} vs path tracer {} (4σ = {})", pt[ch], 4.0 * se);
-        assert!(loss[ch] <= 0.02 * indirect, "channel {ch}: the clamp removed {} of {} indirect", loss[ch], indirect);
+        assert!(
+            (mean - pt[ch]).abs() <= 4.0 * se,
+            "channel {ch}: VPL reference {mean} vs path tracer {} (4σ = {})",
+            pt[ch],
+            4.0 * se
+        );
+        assert!(
+            loss[ch] <= 0.02 * indirect,
+            "channel {ch}: the clamp removed {} of {} indirect",
+            loss[ch],
+            indirect
+        );
     }
 }

@@ -39,7 +39,8 @@ fn scene(name: &str) -> vplgi_scene::Scene {
 
 fn check(name: &str) {
     let dir = repo().join("fixtures/references").join(name);
-    let sidecar: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("reference.json")).unwrap()).unwrap();
+    let sidecar: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("reference.json")).unwrap()).unwrap();
     let scene = scene(name);
     let hash = format!("{:016x}", scene.content_hash());
     assert_eq!(
@@ -56,7 +57,8 @@ fn check(name: &str) {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).unwrap();
     let frame = vplgi_cpu::render(&cs, &cfg, &vplgi_cpu::NoProgress).unwrap();
-    let render = vplgi_image::Image { width: frame.width, height: frame.height, pixels: frame.pixels };
+    let render =
+        vplgi_image::Image { width: frame.width, height: frame.height, pixels: frame.pixels };
     let n = seeds.len() as u32;
     let pixels = compare_with_reference(&mean, &variance, n, &render, 0.01);
     let blocks = compare_regions(&mean, &variance, n, &render, 16, 0.01);
@@ -97,9 +99,15 @@ fn check(name: &str) {
     // The tests can fail: 30 % more light everywhere must be caught by the blocks (measured: 25,
     // 6 and 22 of 192 blocks for the three scenes; in the noisy conference room only the
     // noiseless blocks of the ceiling panels).
-    let brighter = vplgi_image::Image { pixels: render.pixels.iter().map(|p| p.map(|c| c * 1.3)).collect(), ..render.clone() };
+    let brighter = vplgi_image::Image {
+        pixels: render.pixels.iter().map(|p| p.map(|c| c * 1.3)).collect(),
+        ..render.clone()
+    };
     let biased = compare_regions(&mean, &variance, n, &brighter, 16, 0.01);
-    println!("{name}: with 30 % more light, {} of {} block tests fail", biased.failures, biased.tests);
+    println!(
+        "{name}: with 30 % more light, {} of {} block tests fail",
+        biased.failures, biased.tests
+    );
     assert!(biased.failures > 0, "{name}: a 30 % bias went unnoticed");
 }
 

@@ -9,13 +9,27 @@ const NAMING: [&str; 7] = ["rs", "wgsl", "md", "sh", "toml", "py", "yaml"];
 
 /// Folders of the repository a path may start with; a crate's folder may be named without
 /// `crates/` (`vplgi-gpu/src/bvh.rs`).
-const ROOTS: [&str; 10] = ["crates/", "shaders/", "tests/", "benches/", "reports/", "docs/", "ci/", "fixtures/", "fuzz/", "vplgi-"];
+const ROOTS: [&str; 10] = [
+    "crates/",
+    "shaders/",
+    "tests/",
+    "benches/",
+    "reports/",
+    "docs/",
+    "ci/",
+    "fixtures/",
+    "fuzz/",
+    "vplgi-",
+];
 
 /// Paths that name what runs make, not what the repository holds.
 const MADE: [&str; 5] = ["fuzz/target", "fuzz/corpus", "fuzz/artifacts", "target/", "out/"];
 
 fn repository() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate sits in the repository").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the tests crate sits in the repository")
+        .to_path_buf()
 }
 
 /// The files that may name paths, below `dir`, skipping build output and hidden folders.
@@ -24,10 +38,13 @@ fn naming_files(dir: &Path, out: &mut Vec<PathBuf>) {
         let path = entry.path();
         let name = entry.file_name().to_string_lossy().into_owned();
         if path.is_dir() {
-            if !name.starts_with('.') && name != "target" && name != "out" && name != "node_modules" {
+            if !name.starts_with('.') && name != "target" && name != "out" && name != "node_modules"
+            {
                 naming_files(&path, out);
             }
-        } else if name == "Makefile" || path.extension().is_some_and(|e| NAMING.contains(&e.to_string_lossy().as_ref())) {
+        } else if name == "Makefile"
+            || path.extension().is_some_and(|e| NAMING.contains(&e.to_string_lossy().as_ref()))
+        {
             out.push(path);
         }
     }
@@ -46,7 +63,10 @@ fn named_paths(text: &str) -> Vec<String> {
         let Some(root) = ROOTS.iter().find(|r| text[i..].starts_with(*r)) else { continue };
         let end = text[i..].find(|c: char| !is_path_char(c)).map_or(text.len(), |e| i + e);
         let path = text[i..end].trim_end_matches(['.', '-', '/']);
-        if !path.contains('/') || path.contains(['<', '{', '$']) || MADE.iter().any(|m| path.starts_with(m)) {
+        if !path.contains('/')
+            || path.contains(['<', '{', '$'])
+            || MADE.iter().any(|m| path.starts_with(m))
+        {
             continue;
         }
         if *root == "vplgi-" {
@@ -83,7 +103,10 @@ fn every_path_named_in_comments_and_docs_exists() {
         for path in named_paths(&text) {
             checked += 1;
             if !exists(&repo, &path) {
-                missing.push(format!("{}: {path}", file.strip_prefix(&repo).unwrap_or(file).display()));
+                missing.push(format!(
+                    "{}: {path}",
+                    file.strip_prefix(&repo).unwrap_or(file).display()
+                ));
             }
         }
     }
@@ -100,9 +123,16 @@ fn every_path_named_in_comments_and_docs_exists() {
 fn named_paths_are_read_as_written() {
     let text = "see crates/vplgi-cpu/src/shade.rs. Also vplgi-gpu/src/bvh.rs, shaders/cluster_*.wgsl and \
                 tests/tests/<stage>.rs, ../shared/SPEC.md, fuzz/target/x.log, crates/c/src/{file}, my-crates/x.rs";
-    assert_eq!(named_paths(text), ["crates/vplgi-cpu/src/shade.rs", "crates/vplgi-gpu/src/bvh.rs", "shaders/cluster_*.wgsl"]);
+    assert_eq!(
+        named_paths(text),
+        ["crates/vplgi-cpu/src/shade.rs", "crates/vplgi-gpu/src/bvh.rs", "shaders/cluster_*.wgsl"]
+    );
     let repo = repository();
     // Absent files, spelled so that the scan of this file does not read them as named.
     let absent = |name: &str| ["shaders", name].join("/");
-    assert!(exists(&repo, "shaders/cluster_*.wgsl") && !exists(&repo, &absent("nothing_*.wgsl")) && !exists(&repo, &absent("none.wgsl")));
+    assert!(
+        exists(&repo, "shaders/cluster_*.wgsl")
+            && !exists(&repo, &absent("nothing_*.wgsl"))
+            && !exists(&repo, &absent("none.wgsl"))
+    );
 }

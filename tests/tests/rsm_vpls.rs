@@ -16,7 +16,9 @@ fn rsm_vpls_matches_the_cpu() {
         vplgi_tests::inputs::sunlit_plane_with_box(),
     ] {
         println!("{}", scene.name);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128)).expect("GPU");
+        let checks =
+            vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128))
+                .expect("GPU");
         vplgi_tests::check_all("", &checks);
     }
 }

@@ -44,11 +44,21 @@ fn shade_matches_the_cpu_on_identical_inputs() {
 
     // (a) Unclustered shading points: each hit has its own row; VPLs unclustered.
     let lights = vplgi_cpu::shade::vpl_lights(&vpls, None, LightShape::Point);
-    let cols: Vec<vplgi_cpu::visibility::Endpoint> = lights.lights.iter().map(|l| l.endpoint()).collect();
-    let rows: Vec<vplgi_cpu::visibility::Endpoint> = hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
+    let cols: Vec<vplgi_cpu::visibility::Endpoint> =
+        lights.lights.iter().map(|l| l.endpoint()).collect();
+    let rows: Vec<vplgi_cpu::visibility::Endpoint> =
+        hits.iter().map(|&i| vplgi_cpu::visibility::Endpoint::of(&sps[i as usize])).collect();
     let (m, _) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
     let src = VisibilitySource::Own { matrix: &m, row_of: &row_of, first_row: 0 };
-    let cpu_own = shade(&cs, &sps, 0, 0..n_pixels, &lights, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true });
+    let cpu_own = shade(
+        &cs,
+        &sps,
+        0,
+        0..n_pixels,
+        &lights,
+        &src,
+        &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true },
+    );
     let words = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(m.words()));
     let light_buf = storage(&ctx.device, "lights", &to_gpu_lights(&lights));
     let inputs = ShadeInputs {
@@ -63,8 +73,16 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         exact_shapes: false,
         visibility: Visibility::Own { first_row: 0 },
     };
-    let out =
-        kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true }).unwrap();
+    let out = kernel
+        .run(
+            &ctx.device,
+            &ctx.queue,
+            &gs,
+            &inputs,
+            0..n_pixels as u32,
+            &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true },
+        )
+        .unwrap();
     let gpu_own: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
     // (b) Both clustered, fuzzy weighted F = 6.
@@ -85,7 +103,8 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         },
     );
     let lights_c = vplgi_cpu::shade::vpl_lights(&vpls, Some(&vc), LightShape::Point);
-    let cols_c: Vec<vplgi_cpu::visibility::Endpoint> = lights_c.lights.iter().map(|l| l.endpoint()).collect();
+    let cols_c: Vec<vplgi_cpu::visibility::Endpoint> =
+        lights_c.lights.iter().map(|l| l.endpoint()).collect();
     let sp_pos: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].position.into()).collect();
     let sp_nor: Vec<Vec3> = hits.iter().map(|&i| sps[i as usize].normal.into()).collect();
     let sc = cluster(
@@ -102,11 +121,28 @@ fn shade_matches_the_cpu_on_identical_inputs() {
             seed,
         },
     );
-    let reps: Vec<vplgi_cpu::visibility::Endpoint> =
-        sc.representatives.iter().map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize])).collect();
+    let reps: Vec<vplgi_cpu::visibility::Endpoint> = sc
+        .representatives
+        .iter()
+        .map(|&r| vplgi_cpu::visibility::Endpoint::of(&sps[hits[r as usize] as usize]))
+        .collect();
     let (mc, _) = vplgi_cpu::visibility::visibility(&cs, &reps, &cols_c, &vplgi_cpu::NoProgress);
-    let src = VisibilitySource::Fuzzy { matrix: &mc, row_of: &row_of, labels: &sc.labels, weights: &sc.weights, f: sc.f };
-    let cpu_fuzzy = shade(&cs, &sps, 0, 0..n_pixels, &lights_c, &src, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true });
+    let src = VisibilitySource::Fuzzy {
+        matrix: &mc,
+        row_of: &row_of,
+        labels: &sc.labels,
+        weights: &sc.weights,
+        f: sc.f,
+    };
+    let cpu_fuzzy = shade(
+        &cs,
+        &sps,
+        0,
+        0..n_pixels,
+        &lights_c,
+        &src,
+        &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true },
+    );
     let words_c = storage(&ctx.device, "words", bytemuck::cast_slice::<u64, u32>(mc.words()));
     let light_buf_c = storage(&ctx.device, "lights", &to_gpu_lights(&lights_c));
     let labels = storage(&ctx.device, "labels", &sc.labels);
@@ -128,18 +164,41 @@ fn shade_matches_the_cpu_on_identical_inputs() {
             window: vplgi_gpu::buffers::Window { first: 0, count: hits.len() as u64 },
         },
     };
-    let out =
-        kernel.run(&ctx.device, &ctx.queue, &gs, &inputs, 0..n_pixels as u32, &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true }).unwrap();
+    let out = kernel
+        .run(
+            &ctx.device,
+            &ctx.queue,
+            &gs,
+            &inputs,
+            0..n_pixels as u32,
+            &ShadeParams { spp, seed, direct_samples: direct, g_max, direct: true },
+        )
+        .unwrap();
     let gpu_fuzzy: Vec<[f32; 4]> = read_back(&ctx.device, &ctx.queue, &out, n_pixels).unwrap();
 
-    for (name, cpu, gpu) in [("own rows", &cpu_own, &gpu_own), ("fuzzy clusters", &cpu_fuzzy, &gpu_fuzzy)] {
+    for (name, cpu, gpu) in
+        [("own rows", &cpu_own, &gpu_own), ("fuzzy clusters", &cpu_fuzzy, &gpu_fuzzy)]
+    {
         let img = |p: Vec<[f32; 3]>| vplgi_image::Image { width: w, height: h, pixels: p };
         let g: Vec<[f32; 3]> = gpu.iter().map(|p| [p[0], p[1], p[2]]).collect();
         let metrics = vplgi_image::compare(&img(cpu.clone()), &img(g.clone())).unwrap().metrics;
-        let max_rel = cpu.iter().zip(&g).flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3))).fold(0.0f32, f32::max);
-        println!("shade ({name}): relMSE(GPU, CPU) {:.2e}, max relative pixel difference {max_rel:.2e}", metrics.rel_mse);
+        let max_rel = cpu
+            .iter()
+            .zip(&g)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / a[c].abs().max(1e-3)))
+            .fold(0.0f32, f32::max);
+        println!(
+            "shade ({name}): relMSE(GPU, CPU) {:.2e}, max relative pixel difference {max_rel:.2e}",
+            metrics.rel_mse
+        );
         assert!(cpu.iter().any(|p| p[0] > 0.0), "the image must not be black");
-        Disagreement::at_most(format!("shade ({name})"), "relMSE(GPU, CPU)", metrics.rel_mse, SHADE_REL_MSE).check();
+        Disagreement::at_most(
+            format!("shade ({name})"),
+            "relMSE(GPU, CPU)",
+            metrics.rel_mse,
+            SHADE_REL_MSE,
+        )
+        .check();
         // Tightened beyond the SPEC: a uniform 1 % bias still passes relMSE <= 1e-4 (measured
         // 4e-5 when injected), while the twins agree bit for bit on lavapipe. Per-pixel
         // relative differences above 1e-4 would expose such a bias.
@@ -158,23 +217,44 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
     use vplgi_gpu::buffers::{read_back, storage};
     use vplgi_gpu::shade::{ShadeInputs, Visibility, VplLight};
     use vplgi_types::ShadingPoint;
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_light_past_lavapipes_loop_limit") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_light_past_lavapipes_loop_limit")
+    else {
         return;
     };
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     scene.lights.clear();
     let (n, f) = (12_000u32, 6u32);
-    let lights: Vec<VplLight> =
-        (0..n).map(|i| VplLight::new(Vec3::new((i % 100) as f32 * 0.01, 1.0, (i / 100) as f32 * 0.01), -Vec3::Y, Vec3::splat(1e-3))).collect();
-    let sps = vec![ShadingPoint { position: [0.3, 0.0, 0.3], normal: [0.0, 1.0, 0.0], albedo: [0.5; 3], pixel: 0, ..Default::default() }];
+    let lights: Vec<VplLight> = (0..n)
+        .map(|i| {
+            VplLight::new(
+                Vec3::new((i % 100) as f32 * 0.01, 1.0, (i / 100) as f32 * 0.01),
+                -Vec3::Y,
+                Vec3::splat(1e-3),
+            )
+        })
+        .collect();
+    let sps = vec![ShadingPoint {
+        position: [0.3, 0.0, 0.3],
+        normal: [0.0, 1.0, 0.0],
+        albedo: [0.5; 3],
+        pixel: 0,
+        ..Default::default()
+    }];
     let mut matrix = BitMatrix::new(f as usize, n as usize);
     for r in 0..f as usize {
         for c in 0..n as usize {
             matrix.set(r, c);
         }
     }
-    let (labels, weights, row_of): (Vec<u32>, Vec<f32>, Vec<u32>) = ((0..f).collect(), vec![1.0 / f as f32; f as usize], vec![0]);
-    let vis = VisibilitySource::Fuzzy { matrix: &matrix, row_of: &row_of, labels: &labels, weights: &weights, f: f as usize };
+    let (labels, weights, row_of): (Vec<u32>, Vec<f32>, Vec<u32>) =
+        ((0..f).collect(), vec![1.0 / f as f32; f as usize], vec![0]);
+    let vis = VisibilitySource::Fuzzy {
+        matrix: &matrix,
+        row_of: &row_of,
+        labels: &labels,
+        weights: &weights,
+        f: f as usize,
+    };
     let cpu = indirect(&sps[0], 0, &LightArrays::new(&lights.clone().into()), &vis, f32::INFINITY);
     let gpu_pixel = vplgi_tests::with_twins(gpu, &scene, |t| {
         let (device, queue) = (t.device(), t.queue());
@@ -199,8 +279,14 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
             exact_shapes: false,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
         };
-        let params = ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
-        let out = t.gpu.kernels().shade.run(device, queue, t.gpu.scene(), &inputs, 0..1, &params).expect("shade");
+        let params =
+            ShadeParams { spp: 1, seed: 1, direct_samples: 1, g_max: f32::INFINITY, direct: true };
+        let out = t
+            .gpu
+            .kernels()
+            .shade
+            .run(device, queue, t.gpu.scene(), &inputs, 0..1, &params)
+            .expect("shade");
         read_back::<[f32; 4]>(device, queue, &out, 1).expect("read back")[0]
     });
     println!("{n} lights, F = {f}: CPU {cpu}, GPU {gpu_pixel:?}");
@@ -218,14 +304,23 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
     use vplgi_gpu::buffers::{read_back, storage};
     use vplgi_gpu::shade::VplLight;
     use vplgi_types::Vpl;
-    let Some(gpu) = vplgi_tests::shared_gpu("cluster_lights_sum_every_vpl_past_lavapipes_loop_limit") else {
+    let Some(gpu) =
+        vplgi_tests::shared_gpu("cluster_lights_sum_every_vpl_past_lavapipes_loop_limit")
+    else {
         return;
     };
     let n = 70_000u32;
     let vpls: Vec<Vpl> = (0..n)
         .map(|i| {
             let x = (i % 250) as f32 * 0.004;
-            Vpl { position: [x, 0.0, (i / 250) as f32 * 0.004], path: i, normal: [0.0, 1.0, 0.0], bounce: 1, flux: [1e-4, 2e-4 * x, 3e-5], _pad: 0 }
+            Vpl {
+                position: [x, 0.0, (i / 250) as f32 * 0.004],
+                path: i,
+                normal: [0.0, 1.0, 0.0],
+                bounce: 1,
+                flux: [1e-4, 2e-4 * x, 3e-5],
+                _pad: 0,
+            }
         })
         .collect();
     // Three clusters sharing every range of VPLs, and one cluster holding all of them.
@@ -250,12 +345,27 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
             let cpu = vplgi_cpu::shade::vpl_lights(&vpls, Some(&clustering), shape);
             let (got, outlines) = vplgi_tests::with_twins(gpu, &scene, |t| {
                 let device = t.device();
-                let gc = vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
-                let gv = vplgi_gpu::trace_vpls::GpuVpls { buffer: storage(device, "vpls", &vpls), count: n, particles: 0 };
-                let b = t.gpu.vpl_lights(&gv, LightSet::Clusters { clusters: &gc, shape }).expect("lights");
+                let gc =
+                    vplgi_gpu::cluster::GpuClustering::of_labels(device, &labels, &representatives);
+                let gv = vplgi_gpu::trace_vpls::GpuVpls {
+                    buffer: storage(device, "vpls", &vpls),
+                    count: n,
+                    particles: 0,
+                };
+                let b = t
+                    .gpu
+                    .vpl_lights(&gv, LightSet::Clusters { clusters: &gc, shape })
+                    .expect("lights");
                 assert_eq!(b.exact_shapes, shape != LightShape::Disk);
-                let outlines = b.outlines.as_ref().map(|o| read_back::<vplgi_types::LightOutline>(device, t.queue(), o, k as usize).expect("read back"));
-                (read_back::<VplLight>(device, t.queue(), &b.buffer, k as usize).expect("read back"), outlines)
+                let outlines = b.outlines.as_ref().map(|o| {
+                    read_back::<vplgi_types::LightOutline>(device, t.queue(), o, k as usize)
+                        .expect("read back")
+                });
+                (
+                    read_back::<VplLight>(device, t.queue(), &b.buffer, k as usize)
+                        .expect("read back"),
+                    outlines,
+                )
             });
             for (c, g) in cpu.lights.iter().zip(&got) {
                 println!(
@@ -277,12 +387,22 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
             // A polygon's support values are dot products, which the GPU may round differently (a
             // fused multiply-add): the flux bit for bit, the outline and its area to 1e-6.
             let outlines = outlines.expect("a polygon set has outlines");
-            for ((c, g), (co, go)) in cpu.lights.iter().zip(&got).zip(cpu.outlines.iter().zip(&outlines)) {
+            for ((c, g), (co, go)) in
+                cpu.lights.iter().zip(&got).zip(cpu.outlines.iter().zip(&outlines))
+            {
                 assert_eq!((c.flux, c.exact), (g.flux, g.exact));
-                assert!((c.radius2 / g.radius2 - 1.0).abs() < 1e-6, "R² {} vs {}", c.radius2, g.radius2);
+                assert!(
+                    (c.radius2 / g.radius2 - 1.0).abs() < 1e-6,
+                    "R² {} vs {}",
+                    c.radius2,
+                    g.radius2
+                );
                 assert_eq!(co.count(), go.count());
                 for (a, b) in co.vertices.iter().zip(&go.vertices) {
-                    assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(1.0)), "outline vertex {a:?} vs {b:?}");
+                    assert!(
+                        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-6 * x.abs().max(1.0)),
+                        "outline vertex {a:?} vs {b:?}"
+                    );
                 }
             }
         }
@@ -293,7 +413,8 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
 /// the VPLs it leaves, on the CPU's inputs in every mode: the SPEC's shading row.
 #[test]
 fn shade_matches_the_cpu_under_a_directional_light() {
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_under_a_directional_light") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_under_a_directional_light")
+    else {
         return;
     };
     let scene = vplgi_tests::inputs::sunlit_plane_with_box();
@@ -307,7 +428,9 @@ fn shade_matches_the_cpu_under_a_directional_light() {
             iterations: 4,
             ..vplgi_types::FrameConfig::verify()
         });
-        let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
+        let (checks, _) =
+            vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg))
+                .expect("GPU");
         vplgi_tests::check_all("", &checks);
     }
 }
@@ -346,9 +469,17 @@ proptest::proptest! {
 fn geometry_term_is_zero_when_either_surface_faces_away() {
     use vplgi_cpu::shade::geometry_term;
     let (p, x) = (Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0));
-    assert_eq!(geometry_term(p, Vec3::Y, x, -Vec3::Y, f32::INFINITY), 0.25, "facing pair at distance 2");
+    assert_eq!(
+        geometry_term(p, Vec3::Y, x, -Vec3::Y, f32::INFINITY),
+        0.25,
+        "facing pair at distance 2"
+    );
     assert_eq!(geometry_term(p, Vec3::Y, x, Vec3::Y, f32::INFINITY), 0.0, "the light faces away");
-    assert_eq!(geometry_term(p, -Vec3::Y, x, -Vec3::Y, f32::INFINITY), 0.0, "the receiver faces away");
+    assert_eq!(
+        geometry_term(p, -Vec3::Y, x, -Vec3::Y, f32::INFINITY),
+        0.0,
+        "the receiver faces away"
+    );
     assert_eq!(geometry_term(p, -Vec3::Y, x, Vec3::Y, f32::INFINITY), 0.0, "both face away");
     assert_eq!(geometry_term(p, Vec3::Y, x, -Vec3::Y, 0.1), 0.1, "clamped");
 }
@@ -362,8 +493,16 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     use vplgi_cpu::shade::{indirect, LightArrays, VisibilitySource, VplLight};
     use vplgi_cpu::visibility::BitMatrix;
     use vplgi_types::ShadingPoint;
-    let lights = [VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, Vec3::ONE), VplLight::new(Vec3::new(0.5, 1.0, 0.0), -Vec3::Y, Vec3::splat(2.0))];
-    let sp = ShadingPoint { position: [0.0; 3], normal: [0.0, 1.0, 0.0], albedo: [0.5; 3], ..Default::default() };
+    let lights = [
+        VplLight::new(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, Vec3::ONE),
+        VplLight::new(Vec3::new(0.5, 1.0, 0.0), -Vec3::Y, Vec3::splat(2.0)),
+    ];
+    let sp = ShadingPoint {
+        position: [0.0; 3],
+        normal: [0.0, 1.0, 0.0],
+        albedo: [0.5; 3],
+        ..Default::default()
+    };
     // Whole matrix: rows 0..7; the two points use rows 5 and 6, which see light 0 and light 1.
     let mut whole = BitMatrix::new(7, 2);
     whole.set(5, 0);
@@ -375,14 +514,38 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     window.set(1, 1);
     let arrays = LightArrays::new(&lights.to_vec().into());
     for i in 0..2 {
-        let from_whole = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &whole, row_of: &row_of, first_row: 0 }, f32::INFINITY);
-        let from_window = indirect(&sp, i, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY);
+        let from_whole = indirect(
+            &sp,
+            i,
+            &arrays,
+            &VisibilitySource::Own { matrix: &whole, row_of: &row_of, first_row: 0 },
+            f32::INFINITY,
+        );
+        let from_window = indirect(
+            &sp,
+            i,
+            &arrays,
+            &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 },
+            f32::INFINITY,
+        );
         assert!(from_whole.max_element() > 0.0, "point {i} sees a light");
         assert_eq!(from_window, from_whole, "point {i}");
     }
     let (a, b) = (
-        indirect(&sp, 0, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY),
-        indirect(&sp, 1, &arrays, &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 }, f32::INFINITY),
+        indirect(
+            &sp,
+            0,
+            &arrays,
+            &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 },
+            f32::INFINITY,
+        ),
+        indirect(
+            &sp,
+            1,
+            &arrays,
+            &VisibilitySource::Own { matrix: &window, row_of: &row_of, first_row: 5 },
+            f32::INFINITY,
+        ),
     );
     assert_ne!(a, b, "the two rows see different lights");
 }
@@ -393,12 +556,21 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
 /// samples in ranges. The same inputs on both backends: the SPEC's shading row.
 #[test]
 fn shade_sums_every_sample_past_lavapipes_loop_limit() {
-    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_sample_past_lavapipes_loop_limit") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("shade_sums_every_sample_past_lavapipes_loop_limit")
+    else {
         return;
     };
     let scene = vplgi_scene::generate::generate("conference", 20_000).expect("conference");
-    let cfg =
-        vplgi_types::FrameConfig { width: 8, height: 6, spp: 256, vpls: 100, cluster: vplgi_types::ClusterMode::None, ..vplgi_types::FrameConfig::verify() };
-    let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
+    let cfg = vplgi_types::FrameConfig {
+        width: 8,
+        height: 6,
+        spp: 256,
+        vpls: 100,
+        cluster: vplgi_types::ClusterMode::None,
+        ..vplgi_types::FrameConfig::verify()
+    };
+    let (checks, _) =
+        vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg))
+            .expect("GPU");
     vplgi_tests::check_all("", &checks);
 }

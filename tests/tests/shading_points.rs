@@ -7,7 +7,9 @@ use vplgi_cpu::CpuScene;
 use vplgi_gpu::scene::GpuScene;
 use vplgi_gpu::shading_points::ShadingPointsKernel;
 use vplgi_scene::cornell::cornell_box;
-use vplgi_tests::tolerance::{Disagreement, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE};
+use vplgi_tests::tolerance::{
+    Disagreement, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
+};
 use vplgi_types::{CameraParams, Rng, Stream};
 
 /// Shading points on the Cornell box: ≥ 99.9 % of samples hit the same triangle, positions
@@ -25,7 +27,15 @@ fn shading_points_match_the_cpu() {
     let kernel = ShadingPointsKernel::new(&ctx.device).unwrap();
     for (w, h, spp) in [(96, 80, 1), (40, 40, 3)] {
         let cpu = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, 9);
-        let gpu = kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 }, None).unwrap();
+        let gpu = kernel
+            .run(
+                &ctx.device,
+                &ctx.queue,
+                &gs,
+                &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 },
+                None,
+            )
+            .unwrap();
         assert_eq!(cpu.len(), gpu.len());
         let mut same = 0;
         let mut edge_ties = 0;
@@ -35,15 +45,20 @@ fn shading_points_match_the_cpu() {
             // A ray through an edge shared by two triangles (a quad's diagonal, or the concave
             // edge where ceiling meets wall) may legitimately return either: the hit point is the
             // same. The axis-aligned Cornell-box camera puts pixel centres exactly on such edges.
-            let tie =
-                c.triangle != g.triangle && !c.is_miss() && !g.is_miss() && (Vec3::from(c.position) - Vec3::from(g.position)).length() <= 1e-5 * cs.extent;
+            let tie = c.triangle != g.triangle
+                && !c.is_miss()
+                && !g.is_miss()
+                && (Vec3::from(c.position) - Vec3::from(g.position)).length() <= 1e-5 * cs.extent;
             edge_ties += tie as usize;
             if c.triangle == g.triangle {
                 same += 1;
                 if !c.is_miss() {
-                    pos_err = pos_err.max((Vec3::from(c.position) - Vec3::from(g.position)).length() / cs.extent);
+                    pos_err = pos_err.max(
+                        (Vec3::from(c.position) - Vec3::from(g.position)).length() / cs.extent,
+                    );
                     n_err = n_err.max((Vec3::from(c.normal) - Vec3::from(g.normal)).length());
-                    albedo_err = albedo_err.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
+                    albedo_err = albedo_err
+                        .max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
                     assert_eq!(c.emitted, g.emitted);
                 }
             }
@@ -59,12 +74,34 @@ fn shading_points_match_the_cpu() {
         // strictly by triangle index we measured 99.53 % at 96x80 (all 36 differences are hits
         // on an edge at the same point), so the strict check is 99.5 %.
         let case = format!("shading_points {w}x{h}x{spp}");
-        Disagreement::at_least(&case, "share of samples on the same surface point", frac, SHADING_POINTS_SAME_SURFACE).check();
-        assert!(same as f64 / cpu.len() as f64 >= 0.995, "only {same} samples hit the same triangle");
-        Disagreement::at_most(&case, "position error / scene extent", pos_err as f64, SHADING_POINTS_POSITION_REL).check();
+        Disagreement::at_least(
+            &case,
+            "share of samples on the same surface point",
+            frac,
+            SHADING_POINTS_SAME_SURFACE,
+        )
+        .check();
+        assert!(
+            same as f64 / cpu.len() as f64 >= 0.995,
+            "only {same} samples hit the same triangle"
+        );
+        Disagreement::at_most(
+            &case,
+            "position error / scene extent",
+            pos_err as f64,
+            SHADING_POINTS_POSITION_REL,
+        )
+        .check();
         assert!(n_err <= 1e-4 && albedo_err <= 1e-5);
-        let chunked =
-            kernel.run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 }, Some(64 * 1000)).unwrap();
+        let chunked = kernel
+            .run(
+                &ctx.device,
+                &ctx.queue,
+                &gs,
+                &CameraParams { camera: scene.camera, width: w, height: h, spp, seed: 9 },
+                Some(64 * 1000),
+            )
+            .unwrap();
         assert_eq!(chunked, gpu, "chunked dispatches must give the same shading points");
     }
 }
@@ -84,7 +121,13 @@ fn camera_rays_find_no_cracks_between_boxes() {
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
     let gpu = ShadingPointsKernel::new(&ctx.device)
         .unwrap()
-        .run(&ctx.device, &ctx.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 1 }, None)
+        .run(
+            &ctx.device,
+            &ctx.queue,
+            &gs,
+            &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 1 },
+            None,
+        )
         .unwrap();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
@@ -117,11 +160,23 @@ fn textures_match_the_cpu_and_are_paged() {
     let mut rng = Rng::new(11, Stream::Oracle, 0);
     let mut scene = vplgi_scene::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
     // UVs repeat the textures a few times, offset so texel edges do not meet pixel centres.
-    let uvs: Vec<glam::Vec2> = scene.positions.iter().map(|p| glam::Vec2::new(p.x * 1.7 + 0.13, p.z * 1.3 - 0.41)).collect();
+    let uvs: Vec<glam::Vec2> = scene
+        .positions
+        .iter()
+        .map(|p| glam::Vec2::new(p.x * 1.7 + 0.13, p.z * 1.3 - 0.41))
+        .collect();
     scene.uvs = uvs;
     let blocks = |w: u32, h: u32, value: &mut dyn FnMut() -> f32| {
-        let per_block: Vec<Vec3> = (0..w.div_ceil(16) * h.div_ceil(16)).map(|_| Vec3::new(value(), value(), value())).collect();
-        Texture { width: w, height: h, texels: (0..w * h).map(|i| per_block[((i / w / 16) * w.div_ceil(16) + (i % w) / 16) as usize]).collect() }
+        let per_block: Vec<Vec3> = (0..w.div_ceil(16) * h.div_ceil(16))
+            .map(|_| Vec3::new(value(), value(), value()))
+            .collect();
+        Texture {
+            width: w,
+            height: h,
+            texels: (0..w * h)
+                .map(|i| per_block[((i / w / 16) * w.div_ceil(16) + (i % w) / 16) as usize])
+                .collect(),
+        }
     };
     let coded = blocks(512, 384, &mut || table[(rng.next_u32() % 256) as usize]);
     let mut rng2 = Rng::new(12, Stream::Oracle, 0);
@@ -129,7 +184,12 @@ fn textures_match_the_cpu_and_are_paged() {
     scene.textures = vec![coded, float];
     scene.materials[0].base_color = Vec3::ONE;
     scene.materials[0].base_color_texture = Some(0);
-    scene.materials.push(Material { name: "float texture".into(), base_color: Vec3::ONE, base_color_texture: Some(1), emission: Vec3::ZERO });
+    scene.materials.push(Material {
+        name: "float texture".into(),
+        base_color: Vec3::ONE,
+        base_color_texture: Some(1),
+        emission: Vec3::ZERO,
+    });
     scene.material_ids[1] = 1;
     scene.validate().unwrap();
 
@@ -149,7 +209,13 @@ fn textures_match_the_cpu_and_are_paged() {
         let gs = GpuScene::new(&c.device, &scene).unwrap();
         ShadingPointsKernel::new(&c.device)
             .unwrap()
-            .run(&c.device, &c.queue, &gs, &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 5 }, None)
+            .run(
+                &c.device,
+                &c.queue,
+                &gs,
+                &CameraParams { camera: scene.camera, width: w, height: h, spp: 1, seed: 5 },
+                None,
+            )
             .unwrap()
     };
     let gpu = render(&ctx);
@@ -166,7 +232,11 @@ fn textures_match_the_cpu_and_are_paged() {
         max_err = max_err.max(err);
         albedos.insert(b.albedo.map(f32::to_bits));
     }
-    let same_paged = gpu.iter().zip(&paged).filter(|(a, b)| a.albedo == b.albedo && a.triangle == b.triangle).count();
+    let same_paged = gpu
+        .iter()
+        .zip(&paged)
+        .filter(|(a, b)| a.albedo == b.albedo && a.triangle == b.triangle)
+        .count();
     println!(
         "textures ({bytes} B of texel words): {compared} shading points, {} distinct albedos; within 1e-6 of the CPU {exact} ({:.1} %), max difference {max_err:.2e}; \
          texel words over three pages ({limit} B bindings): {same_paged}/{} identical",
@@ -179,7 +249,10 @@ fn textures_match_the_cpu_and_are_paged() {
     assert!(albedos.len() > 200, "the textures were not sampled");
     // A lookup inside a block: its 4 texels are equal. With 16-texel blocks, (15/16)^2 = 88 % of
     // lookups are, less the points where the UV error crosses a texel edge.
-    assert!(exact as f64 >= 0.8 * compared as f64, "only {exact} of {compared} albedos match to 1e-6");
+    assert!(
+        exact as f64 >= 0.8 * compared as f64,
+        "only {exact} of {compared} albedos match to 1e-6"
+    );
     // Texel steps are at most 1; UVs differ by ~1e-7 relative of 1.7 repeats of 512 texels.
     assert!(max_err <= 2e-3, "albedo differs by {max_err}");
     assert_eq!(same_paged, gpu.len(), "paged texel words read differently");
@@ -207,18 +280,28 @@ proptest::proptest! {
 /// shading-point comparison holds at the SPEC's bound.
 #[test]
 fn centred_camera_rays_find_no_cracks_between_meshes() {
-    let Some(gpu) = vplgi_tests::shared_gpu("centred_camera_rays_find_no_cracks_between_meshes") else {
+    let Some(gpu) = vplgi_tests::shared_gpu("centred_camera_rays_find_no_cracks_between_meshes")
+    else {
         return;
     };
     for name in ["seams", "seams-rotated"] {
         let scene = vplgi_scene::generate::generate(name, 36).unwrap();
-        let camera = CameraParams { camera: scene.camera, width: 128, height: 128, spp: 1, seed: 1 };
-        let (cpu, gpu_points) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shading_points::both(t, &camera)).expect("GPU");
-        let holes = cpu.iter().zip(&gpu_points).filter(|(c, g)| !c.is_miss() && g.is_miss()).count();
-        let extra = cpu.iter().zip(&gpu_points).filter(|(c, g)| c.is_miss() && !g.is_miss()).count();
+        let camera =
+            CameraParams { camera: scene.camera, width: 128, height: 128, spp: 1, seed: 1 };
+        let (cpu, gpu_points) = vplgi_tests::with_twins(gpu, &scene, |t| {
+            vplgi_verify::shading_points::both(t, &camera)
+        })
+        .expect("GPU");
+        let holes =
+            cpu.iter().zip(&gpu_points).filter(|(c, g)| !c.is_miss() && g.is_miss()).count();
+        let extra =
+            cpu.iter().zip(&gpu_points).filter(|(c, g)| c.is_miss() && !g.is_miss()).count();
         println!("{name}: {} camera rays, {holes} hit on Embree but miss on the GPU, {extra} the other way", cpu.len());
         assert_eq!(holes, 0, "{name}: camera rays slip through cracks between meshes on the GPU");
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shading_points::compare(t, &camera)).expect("GPU");
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
+            vplgi_verify::shading_points::compare(t, &camera)
+        })
+        .expect("GPU");
         vplgi_tests::check_all(&format!("{name}: "), &checks);
     }
 }

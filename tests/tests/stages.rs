@@ -9,14 +9,17 @@ use std::process::Command;
 use vplgi_frame::Stage;
 
 fn repository() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate sits in the repository").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the tests crate sits in the repository")
+        .to_path_buf()
 }
 
 fn read(path: &str) -> Option<String> {
     std::fs::read_to_string(repository().join(path)).ok()
 }
 
-/// `gather_radius` -> `GatherRadius`: the trait a module implements.
+/// `shading_points` -> `ShadingPoints`: the trait a module implements.
 fn trait_of(module: &str) -> String {
     module.split('_').map(|w| w[..1].to_uppercase() + &w[1..]).collect()
 }
@@ -45,7 +48,10 @@ fn missing(stage: Stage) -> Vec<String> {
         lacks("no row in vplgi verify".into());
     }
     match read(&format!("crates/vplgi-verify/src/{name}.rs")) {
-        Some(text) if text.contains("use crate::tolerance::") && (text.contains("Disagreement::at_most") || text.contains("Disagreement::at_least")) => {}
+        Some(text)
+            if text.contains("use crate::tolerance::")
+                && (text.contains("Disagreement::at_most")
+                    || text.contains("Disagreement::at_least")) => {}
         Some(_) => lacks("its verify comparison judges nothing against the tolerance table".into()),
         None => lacks(format!("no crates/vplgi-verify/src/{name}.rs")),
     }
@@ -56,7 +62,9 @@ fn missing(stage: Stage) -> Vec<String> {
     }
     match read(&format!("benches/benches/stages/{name}.rs")) {
         Some(text) if text.contains("criterion_group!(benches") => {}
-        Some(_) => lacks(format!("benches/benches/stages/{name}.rs has no criterion group `benches`")),
+        Some(_) => {
+            lacks(format!("benches/benches/stages/{name}.rs has no criterion group `benches`"))
+        }
         None => lacks(format!("no bench benches/benches/stages/{name}.rs")),
     }
     missing
@@ -88,9 +96,18 @@ fn stage_traits_are_implemented_in_their_own_modules() {
         }
         for file in files {
             let text = std::fs::read_to_string(&file).expect("readable");
-            let home = file.strip_prefix(&dir).expect("below src").with_extension("").to_string_lossy().into_owned();
+            let home = file
+                .strip_prefix(&dir)
+                .expect("below src")
+                .with_extension("")
+                .to_string_lossy()
+                .into_owned();
             for line in text.lines().filter(|l| l.starts_with("impl vplgi_frame::stages::")) {
-                let t = line.trim_start_matches("impl vplgi_frame::stages::").split_whitespace().next().unwrap_or_default();
+                let t = line
+                    .trim_start_matches("impl vplgi_frame::stages::")
+                    .split_whitespace()
+                    .next()
+                    .unwrap_or_default();
                 assert_eq!(trait_of(&home), t, "{}: {line}", file.display());
             }
         }
@@ -101,11 +118,18 @@ fn stage_traits_are_implemented_in_their_own_modules() {
 /// property-test and mutant lists read them from the table.
 #[test]
 fn the_makefile_reads_the_table() {
-    let out = Command::new("make").args(["-s", "--no-print-directory", "stages"]).current_dir(repository()).output().expect("make runs");
+    let out = Command::new("make")
+        .args(["-s", "--no-print-directory", "stages"])
+        .current_dir(repository())
+        .output()
+        .expect("make runs");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     let lines: Vec<&str> = text.lines().collect();
     let stages: Vec<&str> = Stage::ALL.iter().map(|s| s.name()).collect();
-    let modules: Vec<&str> = Stage::ALL.iter().flat_map(|s| std::iter::once(s.name()).chain(s.parts().iter().copied())).collect();
+    let modules: Vec<&str> = Stage::ALL
+        .iter()
+        .flat_map(|s| std::iter::once(s.name()).chain(s.parts().iter().copied()))
+        .collect();
     assert_eq!(lines, [stages.join(" "), modules.join(" ")]);
 }

@@ -27,17 +27,30 @@ fn trace_vpls_matches_the_cpu() {
     let spot_box = vplgi_tests::inputs::cornell_box_with_spot();
     let cases = [
         ("cornell box, area light", cornell_box(), 3000u32, 3u32),
-        ("plane, point light", vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0), 2000, 1),
+        (
+            "plane, point light",
+            vplgi_scene::cornell::plane_with_point_light(1.0, 0.7, 0.5, 3.0),
+            2000,
+            1,
+        ),
         ("cornell box + spot light", spot_box, 3000, 3),
-        ("plane with a box, directional light", vplgi_tests::inputs::sunlit_plane_with_box(), 3000, 2),
+        (
+            "plane with a box, directional light",
+            vplgi_tests::inputs::sunlit_plane_with_box(),
+            3000,
+            2,
+        ),
     ];
     for (name, scene, count, bounces) in cases {
         let device = vplgi_embree::Device::new(None).unwrap();
         let cs = CpuScene::new(&scene, &device).unwrap();
         let gs = GpuScene::new(&ctx.device, &scene).unwrap();
         let cpu = vplgi_cpu::trace_vpls::trace_vpls(&cs, 4, count, bounces, &vplgi_cpu::NoProgress);
-        let g = kernel.run(&ctx.device, &ctx.queue, &gs, &TraceParams { seed: 4, count, bounces }).unwrap();
-        let gpu: Vec<Vpl> = read_back(&ctx.device, &ctx.queue, &g.buffer, g.count as usize).unwrap();
+        let g = kernel
+            .run(&ctx.device, &ctx.queue, &gs, &TraceParams { seed: 4, count, bounces })
+            .unwrap();
+        let gpu: Vec<Vpl> =
+            read_back(&ctx.device, &ctx.queue, &g.buffer, g.count as usize).unwrap();
         assert_eq!(gpu.len(), cpu.vpls.len(), "{name}: VPL count");
         let by_path = |v: &[Vpl]| {
             let mut m: BTreeMap<u32, Vec<Vpl>> = BTreeMap::new();
@@ -51,7 +64,8 @@ fn trace_vpls_matches_the_cpu() {
             let rel = TRACE_VPLS_REL as f32;
             let pos = (Vec3::from(a.position) - Vec3::from(b.position)).length() <= rel * cs.extent;
             let nor = (Vec3::from(a.normal) - Vec3::from(b.normal)).length() <= rel;
-            let flux = (Vec3::from(a.flux) - Vec3::from(b.flux)).abs().max_element() <= rel * Vec3::from(a.flux).abs().max_element().max(1e-12);
+            let flux = (Vec3::from(a.flux) - Vec3::from(b.flux)).abs().max_element()
+                <= rel * Vec3::from(a.flux).abs().max_element().max(1e-12);
             pos && nor && flux && a.bounce == b.bounce
         };
         let mut diverged = 0;
@@ -63,7 +77,8 @@ fn trace_vpls_matches_the_cpu() {
                 (Some(a), Some(b)) => {
                     // The last path may be cut at a different length if an earlier one diverged.
                     let n = if *p == last { a.len().min(b.len()) } else { a.len() };
-                    (a.len() == b.len() || *p == last) && a.iter().zip(b).take(n).all(|(x, y)| close(x, y))
+                    (a.len() == b.len() || *p == last)
+                        && a.iter().zip(b).take(n).all(|(x, y)| close(x, y))
                 }
                 _ => false,
             };
@@ -77,9 +92,17 @@ fn trace_vpls_matches_the_cpu() {
             paths.len()
         );
         assert!(gpu.len() == count as usize);
-        Disagreement::at_most(format!("trace_vpls ({name})"), "share of diverging paths", diverged as f64 / paths.len() as f64, TRACE_VPLS_DIVERGED_PATHS)
-            .check();
-        assert!((cpu.particles as i64 - g.particles as i64).abs() <= diverged as i64 * bounces as i64, "{name}: particle counts");
+        Disagreement::at_most(
+            format!("trace_vpls ({name})"),
+            "share of diverging paths",
+            diverged as f64 / paths.len() as f64,
+            TRACE_VPLS_DIVERGED_PATHS,
+        )
+        .check();
+        assert!(
+            (cpu.particles as i64 - g.particles as i64).abs() <= diverged as i64 * bounces as i64,
+            "{name}: particle counts"
+        );
     }
 }
 

@@ -20,7 +20,12 @@ fn obvhs_visible(
 ) -> bool {
     let p = cs.offset_toward(a.p(), a.n(), b.p());
     let q = cs.offset_toward(b.p(), b.n(), a.p());
-    let ray = obvhs::ray::Ray::new(Vec3A::from(p), Vec3A::from(q - p), vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR);
+    let ray = obvhs::ray::Ray::new(
+        Vec3A::from(p),
+        Vec3A::from(q - p),
+        vplgi_cpu::SEGMENT_TNEAR,
+        vplgi_cpu::SEGMENT_TFAR,
+    );
     bvh.ray_traverse_miss(ray, |r, id| tris[bvh.primitive_indices[id] as usize].intersect(r))
 }
 
@@ -35,14 +40,20 @@ fn visibility_agrees_three_ways() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let sps = vplgi_cpu::shading_points::shading_points(&cs, 48, 48, 1, 1);
-    let rows: Vec<vplgi_cpu::visibility::Endpoint> = sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
+    let rows: Vec<vplgi_cpu::visibility::Endpoint> =
+        sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 3, 300, 3, &vplgi_cpu::NoProgress).vpls;
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(Endpoint::of_vpl).collect();
-    let (embree, rays) = vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
+    let (embree, rays) =
+        vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);
 
     let tris = vplgi_gpu::bvh::triangles(&scene);
     let mut bt = std::time::Duration::ZERO;
-    let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut bt);
+    let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+        &tris,
+        obvhs::BvhBuildParams::medium_build(),
+        &mut bt,
+    );
 
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
     let kernel = VisibilityKernel::new(&ctx.device).unwrap();
@@ -71,18 +82,32 @@ fn visibility_agrees_three_ways() {
         rows.len(),
         cols.len()
     );
-    assert!(visible > total / 10 && visible < total, "the test needs both visible and blocked pairs");
+    assert!(
+        visible > total / 10 && visible < total,
+        "the test needs both visible and blocked pairs"
+    );
     for (name, d) in [("Embree/obvhs", e_o), ("Embree/GPU", e_g), ("obvhs/GPU", o_g)] {
-        Disagreement::at_least(format!("visibility {name}"), "share of identical bits", (total - d) as f64 / total as f64, VISIBILITY_SAME_BITS).check();
+        Disagreement::at_least(
+            format!("visibility {name}"),
+            "share of identical bits",
+            (total - d) as f64 / total as f64,
+            VISIBILITY_SAME_BITS,
+        )
+        .check();
     }
-    let chunked = kernel.run(&ctx.device, &ctx.queue, &gs, &grows, &gcols, Some((wpr * 4 * 7) as u64)).unwrap();
+    let chunked = kernel
+        .run(&ctx.device, &ctx.queue, &gs, &grows, &gcols, Some((wpr * 4 * 7) as u64))
+        .unwrap();
     assert_eq!(chunked, words, "row-chunked dispatches must give the same matrix");
 }
 
 /// A wall in z = 0 over [-1, 1]^2, tessellated like the generated scenes' walls: n x n cells of two
 /// triangles with shared vertices.
 fn grid_wall(n: u32) -> vplgi_scene::Scene {
-    let mut scene = vplgi_scene::Scene { materials: vec![vplgi_scene::Material::default()], ..vplgi_scene::Scene::default() };
+    let mut scene = vplgi_scene::Scene {
+        materials: vec![vplgi_scene::Material::default()],
+        ..vplgi_scene::Scene::default()
+    };
     let at = |i: u32| i as f32 * (2.0 / n as f32) - 1.0; // exact: the spacing is a power of two
     for j in 0..=n {
         for i in 0..=n {
@@ -123,7 +148,9 @@ fn segments_through_shared_edges_find_no_cracks() {
     let mut cols = Vec::new();
     for j in (n / 4..3 * n / 4).step_by(3) {
         for i in (n / 4..3 * n / 4).step_by(3) {
-            for (dx, dy) in [(0.0, 0.0), (h, 0.0), (0.0, h), (h, h), (0.5 * h, 0.5 * h), (1.5 * h, 1.5 * h)] {
+            for (dx, dy) in
+                [(0.0, 0.0), (h, 0.0), (0.0, h), (h, h), (0.5 * h, 0.5 * h), (1.5 * h, 1.5 * h)]
+            {
                 let t = Vec3::new(at(i) + dx, at(j) + dy, 0.0);
                 cols.push(Endpoint::new(2.0 * t - a0, -Vec3::Z));
             }
@@ -132,20 +159,35 @@ fn segments_through_shared_edges_find_no_cracks() {
     let mut rng = Rng::new(9, Stream::Oracle, 0);
     let mut rows = vec![Endpoint::new(a0, Vec3::Z)];
     for _ in 0..31 {
-        rows.push(Endpoint::new(a0 + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 0.0) * 0.2, Vec3::Z));
+        rows.push(Endpoint::new(
+            a0 + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 0.0) * 0.2,
+            Vec3::Z,
+        ));
     }
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
-    let words = VisibilityKernel::new(&ctx.device).unwrap().run(&ctx.device, &ctx.queue, &gs, &rows, &cols, None).unwrap();
+    let words = VisibilityKernel::new(&ctx.device)
+        .unwrap()
+        .run(&ctx.device, &ctx.queue, &gs, &rows, &cols, None)
+        .unwrap();
     let wpr = words_per_row(cols.len());
-    let gpu_leaks = |r: usize| (0..cols.len()).filter(|&c| (words[r * wpr + c / 32] >> (c % 32)) & 1 == 1).count();
+    let gpu_leaks = |r: usize| {
+        (0..cols.len()).filter(|&c| (words[r * wpr + c / 32] >> (c % 32)) & 1 == 1).count()
+    };
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let cpu = |e: &Endpoint| *e;
-    let (embree, _) =
-        vplgi_cpu::visibility::visibility(&cs, &rows.iter().map(cpu).collect::<Vec<_>>(), &cols.iter().map(cpu).collect::<Vec<_>>(), &vplgi_cpu::NoProgress);
+    let (embree, _) = vplgi_cpu::visibility::visibility(
+        &cs,
+        &rows.iter().map(cpu).collect::<Vec<_>>(),
+        &cols.iter().map(cpu).collect::<Vec<_>>(),
+        &vplgi_cpu::NoProgress,
+    );
     let embree_leaks = |r: usize| (0..cols.len()).filter(|&c| embree.get(r, c)).count();
     let (aimed_gpu, aimed_embree) = (gpu_leaks(0), embree_leaks(0));
-    let (other_gpu, other_embree) = ((1..rows.len()).map(gpu_leaks).sum::<usize>(), (1..rows.len()).map(embree_leaks).sum::<usize>());
+    let (other_gpu, other_embree) = (
+        (1..rows.len()).map(gpu_leaks).sum::<usize>(),
+        (1..rows.len()).map(embree_leaks).sum::<usize>(),
+    );
     println!("{} segments aimed at shared vertices and edges: {aimed_gpu} leak on the GPU, {aimed_embree} on Embree; {} others: {other_gpu} leak on the GPU, {other_embree} on Embree", cols.len(), cols.len() * (rows.len() - 1));
     assert_eq!((aimed_embree, other_embree), (0, 0), "Embree leaks through the wall");
     assert_eq!((aimed_gpu, other_gpu), (0, 0), "the GPU leaks through shared edges");
@@ -164,7 +206,8 @@ fn three_ways(
     let c = vplgi_tests::inputs::surface_endpoints(scene, cols, !seed, on_edges);
     let obvhs = vplgi_verify::visibility::ObvhsScene::new(scene);
     println!("{}: {rows} x {cols}", scene.name);
-    vplgi_tests::with_twins(gpu, scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c)).expect("GPU")
+    vplgi_tests::with_twins(gpu, scene, |t| vplgi_verify::visibility::compare(t, &obvhs, &r, &c))
+        .expect("GPU")
 }
 
 proptest::proptest! {
@@ -204,13 +247,20 @@ proptest::proptest! {
 /// 2x per axis (non-uniformly), so cracks fall at every orientation and coordinate size.
 fn seam_placement() -> impl proptest::strategy::Strategy<Value = vplgi_scene::seams::Placement> {
     use proptest::prelude::*;
-    (prop::array::uniform3(-1.0f32..1.0), 0.0f32..std::f32::consts::PI, prop::array::uniform3(-3.0f32..3.0), prop::array::uniform3(0.5f32..2.0)).prop_map(
-        |(axis, angle, offset, scale)| vplgi_scene::seams::Placement {
-            scale: Vec3::from(scale),
-            rotation: glam::Quat::from_axis_angle(Vec3::from(axis).try_normalize().unwrap_or(Vec3::Y), angle),
-            offset: Vec3::from(offset),
-        },
+    (
+        prop::array::uniform3(-1.0f32..1.0),
+        0.0f32..std::f32::consts::PI,
+        prop::array::uniform3(-3.0f32..3.0),
+        prop::array::uniform3(0.5f32..2.0),
     )
+        .prop_map(|(axis, angle, offset, scale)| vplgi_scene::seams::Placement {
+            scale: Vec3::from(scale),
+            rotation: glam::Quat::from_axis_angle(
+                Vec3::from(axis).try_normalize().unwrap_or(Vec3::Y),
+                angle,
+            ),
+            offset: Vec3::from(offset),
+        })
 }
 
 /// Shadow segments aimed at the cracks of `room` (seams picked by `seed`), on Embree and on the
@@ -236,13 +286,15 @@ fn seam_leaks(
     let oracle = vplgi_verify::segment::TieOracle::new(&room.scene);
     vplgi_tests::with_twins(gpu, &room.scene, |t| {
         for _ in 0..seams {
-            let [a, b] = room.seams[((r() * room.seams.len() as f32) as usize).min(room.seams.len() - 1)];
+            let [a, b] =
+                room.seams[((r() * room.seams.len() as f32) as usize).min(room.seams.len() - 1)];
             // Above the blocks (whose tops are at y = 0.2 in the room's frame), inside the room.
             let local = Vec3::new(1.8 * r() - 0.9, 0.3 + 0.6 * r(), 2.2 * r() - 0.9);
             let a0 = room.placement.transform_point3(local);
             let along = (b - a).normalize();
             let n = ((a + b) * 0.5 - a0).normalize();
-            let row_ends: Vec<Endpoint> = (0..rows).map(|_| Endpoint::new(a0 + along * (0.1 * r() - 0.05), n)).collect();
+            let row_ends: Vec<Endpoint> =
+                (0..rows).map(|_| Endpoint::new(a0 + along * (0.1 * r() - 0.05), n)).collect();
             let col_ends: Vec<Endpoint> = (0..cols)
                 .map(|_| {
                     let u = r();
@@ -256,8 +308,18 @@ fn seam_leaks(
                     Endpoint::new(2.0 * a.lerp(b, s) - a0, -n)
                 })
                 .collect();
-            let (embree, _) = vplgi_cpu::visibility::visibility(t.cpu, &row_ends, &col_ends, &vplgi_cpu::NoProgress);
-            let words = t.gpu.kernels().visibility.run(t.device(), t.queue(), t.gpu.scene(), &row_ends, &col_ends, None).expect("GPU");
+            let (embree, _) = vplgi_cpu::visibility::visibility(
+                t.cpu,
+                &row_ends,
+                &col_ends,
+                &vplgi_cpu::NoProgress,
+            );
+            let words = t
+                .gpu
+                .kernels()
+                .visibility
+                .run(t.device(), t.queue(), t.gpu.scene(), &row_ends, &col_ends, None)
+                .expect("GPU");
             let wpr = words_per_row(cols);
             for (i, p) in row_ends.iter().enumerate() {
                 for (j, q) in col_ends.iter().enumerate() {
@@ -268,7 +330,10 @@ fn seam_leaks(
                     counts[0] += 1;
                     counts[1] += (!e && g) as u64;
                     if !e && g && first_leak.is_none() {
-                        let (pp, qq) = (t.cpu.offset_toward(p.p(), p.n(), q.p()), t.cpu.offset_toward(q.p(), q.n(), p.p()));
+                        let (pp, qq) = (
+                            t.cpu.offset_toward(p.p(), p.n(), q.p()),
+                            t.cpu.offset_toward(q.p(), q.n(), p.p()),
+                        );
                         first_leak = Some(format!("{pp} to {qq} through the seam {a} to {b}"));
                     }
                     counts[2] += (e && !g) as u64;
@@ -276,9 +341,16 @@ fn seam_leaks(
                     if e && !g {
                         // Blocked on the GPU alone: a crack Embree leaks through, never a segment
                         // clear of every triangle by more than rounding.
-                        let (pp, qq) = (t.cpu.offset_toward(p.p(), p.n(), q.p()), t.cpu.offset_toward(q.p(), q.n(), p.p()));
+                        let (pp, qq) = (
+                            t.cpu.offset_toward(p.p(), p.n(), q.p()),
+                            t.cpu.offset_toward(q.p(), q.n(), p.p()),
+                        );
                         let verdict = oracle.verdict(pp.as_dvec3(), qq.as_dvec3());
-                        assert_ne!(verdict, vplgi_verify::segment::Verdict::Visible, "the GPU blocks {pp} to {qq}, clear of every triangle");
+                        assert_ne!(
+                            verdict,
+                            vplgi_verify::segment::Verdict::Visible,
+                            "the GPU blocks {pp} to {qq}, clear of every triangle"
+                        );
                     }
                 }
             }

@@ -52,27 +52,41 @@ pub fn run(args: BenchArgs) -> Result<()> {
         bail!("need 1 <= --best <= --runs (got --best {} --runs {})", args.best, args.runs);
     }
     let (scene, source) = load_scene(args.scene.as_deref())?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let configs =
-        args.configs.iter().map(|&p| Ok((p, args.frame.config_of(&BENCH, p).with_context(|| format!("configuration {p:?}"))?))).collect::<Result<Vec<_>>>()?;
-    let (summaries, rows, backend, adapter) = with_engine(args.backend, &scene, &source, |engine| {
-        let mut rows = Vec::new();
-        let mut summaries = Vec::new();
-        for (preset, cfg) in &configs {
-            // One untimed frame first: the GPU compiles its pipelines on first dispatch.
-            engine.render(cfg, &NoProgress)?;
-            let mut runs = Vec::with_capacity(args.runs);
-            for i in 0..args.runs {
-                eprint!("\r{preset:?}: run {}/{}", i + 1, args.runs);
-                runs.push(engine.render(cfg, &NoProgress)?.timings);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    let configs = args
+        .configs
+        .iter()
+        .map(|&p| {
+            Ok((
+                p,
+                args.frame.config_of(&BENCH, p).with_context(|| format!("configuration {p:?}"))?,
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (summaries, rows, backend, adapter) = with_engine(
+        args.backend,
+        &scene,
+        &source,
+        |engine| {
+            let mut rows = Vec::new();
+            let mut summaries = Vec::new();
+            for (preset, cfg) in &configs {
+                // One untimed frame first: the GPU compiles its pipelines on first dispatch.
+                engine.render(cfg, &NoProgress)?;
+                let mut runs = Vec::with_capacity(args.runs);
+                for i in 0..args.runs {
+                    eprint!("\r{preset:?}: run {}/{}", i + 1, args.runs);
+                    runs.push(engine.render(cfg, &NoProgress)?.timings);
+                }
+                eprintln!();
+                let summary = summarize(&runs, args.best);
+                rows.push(serde_json::json!({ "config": format!("{preset:?}").to_lowercase(), "params": cfg, "timings_ms": summary, "runs_ms": runs }));
+                summaries.push(summary);
             }
-            eprintln!();
-            let summary = summarize(&runs, args.best);
-            rows.push(serde_json::json!({ "config": format!("{preset:?}").to_lowercase(), "params": cfg, "timings_ms": summary, "runs_ms": runs }));
-            summaries.push(summary);
-        }
-        Ok((summaries, rows, engine.name, engine.adapter.as_ref().map(|a| a.name.clone())))
-    })?;
+            Ok((summaries, rows, engine.name, engine.adapter.as_ref().map(|a| a.name.clone())))
+        },
+    )?;
 
     let report = serde_json::json!({
         "scene": { "source": source, "name": scene.name, "triangles": scene.triangle_count() },
@@ -97,7 +111,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "---:|".repeat(Stage::ALL.len())
     );
     for ((preset, cfg), t) in configs.iter().zip(&summaries) {
-        let clusters = if cfg.cluster == ClusterMode::None { "–".to_string() } else { format!("{} / {}", cfg.k_vpl, cfg.k_sp) };
+        let clusters = if cfg.cluster == ClusterMode::None {
+            "–".to_string()
+        } else {
+            format!("{} / {}", cfg.k_vpl, cfg.k_sp)
+        };
         let stages: String = t.iter().map(|(_, ms)| format!(" {ms:.1} |")).collect();
         md.push_str(&format!("| {preset:?} | {clusters} |{stages} {:.1} |\n", t.total()));
     }

@@ -18,12 +18,19 @@ pub struct CompareArgs {
 pub fn run(args: CompareArgs) -> Result<()> {
     let reference = vplgi_image::read_exr(&args.reference)?;
     let test = vplgi_image::read_exr(&args.test)?;
-    let cmp = vplgi_image::compare(&reference, &test).with_context(|| format!("comparing {} with {}", args.test.display(), args.reference.display()))?;
+    let cmp = vplgi_image::compare(&reference, &test).with_context(|| {
+        format!("comparing {} with {}", args.test.display(), args.reference.display())
+    })?;
     let out = match args.out {
         Some(d) => d,
-        None => args.test.parent().map(|p| if p.as_os_str().is_empty() { PathBuf::from(".") } else { p.to_path_buf() }).unwrap_or_else(|| PathBuf::from(".")),
+        None => args
+            .test
+            .parent()
+            .map(|p| if p.as_os_str().is_empty() { PathBuf::from(".") } else { p.to_path_buf() })
+            .unwrap_or_else(|| PathBuf::from(".")),
     };
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let m = cmp.metrics;
     let report = serde_json::json!({
         "reference": args.reference,
@@ -42,7 +49,10 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let map_path = out.join("error_map.png");
     vplgi_image::write_error_map(&map_path, &cmp)?;
     println!("mse      {:.6e}\nrel_mse  {:.6e}\nflip     {:.6}", m.mse, m.rel_mse, m.flip);
-    println!("mean ratio (test / reference): R {:.5}, G {:.5}, B {:.5}", m.mean_ratio[0], m.mean_ratio[1], m.mean_ratio[2]);
+    println!(
+        "mean ratio (test / reference): R {:.5}, G {:.5}, B {:.5}",
+        m.mean_ratio[0], m.mean_ratio[1], m.mean_ratio[2]
+    );
     println!("wrote {} and {}", json_path.display(), map_path.display());
     Ok(())
 }

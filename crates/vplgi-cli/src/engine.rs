@@ -43,7 +43,12 @@ impl Engine<'_> {
     }
 
     /// A frame of a sequence.
-    pub fn render_from(&self, cfg: &FrameConfig, view: &View, progress: &dyn Progress) -> Result<Frame> {
+    pub fn render_from(
+        &self,
+        cfg: &FrameConfig,
+        view: &View,
+        progress: &dyn Progress,
+    ) -> Result<Frame> {
         (self.render)(cfg, Some(view), progress)
     }
 
@@ -61,7 +66,11 @@ impl Engine<'_> {
     ) -> Result<()> {
         let (mut centres, mut rsm_centres) = (Vec::new(), Vec::new());
         for (i, camera) in cameras.iter().enumerate() {
-            let view = View { camera: *camera, previous: (i > 0).then_some(&centres[..]), previous_rsm: (i > 0).then_some(&rsm_centres[..]) };
+            let view = View {
+                camera: *camera,
+                previous: (i > 0).then_some(&centres[..]),
+                previous_rsm: (i > 0).then_some(&rsm_centres[..]),
+            };
             let mut frame = match lit {
                 Some(scene_of) => (self.relit)(&scene_of(i), cfg, &view, progress)?,
                 None => self.render_from(cfg, &view, progress)?,
@@ -75,7 +84,12 @@ impl Engine<'_> {
 }
 
 /// Makes `scene` ready on the chosen backend and runs `work` with it.
-pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: impl FnOnce(&Engine) -> Result<T>) -> Result<T> {
+pub fn with_engine<T>(
+    backend: BackendArg,
+    scene: &Scene,
+    source: &str,
+    work: impl FnOnce(&Engine) -> Result<T>,
+) -> Result<T> {
     let gpu = match backend {
         BackendArg::Cpu => None,
         BackendArg::Gpu => Some(vplgi_gpu::GpuContext::new()?),
@@ -91,30 +105,41 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
         None => {
             let clock = Instant::now();
             let device = vplgi_embree::Device::new(None)?;
-            let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+            let cs = vplgi_cpu::CpuScene::new(scene, &device)
+                .with_context(|| format!("building the Embree scene for {source}"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
             let render = |cfg: &FrameConfig, v: Option<&View>, p: &dyn Progress| match v {
                 Some(v) => Ok(vplgi_frame::render_from(&cs, cfg, v, p)?),
                 None => Ok(vplgi_frame::render(&cs, cfg, p)?),
             };
             let relit = |scene: &Scene, cfg: &FrameConfig, v: &View, p: &dyn Progress| {
-                let cs = vplgi_cpu::CpuScene::new(scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+                let cs = vplgi_cpu::CpuScene::new(scene, &device)
+                    .with_context(|| format!("building the Embree scene for {source}"))?;
                 Ok(vplgi_frame::render_from(&cs, cfg, v, p)?)
             };
-            work(&Engine { render: &render, relit: &relit, name: "cpu", adapter: None, gpu: None, setup_ms })
+            work(&Engine {
+                render: &render,
+                relit: &relit,
+                name: "cpu",
+                adapter: None,
+                gpu: None,
+                setup_ms,
+            })
         }
         Some(ctx) => {
             eprintln!("rendering on {} (GPU timings on lavapipe are CPU-emulated)", ctx.describe());
             let kernels = vplgi_gpu::GpuKernels::new(&ctx.device)?;
             let clock = Instant::now();
-            let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
+            let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene)
+                .with_context(|| format!("uploading {source} to the GPU"))?;
             let setup_ms = clock.elapsed().as_secs_f64() * 1e3;
             let render = |cfg: &FrameConfig, v: Option<&View>, p: &dyn Progress| match v {
                 Some(v) => Ok(vplgi_frame::render_from(&gb, cfg, v, p)?),
                 None => Ok(vplgi_frame::render(&gb, cfg, p)?),
             };
             let relit = |scene: &Scene, cfg: &FrameConfig, v: &View, p: &dyn Progress| {
-                let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene).with_context(|| format!("uploading {source} to the GPU"))?;
+                let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, scene)
+                    .with_context(|| format!("uploading {source} to the GPU"))?;
                 Ok(vplgi_frame::render_from(&gb, cfg, v, p)?)
             };
             let adapter = Adapter {
@@ -122,7 +147,14 @@ pub fn with_engine<T>(backend: BackendArg, scene: &Scene, source: &str, work: im
                 device_type: format!("{:?}", ctx.info.device_type),
                 features: ctx.notable_features().into_iter().map(String::from).collect(),
             };
-            work(&Engine { render: &render, relit: &relit, name: "gpu", adapter: Some(adapter), gpu: Some(ctx), setup_ms })
+            work(&Engine {
+                render: &render,
+                relit: &relit,
+                name: "gpu",
+                adapter: Some(adapter),
+                gpu: Some(ctx),
+                setup_ms,
+            })
         }
     }
 }

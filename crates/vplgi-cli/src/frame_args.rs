@@ -10,8 +10,8 @@ use serde::Serialize;
 use vplgi_shared::rsm::RsmWeights;
 use vplgi_types::config::MAX_F;
 use vplgi_types::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
-    VplSource,
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding,
+    ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
@@ -189,7 +189,10 @@ pub struct FrameArgs {
 
 /// `--rsm-weights 1,10,0`.
 fn parse_weights(s: &str) -> Result<RsmWeights, String> {
-    let w: Vec<f32> = s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    let w: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<Result<_, _>>()?;
     let [position, normal, flux] = w[..] else {
         return Err(format!("three comma-separated weights WD,WN,WPHI, got {}", w.len()));
     };
@@ -258,7 +261,10 @@ impl FrameArgs {
     /// The options over `preset`, for subcommand `u`, checked.
     pub fn config_of(&self, u: &Use, preset: Preset) -> Result<FrameConfig> {
         let given = self.given()?;
-        let mut fixed = u.fixed.iter().filter(|id| given.contains_key(**id) || (**id == "preset" && self.preset.is_some()));
+        let mut fixed = u
+            .fixed
+            .iter()
+            .filter(|id| given.contains_key(**id) || (**id == "preset" && self.preset.is_some()));
         if let Some(id) = fixed.next() {
             bail!("vplgi {} does not take {}: {}", u.command, flag(id), u.why);
         }
@@ -284,7 +290,9 @@ fn flag(id: &str) -> String {
 fn shown_default(value: &serde_json::Value) -> String {
     match value {
         serde_json::Value::String(s) => s.clone(),
-        serde_json::Value::Number(n) if n.is_f64() => n.as_f64().map_or_else(|| n.to_string(), |x| (x as f32).to_string()),
+        serde_json::Value::Number(n) if n.is_f64() => {
+            n.as_f64().map_or_else(|| n.to_string(), |x| (x as f32).to_string())
+        }
         v => v.to_string(),
     }
 }
@@ -313,7 +321,10 @@ pub fn document(mut cmd: clap::Command) -> clap::Command {
             if u.command == REFERENCE.command {
                 // A reference averages several seeds: --seed is the first (and was --first-seed).
                 sc = sc.mut_arg("seed", |a| {
-                    a.alias("first-seed").help(format!("The first seed: renders use seeds --seed, --seed + 1, ... [default: {}]", u.preset.config().seed))
+                    a.alias("first-seed").help(format!(
+                        "The first seed: renders use seeds --seed, --seed + 1, ... [default: {}]",
+                        u.preset.config().seed
+                    ))
                 });
             }
             sc
@@ -328,21 +339,39 @@ mod tests {
 
     #[test]
     fn options_override_the_preset_by_field_name() {
-        let args = FrameArgs { width: Some(64), cluster: Some(ClusterMode::Sp), g_clamp_rel: Some(0.0), ..Default::default() };
+        let args = FrameArgs {
+            width: Some(64),
+            cluster: Some(ClusterMode::Sp),
+            g_clamp_rel: Some(0.0),
+            ..Default::default()
+        };
         let c = args.config(&RENDER).unwrap();
-        assert_eq!((c.width, c.height, c.cluster, c.g_clamp_rel), (64, FrameConfig::default().height, ClusterMode::Sp, 0.0));
-        let high = FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&RENDER).unwrap();
+        assert_eq!(
+            (c.width, c.height, c.cluster, c.g_clamp_rel),
+            (64, FrameConfig::default().height, ClusterMode::Sp, 0.0)
+        );
+        let high =
+            FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&RENDER).unwrap();
         assert_eq!(high, FrameConfig::paper_high());
         assert_eq!(FrameArgs::default().config(&REFERENCE).unwrap(), FrameConfig::reference());
     }
 
     #[test]
     fn fixed_and_invalid_options_are_refused_by_name() {
-        let e = FrameArgs { k_sp: Some(5), ..Default::default() }.config(&SWEEP).unwrap_err().to_string();
+        let e = FrameArgs { k_sp: Some(5), ..Default::default() }
+            .config(&SWEEP)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--k-sp") && e.contains("the sweep sets them"), "{e}");
-        let e = FrameArgs { preset: Some(Preset::High), ..Default::default() }.config(&SWEEP).unwrap_err().to_string();
+        let e = FrameArgs { preset: Some(Preset::High), ..Default::default() }
+            .config(&SWEEP)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--preset"), "{e}");
-        let e = FrameArgs { spp: Some(0), ..Default::default() }.config(&RENDER).unwrap_err().to_string();
+        let e = FrameArgs { spp: Some(0), ..Default::default() }
+            .config(&RENDER)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("spp"), "{e}");
     }
 }

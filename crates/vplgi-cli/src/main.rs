@@ -122,7 +122,10 @@ mod cli_doc {
     const WIDTH: usize = 100;
 
     fn section(cmd: &mut clap::Command, path: &str, out: &mut String) {
-        out.push_str(&format!("\n## `{path}`\n\n```text\n{}\n```\n", cmd.render_long_help().to_string().trim_end()));
+        out.push_str(&format!(
+            "\n## `{path}`\n\n```text\n{}\n```\n",
+            cmd.render_long_help().to_string().trim_end()
+        ));
         for sub in cmd.get_subcommands_mut() {
             if sub.get_name() != "help" {
                 let name = format!("{path} {}", sub.get_name());
@@ -151,6 +154,9 @@ mod cli_doc {
             return;
         }
         let have = std::fs::read_to_string(&path).unwrap_or_default();
-        assert!(have == want, "docs/CLI.md is out of date with the command-line definitions: run `make cli-doc`");
+        assert!(
+            have == want,
+            "docs/CLI.md is out of date with the command-line definitions: run `make cli-doc`"
+        );
     }
 }

@@ -9,7 +9,8 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// PNG text needs a TrueType font; `make setup` installs DejaVu Sans (fonts-dejavu-core).
-const FONT_PATHS: [&str; 2] = ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"];
+const FONT_PATHS: [&str; 2] =
+    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"];
 
 /// Registers the font plotters draws text with, once: `$VPLGI_FONT`, else DejaVu Sans.
 pub fn ensure_font() -> Result<()> {
@@ -65,7 +66,12 @@ where
     root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
     let n = bars.len();
     // Headroom above the bars and the error line keeps the legend (top middle) clear of both.
-    let top = bars.iter().map(|b| b.stages.iter().map(|s| s.1).sum::<f64>()).fold(reference_ms.unwrap_or(0.0), f64::max).max(1e-3) * 1.45;
+    let top = bars
+        .iter()
+        .map(|b| b.stages.iter().map(|s| s.1).sum::<f64>())
+        .fold(reference_ms.unwrap_or(0.0), f64::max)
+        .max(1e-3)
+        * 1.45;
     let err_top = bars.iter().map(|b| b.error).fold(0.0, f64::max).max(1e-12) * 1.45;
     let x_range = -0.5f64..(n as f64 - 0.5);
     let mut chart = ChartBuilder::on(root)
@@ -105,7 +111,8 @@ where
         .axis_desc_style(("sans-serif", 16).into_font().color(&ERROR_COLOUR))
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
-    let stages: Vec<&'static str> = bars.first().map(|b| b.stages.iter().map(|s| s.0).collect()).unwrap_or_default();
+    let stages: Vec<&'static str> =
+        bars.first().map(|b| b.stages.iter().map(|s| s.0).collect()).unwrap_or_default();
     for (k, stage) in stages.iter().enumerate() {
         let colour = stage_colour(stage);
         let rects: Vec<Rectangle<(f64, f64)>> = bars
@@ -113,7 +120,10 @@ where
             .enumerate()
             .map(|(i, b)| {
                 let below: f64 = b.stages[..k].iter().map(|s| s.1).sum();
-                Rectangle::new([(i as f64 - 0.35, below), (i as f64 + 0.35, below + b.stages[k].1)], colour.filled())
+                Rectangle::new(
+                    [(i as f64 - 0.35, below), (i as f64 + 0.35, below + b.stages[k].1)],
+                    colour.filled(),
+                )
             })
             .collect();
         chart
@@ -129,13 +139,16 @@ where
             .label(format!("reference: {:.0} ms", r))
             .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], BLACK));
     }
-    let points: Vec<(f64, f64)> = bars.iter().enumerate().map(|(i, b)| (i as f64, b.error)).collect();
+    let points: Vec<(f64, f64)> =
+        bars.iter().enumerate().map(|(i, b)| (i as f64, b.error)).collect();
     chart
         .draw_secondary_series(LineSeries::new(points.clone(), ERROR_COLOUR.stroke_width(3)))
         .map_err(|e| anyhow!("{e}"))?
         .label(error_name)
         .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], ERROR_COLOUR.stroke_width(3)));
-    chart.draw_secondary_series(points.iter().map(|&p| Circle::new(p, 5, ERROR_COLOUR.filled()))).map_err(|e| anyhow!("{e}"))?;
+    chart
+        .draw_secondary_series(points.iter().map(|&p| Circle::new(p, 5, ERROR_COLOUR.filled())))
+        .map_err(|e| anyhow!("{e}"))?;
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperMiddle)
@@ -150,7 +163,14 @@ where
 
 /// Time split by stage (stacked bars, left axis) and image error (line, right axis) per
 /// configuration, the layout of the paper's Figures 7 and 9: `stem.png` and `stem.svg`.
-pub fn stacked_bars(stem: &Path, title: &str, x_desc: &str, bars: &[Bar], error_name: &str, reference_ms: Option<f64>) -> Result<()> {
+pub fn stacked_bars(
+    stem: &Path,
+    title: &str,
+    x_desc: &str,
+    bars: &[Bar],
+    error_name: &str,
+    reference_ms: Option<f64>,
+) -> Result<()> {
     ensure_font()?;
     let size = (960u32, 560u32);
     let mut rgb = vec![0u8; (size.0 * size.1 * 3) as usize];
@@ -200,7 +220,8 @@ where
     let xs = || series.iter().flat_map(|s| (0..s.error.len()).map(move |i| x(s, i)));
     let x_max = xs().fold(0.0, f64::max).max(1e-3) * 1.05;
     let x_min = xs().fold(f64::INFINITY, f64::min).min(x_max) * 0.95;
-    let y_max = series.iter().flat_map(|s| s.error.iter().copied()).fold(0.0, f64::max).max(1e-12) * 1.35;
+    let y_max =
+        series.iter().flat_map(|s| s.error.iter().copied()).fold(0.0, f64::max).max(1e-12) * 1.35;
     let mut chart = ChartBuilder::on(area)
         .caption(caption, ("sans-serif", 18))
         .margin(12)
@@ -226,7 +247,9 @@ where
             .map_err(|e| anyhow!("{e}"))?
             .label(s.name.clone())
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 14, y)], colour.stroke_width(2)));
-        chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled()))).map_err(|e| anyhow!("{e}"))?;
+        chart
+            .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+            .map_err(|e| anyhow!("{e}"))?;
     }
     chart
         .configure_series_labels()
@@ -254,8 +277,17 @@ where
     let root = root.titled(title, ("sans-serif", 22)).map_err(|e| anyhow!("{e}"))?;
     let (w, _) = root.dim_in_pixel();
     let (left, right) = root.split_horizontally(w / 2);
-    draw_lines(&left, "at equal time (lower left is better)", "frame time (ms)", error_name, series, &|s, i| s.time_ms[i])?;
-    draw_lines(&right, "at equal cluster count", count_desc, error_name, series, &|_, i| counts[i] as f64)?;
+    draw_lines(
+        &left,
+        "at equal time (lower left is better)",
+        "frame time (ms)",
+        error_name,
+        series,
+        &|s, i| s.time_ms[i],
+    )?;
+    draw_lines(&right, "at equal cluster count", count_desc, error_name, series, &|_, i| {
+        counts[i] as f64
+    })?;
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
 }
@@ -263,7 +295,14 @@ where
 /// Variants of a stage side by side: each variant's image error against its frame time (left:
 /// which is better at equal time) and against the cluster count (right), one line per variant
 /// through `counts`: `stem.png` and `stem.svg`.
-pub fn variant_lines(stem: &Path, title: &str, counts: &[u32], count_desc: &str, series: &[Series], error_name: &str) -> Result<()> {
+pub fn variant_lines(
+    stem: &Path,
+    title: &str,
+    counts: &[u32],
+    count_desc: &str,
+    series: &[Series],
+    error_name: &str,
+) -> Result<()> {
     ensure_font()?;
     let size = (1200u32, 540u32);
     let mut rgb = vec![0u8; (size.0 * size.1 * 3) as usize];
@@ -295,12 +334,17 @@ where
     root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
     let (w, _) = root.dim_in_pixel();
     let (main, bar) = root.split_horizontally(w - 130);
-    let all: Vec<f64> = error.iter().flatten().copied().filter(|e| e.is_finite() && *e > 0.0).collect();
-    let (lo, hi) = (all.iter().copied().fold(f64::INFINITY, f64::min), all.iter().copied().fold(0.0, f64::max));
+    let all: Vec<f64> =
+        error.iter().flatten().copied().filter(|e| e.is_finite() && *e > 0.0).collect();
+    let (lo, hi) = (
+        all.iter().copied().fold(f64::INFINITY, f64::min),
+        all.iter().copied().fold(0.0, f64::max),
+    );
     let (lo, hi) = if lo.is_finite() && hi > lo { (lo.log10(), hi.log10()) } else { (-6.0, 0.0) };
     // Log-scaled error to a colour: low error dark, high error bright.
     let colour = |e: f64| -> RGBColor {
-        let t = if e > 0.0 { ((e.log10() - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0) } else { 0.0 };
+        let t =
+            if e > 0.0 { ((e.log10() - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0) } else { 0.0 };
         ViridisRGB::get_color(t as f32)
     };
     let mut chart = ChartBuilder::on(&main)
@@ -333,12 +377,28 @@ where
     for (j, row) in error.iter().enumerate() {
         for (i, &e) in row.iter().enumerate() {
             let (x, y) = (i as f64, j as f64);
-            chart.draw_series([Rectangle::new([(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)], colour(e).filled())]).map_err(|e| anyhow!("{e}"))?;
+            chart
+                .draw_series([Rectangle::new(
+                    [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
+                    colour(e).filled(),
+                )])
+                .map_err(|e| anyhow!("{e}"))?;
             let t = colour(e);
             let ink = if (t.0 as u32 + t.1 as u32 + t.2 as u32) > 380 { BLACK } else { WHITE };
-            let style = ("sans-serif", 15).into_font().color(&ink).pos(Pos::new(HPos::Center, VPos::Center));
-            chart.draw_series([Text::new(format!("{:.0} ms", time_ms[j][i]), (x, y + 0.12), style.clone())]).map_err(|e| anyhow!("{e}"))?;
-            chart.draw_series([Text::new(format!("{e:.1e}"), (x, y - 0.18), style)]).map_err(|e| anyhow!("{e}"))?;
+            let style = ("sans-serif", 15)
+                .into_font()
+                .color(&ink)
+                .pos(Pos::new(HPos::Center, VPos::Center));
+            chart
+                .draw_series([Text::new(
+                    format!("{:.0} ms", time_ms[j][i]),
+                    (x, y + 0.12),
+                    style.clone(),
+                )])
+                .map_err(|e| anyhow!("{e}"))?;
+            chart
+                .draw_series([Text::new(format!("{e:.1e}"), (x, y - 0.18), style)])
+                .map_err(|e| anyhow!("{e}"))?;
         }
     }
     // The colour bar of the error.
@@ -361,8 +421,14 @@ where
         .map_err(|e| anyhow!("{e}"))?;
     let steps = 64;
     cb.draw_series((0..steps).map(|k| {
-        let (a, b) = (lo + (hi - lo) * k as f64 / steps as f64, lo + (hi - lo) * (k + 1) as f64 / steps as f64);
-        Rectangle::new([(0.0, a), (1.0, b)], ViridisRGB::get_color(k as f32 / (steps - 1) as f32).filled())
+        let (a, b) = (
+            lo + (hi - lo) * k as f64 / steps as f64,
+            lo + (hi - lo) * (k + 1) as f64 / steps as f64,
+        );
+        Rectangle::new(
+            [(0.0, a), (1.0, b)],
+            ViridisRGB::get_color(k as f32 / (steps - 1) as f32).filled(),
+        )
     }))
     .map_err(|e| anyhow!("{e}"))?;
     root.present().map_err(|e| anyhow!("{e}"))?;
@@ -371,7 +437,15 @@ where
 
 /// Time and error over both cluster counts (the paper's Figure 11): one cell per configuration,
 /// coloured by the image error (log scale), labelled with the frame time and the error.
-pub fn heatmap(stem: &Path, title: &str, vpl: &[u32], sp: &[u32], time_ms: &[Vec<f64>], error: &[Vec<f64>], error_name: &str) -> Result<()> {
+pub fn heatmap(
+    stem: &Path,
+    title: &str,
+    vpl: &[u32],
+    sp: &[u32],
+    time_ms: &[Vec<f64>],
+    error: &[Vec<f64>],
+    error_name: &str,
+) -> Result<()> {
     ensure_font()?;
     let size = (200 + 130 * vpl.len() as u32 + 130, 150 + 70 * sp.len() as u32);
     let mut rgb = vec![0u8; (size.0 * size.1 * 3) as usize];
@@ -420,14 +494,22 @@ pub fn contact_sheet(path: &Path, tiles: &[Tile], columns: usize, thumb: u32) ->
         let (x0, y0) = (gap + c * (tile_w + 2 * gap), gap + r * (tile_h + gap));
         origins.push((x0, y0));
         for (pic, dx) in [(&t.image, 0), (&t.error_map, thumb + gap)] {
-            blit_scaled(&mut rgb, size.0, (x0 + dx, y0 + label_h), (thumb, th), pic, (t.width, t.height));
+            blit_scaled(
+                &mut rgb,
+                size.0,
+                (x0 + dx, y0 + label_h),
+                (thumb, th),
+                pic,
+                (t.width, t.height),
+            );
         }
     }
     {
         let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
         let style = ("sans-serif", 15).into_font().color(&BLACK);
         for (t, &(x0, y0)) in tiles.iter().zip(&origins) {
-            root.draw(&Text::new(t.label.clone(), (x0 as i32, y0 as i32 + 4), style.clone())).map_err(|e| anyhow!("{e}"))?;
+            root.draw(&Text::new(t.label.clone(), (x0 as i32, y0 as i32 + 4), style.clone()))
+                .map_err(|e| anyhow!("{e}"))?;
         }
         root.present().map_err(|e| anyhow!("{e}"))?;
     }
@@ -435,7 +517,14 @@ pub fn contact_sheet(path: &Path, tiles: &[Tile], columns: usize, thumb: u32) ->
 }
 
 /// Box-filters `src` (w x h RGB) into the `dst` rectangle at `at` of size `to`.
-fn blit_scaled(dst: &mut [u8], dst_w: u32, at: (u32, u32), to: (u32, u32), src: &[u8], size: (u32, u32)) {
+fn blit_scaled(
+    dst: &mut [u8],
+    dst_w: u32,
+    at: (u32, u32),
+    to: (u32, u32),
+    src: &[u8],
+    size: (u32, u32),
+) {
     let scaled = vplgi_image::resize_rgb8(src, size, to);
     for y in 0..to.1 {
         let o = (((at.1 + y) * dst_w + at.0) * 3) as usize;
@@ -446,7 +535,8 @@ fn blit_scaled(dst: &mut [u8], dst_w: u32, at: (u32, u32), to: (u32, u32), src: 
 
 fn write_png(stem: &Path, (w, h): (u32, u32), rgb: &[u8]) -> Result<()> {
     let path = stem.with_extension("png");
-    vplgi_image::write_rgb8_png(&path, w, h, rgb).with_context(|| format!("writing {}", path.display()))
+    vplgi_image::write_rgb8_png(&path, w, h, rgb)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {

@@ -64,7 +64,8 @@ pub struct MergeArgs {
 fn parse_tile(s: &str) -> Result<(u32, u32)> {
     let bad = || anyhow::anyhow!("--tile {s:?}: expected I/N with 1 <= I <= N, e.g. 2/4");
     let (i, n) = s.split_once('/').ok_or_else(bad)?;
-    let (i, n): (u32, u32) = (i.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    let (i, n): (u32, u32) =
+        (i.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
     if i == 0 || i > n {
         return Err(bad());
     }
@@ -73,7 +74,8 @@ fn parse_tile(s: &str) -> Result<(u32, u32)> {
 
 /// Parses a relative error: `0.5%` or `0.005`, strictly between 0 and 1.
 fn parse_error(s: &str) -> Result<f64> {
-    let bad = || anyhow::anyhow!("--target-error {s:?}: expected a relative error such as 0.5% or 0.005");
+    let bad =
+        || anyhow::anyhow!("--target-error {s:?}: expected a relative error such as 0.5% or 0.005");
     let t = s.trim();
     let e = match t.strip_suffix('%') {
         Some(p) => p.trim().parse::<f64>().map_err(|_| bad())? / 100.0,
@@ -124,13 +126,21 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     }
     let (scene, source) = load_scene(args.scene.as_deref())?;
     let rows = tile_rows(index, count, base.height);
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let device = vplgi_embree::Device::new(None)?;
-    let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+    let cs = vplgi_cpu::CpuScene::new(&scene, &device)
+        .with_context(|| format!("building the Embree scene for {source}"))?;
 
     let started = Instant::now();
-    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(min_seeds as u64) } else { ProgressBar::hidden() };
-    if let Ok(style) = ProgressStyle::with_template("reference [{bar:40}] {pos}/{len} seeds {msg} ({eta} left)") {
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::new(min_seeds as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("reference [{bar:40}] {pos}/{len} seeds {msg} ({eta} left)")
+    {
         bar.set_style(style.progress_chars("=> "));
     }
     let mut stats = Moments::new(base.width, rows.end - rows.start);
@@ -143,7 +153,12 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
             break;
         }
         let seed = base.seed.wrapping_add(n);
-        let f = vplgi_cpu::render_rows(&cs, &FrameConfig { seed, ..base.clone() }, rows.clone(), &vplgi_cpu::NoProgress)?;
+        let f = vplgi_cpu::render_rows(
+            &cs,
+            &FrameConfig { seed, ..base.clone() },
+            rows.clone(),
+            &vplgi_cpu::NoProgress,
+        )?;
         stats.add(&f.pixels);
         seeds.push(seed);
         bar.inc(1);
@@ -158,7 +173,8 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
             // The error falls as 1/sqrt(seeds): the seeds it will take at this rate, which is
             // what the bar's length and time estimate show.
             let n = seeds.len() as f64;
-            let needed = if error.is_finite() { (n * (error / t).powi(2)).ceil() as u32 } else { min_seeds };
+            let needed =
+                if error.is_finite() { (n * (error / t).powi(2)).ceil() as u32 } else { min_seeds };
             bar.set_length(needed.clamp(min_seeds.max(seeds.len() as u32), max_seeds) as u64);
         }
     }
@@ -196,7 +212,11 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         },
     });
     write_json(&args.out.join("reference.json"), &sidecar)?;
-    let what = if count > 1 { format!("tile {index}/{count} (rows {}..{}) of ", rows.start, rows.end) } else { String::new() };
+    let what = if count > 1 {
+        format!("tile {index}/{count} (rows {}..{}) of ", rows.start, rows.end)
+    } else {
+        String::new()
+    };
     println!(
         "{what}{} reference: {} seeds x {} VPLs, {}x{}, {wall:.1} s, relative standard error {:.3}%",
         scene.name,
@@ -236,7 +256,11 @@ const ERROR_AGGREGATE: &str = "sqrt of the mean over pixels and channels of (var
 /// variances: the square root of the relMSE expected against the converged image, with the
 /// relMSE of `vplgi compare` (per pixel and channel, the squared error over the squared reference
 /// plus [`REL_MSE_EPSILON`], averaged).
-fn relative_standard_error(mean: impl Iterator<Item = [f64; 3]>, variance: impl Iterator<Item = [f64; 3]>, n: f64) -> f64 {
+fn relative_standard_error(
+    mean: impl Iterator<Item = [f64; 3]>,
+    variance: impl Iterator<Item = [f64; 3]>,
+    n: f64,
+) -> f64 {
     let (mut sum, mut samples) = (0.0, 0.0);
     for (m, v) in mean.zip(variance) {
         for c in 0..3 {
@@ -261,7 +285,14 @@ struct Moments {
 impl Moments {
     fn new(width: u32, height: u32) -> Self {
         let pixels = (width * height) as usize;
-        Moments { width, height, n: 0, mean: vec![[0.0; 3]; pixels], m2: vec![[0.0; 3]; pixels], thirds: Vec::new() }
+        Moments {
+            width,
+            height,
+            n: 0,
+            mean: vec![[0.0; 3]; pixels],
+            m2: vec![[0.0; 3]; pixels],
+            thirds: Vec::new(),
+        }
     }
 
     fn add(&mut self, render: &[[f32; 3]]) {
@@ -298,7 +329,11 @@ impl Moments {
 
     fn relative_standard_error(&self) -> f64 {
         let d = (self.n.max(2) - 1) as f64;
-        relative_standard_error(self.mean.iter().copied(), self.m2.iter().map(|m| m.map(|x| x / d)), self.n as f64)
+        relative_standard_error(
+            self.mean.iter().copied(),
+            self.m2.iter().map(|m| m.map(|x| x / d)),
+            self.n as f64,
+        )
     }
 
     /// Per third and channel: the standard error of the third's mean over the seeds, relative to
@@ -322,7 +357,9 @@ impl Moments {
 
 fn read_sidecar(dir: &Path) -> Result<Value> {
     let path = dir.join("reference.json");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: not a reference folder (no reference.json)", dir.display()))?;
+    let text = std::fs::read_to_string(&path).with_context(|| {
+        format!("{}: not a reference folder (no reference.json)", dir.display())
+    })?;
     serde_json::from_str(&text).with_context(|| format!("{}: malformed JSON", path.display()))
 }
 
@@ -331,15 +368,33 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     for dir in &args.tiles {
         let s = read_sidecar(dir)?;
         let t = &s["tile"];
-        let (Some(i), Some(n), Some(r0), Some(r1)) = (t["index"].as_u64(), t["count"].as_u64(), t["rows"][0].as_u64(), t["rows"][1].as_u64()) else {
-            bail!("{}: not a tile (reference.json has no tile; render with --tile I/N)", dir.display());
+        let (Some(i), Some(n), Some(r0), Some(r1)) = (
+            t["index"].as_u64(),
+            t["count"].as_u64(),
+            t["rows"][0].as_u64(),
+            t["rows"][1].as_u64(),
+        ) else {
+            bail!(
+                "{}: not a tile (reference.json has no tile; render with --tile I/N)",
+                dir.display()
+            );
         };
         tiles.push((i, n, r0 as u32, r1 as u32, dir.clone(), s));
     }
     tiles.sort_by_key(|t| t.0);
     let first = &tiles[0].5;
     // Everything but the tile and the timing must agree.
-    let key = |s: &Value| json!([s["scene"]["hash"], s["params"], s["seeds"], s["width"], s["height"], s["tile"]["count"], s["commit"]]);
+    let key = |s: &Value| {
+        json!([
+            s["scene"]["hash"],
+            s["params"],
+            s["seeds"],
+            s["width"],
+            s["height"],
+            s["tile"]["count"],
+            s["commit"]
+        ])
+    };
     for t in &tiles[1..] {
         if key(&t.5) != key(first) {
             bail!(
@@ -354,7 +409,8 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     if indices != (1..=n).collect::<Vec<_>>() {
         bail!("need each of the {n} tiles exactly once, got tiles {indices:?}");
     }
-    let (width, height) = (first["width"].as_u64().unwrap_or(0) as u32, first["height"].as_u64().unwrap_or(0) as u32);
+    let (width, height) =
+        (first["width"].as_u64().unwrap_or(0) as u32, first["height"].as_u64().unwrap_or(0) as u32);
     let mut mean = Vec::new();
     let mut variance = Vec::new();
     let mut next_row = 0;
@@ -365,7 +421,14 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         for (name, into) in [("mean.exr", &mut mean), ("variance.exr", &mut variance)] {
             let img = vplgi_image::read_exr(&dir.join(name))?;
             if (img.width, img.height) != (width, r1 - r0) {
-                bail!("{}: {}x{}, expected {}x{} for rows {r0}..{r1}", dir.join(name).display(), img.width, img.height, width, r1 - r0);
+                bail!(
+                    "{}: {}x{}, expected {}x{} for rows {r0}..{r1}",
+                    dir.join(name).display(),
+                    img.width,
+                    img.height,
+                    width,
+                    r1 - r0
+                );
             }
             into.extend(img.pixels);
         }
@@ -374,20 +437,30 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     if next_row != height {
         bail!("the tiles cover rows 0..{next_row} of {height}");
     }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let mean = Image { width, height, pixels: mean };
     vplgi_image::write_exr(&args.out.join("mean.exr"), &mean)?;
-    vplgi_image::write_exr(&args.out.join("variance.exr"), &Image { width, height, pixels: variance.clone() })?;
+    vplgi_image::write_exr(
+        &args.out.join("variance.exr"),
+        &Image { width, height, pixels: variance.clone() },
+    )?;
     vplgi_image::write_png(&args.out.join("mean.png"), &mean, 1.0)?;
     let mut sidecar = first.clone();
     let n = first["seeds"].as_array().map_or(0, Vec::len) as f64;
     let widen = |p: &[f32; 3]| p.map(f64::from);
-    sidecar["error"]["relative_standard_error"] = json!(relative_standard_error(mean.pixels.iter().map(widen), variance.iter().map(widen), n));
+    sidecar["error"]["relative_standard_error"] = json!(relative_standard_error(
+        mean.pixels.iter().map(widen),
+        variance.iter().map(widen),
+        n
+    ));
     sidecar["error"]["thirds"] = Value::Null;
     sidecar["error"]["thirds_per_seed"] = Value::Null;
     sidecar["tile"] = Value::Null;
-    sidecar["wall_time_s"] = json!(tiles.iter().map(|t| t.5["wall_time_s"].as_f64().unwrap_or(0.0)).sum::<f64>());
-    sidecar["merged_from"] = json!(tiles.iter().map(|t| t.4.display().to_string()).collect::<Vec<_>>());
+    sidecar["wall_time_s"] =
+        json!(tiles.iter().map(|t| t.5["wall_time_s"].as_f64().unwrap_or(0.0)).sum::<f64>());
+    sidecar["merged_from"] =
+        json!(tiles.iter().map(|t| t.4.display().to_string()).collect::<Vec<_>>());
     write_json(&args.out.join("reference.json"), &sidecar)?;
     println!("joined {n} tiles into {}x{}: {}", width, height, args.out.join("mean.exr").display());
     Ok(())

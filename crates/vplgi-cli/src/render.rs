@@ -4,7 +4,9 @@
 use crate::engine::{with_engine, BackendArg};
 use crate::frame_args::{FrameArgs, RENDER};
 use crate::progress::Bars;
-use crate::shared::{install_interrupt_cleanup, load_scene, peak_rss_mib, use_shaders_from, write_json};
+use crate::shared::{
+    install_interrupt_cleanup, load_scene, peak_rss_mib, use_shaders_from, write_json,
+};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -74,13 +76,17 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     use_shaders_from(args.shaders.as_deref())?;
     if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("configuring the thread pool")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("configuring the thread pool")?;
     }
     let t_load = Instant::now();
     let (scene, source) = load_scene(args.scene.as_deref())?;
     let load_ms = t_load.elapsed().as_secs_f64() * 1e3;
 
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     install_interrupt_cleanup(args.out.clone());
 
     let light_sampler = vplgi_scene::lights::LightSampler::new(&scene);
@@ -94,21 +100,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return render_sequence(&args, &cfg, &scene, &source, n);
     }
     let mut profile = None;
-    let (frame, backend, adapter, setup_ms) = with_engine(args.backend, &scene, &source, |engine| {
-        let bars = Bars::new();
-        let frame = match engine.gpu {
-            Some(ctx) if args.profile => {
-                let (frame, by_kernel) = vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || engine.render(&cfg, &bars))?;
-                match by_kernel {
-                    Some(k) => profile = Some(k),
-                    None => eprintln!("note: {} has no timestamp queries: no kernel profile", ctx.describe()),
+    let (frame, backend, adapter, setup_ms) =
+        with_engine(args.backend, &scene, &source, |engine| {
+            let bars = Bars::new();
+            let frame = match engine.gpu {
+                Some(ctx) if args.profile => {
+                    let (frame, by_kernel) =
+                        vplgi_gpu::timing::device_time_by_kernel(&ctx.device, &ctx.queue, || {
+                            engine.render(&cfg, &bars)
+                        })?;
+                    match by_kernel {
+                        Some(k) => profile = Some(k),
+                        None => eprintln!(
+                            "note: {} has no timestamp queries: no kernel profile",
+                            ctx.describe()
+                        ),
+                    }
+                    frame?
                 }
-                frame?
-            }
-            _ => engine.render(&cfg, &bars)?,
-        };
-        Ok((frame, engine.name, engine.adapter.clone(), engine.setup_ms))
-    })?;
+                _ => engine.render(&cfg, &bars)?,
+            };
+            Ok((frame, engine.name, engine.adapter.clone(), engine.setup_ms))
+        })?;
 
     let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
     let exr = args.out.join("image.exr");
@@ -133,14 +146,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         params: cfg.clone(),
         vpls: stats.vpls,
         clusters: Clusters { vpl: stats.vpl_clusters, sp: stats.sp_clusters },
-        g_clamp: GClamp { relative: cfg.g_clamp_rel, d_min: stats.g_clamp_d_min, compensated: cfg.bias_compensation && cfg.g_clamp_rel > 0.0 },
+        g_clamp: GClamp {
+            relative: cfg.g_clamp_rel,
+            d_min: stats.g_clamp_d_min,
+            compensated: cfg.bias_compensation && cfg.g_clamp_rel > 0.0,
+        },
         stats,
         timings_ms: frame.timings,
         setup_ms: Setup { load: load_ms, scene_build: setup_ms },
         peak_rss_mib: peak_rss_mib(),
-        gpu_profile: profile
-            .as_ref()
-            .map(|p| p.iter().map(|k| KernelTime { kernel: k.kernel.clone(), passes: k.passes, device_ms: k.time.as_secs_f64() * 1e3 }).collect()),
+        gpu_profile: profile.as_ref().map(|p| {
+            p.iter()
+                .map(|k| KernelTime {
+                    kernel: k.kernel.clone(),
+                    passes: k.passes,
+                    device_ms: k.time.as_secs_f64() * 1e3,
+                })
+                .collect()
+        }),
         outputs: Outputs { exr: exr.clone(), png: png.clone() },
     };
     write_json(&json, &serde_json::to_value(&report).context("serialising the report")?)?;
@@ -164,7 +187,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         println!("  {:>10} {:>6} {:>7}  kernel", "ms", "%", "passes");
         for k in p {
             let ms = k.time.as_secs_f64() * 1e3;
-            println!("  {ms:>10.1} {:>5.1}% {:>7}  {}", 100.0 * ms / (total * 1e3).max(1e-9), k.passes, k.kernel);
+            println!(
+                "  {ms:>10.1} {:>5.1}% {:>7}  {}",
+                100.0 * ms / (total * 1e3).max(1e-9),
+                k.passes,
+                k.kernel
+            );
         }
     }
     println!("wrote {}\n      {}\n      {}", exr.display(), png.display(), json.display());
@@ -200,7 +228,13 @@ struct SequenceFrame {
 
 /// `--frames N`: the camera path sampled at N times, each frame rendered, written and dropped
 /// (only the previous image is kept, for the change between frames), then sequence.json.
-fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vplgi_scene::Scene, source: &str, n: u32) -> Result<()> {
+fn render_sequence(
+    args: &RenderArgs,
+    cfg: &vplgi_frame::FrameConfig,
+    scene: &vplgi_scene::Scene,
+    source: &str,
+    n: u32,
+) -> Result<()> {
     let orbit = args.light_orbit;
     if let Some(d) = orbit {
         if !d.is_finite() {
@@ -219,7 +253,8 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     };
     let degrees = |i: usize| orbit.map(|d| if n > 1 { d * i as f32 / (n - 1) as f32 } else { 0.0 });
     let lit_scene = |i: usize| scene.with_lights_turned(degrees(i).unwrap_or(0.0));
-    let lit: Option<&dyn Fn(usize) -> vplgi_scene::Scene> = orbit.map(|_| &lit_scene as &dyn Fn(usize) -> vplgi_scene::Scene);
+    let lit: Option<&dyn Fn(usize) -> vplgi_scene::Scene> =
+        orbit.map(|_| &lit_scene as &dyn Fn(usize) -> vplgi_scene::Scene);
     // The converged frames are read (and checked) before any work.
     let converged: Option<Vec<vplgi_image::Image>> = args
         .flicker_reference
@@ -228,9 +263,17 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
             (0..n)
                 .map(|i| {
                     let path = dir.join(format!("frame-{i:04}.exr"));
-                    let img = vplgi_image::read_exr(&path).with_context(|| format!("--flicker-reference: {}", path.display()))?;
+                    let img = vplgi_image::read_exr(&path)
+                        .with_context(|| format!("--flicker-reference: {}", path.display()))?;
                     if (img.width, img.height) != (cfg.width, cfg.height) {
-                        bail!("--flicker-reference: {} is {}x{}, the sequence {}x{}", path.display(), img.width, img.height, cfg.width, cfg.height);
+                        bail!(
+                            "--flicker-reference: {} is {}x{}, the sequence {}x{}",
+                            path.display(),
+                            img.width,
+                            img.height,
+                            cfg.width,
+                            cfg.height
+                        );
                     }
                     Ok(img)
                 })
@@ -244,21 +287,28 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     let (backend, adapter) = with_engine(args.backend, scene, source, |engine| {
         engine.walk(cfg, &cameras, lit, &Bars::new(), |i, frame| {
             let camera = &cameras[i];
-            let image = vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
+            let image =
+                vplgi_image::Image { width: cfg.width, height: cfg.height, pixels: frame.pixels };
             let exr = args.out.join(format!("frame-{i:04}.exr"));
             let png = args.out.join(format!("frame-{i:04}.png"));
             vplgi_image::write_exr(&exr, &image)?;
             vplgi_image::write_png(&png, &image, args.exposure)?;
-            let change = previous.as_ref().map(|p| vplgi_image::relative_change(p, &image)).transpose()?;
+            let change =
+                previous.as_ref().map(|p| vplgi_image::relative_change(p, &image)).transpose()?;
             let excess_change = match (&previous, &converged) {
-                (Some(p), Some(c)) => Some(vplgi_image::excess_change(p, &image, (&c[i - 1], &c[i]))?),
+                (Some(p), Some(c)) => {
+                    Some(vplgi_image::excess_change(p, &image, (&c[i - 1], &c[i]))?)
+                }
                 _ => None,
             };
             let total_ms = frame.timings.total();
             eprintln!(
                 "frame {}/{n}: {total_ms:.0} ms{}",
                 i + 1,
-                change.map_or(String::new(), |c| format!(", {:.2} % changed from the frame before", 100.0 * c))
+                change.map_or(String::new(), |c| format!(
+                    ", {:.2} % changed from the frame before",
+                    100.0 * c
+                ))
             );
             frames.push(SequenceFrame {
                 frame: i as u32,
@@ -288,7 +338,8 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     let excess: Vec<f64> = frames.iter().filter_map(|f| f.excess_change).collect();
     let temporal_error = mean(&excess);
     let converged_flicker = converged.as_ref().and_then(|c| {
-        let changes: Vec<f64> = c.windows(2).filter_map(|w| vplgi_image::relative_change(&w[0], &w[1]).ok()).collect();
+        let changes: Vec<f64> =
+            c.windows(2).filter_map(|w| vplgi_image::relative_change(&w[0], &w[1]).ok()).collect();
         mean(&changes)
     });
     let json = args.out.join("sequence.json");
@@ -310,13 +361,24 @@ fn render_sequence(args: &RenderArgs, cfg: &vplgi_frame::FrameConfig, scene: &vp
     write_json(&json, &report)?;
     match flicker {
         Some(f) => {
-            println!("{n} frames of {} ({}x{}), flicker (mean relative change between frames) {:.2} %", scene.name, cfg.width, cfg.height, 100.0 * f);
+            println!(
+                "{n} frames of {} ({}x{}), flicker (mean relative change between frames) {:.2} %",
+                scene.name,
+                cfg.width,
+                cfg.height,
+                100.0 * f
+            );
             if let (Some(c), Some(t)) = (converged_flicker, temporal_error) {
                 println!("  converged sequence {:.2} %; change it does not have (temporal error) {:.2} %", 100.0 * c, 100.0 * t);
             }
         }
         None => println!("1 frame of {} ({}x{})", scene.name, cfg.width, cfg.height),
     }
-    println!("wrote {} .. {}\n      {}", frames[0].png.display(), frames[frames.len() - 1].png.display(), json.display());
+    println!(
+        "wrote {} .. {}\n      {}",
+        frames[0].png.display(),
+        frames[frames.len() - 1].png.display(),
+        json.display()
+    );
     Ok(())
 }

@@ -89,7 +89,12 @@ fn run_export(args: ExportArgs) -> Result<()> {
         bail!("--width, --height and --spp must be at least 1");
     }
     let (scene, source) = load_scene(args.scene.as_deref())?;
-    let defaults = RenderDefaults { width: args.width, height: args.height, spp: args.spp, max_depth: args.bounces + 2 };
+    let defaults = RenderDefaults {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        max_depth: args.bounces + 2,
+    };
     let exported = export(&scene, defaults);
     // scene.xml is written last, so an interrupted export has no scene file to render.
     let mut files = exported.files;
@@ -97,7 +102,8 @@ fn run_export(args: ExportArgs) -> Result<()> {
     for (name, bytes) in &files {
         let path = args.out.join(name);
         if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
         }
         write_file(&path, bytes)?;
     }
@@ -127,9 +133,13 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 
 fn run_generate(g: GenerateArgs) -> Result<()> {
     let default = GENERATORS.iter().find(|x| x.0 == g.name).map_or(300_000, |x| x.1);
-    let mut scene = generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut scene =
+        generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
     if let Some(keys) = g.camera_walk {
-        scene.camera_path = Some(vplgi_scene::generate::camera_walk(&scene, keys).map_err(|e| anyhow::anyhow!("--camera-walk: {e}"))?);
+        scene.camera_path = Some(
+            vplgi_scene::generate::camera_walk(&scene, keys)
+                .map_err(|e| anyhow::anyhow!("--camera-walk: {e}"))?,
+        );
     }
     let out = g.out.unwrap_or_else(|| PathBuf::from(format!("out/scenes/{}.glb", g.name)));
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -137,8 +147,18 @@ fn run_generate(g: GenerateArgs) -> Result<()> {
     }
     let bytes = vplgi_scene::gltf_write::glb(&scene).map_err(|e| anyhow::anyhow!("{e}"))?;
     write_file(&out, &bytes)?;
-    let emissive = scene.material_ids.iter().filter(|&&m| scene.materials[m as usize].emission.max_element() > 0.0).count();
-    println!("{}: {} triangles ({} emissive), {:.1} MB", scene.name, scene.triangle_count(), emissive, bytes.len() as f64 / 1e6);
+    let emissive = scene
+        .material_ids
+        .iter()
+        .filter(|&&m| scene.materials[m as usize].emission.max_element() > 0.0)
+        .count();
+    println!(
+        "{}: {} triangles ({} emissive), {:.1} MB",
+        scene.name,
+        scene.triangle_count(),
+        emissive,
+        bytes.len() as f64 / 1e6
+    );
     match g.camera_walk {
         Some(keys) => {
             println!("wrote {} (camera walk of {keys} keyframes)\nrender it: vplgi render {} --frames {}", out.display(), out.display(), 4 * (keys - 1) + 1)

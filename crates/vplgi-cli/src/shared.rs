@@ -7,7 +7,13 @@ use std::path::{Path, PathBuf};
 /// Peak resident memory of this process so far (Linux `VmHWM`), in MiB.
 pub fn peak_rss_mib() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kib: f64 = status.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    let kib: f64 = status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
     Some(kib / 1024.0)
 }
 
@@ -15,7 +21,9 @@ pub fn peak_rss_mib() -> Option<f64> {
 pub fn load_scene(path: Option<&Path>) -> Result<(vplgi_scene::Scene, String)> {
     match path {
         None => Ok((vplgi_scene::cornell::cornell_box(), "builtin:cornell-box".into())),
-        Some(p) if p.as_os_str() == "cornell-box" && !p.exists() => Ok((vplgi_scene::cornell::cornell_box(), "builtin:cornell-box".into())),
+        Some(p) if p.as_os_str() == "cornell-box" && !p.exists() => {
+            Ok((vplgi_scene::cornell::cornell_box(), "builtin:cornell-box".into()))
+        }
         Some(p) => Ok((vplgi_scene::Scene::load(p)?, p.display().to_string())),
     }
 }
@@ -55,9 +63,15 @@ pub fn use_shaders_from(dir: Option<&Path>) -> Result<Vec<vplgi_gpu::shader::Rep
     let Some(dir) = dir else {
         return Ok(Vec::new());
     };
-    let replaced = vplgi_gpu::shader::use_sources_from(dir).with_context(|| format!("--shaders {}", dir.display()))?;
+    let replaced = vplgi_gpu::shader::use_sources_from(dir)
+        .with_context(|| format!("--shaders {}", dir.display()))?;
     for r in &replaced {
-        eprintln!("shader {} from {}{}", r.name, r.path.display(), if r.differs { " (differs from the built-in copy)" } else { "" });
+        eprintln!(
+            "shader {} from {}{}",
+            r.name,
+            r.path.display(),
+            if r.differs { " (differs from the built-in copy)" } else { "" }
+        );
     }
     Ok(replaced)
 }

@@ -21,7 +21,9 @@ use std::path::PathBuf;
 use vplgi_frame::{NoProgress, StageTimings};
 use vplgi_image::{compare, error_map_rgb8, tonemap_srgb8, Image};
 use vplgi_scene::Camera;
-use vplgi_types::{ClusterMode, FrameConfig, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal};
+use vplgi_types::{
+    ClusterMode, FrameConfig, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal,
+};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum, Debug)]
 enum Figure {
@@ -70,7 +72,13 @@ impl Variant {
 
 /// `ward+min-error+adaptive`: option values joined by `+`, at most one per option.
 fn parse_variant(s: &str) -> Result<Variant, String> {
-    let mut v = Variant { name: s.to_string(), metric: None, representative: None, seeding: None, shade: None };
+    let mut v = Variant {
+        name: s.to_string(),
+        metric: None,
+        representative: None,
+        seeding: None,
+        shade: None,
+    };
     for token in s.split('+') {
         let twice = |what: &str| format!("`{s}` names the {what} twice");
         if let Ok(m) = SpMetric::from_str(token, true) {
@@ -201,7 +209,12 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
                         out.push(Config {
                             figure,
                             label: format!("fig11-sp{s}-vpl{v}"),
-                            cfg: FrameConfig { cluster: ClusterMode::Both, k_sp: s, k_vpl: v, ..base.clone() },
+                            cfg: FrameConfig {
+                                cluster: ClusterMode::Both,
+                                k_sp: s,
+                                k_vpl: v,
+                                ..base.clone()
+                            },
                             variant: None,
                         });
                     }
@@ -212,7 +225,11 @@ fn configs(args: &SweepArgs, base: &FrameConfig) -> Vec<Config> {
                     out.extend(args.sp_clusters.iter().map(|&k| Config {
                         figure,
                         label: format!("variants-sp{k}-{}", v.name),
-                        cfg: v.apply(FrameConfig { cluster: ClusterMode::Sp, k_sp: k, ..base.clone() }),
+                        cfg: v.apply(FrameConfig {
+                            cluster: ClusterMode::Sp,
+                            k_sp: k,
+                            ..base.clone()
+                        }),
                         variant: Some(v.name.clone()),
                     }));
                 }
@@ -230,11 +247,20 @@ fn sequences(args: &SweepArgs, base: &FrameConfig) -> Vec<SequenceConfig> {
     let mut out = Vec::new();
     for v in &args.variants {
         for temporal in [Temporal::Off, Temporal::On] {
-            let series = if temporal == Temporal::On { format!("{} +temporal", v.name) } else { v.name.clone() };
+            let series = if temporal == Temporal::On {
+                format!("{} +temporal", v.name)
+            } else {
+                v.name.clone()
+            };
             out.extend(args.sp_clusters.iter().map(|&k| SequenceConfig {
                 label: format!("flicker-sp{k}-{}", series.replace(" +", "+")),
                 series: series.clone(),
-                cfg: v.apply(FrameConfig { cluster: ClusterMode::Sp, k_sp: k, temporal, ..base.clone() }),
+                cfg: v.apply(FrameConfig {
+                    cluster: ClusterMode::Sp,
+                    k_sp: k,
+                    temporal,
+                    ..base.clone()
+                }),
             }));
         }
     }
@@ -245,7 +271,9 @@ pub fn run(args: SweepArgs) -> Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    for (name, list) in [("--sp-clusters", &args.sp_clusters), ("--vpl-clusters", &args.vpl_clusters)] {
+    for (name, list) in
+        [("--sp-clusters", &args.sp_clusters), ("--vpl-clusters", &args.vpl_clusters)]
+    {
         if list.is_empty() || list.contains(&0) {
             bail!("{name} needs one or more counts above 0");
         }
@@ -253,7 +281,11 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let base = args.frame.config(&SWEEP)?;
     let configs = configs(&args, &base);
     let sequences = sequences(&args, &base);
-    for (label, cfg) in configs.iter().map(|c| (&c.label, &c.cfg)).chain(sequences.iter().map(|c| (&c.label, &c.cfg))) {
+    for (label, cfg) in configs
+        .iter()
+        .map(|c| (&c.label, &c.cfg))
+        .chain(sequences.iter().map(|c| (&c.label, &c.cfg)))
+    {
         cfg.validate().map_err(|e| anyhow::anyhow!("configuration {label}: {e}"))?;
     }
     if !sequences.is_empty() && args.frames < 2 {
@@ -285,16 +317,22 @@ pub fn run(args: SweepArgs) -> Result<()> {
         }
         None => None,
     };
-    std::fs::create_dir_all(args.out.join("configs")).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    std::fs::create_dir_all(args.out.join("configs"))
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     // The reference: given, or rendered by the CPU reference (and kept beside the sweep).
     let (reference, reference_ms) = match given {
         Some(img) => (img, None),
         // Sequences only: the single-frame reference is not needed.
         None if configs.is_empty() => (Image { width: 0, height: 0, pixels: Vec::new() }, None),
         None => {
-            eprintln!("rendering the unclustered reference ({}x{}, {} VPLs) on the CPU", base.width, base.height, base.vpls);
+            eprintln!(
+                "rendering the unclustered reference ({}x{}, {} VPLs) on the CPU",
+                base.width, base.height, base.vpls
+            );
             let reference = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
-            let f = with_engine(BackendArg::Cpu, &scene, &source, |engine| engine.render(&reference, &crate::progress::Bars::new()))?;
+            let f = with_engine(BackendArg::Cpu, &scene, &source, |engine| {
+                engine.render(&reference, &crate::progress::Bars::new())
+            })?;
             let img = Image { width: base.width, height: base.height, pixels: f.pixels };
             std::fs::create_dir_all(args.out.join("reference"))?;
             vplgi_image::write_exr(&args.out.join("reference/image.exr"), &img)?;
@@ -308,7 +346,10 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let converged: Vec<Image> = if sequences.is_empty() {
         Vec::new()
     } else {
-        eprintln!("rendering the unclustered sequence ({} frames along the camera animation) on the CPU", cameras.len());
+        eprintln!(
+            "rendering the unclustered sequence ({} frames along the camera animation) on the CPU",
+            cameras.len()
+        );
         let unclustered = FrameConfig { cluster: ClusterMode::None, ..base.clone() };
         let mut images = Vec::with_capacity(cameras.len());
         with_engine(BackendArg::Cpu, &scene, &source, |engine| {
@@ -319,60 +360,92 @@ pub fn run(args: SweepArgs) -> Result<()> {
         })?;
         images
     };
-    let converged_flicker = mean(&converged.windows(2).map(|w| vplgi_image::relative_change(&w[0], &w[1])).collect::<Result<Vec<_>, _>>()?);
+    let converged_flicker = mean(
+        &converged
+            .windows(2)
+            .map(|w| vplgi_image::relative_change(&w[0], &w[1]))
+            .collect::<Result<Vec<_>, _>>()?,
+    );
 
-    let (measured, sequence_measured, backend_name) = with_engine(args.backend, &scene, &source, |engine| {
-        let total = configs.len() + sequences.len();
-        let bar = if std::io::stderr().is_terminal() { ProgressBar::new(total as u64) } else { ProgressBar::hidden() };
-        if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)") {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        let mut measured = Vec::new();
-        for c in &configs {
-            bar.set_message(c.label.clone());
-            if bar.is_hidden() {
-                eprintln!("sweep: {} ({} of {total})", c.label, measured.len() + 1);
-            }
-            let mut runs = Vec::new();
-            let mut pixels = Vec::new();
-            for _ in 0..args.runs {
-                let f = engine.render(&c.cfg, &NoProgress)?;
-                runs.push(f.timings);
-                pixels = f.pixels;
-            }
-            let img = Image { width: base.width, height: base.height, pixels };
-            let cmp = compare(&reference, &img)?;
-            let dir = args.out.join("configs").join(&c.label);
-            std::fs::create_dir_all(&dir)?;
-            vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
-            vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
-            vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
-            let timings = StageTimings::median(&runs);
-            let tile = Tile {
-                label: format!("{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}", c.label, timings.total(), cmp.metrics.mse, cmp.metrics.flip),
-                width: img.width,
-                height: img.height,
-                image: tonemap_srgb8(&img, 1.0),
-                error_map: error_map_rgb8(&c.label, &cmp)?,
+    let (measured, sequence_measured, backend_name) =
+        with_engine(args.backend, &scene, &source, |engine| {
+            let total = configs.len() + sequences.len();
+            let bar = if std::io::stderr().is_terminal() {
+                ProgressBar::new(total as u64)
+            } else {
+                ProgressBar::hidden()
             };
-            measured.push(Measured { timings, mse: cmp.metrics.mse, rel_mse: cmp.metrics.rel_mse, flip: cmp.metrics.flip, tile });
-            bar.inc(1);
-        }
-        let mut sequence_measured = Vec::new();
-        for c in &sequences {
-            bar.set_message(c.label.clone());
-            if bar.is_hidden() {
-                eprintln!("sweep: {} ({} of {total}, {} frames)", c.label, measured.len() + sequence_measured.len() + 1, cameras.len());
+            if let Ok(style) =
+                ProgressStyle::with_template("{msg:>26} [{bar:40}] {pos}/{len} ({eta} left)")
+            {
+                bar.set_style(style.progress_chars("=> "));
             }
-            sequence_measured.push(measure_sequence(engine, c, &cameras, &converged, &args.out)?);
-            bar.inc(1);
-        }
-        bar.finish_and_clear();
-        Ok((measured, sequence_measured, engine.name))
-    })?;
+            let mut measured = Vec::new();
+            for c in &configs {
+                bar.set_message(c.label.clone());
+                if bar.is_hidden() {
+                    eprintln!("sweep: {} ({} of {total})", c.label, measured.len() + 1);
+                }
+                let mut runs = Vec::new();
+                let mut pixels = Vec::new();
+                for _ in 0..args.runs {
+                    let f = engine.render(&c.cfg, &NoProgress)?;
+                    runs.push(f.timings);
+                    pixels = f.pixels;
+                }
+                let img = Image { width: base.width, height: base.height, pixels };
+                let cmp = compare(&reference, &img)?;
+                let dir = args.out.join("configs").join(&c.label);
+                std::fs::create_dir_all(&dir)?;
+                vplgi_image::write_exr(&dir.join("image.exr"), &img)?;
+                vplgi_image::write_png(&dir.join("image.png"), &img, 1.0)?;
+                vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
+                let timings = StageTimings::median(&runs);
+                let tile = Tile {
+                    label: format!(
+                        "{}  {:.0} ms  MSE {:.1e}  FLIP {:.3}",
+                        c.label,
+                        timings.total(),
+                        cmp.metrics.mse,
+                        cmp.metrics.flip
+                    ),
+                    width: img.width,
+                    height: img.height,
+                    image: tonemap_srgb8(&img, 1.0),
+                    error_map: error_map_rgb8(&c.label, &cmp)?,
+                };
+                measured.push(Measured {
+                    timings,
+                    mse: cmp.metrics.mse,
+                    rel_mse: cmp.metrics.rel_mse,
+                    flip: cmp.metrics.flip,
+                    tile,
+                });
+                bar.inc(1);
+            }
+            let mut sequence_measured = Vec::new();
+            for c in &sequences {
+                bar.set_message(c.label.clone());
+                if bar.is_hidden() {
+                    eprintln!(
+                        "sweep: {} ({} of {total}, {} frames)",
+                        c.label,
+                        measured.len() + sequence_measured.len() + 1,
+                        cameras.len()
+                    );
+                }
+                sequence_measured
+                    .push(measure_sequence(engine, c, &cameras, &converged, &args.out)?);
+                bar.inc(1);
+            }
+            bar.finish_and_clear();
+            Ok((measured, sequence_measured, engine.name))
+        })?;
 
     let backend = if backend_name == "gpu" { " (GPU)" } else { "" };
-    let of = |f: Figure| -> Vec<(&Config, &Measured)> { configs.iter().zip(&measured).filter(|(c, _)| c.figure == f).collect() };
+    let of = |f: Figure| -> Vec<(&Config, &Measured)> {
+        configs.iter().zip(&measured).filter(|(c, _)| c.figure == f).collect()
+    };
     let mut charts = Vec::new();
     for (metric, name) in [("mse", "MSE"), ("flip", "FLIP")] {
         let err = |m: &Measured| if metric == "mse" { m.mse } else { m.flip };
@@ -394,7 +467,14 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 .collect();
             let n = if fig == Figure::Seven { 7 } else { 9 };
             let stem = args.out.join(format!("fig{n}-{metric}"));
-            stacked_bars(&stem, &format!("{}: time and {name} against {what}{backend}", scene.name), x_desc, &bars, name, reference_line)?;
+            stacked_bars(
+                &stem,
+                &format!("{}: time and {name} against {what}{backend}", scene.name),
+                x_desc,
+                &bars,
+                name,
+                reference_line,
+            )?;
             charts.push(stem.with_extension("png"));
         }
         let rows = of(Figure::Variants);
@@ -409,8 +489,18 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 })
                 .collect();
             let stem = args.out.join(format!("variants-{metric}"));
-            let title = format!("{}: {name} of shading-point clustering variants, --cluster sp{backend}", scene.name);
-            variant_lines(&stem, &title, &args.sp_clusters, "shading-point clusters", &series, name)?;
+            let title = format!(
+                "{}: {name} of shading-point clustering variants, --cluster sp{backend}",
+                scene.name
+            );
+            variant_lines(
+                &stem,
+                &title,
+                &args.sp_clusters,
+                "shading-point clusters",
+                &series,
+                name,
+            )?;
             charts.push(stem.with_extension("png"));
         }
         if metric == "flip" && !sequences.is_empty() {
@@ -425,14 +515,27 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 })
                 .collect();
             let stem = args.out.join("flicker");
-            let title = format!("{}: the clustering's own flicker along {} frames, --cluster sp{backend}", scene.name, cameras.len());
-            variant_lines(&stem, &title, &args.sp_clusters, "shading-point clusters", &series, "change the unclustered sequence lacks")?;
+            let title = format!(
+                "{}: the clustering's own flicker along {} frames, --cluster sp{backend}",
+                scene.name,
+                cameras.len()
+            );
+            variant_lines(
+                &stem,
+                &title,
+                &args.sp_clusters,
+                "shading-point clusters",
+                &series,
+                "change the unclustered sequence lacks",
+            )?;
             charts.push(stem.with_extension("png"));
         }
         let rows = of(Figure::Eleven);
         if !rows.is_empty() {
             let (ns, nv) = (args.sp_clusters.len(), args.vpl_clusters.len());
-            let grid = |f: &dyn Fn(&Measured) -> f64| -> Vec<Vec<f64>> { (0..ns).map(|j| (0..nv).map(|i| f(rows[j * nv + i].1)).collect()).collect() };
+            let grid = |f: &dyn Fn(&Measured) -> f64| -> Vec<Vec<f64>> {
+                (0..ns).map(|j| (0..nv).map(|i| f(rows[j * nv + i].1)).collect()).collect()
+            };
             let stem = args.out.join(format!("fig11-{metric}"));
             heatmap(
                 &stem,
@@ -450,7 +553,13 @@ pub fn run(args: SweepArgs) -> Result<()> {
         .iter()
         .map(|m| &m.tile)
         .chain(sequence_measured.iter().map(|m| &m.tile))
-        .map(|t| Tile { label: t.label.clone(), width: t.width, height: t.height, image: t.image.clone(), error_map: t.error_map.clone() })
+        .map(|t| Tile {
+            label: t.label.clone(),
+            width: t.width,
+            height: t.height,
+            image: t.image.clone(),
+            error_map: t.error_map.clone(),
+        })
         .collect();
     let sheet = args.out.join("contact_sheet.png");
     contact_sheet(&sheet, &tiles, 3, 240)?;
@@ -477,7 +586,14 @@ pub fn run(args: SweepArgs) -> Result<()> {
         "converged_flicker": converged_flicker,
     });
     write_json(&args.out.join("sweep.json"), &report)?;
-    println!("{} configurations of {} ({}x{}, {} VPLs)", configs.len() + sequences.len(), scene.name, base.width, base.height, base.vpls);
+    println!(
+        "{} configurations of {} ({}x{}, {} VPLs)",
+        configs.len() + sequences.len(),
+        scene.name,
+        base.width,
+        base.height,
+        base.vpls
+    );
     if let Some(c) = converged_flicker {
         println!("flicker along {} frames: unclustered {:.2} %; the clustering's own, per sequence, in sweep.json and flicker.png", cameras.len(), 100.0 * c);
     }
@@ -485,7 +601,11 @@ pub fn run(args: SweepArgs) -> Result<()> {
     for c in &charts {
         println!("  {}", c.display());
     }
-    println!("contact sheet: {}\nnumbers: {}", sheet.display(), args.out.join("sweep.json").display());
+    println!(
+        "contact sheet: {}\nnumbers: {}",
+        sheet.display(),
+        args.out.join("sweep.json").display()
+    );
     Ok(())
 }
 
@@ -496,7 +616,13 @@ fn mean(v: &[f64]) -> Option<f64> {
 /// Renders one sequence of `--figure flicker` along `cameras`, keeping only the frame before,
 /// and measures its flicker and the part of it `converged` (the unclustered sequence) lacks.
 /// Its last frame and that frame's error map go to `out/configs/LABEL/`.
-fn measure_sequence(engine: &Engine, c: &SequenceConfig, cameras: &[Camera], converged: &[Image], out: &std::path::Path) -> Result<SequenceMeasured> {
+fn measure_sequence(
+    engine: &Engine,
+    c: &SequenceConfig,
+    cameras: &[Camera],
+    converged: &[Image],
+    out: &std::path::Path,
+) -> Result<SequenceMeasured> {
     let (mut changes, mut excess, mut ms) = (Vec::new(), Vec::new(), Vec::new());
     let mut previous: Option<Image> = None;
     engine.walk(&c.cfg, cameras, None, &NoProgress, |i, f| {
@@ -515,13 +641,18 @@ fn measure_sequence(engine: &Engine, c: &SequenceConfig, cameras: &[Camera], con
     std::fs::create_dir_all(&dir)?;
     vplgi_image::write_png(&dir.join("image.png"), &last, 1.0)?;
     vplgi_image::write_error_map(&dir.join("error_map.png"), &cmp)?;
-    let (flicker, own_flicker, ms_per_frame) = (mean(&changes).unwrap_or(0.0), mean(&excess).unwrap_or(0.0), mean(&ms).unwrap_or(0.0));
+    let (flicker, own_flicker, ms_per_frame) =
+        (mean(&changes).unwrap_or(0.0), mean(&excess).unwrap_or(0.0), mean(&ms).unwrap_or(0.0));
     Ok(SequenceMeasured {
         flicker,
         own_flicker,
         ms_per_frame,
         tile: Tile {
-            label: format!("{}  {ms_per_frame:.0} ms/frame  own flicker {:.2} %", c.label, 100.0 * own_flicker),
+            label: format!(
+                "{}  {ms_per_frame:.0} ms/frame  own flicker {:.2} %",
+                c.label,
+                100.0 * own_flicker
+            ),
             width: last.width,
             height: last.height,
             image: tonemap_srgb8(&last, 1.0),

@@ -52,25 +52,39 @@ impl Listener for Printer {
         for c in &r.checks {
             println!("{c}");
         }
-        println!("{}: {} in {:.2} s", r.stage.name(), if r.passed() { "ok" } else { "FAILS" }, r.seconds);
+        println!(
+            "{}: {} in {:.2} s",
+            r.stage.name(),
+            if r.passed() { "ok" } else { "FAILS" },
+            r.seconds
+        );
     }
 }
 
 pub fn run(args: VerifyArgs) -> Result<()> {
     let config = args.frame.config(&VERIFY)?;
-    let modes = if args.frame.cluster.is_some() || args.frame.fuzzy.is_some() { vec![Mode::of(&config)] } else { Mode::ALL.to_vec() };
-    let stages = if args.stages.is_empty() { VerifyStage::ALL.to_vec() } else { args.stages.clone() };
+    let modes = if args.frame.cluster.is_some() || args.frame.fuzzy.is_some() {
+        vec![Mode::of(&config)]
+    } else {
+        Mode::ALL.to_vec()
+    };
+    let stages =
+        if args.stages.is_empty() { VerifyStage::ALL.to_vec() } else { args.stages.clone() };
     let shaders = use_shaders_from(args.shaders.as_deref())?;
     let (scene, source) = load_scene(args.scene.as_deref())?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
 
     let clock = Instant::now();
-    let ctx = vplgi_gpu::GpuContext::new().context("vplgi verify compares the GPU twin with the CPU: it needs a GPU adapter")?;
+    let ctx = vplgi_gpu::GpuContext::new()
+        .context("vplgi verify compares the GPU twin with the CPU: it needs a GPU adapter")?;
     eprintln!("verifying on {} (lavapipe runs the GPU kernels on the CPU)", ctx.describe());
     let device = vplgi_embree::Device::new(None)?;
-    let cs = vplgi_cpu::CpuScene::new(&scene, &device).with_context(|| format!("building the Embree scene for {source}"))?;
+    let cs = vplgi_cpu::CpuScene::new(&scene, &device)
+        .with_context(|| format!("building the Embree scene for {source}"))?;
     let kernels = vplgi_gpu::GpuKernels::new(&ctx.device)?;
-    let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, &scene).with_context(|| format!("uploading {source} to the GPU"))?;
+    let gb = vplgi_gpu::GpuBackend::new(&ctx.device, &ctx.queue, &kernels, &scene)
+        .with_context(|| format!("uploading {source} to the GPU"))?;
     let twins = Twins { scene: &scene, cpu: &cs, gpu: &gb };
     let plan = Plan { config: config.clone(), modes: modes.clone(), stages };
     let results = vplgi_verify::run(&twins, &plan, &Printer)?;

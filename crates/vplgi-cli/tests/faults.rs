@@ -27,7 +27,8 @@ fn assert_complete(dir: &Path, what: &str) -> usize {
         let ok = if name.ends_with(".exr") {
             vplgi_image::read_exr(&path).is_ok()
         } else if name.ends_with(".json") {
-            serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).expect("read")).is_ok()
+            serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).expect("read"))
+                .is_ok()
         } else if name.ends_with(".png") {
             image::open(&path).is_ok()
         } else {
@@ -50,12 +51,21 @@ fn kill_at_every_stage(what: &str, args: &[&str], out: &Path) {
     let files = assert_complete(out, what);
     for at in [0.1, 0.3, 0.5, 0.7, 0.9, 0.95, 0.98, 0.99, 0.995] {
         let _ = std::fs::remove_dir_all(out);
-        let mut child = vplgi().args(args).stdout(std::process::Stdio::null()).stderr(std::process::Stdio::null()).spawn().expect("spawn");
+        let mut child = vplgi()
+            .args(args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("spawn");
         std::thread::sleep(full.mul_f64(at));
         let _ = child.kill(); // SIGKILL: no handler runs
         let _ = child.wait();
         let left = assert_complete(out, what);
-        println!("{what}: killed at {:.1} % of {:.2} s: {left} of {files} files, all complete", 100.0 * at, full.as_secs_f64());
+        println!(
+            "{what}: killed at {:.1} % of {:.2} s: {left} of {files} files, all complete",
+            100.0 * at,
+            full.as_secs_f64()
+        );
     }
 }
 
@@ -67,21 +77,54 @@ fn killed_runs_leave_no_partial_outputs() {
     let (render, reference, merged) = (d("render"), d("reference"), d("merged"));
     kill_at_every_stage(
         "render",
-        &["render", "--width", "384", "--height", "384", "--vpls", "3000", "--k-sp", "2000", "--k-vpl", "300", "--out", &render],
+        &[
+            "render", "--width", "384", "--height", "384", "--vpls", "3000", "--k-sp", "2000",
+            "--k-vpl", "300", "--out", &render,
+        ],
         Path::new(&render),
     );
     kill_at_every_stage(
         "reference",
-        &["reference", "--width", "160", "--height", "160", "--vpls", "800", "--seeds", "3", "--out", &reference],
+        &[
+            "reference",
+            "--width",
+            "160",
+            "--height",
+            "160",
+            "--vpls",
+            "800",
+            "--seeds",
+            "3",
+            "--out",
+            &reference,
+        ],
         Path::new(&reference),
     );
     let tiles: Vec<String> = (1..=2).map(|i| d(&format!("tile{i}"))).collect();
     for (i, t) in tiles.iter().enumerate() {
         let tile = format!("{}/2", i + 1);
-        let o = run(&["reference", "--width", "256", "--height", "256", "--vpls", "200", "--seeds", "2", "--tile", &tile, "--out", t]);
+        let o = run(&[
+            "reference",
+            "--width",
+            "256",
+            "--height",
+            "256",
+            "--vpls",
+            "200",
+            "--seeds",
+            "2",
+            "--tile",
+            &tile,
+            "--out",
+            t,
+        ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    kill_at_every_stage("merge", &["merge", &tiles[0], &tiles[1], "--out", &merged], Path::new(&merged));
+    kill_at_every_stage(
+        "merge",
+        &["merge", &tiles[0], &tiles[1], "--out", &merged],
+        Path::new(&merged),
+    );
 }
 
 /// An output folder that cannot be made, and one whose disk fills up (a file-size limit, which
@@ -93,9 +136,15 @@ fn unwritable_and_full_outputs_are_clear_errors() {
     let blocker = dir.path().join("a-file");
     std::fs::write(&blocker, b"not a folder").expect("write");
     let out = blocker.join("out");
-    let o = run(&["render", "--width", "8", "--height", "8", "--out", out.to_str().expect("utf-8")]);
+    let o =
+        run(&["render", "--width", "8", "--height", "8", "--out", out.to_str().expect("utf-8")]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("cannot create output directory") && err.contains("a-file/out"), "{err}");
+    assert!(
+        !o.status.success()
+            && err.contains("cannot create output directory")
+            && err.contains("a-file/out"),
+        "{err}"
+    );
 
     let out = dir.path().join("full");
     std::fs::create_dir(&out).expect("mkdir");
@@ -110,9 +159,15 @@ fn unwritable_and_full_outputs_are_clear_errors() {
     let err = String::from_utf8_lossy(&o.stderr);
     println!("{err}");
     assert!(!o.status.success(), "a render into a full disk succeeded");
-    assert!(err.contains("cannot write") && err.contains("image.exr") && err.contains("File too large"), "{err}");
+    assert!(
+        err.contains("cannot write") && err.contains("image.exr") && err.contains("File too large"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
-    let left: Vec<String> = std::fs::read_dir(&out).expect("read").map(|e| e.expect("entry").file_name().to_string_lossy().into_owned()).collect();
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .expect("read")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
     assert!(left.iter().all(|n| !n.ends_with(".exr")), "a partial image was left: {left:?}");
     assert_complete(&out, "full disk");
 }

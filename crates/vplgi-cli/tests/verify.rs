@@ -9,7 +9,8 @@ fn vplgi(args: &[&str]) -> Output {
 }
 
 /// A small frame: every stage and mode in seconds.
-const SMALL: [&str; 10] = ["--width", "40", "--height", "32", "--vpls", "600", "--k-sp", "150", "--k-vpl", "60"];
+const SMALL: [&str; 10] =
+    ["--width", "40", "--height", "32", "--vpls", "600", "--k-sp", "150", "--k-vpl", "60"];
 
 /// Skips (outside CI) when there is no GPU adapter; otherwise the run's output.
 fn verify(out: &Path, extra: &[&str]) -> Option<Output> {
@@ -32,14 +33,27 @@ fn load_in_chromium(page: &Path) -> (Vec<String>, String) {
     let script = "<script>window.addEventListener('load', () => { for (const i of document.images) { if (!i.complete || i.naturalWidth === 0) \
                   console.error('image not loaded: ' + i.getAttribute('src')); } console.log('probe: ' + document.querySelectorAll('section').length + ' sections, ' \
                   + document.images.length + ' images'); });</script>";
-    std::fs::write(&probe, html.replace("</body>", &format!("{script}</body>"))).expect("write the probe page");
+    std::fs::write(&probe, html.replace("</body>", &format!("{script}</body>")))
+        .expect("write the probe page");
     let o = Command::new("chromium")
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0", "--virtual-time-budget=10000", "--dump-dom"])
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--virtual-time-budget=10000",
+            "--dump-dom",
+        ])
         .arg(format!("file://{}", probe.display()))
         .output()
         .expect("chromium (installed by ci/install-deps.sh) runs");
     assert!(o.status.success(), "chromium failed: {}", String::from_utf8_lossy(&o.stderr));
-    let console = String::from_utf8_lossy(&o.stderr).lines().filter(|l| l.contains(":CONSOLE")).map(String::from).collect();
+    let console = String::from_utf8_lossy(&o.stderr)
+        .lines()
+        .filter(|l| l.contains(":CONSOLE"))
+        .map(String::from)
+        .collect();
     (console, String::from_utf8_lossy(&o.stdout).into_owned())
 }
 
@@ -52,16 +66,26 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "verify failed:\n{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
     assert!(stdout.contains("verify: PASS"), "{stdout}");
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("verify.json")).expect("verify.json")).expect("JSON");
+    let report: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("verify.json")).expect("verify.json"),
+    )
+    .expect("JSON");
     assert_eq!(report["passed"], true);
-    let stages: Vec<&str> = report["stages"].as_array().expect("stages").iter().filter_map(|s| s["stage"].as_str()).collect();
+    let stages: Vec<&str> = report["stages"]
+        .as_array()
+        .expect("stages")
+        .iter()
+        .filter_map(|s| s["stage"].as_str())
+        .collect();
     let every: Vec<&str> = vplgi_verify::VerifyStage::ALL.iter().map(|s| s.name()).collect();
     assert_eq!(stages, every, "every stage of the table, in pipeline order");
     assert_eq!(report["modes"].as_array().map(Vec::len), Some(8), "every mode by default");
     // 8 modes x (shade, frame) and the 6 that cluster shading points interpolated, three
     // pictures each.
     assert_eq!(report["images"].as_array().map(Vec::len), Some(22));
-    assert!(std::fs::read_to_string(dir.path().join("verify.md")).expect("verify.md").contains("## shade"));
+    assert!(std::fs::read_to_string(dir.path().join("verify.md"))
+        .expect("verify.md")
+        .contains("## shade"));
 
     let (console, dom) = load_in_chromium(&dir.path().join("verify.html"));
     println!("console: {console:#?}");
@@ -70,7 +94,10 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     }
     let errors: Vec<&String> = console.iter().filter(|l| !l.contains("probe: ")).collect();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
-    assert!(console.iter().any(|l| l.contains("probe: 11 sections, 66 images")), "the probe did not run: {console:#?}");
+    assert!(
+        console.iter().any(|l| l.contains("probe: 11 sections, 66 images")),
+        "the probe did not run: {console:#?}"
+    );
 }
 
 /// The probe itself sees a missing image: the browser check can fail.
@@ -92,20 +119,33 @@ fn a_broken_shader_fails_naming_the_stage() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let shaders = dir.path().join("shaders");
     std::fs::create_dir(&shaders).expect("mkdir");
-    let original = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shade.wgsl")).expect("shade.wgsl");
+    let original = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shade.wgsl"),
+    )
+    .expect("shade.wgsl");
     let clamp = "let capped = select(min(g, g_max), g, r2 > 0.0);";
     assert!(original.contains(clamp), "shade.wgsl changed: update this test's edit");
-    std::fs::write(shaders.join("shade.wgsl"), original.replace(clamp, "let capped = g;")).expect("write");
+    std::fs::write(shaders.join("shade.wgsl"), original.replace(clamp, "let capped = g;"))
+        .expect("write");
     let out = dir.path().join("out");
-    let Some(o) = verify(&out, &["--shaders", shaders.to_str().expect("utf-8"), "--stages", "shade", "--cluster", "both"]) else {
+    let Some(o) = verify(
+        &out,
+        &["--shaders", shaders.to_str().expect("utf-8"), "--stages", "shade", "--cluster", "both"],
+    ) else {
         return;
     };
     let stderr = String::from_utf8_lossy(&o.stderr);
     println!("{stderr}");
     assert!(!o.status.success(), "a shader without the clamp passed verify");
     assert!(stderr.contains("differs from the built-in copy"), "{stderr}");
-    assert!(stderr.contains("stage shade / final image (both/weighted)") && stderr.contains("worst: pixel ("), "{stderr}");
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json")).expect("JSON");
+    assert!(
+        stderr.contains("stage shade / final image (both/weighted)")
+            && stderr.contains("worst: pixel ("),
+        "{stderr}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json"))
+            .expect("JSON");
     assert_eq!(report["passed"], false);
 }
 
@@ -119,19 +159,35 @@ fn one_percent_more_emission_fails_at_one_and_three_spp() {
     let dir = tempfile::tempdir().expect("temporary directory");
     let shaders = dir.path().join("shaders");
     std::fs::create_dir(&shaders).expect("mkdir");
-    let mut broken = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl")).expect("shading_points.wgsl");
+    let mut broken = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl"),
+    )
+    .expect("shading_points.wgsl");
     for (from, to) in [
         ("sp.emitted = surf.emitted;", "sp.emitted = 1.01 * surf.emitted;"),
-        ("return sum / f32(EMISSION_STRATA * EMISSION_STRATA);", "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);"),
+        (
+            "return sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
+            "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
+        ),
     ] {
-        assert!(broken.contains(from), "shading_points.wgsl changed: update this test's edit of {from}");
+        assert!(
+            broken.contains(from),
+            "shading_points.wgsl changed: update this test's edit of {from}"
+        );
         broken = broken.replace(from, to);
     }
     std::fs::write(shaders.join("shading_points.wgsl"), broken).expect("write");
     for spp in ["1", "3"] {
         let out = dir.path().join(format!("out-{spp}"));
         let mut args = SMALL.to_vec();
-        args.extend(["--spp", spp, "--stages", "shading_points", "--shaders", shaders.to_str().expect("utf-8")]);
+        args.extend([
+            "--spp",
+            spp,
+            "--stages",
+            "shading_points",
+            "--shaders",
+            shaders.to_str().expect("utf-8"),
+        ]);
         let Some(o) = verify(&out, &args) else { return };
         let stderr = String::from_utf8_lossy(&o.stderr);
         println!("{spp} spp:\n{}\n{stderr}", String::from_utf8_lossy(&o.stdout));
@@ -140,8 +196,15 @@ fn one_percent_more_emission_fails_at_one_and_three_spp() {
             .lines()
             .find(|l| l.contains("samples whose emitted radiance is no"))
             .unwrap_or_else(|| panic!("no failing emission row at {spp} spp:\n{stderr}"));
-        assert!(row.contains(&format!("[shading_points (40x32, {spp} spp)]")) && row.contains("FAILS") && row.contains("worst: sample "), "{row}");
-        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json")).expect("JSON");
+        assert!(
+            row.contains(&format!("[shading_points (40x32, {spp} spp)]"))
+                && row.contains("FAILS")
+                && row.contains("worst: sample "),
+            "{row}"
+        );
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json"))
+                .expect("JSON");
         assert_eq!(report["passed"], false);
     }
 }
@@ -152,11 +215,20 @@ fn one_percent_more_emission_fails_at_one_and_three_spp() {
 fn bad_shaders_and_stages_are_refused_by_name() {
     let dir = tempfile::tempdir().expect("temporary directory");
     std::fs::write(dir.path().join("visibility.wgsl"), "fn main( {").expect("write");
-    let o = vplgi(&["verify", "--shaders", dir.path().to_str().expect("utf-8"), "--out", dir.path().join("out").to_str().expect("utf-8")]);
+    let o = vplgi(&[
+        "verify",
+        "--shaders",
+        dir.path().to_str().expect("utf-8"),
+        "--out",
+        dir.path().join("out").to_str().expect("utf-8"),
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("visibility.wgsl does not compile"), "{err}");
     assert!(!dir.path().join("out/verify.json").exists(), "a refused run wrote a report");
     let o = vplgi(&["verify", "--stages", "shade,bogus"]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("unknown stage 'bogus'") && err.contains("trace_vpls"), "{err}");
+    assert!(
+        !o.status.success() && err.contains("unknown stage 'bogus'") && err.contains("trace_vpls"),
+        "{err}"
+    );
 }

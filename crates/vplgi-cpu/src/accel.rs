@@ -49,7 +49,13 @@ impl<'a> CpuScene<'a> {
     pub fn new(scene: &'a Scene, device: &Device) -> Result<CpuScene<'a>, EmbreeError> {
         let rt = vplgi_embree::Scene::new(device, &scene.positions, &scene.indices)?;
         let extent = scene.extent().max(1e-6);
-        Ok(CpuScene { scene, rt, lights: LightSampler::new(scene), extent, eps: scene.ray_epsilon() })
+        Ok(CpuScene {
+            scene,
+            rt,
+            lights: LightSampler::new(scene),
+            extent,
+            eps: scene.ray_epsilon(),
+        })
     }
 
     /// Closest surface along `origin + t dir`, t in (0, inf).
@@ -67,7 +73,15 @@ impl<'a> CpuScene<'a> {
             ns = -ns;
         }
         let emitted = if facing { self.scene.emission(t) } else { Vec3::ZERO };
-        Some(SurfaceHit { position, ng, ns, albedo: self.scene.albedo(t, hit.u, hit.v), emitted, triangle: hit.triangle, t: hit.t })
+        Some(SurfaceHit {
+            position,
+            ng,
+            ns,
+            albedo: self.scene.albedo(t, hit.u, hit.v),
+            emitted,
+            triangle: hit.triangle,
+            t: hit.t,
+        })
     }
 
     /// Pushes `p` off its surface (normal `n`) towards the side where `toward` lies.
@@ -97,7 +111,12 @@ impl<'a> CpuScene<'a> {
     /// The span [`Self::visible_toward`] tests: from the pushed-off point to infinity.
     #[inline]
     pub fn toward_span(&self, p: Vec3, np: Vec3, dir: Vec3) -> ShadowSpan {
-        ShadowSpan { origin: self.offset_toward(p, np, p + dir), dir, tmin: 0.0, tmax: f32::INFINITY }
+        ShadowSpan {
+            origin: self.offset_toward(p, np, p + dir),
+            dir,
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+        }
     }
 
     /// The span [`Self::visible_from_surface`] tests, stopping eps short of the light; `None`
@@ -107,7 +126,12 @@ impl<'a> CpuScene<'a> {
         let origin = self.offset_toward(p, np, light);
         let dir = light - origin;
         let len = dir.length();
-        (len > self.eps).then(|| ShadowSpan { origin, dir, tmin: SEGMENT_TNEAR, tmax: 1.0 - self.eps / len })
+        (len > self.eps).then(|| ShadowSpan {
+            origin,
+            dir,
+            tmin: SEGMENT_TNEAR,
+            tmax: 1.0 - self.eps / len,
+        })
     }
 
     /// Whether nothing blocks `span`.

@@ -22,7 +22,10 @@ impl CpuHits {
     /// The G-buffer points of camera samples `samples` (`rsm_importance::pixel_samples`): the
     /// hits among them, in order; a sample that missed gives none.
     pub fn gbuffer_points(&self, samples: &[u32]) -> Vec<Endpoint> {
-        samples.iter().filter_map(|&s| self.samples.binary_search(&s).ok().map(|h| self.points[h])).collect()
+        samples
+            .iter()
+            .filter_map(|&s| self.samples.binary_search(&s).ok().map(|h| self.points[h]))
+            .collect()
     }
 
     /// Each camera sample's hit number, or [`MISS`].
@@ -57,8 +60,16 @@ impl Storage for CpuScene<'_> {
         self.scene.camera
     }
 
-    fn compact_hits(&self, chunks: &[SampleChunk<Vec<ShadingPoint>>], n_samples: u32) -> Result<CpuHits, FrameError> {
-        let mut hits = CpuHits { samples: Vec::new(), row_of: vec![MISS; n_samples as usize], points: Vec::new() };
+    fn compact_hits(
+        &self,
+        chunks: &[SampleChunk<Vec<ShadingPoint>>],
+        n_samples: u32,
+    ) -> Result<CpuHits, FrameError> {
+        let mut hits = CpuHits {
+            samples: Vec::new(),
+            row_of: vec![MISS; n_samples as usize],
+            points: Vec::new(),
+        };
         for chunk in chunks {
             for (i, sp) in (chunk.first..).zip(&chunk.samples) {
                 if !sp.is_miss() {
@@ -83,7 +94,11 @@ impl Storage for CpuScene<'_> {
         Ok(vpls.iter().map(Endpoint::of_vpl).collect())
     }
 
-    fn vpl_lights(&self, vpls: &Vec<Vpl>, set: LightSet<'_, Clustering>) -> Result<VplLights, FrameError> {
+    fn vpl_lights(
+        &self,
+        vpls: &Vec<Vpl>,
+        set: LightSet<'_, Clustering>,
+    ) -> Result<VplLights, FrameError> {
         Ok(match set {
             LightSet::Clusters { clusters, shape } => vpl_lights(vpls, Some(clusters), shape),
             LightSet::EachVpl { max_bounce } => {
@@ -114,7 +129,11 @@ mod tests {
     #[test]
     fn gbuffer_points_are_the_hits_of_the_listed_samples() {
         let p = |x: f32| Endpoint::new(Vec3::new(x, 0.0, 0.0), Vec3::Y);
-        let hits = CpuHits { samples: vec![2, 5, 7], row_of: vec![MISS, MISS, 0, MISS, MISS, 1, MISS, 2], points: vec![p(2.0), p(5.0), p(7.0)] };
+        let hits = CpuHits {
+            samples: vec![2, 5, 7],
+            row_of: vec![MISS, MISS, 0, MISS, MISS, 1, MISS, 2],
+            points: vec![p(2.0), p(5.0), p(7.0)],
+        };
         assert_eq!(hits.gbuffer_points(&[7, 3, 5, 0]), vec![p(7.0), p(5.0)]);
         assert!(hits.gbuffer_points(&[1, 4]).is_empty());
     }

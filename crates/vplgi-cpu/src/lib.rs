@@ -22,4 +22,6 @@ mod accel;
 pub use accel::{CpuScene, ShadowSpan, SurfaceHit, SEGMENT_TFAR, SEGMENT_TNEAR};
 pub use backend::CpuHits;
 /// The frame driver is the same for every backend: `render(&cpu_scene, &cfg, &progress)`.
-pub use vplgi_frame::{render, render_rows, Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings};
+pub use vplgi_frame::{
+    render, render_rows, Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings,
+};

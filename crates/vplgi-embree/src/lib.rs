@@ -42,12 +42,15 @@ impl Device {
             None => "verbose=0".to_string(),
         };
         // The config string has no interior NUL by construction.
-        let config = CString::new(config).map_err(|_| EmbreeError::Device(sys::RTCError::INVALID_ARGUMENT))?;
+        let config = CString::new(config)
+            .map_err(|_| EmbreeError::Device(sys::RTCError::INVALID_ARGUMENT))?;
         // SAFETY: a valid NUL-terminated string; a null device is checked below.
         let raw = unsafe { sys::rtcNewDevice(config.as_ptr()) };
         if raw.is_null() {
             // SAFETY: rtcGetDeviceError(NULL) returns the error of the last failed device creation.
-            return Err(EmbreeError::Device(error_from_u32(unsafe { raw_device_error(ptr::null_mut()) })));
+            return Err(EmbreeError::Device(error_from_u32(unsafe {
+                raw_device_error(ptr::null_mut())
+            })));
         }
         Ok(Device { raw })
     }
@@ -140,7 +143,15 @@ impl RayHit {
     pub fn new(origin: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> RayHit {
         RayHit {
             ray: make_ray(origin, dir, tnear, tfar),
-            hit: Hit44 { ng: [0.0; 3], u: 0.0, v: 0.0, prim_id: INVALID_ID, geom_id: INVALID_ID, inst_id: [INVALID_ID], inst_prim_id: [INVALID_ID] },
+            hit: Hit44 {
+                ng: [0.0; 3],
+                u: 0.0,
+                v: 0.0,
+                prim_id: INVALID_ID,
+                geom_id: INVALID_ID,
+                inst_id: [INVALID_ID],
+                inst_prim_id: [INVALID_ID],
+            },
         }
     }
 }
@@ -216,9 +227,16 @@ impl Scene {
     /// Builds a scene from vertex positions and triangles (indices into `positions`).
     /// Index validity is the caller's responsibility only up to this check: out-of-range indices
     /// are rejected.
-    pub fn new(device: &Device, positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Scene, EmbreeError> {
+    pub fn new(
+        device: &Device,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+    ) -> Result<Scene, EmbreeError> {
         if indices.iter().flatten().any(|&i| i as usize >= positions.len()) {
-            return Err(EmbreeError::Call { what: "build the scene (index out of range)", code: sys::RTCError::INVALID_ARGUMENT });
+            return Err(EmbreeError::Call {
+                what: "build the scene (index out of range)",
+                code: sys::RTCError::INVALID_ARGUMENT,
+            });
         }
         // Embree may read 16 bytes at the last vertex: one float of padding keeps that in bounds.
         let mut vertices = Vec::with_capacity(positions.len() * 3 + 1);
@@ -237,14 +255,38 @@ impl Scene {
             sys::rtcSetSceneBuildQuality(raw, sys::RTCBuildQuality::HIGH);
             if !indices.is_empty() {
                 let geom = sys::rtcNewGeometry(device.raw, sys::RTCGeometryType::TRIANGLE);
-                sys::rtcSetSharedGeometryBuffer(geom, sys::RTCBufferType::VERTEX, 0, sys::RTCFormat::FLOAT3, vertices.as_ptr().cast(), 0, 12, positions.len());
-                sys::rtcSetSharedGeometryBuffer(geom, sys::RTCBufferType::INDEX, 0, sys::RTCFormat::UINT3, idx.as_ptr().cast(), 0, 12, indices.len());
+                sys::rtcSetSharedGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType::VERTEX,
+                    0,
+                    sys::RTCFormat::FLOAT3,
+                    vertices.as_ptr().cast(),
+                    0,
+                    12,
+                    positions.len(),
+                );
+                sys::rtcSetSharedGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType::INDEX,
+                    0,
+                    sys::RTCFormat::UINT3,
+                    idx.as_ptr().cast(),
+                    0,
+                    12,
+                    indices.len(),
+                );
                 sys::rtcCommitGeometry(geom);
                 sys::rtcAttachGeometry(raw, geom);
                 sys::rtcReleaseGeometry(geom);
             }
             sys::rtcCommitScene(raw);
-            let scene = Scene { raw, _device: device.clone(), _vertices: vertices, _indices: idx, triangles: indices.len() };
+            let scene = Scene {
+                raw,
+                _device: device.clone(),
+                _vertices: vertices,
+                _indices: idx,
+                triangles: indices.len(),
+            };
             device.check("commit the scene")?;
             Ok(scene)
         }
@@ -266,29 +308,90 @@ impl Scene {
     }
 
     /// `occluded` for up to 4 segments at once (`rtcOccluded4`): see [`Self::occluded8`].
-    pub fn occluded4(&self, origins: &[Vec3; 4], dirs: &[Vec3; 4], count: usize, tnear: f32, tfar: f32) -> u16 {
-        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 4, 16, RTCRay4, rtcOccluded4)
+    pub fn occluded4(
+        &self,
+        origins: &[Vec3; 4],
+        dirs: &[Vec3; 4],
+        count: usize,
+        tnear: f32,
+        tfar: f32,
+    ) -> u16 {
+        packet_query!(
+            self,
+            soa(origins),
+            soa(dirs),
+            count,
+            tnear,
+            tfar,
+            4,
+            16,
+            RTCRay4,
+            rtcOccluded4
+        )
     }
 
     /// `occluded` for up to 8 segments at once (`rtcOccluded8`, Embree's packet query): segment
     /// `k` of the first `count` is `origins[k] + t * dirs[k]` for t in (`tnear`, `tfar`); bit k
     /// of the result is set when it is blocked. For `make perf-report`'s question whether
     /// packets of coherent shadow rays beat the one-ray loop, and which width does.
-    pub fn occluded8(&self, origins: &[Vec3; 8], dirs: &[Vec3; 8], count: usize, tnear: f32, tfar: f32) -> u16 {
-        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 8, 32, RTCRay8, rtcOccluded8)
+    pub fn occluded8(
+        &self,
+        origins: &[Vec3; 8],
+        dirs: &[Vec3; 8],
+        count: usize,
+        tnear: f32,
+        tfar: f32,
+    ) -> u16 {
+        packet_query!(
+            self,
+            soa(origins),
+            soa(dirs),
+            count,
+            tnear,
+            tfar,
+            8,
+            32,
+            RTCRay8,
+            rtcOccluded8
+        )
     }
 
     /// [`Self::occluded8`] for segments that all start at `origin`, their directions given as
     /// [x, y, z] arrays (the layout of Embree's packet, so nothing is rearranged): the shadow
     /// rays of one shading point.
-    pub fn occluded8_from(&self, origin: Vec3, dirs: &[[f32; 8]; 3], count: usize, tnear: f32, tfar: f32) -> u16 {
+    pub fn occluded8_from(
+        &self,
+        origin: Vec3,
+        dirs: &[[f32; 8]; 3],
+        count: usize,
+        tnear: f32,
+        tfar: f32,
+    ) -> u16 {
         let org = [[origin.x; 8], [origin.y; 8], [origin.z; 8]];
         packet_query!(self, org, *dirs, count, tnear, tfar, 8, 32, RTCRay8, rtcOccluded8)
     }
 
     /// `occluded` for up to 16 segments at once (`rtcOccluded16`): see [`Self::occluded8`].
-    pub fn occluded16(&self, origins: &[Vec3; 16], dirs: &[Vec3; 16], count: usize, tnear: f32, tfar: f32) -> u16 {
-        packet_query!(self, soa(origins), soa(dirs), count, tnear, tfar, 16, 64, RTCRay16, rtcOccluded16)
+    pub fn occluded16(
+        &self,
+        origins: &[Vec3; 16],
+        dirs: &[Vec3; 16],
+        count: usize,
+        tnear: f32,
+        tfar: f32,
+    ) -> u16 {
+        packet_query!(
+            self,
+            soa(origins),
+            soa(dirs),
+            count,
+            tnear,
+            tfar,
+            16,
+            64,
+            RTCRay16,
+            rtcOccluded16
+        )
     }
 
     /// Closest hit along `origin + t * dir` for t in (`tnear`, `tfar`).
@@ -296,7 +399,12 @@ impl Scene {
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<Hit> {
         let mut rh = RayHit::new(origin, dir, tnear, tfar);
         self.intersect_raw(&mut rh);
-        (rh.hit.geom_id != INVALID_ID).then_some(Hit { t: rh.ray.tfar, triangle: rh.hit.prim_id, u: rh.hit.u, v: rh.hit.v })
+        (rh.hit.geom_id != INVALID_ID).then_some(Hit {
+            t: rh.ray.tfar,
+            triangle: rh.hit.prim_id,
+            u: rh.hit.u,
+            v: rh.hit.v,
+        })
     }
 
     /// `rtcIntersect1` on a 4.4-layout ray-hit record.

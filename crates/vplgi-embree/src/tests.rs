@@ -4,7 +4,8 @@ use vplgi_types::{Rng, Stream};
 
 fn one_triangle() -> (Device, Scene) {
     let device = Device::new(Some(1)).expect("device");
-    let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+    let positions =
+        [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
     let scene = Scene::new(&device, &positions, &[[0, 1, 2]]).expect("scene");
     (device, scene)
 }
@@ -17,14 +18,21 @@ fn intersect_writes_nothing_past_the_hit_struct() {
         sentinel: [u32; 8],
     }
     let (_d, scene) = one_triangle();
-    let mut g = Guarded { rh: RayHit::new(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z, 0.0, f32::INFINITY), sentinel: [0xDEAD_BEEF; 8] };
+    let mut g = Guarded {
+        rh: RayHit::new(Vec3::new(0.0, 0.0, 1.0), -Vec3::Z, 0.0, f32::INFINITY),
+        sentinel: [0xDEAD_BEEF; 8],
+    };
     g.rh.hit.inst_prim_id = [0x1234_5678];
     scene.intersect_raw(&mut g.rh);
     assert_eq!(g.rh.hit.prim_id, 0);
     assert!((g.rh.ray.tfar - 1.0).abs() < 1e-6);
     // The 4.4 runtime writes instPrimID (invalid for a non-instanced hit): the field the 4.2
     // bindings lack. If this ever stops being written, the runtime's layout changed again.
-    assert_eq!(g.rh.hit.inst_prim_id, [u32::MAX], "instPrimID not written: is the runtime Embree 4.4?");
+    assert_eq!(
+        g.rh.hit.inst_prim_id,
+        [u32::MAX],
+        "instPrimID not written: is the runtime Embree 4.4?"
+    );
     assert_eq!(g.sentinel, [0xDEAD_BEEF; 8], "Embree wrote past the hit struct");
     assert_eq!(std::mem::size_of::<RayHit>(), 96);
 }
@@ -82,7 +90,8 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
         let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
         let size = if i % 100 == 0 { 1.0 } else { 0.08 };
         for _ in 0..3 {
-            positions.push(c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * size);
+            positions
+                .push(c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * size);
         }
         indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
     }
@@ -97,7 +106,11 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
         })
         .collect();
     let mut build_time = std::time::Duration::ZERO;
-    let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut build_time);
+    let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+        &tris,
+        obvhs::BvhBuildParams::medium_build(),
+        &mut build_time,
+    );
 
     let n_rays = 20_000;
     let (mut hits, mut embree_vs_brute, mut obvhs_vs_brute, mut occl_mismatch) = (0, 0, 0, 0);
@@ -109,7 +122,11 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
         let (od, dd) = (o.as_dvec3(), d.as_dvec3());
         let mut best: Option<(f64, u32)> = None;
         for (i, t) in indices.iter().enumerate() {
-            let tri = [positions[t[0] as usize].as_dvec3(), positions[t[1] as usize].as_dvec3(), positions[t[2] as usize].as_dvec3()];
+            let tri = [
+                positions[t[0] as usize].as_dvec3(),
+                positions[t[1] as usize].as_dvec3(),
+                positions[t[2] as usize].as_dvec3(),
+            ];
             if let Some(th) = brute_intersect(tri, od, dd) {
                 if best.is_none_or(|(bt, _)| th < bt) {
                     best = Some((th, i as u32));
@@ -120,7 +137,9 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
         // agree to 1e-4 (a tie between touching triangles).
         let agrees = |got: Option<(f32, u32)>| match (got, best) {
             (None, None) => true,
-            (Some((t, id)), Some((bt, bid))) => id == bid || (t as f64 - bt).abs() < 1e-4 * bt.max(1.0),
+            (Some((t, id)), Some((bt, bid))) => {
+                id == bid || (t as f64 - bt).abs() < 1e-4 * bt.max(1.0)
+            }
             _ => false,
         };
         if best.is_some() {
@@ -132,7 +151,9 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
         }
         let mut hit = obvhs::ray::RayHit::none();
         let ray = obvhs::ray::Ray::new_inf(Vec3A::from(o), Vec3A::from(d));
-        let found = bvh.ray_traverse(ray, &mut hit, |r, id| tris[bvh.primitive_indices[id] as usize].intersect(r));
+        let found = bvh.ray_traverse(ray, &mut hit, |r, id| {
+            tris[bvh.primitive_indices[id] as usize].intersect(r)
+        });
         let ob = found.then(|| (hit.t, bvh.primitive_indices[hit.primitive_id as usize]));
         if !agrees(ob) {
             obvhs_vs_brute += 1;
@@ -153,7 +174,10 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
     assert!(hits > n_rays / 10, "the test scene must actually be hit ({hits} hits)");
     // Grazing hits can fall either side of an edge in f32: allow 1 in 2,000.
     let bound = n_rays / 2_000;
-    assert!(embree_vs_brute <= bound, "Embree disagrees with brute force on {embree_vs_brute} rays");
+    assert!(
+        embree_vs_brute <= bound,
+        "Embree disagrees with brute force on {embree_vs_brute} rays"
+    );
     assert!(obvhs_vs_brute <= bound, "obvhs disagrees with brute force on {obvhs_vs_brute} rays");
     assert!(occl_mismatch <= bound, "occlusion disagrees with brute force on {occl_mismatch} rays");
 }
@@ -163,7 +187,14 @@ fn embree_obvhs_and_brute_force_agree_on_random_rays() {
 fn concurrent_queries_match_serial_ones() {
     use rayon::prelude::*;
     let (_d, scene) = one_triangle();
-    let dirs: Vec<Vec3> = (0..10_000).map(|i| vplgi_types::sampling::uniform_sphere((i as f32 + 0.5) / 10_000.0, (i * 7 % 13) as f32 / 13.0)).collect();
+    let dirs: Vec<Vec3> = (0..10_000)
+        .map(|i| {
+            vplgi_types::sampling::uniform_sphere(
+                (i as f32 + 0.5) / 10_000.0,
+                (i * 7 % 13) as f32 / 13.0,
+            )
+        })
+        .collect();
     let o = Vec3::new(0.1, 0.1, 1.0);
     let serial: Vec<bool> = dirs.iter().map(|&d| scene.occluded(o, d, 0.0, 10.0)).collect();
     let parallel: Vec<bool> = dirs.par_iter().map(|&d| scene.occluded(o, d, 0.0, 10.0)).collect();
@@ -177,14 +208,22 @@ fn concurrent_queries_match_serial_ones() {
 fn packet_queries_agree_with_occluded() {
     let device = Device::new(None).unwrap();
     // A unit quad in z = 0 blocks segments from z = 1 to z = -1 that cross it.
-    let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+    let positions = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
     let scene = Scene::new(&device, &positions, &[[0, 1, 2], [0, 2, 3]]).unwrap();
     let origins: [Vec3; 16] = std::array::from_fn(|k| Vec3::new(-1.9 + 0.25 * k as f32, 0.3, 1.0));
     let dirs = [Vec3::new(0.0, 0.0, -2.0); 16];
-    let one: u16 = (0..16).fold(0, |b, k| b | ((scene.occluded(origins[k], dirs[k], 0.0, 1.0) as u16) << k));
+    let one: u16 =
+        (0..16).fold(0, |b, k| b | ((scene.occluded(origins[k], dirs[k], 0.0, 1.0) as u16) << k));
     assert_eq!(one, 0b0000_1111_1111_0000, "segments over the quad are blocked, the others not");
-    let (o8, d8): ([Vec3; 8], [Vec3; 8]) = (std::array::from_fn(|k| origins[k + 4]), std::array::from_fn(|k| dirs[k + 4]));
-    let (o4, d4): ([Vec3; 4], [Vec3; 4]) = (std::array::from_fn(|k| origins[k + 2]), std::array::from_fn(|k| dirs[k + 2]));
+    let (o8, d8): ([Vec3; 8], [Vec3; 8]) =
+        (std::array::from_fn(|k| origins[k + 4]), std::array::from_fn(|k| dirs[k + 4]));
+    let (o4, d4): ([Vec3; 4], [Vec3; 4]) =
+        (std::array::from_fn(|k| origins[k + 2]), std::array::from_fn(|k| dirs[k + 2]));
     assert_eq!(scene.occluded16(&origins, &dirs, 16, 0.0, 1.0), one);
     assert_eq!(scene.occluded16(&origins, &dirs, 6, 0.0, 1.0), one & 0b11_1111);
     assert_eq!(scene.occluded8(&o8, &d8, 8, 0.0, 1.0), one >> 4 & 0xff);
@@ -193,8 +232,10 @@ fn packet_queries_agree_with_occluded() {
     // of 1 cross z = 0 half-way, at x = -1.6 .. 1.9: the middle 4 inside the quad.
     let ends: [Vec3; 8] = std::array::from_fn(|k| Vec3::new(-3.5 + k as f32, 0.3, -1.0));
     let from = Vec3::new(0.3, 0.3, 1.0);
-    let dirs_from = [ends.map(|e| e.x - from.x), ends.map(|e| e.y - from.y), ends.map(|e| e.z - from.z)];
-    let one_from: u16 = (0..8).fold(0, |b, k| b | ((scene.occluded(from, ends[k] - from, 0.0, 1.0) as u16) << k));
+    let dirs_from =
+        [ends.map(|e| e.x - from.x), ends.map(|e| e.y - from.y), ends.map(|e| e.z - from.z)];
+    let one_from: u16 =
+        (0..8).fold(0, |b, k| b | ((scene.occluded(from, ends[k] - from, 0.0, 1.0) as u16) << k));
     assert_eq!(one_from, 0b0011_1100);
     assert_eq!(scene.occluded8_from(from, &dirs_from, 8, 0.0, 1.0), one_from);
     assert_eq!(scene.occluded8_from(from, &dirs_from, 3, 0.0, 1.0), one_from & 0b111);

@@ -134,7 +134,11 @@ pub trait Storage {
     }
 
     /// The hits among all chunks' samples (`n_samples` in the image), numbered in sample order.
-    fn compact_hits(&self, chunks: &[SampleChunk<Self::Samples>], n_samples: u32) -> Result<Self::Hits, Self::Error>;
+    fn compact_hits(
+        &self,
+        chunks: &[SampleChunk<Self::Samples>],
+        n_samples: u32,
+    ) -> Result<Self::Hits, Self::Error>;
 
     /// How many hits come before camera sample `sample`.
     fn hits_before(&self, hits: &Self::Hits, sample: u32) -> Result<u32, Self::Error>;
@@ -146,7 +150,11 @@ pub trait Storage {
     fn vpl_points(&self, vpls: &Self::Vpls) -> Result<Self::Points, Self::Error>;
 
     /// The lights of the VPLs: one per VPL or per VPL cluster.
-    fn vpl_lights(&self, vpls: &Self::Vpls, set: LightSet<'_, Self::Clustering>) -> Result<Self::Lights, Self::Error>;
+    fn vpl_lights(
+        &self,
+        vpls: &Self::Vpls,
+        set: LightSet<'_, Self::Clustering>,
+    ) -> Result<Self::Lights, Self::Error>;
 
     /// The lights as surface points (visibility columns).
     fn light_points(&self, lights: &Self::Lights) -> Result<Self::Points, Self::Error>;

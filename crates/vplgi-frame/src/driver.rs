@@ -10,14 +10,21 @@ use vplgi_shared::rsm::RsmCentre;
 use vplgi_shared::rsm_importance;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
-use vplgi_types::{Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal, VplClustering, VplSource};
+use vplgi_types::{
+    Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal,
+    VplClustering, VplSource,
+};
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
 /// its own row): bounds the matrix to 64 MiB whatever the image size.
 pub const ROW_CHUNK_BITS: u64 = 64 << 23;
 
 /// Renders one frame from the scene's camera.
-pub fn render<B: Backend>(b: &B, cfg: &FrameConfig, progress: &dyn Progress) -> Result<Frame, B::Error> {
+pub fn render<B: Backend>(
+    b: &B,
+    cfg: &FrameConfig,
+    progress: &dyn Progress,
+) -> Result<Frame, B::Error> {
     render_from(b, cfg, &View { camera: b.camera(), previous: None, previous_rsm: None }, progress)
 }
 
@@ -32,12 +39,22 @@ pub struct View<'a> {
 }
 
 /// Renders one frame of a sequence.
-pub fn render_from<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+pub fn render_from<B: Backend>(
+    b: &B,
+    cfg: &FrameConfig,
+    view: &View<'_>,
+    progress: &dyn Progress,
+) -> Result<Frame, B::Error> {
     render_view(b, cfg, view, 0..cfg.height, progress)
 }
 
 /// Times `work` as part of `stage`, waiting for the backend to finish it.
-fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl FnOnce() -> Result<T, B::Error>) -> Result<T, B::Error> {
+fn timed<B: Backend, T>(
+    b: &B,
+    t: &mut StageTimings,
+    stage: Stage,
+    work: impl FnOnce() -> Result<T, B::Error>,
+) -> Result<T, B::Error> {
     let clock = Instant::now();
     let out = work()?;
     b.sync()?;
@@ -49,27 +66,58 @@ fn timed<B: Backend, T>(b: &B, t: &mut StageTimings, stage: Stage, work: impl Fn
 /// to the whole frame's, since without clustering a pixel depends only on the VPLs (traced in
 /// full) and its own samples. The frame holds the rows only. This is how a reference is cut into
 /// tiles; clustered frames cannot be (their clusters depend on the whole image).
-pub fn render_rows<B: Backend>(b: &B, cfg: &FrameConfig, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
-    render_view(b, cfg, &View { camera: b.camera(), previous: None, previous_rsm: None }, rows, progress)
+pub fn render_rows<B: Backend>(
+    b: &B,
+    cfg: &FrameConfig,
+    rows: Range<u32>,
+    progress: &dyn Progress,
+) -> Result<Frame, B::Error> {
+    render_view(
+        b,
+        cfg,
+        &View { camera: b.camera(), previous: None, previous_rsm: None },
+        rows,
+        progress,
+    )
 }
 
-fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Range<u32>, progress: &dyn Progress) -> Result<Frame, B::Error> {
+fn render_view<B: Backend>(
+    b: &B,
+    cfg: &FrameConfig,
+    view: &View<'_>,
+    rows: Range<u32>,
+    progress: &dyn Progress,
+) -> Result<Frame, B::Error> {
     cfg.validate().map_err(FrameError::InvalidConfig)?;
     if rows.start >= rows.end || rows.end > cfg.height {
-        return Err(FrameError::InvalidConfig(format!("rows {}..{} of a {}-row image", rows.start, rows.end, cfg.height)).into());
+        return Err(FrameError::InvalidConfig(format!(
+            "rows {}..{} of a {}-row image",
+            rows.start, rows.end, cfg.height
+        ))
+        .into());
     }
     if (rows.start > 0 || rows.end < cfg.height) && cfg.cluster != ClusterMode::None {
-        return Err(FrameError::InvalidConfig("only unclustered frames (--cluster none) can be rendered in tiles".into()).into());
+        return Err(FrameError::InvalidConfig(
+            "only unclustered frames (--cluster none) can be rendered in tiles".into(),
+        )
+        .into());
     }
     b.check_frame(cfg)?;
     let mut t = StageTimings::default();
     let extent = b.scene_extent();
     let spp = cfg.spp;
     let n_samples = cfg.width * cfg.height * spp;
-    let mut stats = FrameStats { scene_extent: extent, shading_points: n_samples, g_clamp_d_min: cfg.g_clamp_rel * extent, ..Default::default() };
+    let mut stats = FrameStats {
+        scene_extent: extent,
+        shading_points: n_samples,
+        g_clamp_d_min: cfg.g_clamp_rel * extent,
+        ..Default::default()
+    };
 
     let (vpls, particles) = match cfg.vpl_source {
-        VplSource::Paths => timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?,
+        VplSource::Paths => {
+            timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?
+        }
         VplSource::Rsm => timed(b, &mut t, Stage::RsmVpls, || b.rsm_vpls(cfg.rsm_size, progress))?,
     };
     (stats.vpls, stats.light_particles) = (vpls.count(), particles);
@@ -85,7 +133,11 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
         let mut first = first_sample;
         while first < end_sample {
             let count = (end_sample - first).min(per_chunk);
-            chunks.push(SampleChunk { first, count, samples: b.shading_points(&camera, first..first + count)? });
+            chunks.push(SampleChunk {
+                first,
+                count,
+                samples: b.shading_points(&camera, first..first + count)?,
+            });
             first += count;
         }
         Ok(chunks)
@@ -101,18 +153,33 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
         stats.shading_point_hits = hits.count();
         let lights = if cfg.cluster.clusters_vpls() && vpls.count() > 0 {
             let (c, k) = match cfg.vpl_cluster {
-                VplClustering::Eq7 => b.cluster(&b.vpl_points(&vpls)?, &cfg.vpl_cluster_params(), ClusterStart::Stride)?,
+                VplClustering::Eq7 => b.cluster(
+                    &b.vpl_points(&vpls)?,
+                    &cfg.vpl_cluster_params(),
+                    ClusterStart::Stride,
+                )?,
                 VplClustering::Rsm => {
                     let importance = match cfg.rsm_seeding {
                         RsmSeeding::Halton => None,
                         RsmSeeding::Importance => {
                             let samples = rsm_importance::pixel_samples(cfg.width, cfg.height, spp);
-                            Some(b.rsm_importance(&vpls, cfg.rsm_size, &hits, &samples, rsm_importance::D_MIN_REL * extent)?)
+                            Some(b.rsm_importance(
+                                &vpls,
+                                cfg.rsm_size,
+                                &hits,
+                                &samples,
+                                rsm_importance::D_MIN_REL * extent,
+                            )?)
                         }
                     };
                     let temporal = cfg.temporal == Temporal::On;
-                    let start = RsmStart { importance: importance.as_ref(), previous: view.previous_rsm.filter(|_| temporal), carry: temporal };
-                    let (c, k, carried) = b.rsm_cluster(&vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), start)?;
+                    let start = RsmStart {
+                        importance: importance.as_ref(),
+                        previous: view.previous_rsm.filter(|_| temporal),
+                        carry: temporal,
+                    };
+                    let (c, k, carried) =
+                        b.rsm_cluster(&vpls, cfg.rsm_size, &cfg.rsm_cluster_params(extent), start)?;
                     (stats.vpl_kept, stats.vpl_fresh, rsm_centres) = (k.kept, k.fresh, carried);
                     (c, k)
                 }
@@ -136,7 +203,8 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
                 (_, _, None) => ClusterStart::Stride,
             };
             let (c, k) = b.cluster(points, &params, start)?;
-            (stats.sp_clusters, stats.sp_widened, stats.sp_kept, stats.sp_fresh) = (c.count(), k.widened, k.kept, k.fresh);
+            (stats.sp_clusters, stats.sp_widened, stats.sp_kept, stats.sp_fresh) =
+                (c.count(), k.widened, k.kept, k.fresh);
             if cfg.temporal == Temporal::On {
                 centres = b.cluster_centres(&c, points, params.metric)?;
             }
@@ -161,14 +229,20 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     // their gather rays, then the irradiance of the lights at each with its own row.
     let clustered = match sp_clusters {
         Some((c, reps)) => {
-            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || b.visibility(&reps, 0..reps.count(), &cols, progress))?;
+            let (matrix, r) = timed(b, &mut t, Stage::Visibility, || {
+                b.visibility(&reps, 0..reps.count(), &cols, progress)
+            })?;
             count_rays(r);
             let samples = match cfg.shade {
                 ShadeMode::Fuzzy => None,
                 ShadeMode::Interpolate => {
                     progress.start(Stage::Interpolate.name(), 1);
-                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || b.gather_radius(&reps, &cfg.gather_params()))?;
-                    let samples = timed(b, &mut t, Stage::Interpolate, || b.sample_irradiance(reps, inv_radius, &lights, &matrix, shade.g_max))?;
+                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || {
+                        b.gather_radius(&reps, &cfg.gather_params())
+                    })?;
+                    let samples = timed(b, &mut t, Stage::Interpolate, || {
+                        b.sample_irradiance(reps, inv_radius, &lights, &matrix, shade.g_max)
+                    })?;
                     progress.finish();
                     Some(samples)
                 }
@@ -182,14 +256,18 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
         let (px0, px1) = (chunk.first / spp, (chunk.first + chunk.count) / spp);
         match &clustered {
             Some((c, matrix, samples)) => {
-                let h = b.hits_before(&hits, chunk.first)?..b.hits_before(&hits, chunk.first + chunk.count)?;
+                let h = b.hits_before(&hits, chunk.first)?
+                    ..b.hits_before(&hits, chunk.first + chunk.count)?;
                 progress.start(Stage::Shade.name(), 1);
                 let visibility = match samples {
                     None => ShadeVisibility::Fuzzy { clustering: c, hits: h },
-                    Some(samples) => ShadeVisibility::Interpolated { clustering: c, hits: h, samples },
+                    Some(samples) => {
+                        ShadeVisibility::Interpolated { clustering: c, hits: h, samples }
+                    }
                 };
                 let input = ShadeInput { chunk, hits: &hits, lights: &lights, matrix, visibility };
-                pixels.extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px0..px1, &shade))?);
+                pixels
+                    .extend(timed(b, &mut t, Stage::Shade, || b.shade(&input, px0..px1, &shade))?);
                 progress.finish();
             }
             None => {
@@ -207,7 +285,8 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     if cfg.bias_compensation && shade.g_max.is_finite() && vpls.count() > 0 {
         for level in 1..=cfg.bounces {
             let max_bounce = cfg.bounces - level;
-            let set = if max_bounce == 0 { LightSet::Nothing } else { LightSet::EachVpl { max_bounce } };
+            let set =
+                if max_bounce == 0 { LightSet::Nothing } else { LightSet::EachVpl { max_bounce } };
             let lights = timed(b, &mut t, Stage::BiasPoints, || b.vpl_lights(&vpls, set))?;
             let cols = b.light_points(&lights)?;
             let bias = cfg.bias_params(extent, level);
@@ -217,16 +296,21 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
             let mut any = false;
             for chunk in chunks.iter_mut() {
                 let range = chunk.first..chunk.first + chunk.count;
-                let samples = timed(b, &mut t, Stage::BiasPoints, || b.bias_points(&chunk.samples, range, &bias))?;
+                let samples = timed(b, &mut t, Stage::BiasPoints, || {
+                    b.bias_points(&chunk.samples, range, &bias)
+                })?;
                 chunk.samples = samples;
-                let hits = timed(b, &mut t, Stage::BiasPoints, || b.compact_hits(std::slice::from_ref(chunk), n_samples))?;
+                let hits = timed(b, &mut t, Stage::BiasPoints, || {
+                    b.compact_hits(std::slice::from_ref(chunk), n_samples)
+                })?;
                 if hits.count() == 0 {
                     continue;
                 }
                 any = true;
                 stats.bias_points += hits.count() as u64;
                 let own = OwnRows { chunk, hits: &hits, lights: &lights, cols: &cols };
-                let added = shade_own_rows(b, &mut t, &own, &level_shade, progress, &mut count_rays)?;
+                let added =
+                    shade_own_rows(b, &mut t, &own, &level_shade, progress, &mut count_rays)?;
                 let px0 = ((chunk.first - first_sample) / spp) as usize;
                 for (p, a) in pixels[px0..px0 + added.len()].iter_mut().zip(added) {
                     for c in 0..3 {
@@ -241,8 +325,17 @@ fn render_view<B: Backend>(b: &B, cfg: &FrameConfig, view: &View<'_>, rows: Rang
     }
     let vis_ms = t.get(Stage::Visibility);
     stats.visibility_rays = rays;
-    stats.visibility_mrays_per_s = rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
-    Ok(Frame { width: cfg.width, height: rows.end - rows.start, pixels, timings: t, stats, centres, rsm_centres })
+    stats.visibility_mrays_per_s =
+        rays.map(|r| if vis_ms > 0.0 { r as f64 / (vis_ms * 1e3) } else { 0.0 });
+    Ok(Frame {
+        width: cfg.width,
+        height: rows.end - rows.start,
+        pixels,
+        timings: t,
+        stats,
+        centres,
+        rsm_centres,
+    })
 }
 
 /// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).
@@ -277,9 +370,17 @@ fn shade_own_rows<B: Backend>(
     while px < px1 {
         let end = px.saturating_add(px_block).min(px1);
         let last_row = b.hits_before(hits, end * spp)?;
-        let (matrix, r) = timed(b, t, Stage::Visibility, || b.visibility(b.hit_points(hits), first_row..last_row, cols, progress))?;
+        let (matrix, r) = timed(b, t, Stage::Visibility, || {
+            b.visibility(b.hit_points(hits), first_row..last_row, cols, progress)
+        })?;
         count_rays(r);
-        let input = ShadeInput { chunk, hits, lights, matrix: &matrix, visibility: ShadeVisibility::Own { first_row } };
+        let input = ShadeInput {
+            chunk,
+            hits,
+            lights,
+            matrix: &matrix,
+            visibility: ShadeVisibility::Own { first_row },
+        };
         pixels.extend(timed(b, t, Stage::Shade, || b.shade(&input, px..end, shade))?);
         (px, first_row) = (end, last_row);
     }

@@ -43,7 +43,10 @@ impl StageTimings {
     /// Each stage's time, and the total, by `pick` over the runs' times of that stage (a median,
     /// the mean of the best few, ...): each on its own, so the total need not be the sum.
     pub fn combine(runs: &[StageTimings], pick: impl Fn(&mut Vec<f64>) -> f64) -> StageTimings {
-        let mut t = StageTimings { total: pick(&mut runs.iter().map(|r| r.total).collect()), ..Default::default() };
+        let mut t = StageTimings {
+            total: pick(&mut runs.iter().map(|r| r.total).collect()),
+            ..Default::default()
+        };
         for s in Stage::ALL {
             t.ms[s as usize] = pick(&mut runs.iter().map(|r| r.get(s)).collect());
         }

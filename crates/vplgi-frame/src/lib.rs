@@ -17,7 +17,9 @@ mod frame;
 mod report;
 pub mod stages;
 
-pub use backend::{ClusterCounts, Counted, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, Storage};
+pub use backend::{
+    ClusterCounts, Counted, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, Storage,
+};
 pub use driver::{render, render_from, render_rows, View, ROW_CHUNK_BITS};
 pub use frame::{Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings};
 pub use report::{Adapter, Clusters, GClamp, KernelTime, Outputs, Report, SceneInfo, Setup};

@@ -117,40 +117,71 @@ impl std::fmt::Display for Stage {
 /// Stage 1: VPLs from light particles.
 pub trait TraceVpls: Storage {
     /// The VPLs, and how many light particles were traced to make them.
-    fn trace_vpls(&self, params: &TraceParams, progress: &dyn Progress) -> Result<(Self::Vpls, u32), Self::Error>;
+    fn trace_vpls(
+        &self,
+        params: &TraceParams,
+        progress: &dyn Progress,
+    ) -> Result<(Self::Vpls, u32), Self::Error>;
 }
 
 /// Stage 1 with `--vpl-source rsm`.
 pub trait RsmVpls: Storage {
     /// VPLs from the reflective shadow maps of every light for a budget of about `size²` texels,
     /// and how many texels that was.
-    fn rsm_vpls(&self, size: u32, progress: &dyn Progress) -> Result<(Self::Vpls, u32), Self::Error>;
+    fn rsm_vpls(
+        &self,
+        size: u32,
+        progress: &dyn Progress,
+    ) -> Result<(Self::Vpls, u32), Self::Error>;
 }
 
 /// Stage 2.
 pub trait ShadingPoints: Storage {
     /// The shading points of camera samples `samples`.
-    fn shading_points(&self, params: &CameraParams, samples: Range<u32>) -> Result<Self::Samples, Self::Error>;
+    fn shading_points(
+        &self,
+        params: &CameraParams,
+        samples: Range<u32>,
+    ) -> Result<Self::Samples, Self::Error>;
 }
 
 /// Stage 3: Alg. 1 and 2.
 pub trait Cluster: Storage {
     /// The clustering of `points`, from the initial centroids `start` says.
-    fn cluster(&self, points: &Self::Points, params: &ClusterParams, start: ClusterStart<'_>) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
+    fn cluster(
+        &self,
+        points: &Self::Points,
+        params: &ClusterParams,
+        start: ClusterStart<'_>,
+    ) -> Result<(Self::Clustering, ClusterCounts), Self::Error>;
 
     /// `--temporal on`: the clusters of a clustering of `points` as the next frame's centres,
     /// each with its admission threshold (`vplgi_types::temporal`).
-    fn cluster_centres(&self, clustering: &Self::Clustering, points: &Self::Points, metric: Metric) -> Result<Vec<Centre>, Self::Error>;
+    fn cluster_centres(
+        &self,
+        clustering: &Self::Clustering,
+        points: &Self::Points,
+        metric: Metric,
+    ) -> Result<Vec<Centre>, Self::Error>;
 
     /// Each cluster's representative member, as surface points.
-    fn representatives(&self, clustering: &Self::Clustering, points: &Self::Points) -> Result<Self::Points, Self::Error>;
+    fn representatives(
+        &self,
+        clustering: &Self::Clustering,
+        points: &Self::Points,
+    ) -> Result<Self::Points, Self::Error>;
 }
 
 /// Stage 3's seeds with `--seeding adaptive`.
 pub trait Seeding: Storage {
     /// At most K of the hits of the image of `camera`, by Wang et al.'s quadtree
     /// (`vplgi_shared::seeding`), as hit indices.
-    fn seeding(&self, hits: &Self::Hits, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, Self::Error>;
+    fn seeding(
+        &self,
+        hits: &Self::Hits,
+        camera: &CameraParams,
+        params: &SeedParams,
+    ) -> Result<Vec<u32>, Self::Error>;
 }
 
 /// Stage 3's seeds with `--vpl-cluster rsm --rsm-seeding importance`.
@@ -158,7 +189,14 @@ pub trait RsmImportance: Storage {
     /// The importance of each texel of the maps of budget `rsm_size`
     /// (`vplgi_shared::rsm_importance`) for the VPLs of `rsm_vpls`, seen from the hits of camera
     /// samples `samples`, distances floored at `d_min`.
-    fn rsm_importance(&self, vpls: &Self::Vpls, rsm_size: u32, hits: &Self::Hits, samples: &[u32], d_min: f32) -> Result<Self::Scalars, Self::Error>;
+    fn rsm_importance(
+        &self,
+        vpls: &Self::Vpls,
+        rsm_size: u32,
+        hits: &Self::Hits,
+        samples: &[u32],
+        d_min: f32,
+    ) -> Result<Self::Scalars, Self::Error>;
 }
 
 /// Stage 3 with `--vpl-cluster rsm`.
@@ -192,7 +230,11 @@ pub trait Visibility: Storage {
 pub trait GatherRadius: Storage {
     /// 1 / R_j, the inverse harmonic mean distance to the surfaces each of `points` sees, from
     /// `params.rays` gather rays.
-    fn gather_radius(&self, points: &Self::Points, params: &GatherParams) -> Result<Self::Scalars, Self::Error>;
+    fn gather_radius(
+        &self,
+        points: &Self::Points,
+        params: &GatherParams,
+    ) -> Result<Self::Scalars, Self::Error>;
 }
 
 /// `--shade interpolate`: the irradiance at the sample points.
@@ -213,7 +255,12 @@ pub trait Interpolate: Storage {
 /// Stage 5.
 pub trait Shade: Storage {
     /// The radiance of `pixels` (all of whose samples are in `input.chunk`).
-    fn shade(&self, input: &ShadeInput<'_, Self>, pixels: Range<u32>, params: &ShadeParams) -> Result<Vec<[f32; 3]>, Self::Error>;
+    fn shade(
+        &self,
+        input: &ShadeInput<'_, Self>,
+        pixels: Range<u32>,
+        params: &ShadeParams,
+    ) -> Result<Vec<[f32; 3]>, Self::Error>;
 }
 
 /// The bias compensation's segments.
@@ -222,5 +269,10 @@ pub trait BiasPoints: Storage {
     /// to the surface it sees, kept as a shading point where the clamp bites (albedo = its
     /// albedo x the parent's x the clamped share 1 - g_max / G, no emission, the parent's pixel),
     /// and a miss elsewhere.
-    fn bias_points(&self, parent: &Self::Samples, samples: Range<u32>, params: &BiasParams) -> Result<Self::Samples, Self::Error>;
+    fn bias_points(
+        &self,
+        parent: &Self::Samples,
+        samples: Range<u32>,
+        params: &BiasParams,
+    ) -> Result<Self::Samples, Self::Error>;
 }

@@ -19,7 +19,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for path in paths {
         let scene = vplgi_scene::gltf_load::load(std::path::Path::new(&path))?;
         let tris = vplgi_gpu::bvh::triangles(&scene);
-        let area: Vec<f32> = tris.iter().map(|t| (t.v1 - t.v0).cross(t.v2 - t.v0).length()).collect();
+        let area: Vec<f32> =
+            tris.iter().map(|t| (t.v1 - t.v0).cross(t.v2 - t.v0).length()).collect();
         let total: f32 = area.iter().sum();
         let cdf: Vec<f32> = area
             .iter()
@@ -35,10 +36,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (s, u) = (1.0 - s, 1.0 - u);
             }
             let tri = &tris[t];
-            tri.v0 + (tri.v1 - tri.v0) * s + (tri.v2 - tri.v0) * u + Vec3A::from(scene.geometric_normal(t)) * 1e-3
+            tri.v0
+                + (tri.v1 - tri.v0) * s
+                + (tri.v2 - tri.v0) * u
+                + Vec3A::from(scene.geometric_normal(t)) * 1e-3
         };
         println!("{path}: {} triangles", tris.len());
-        for (name, params) in [("obvhs medium", obvhs::BvhBuildParams::medium_build()), ("vplgi (bvh::BUILD)", vplgi_gpu::bvh::BUILD)] {
+        for (name, params) in [
+            ("obvhs medium", obvhs::BvhBuildParams::medium_build()),
+            ("vplgi (bvh::BUILD)", vplgi_gpu::bvh::BUILD),
+        ] {
             let mut build_time = std::time::Duration::ZERO;
             let start = std::time::Instant::now();
             let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, params, &mut build_time);
@@ -52,8 +59,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 'ray: while let Some(i) = stack.pop() {
                     let node = &bvh.nodes[i];
                     visits += 1;
-                    let (t1, t2) = ((node.aabb.min - ray.origin) * ray.inv_direction, (node.aabb.max - ray.origin) * ray.inv_direction);
-                    if t1.min(t2).max_element().max(ray.tmin) > t1.max(t2).min_element().min(ray.tmax) {
+                    let (t1, t2) = (
+                        (node.aabb.min - ray.origin) * ray.inv_direction,
+                        (node.aabb.max - ray.origin) * ray.inv_direction,
+                    );
+                    if t1.min(t2).max_element().max(ray.tmin)
+                        > t1.max(t2).min_element().min(ray.tmax)
+                    {
                         continue;
                     }
                     if node.prim_count == 0 {
@@ -62,7 +74,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                     for slot in node.first_index..node.first_index + node.prim_count {
                         tests += 1;
-                        if tris[bvh.primitive_indices[slot as usize] as usize].intersect(&ray) < ray.tmax {
+                        if tris[bvh.primitive_indices[slot as usize] as usize].intersect(&ray)
+                            < ray.tmax
+                        {
                             blocked += 1;
                             break 'ray;
                         }

@@ -90,9 +90,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = vplgi_gpu::GpuContext::new()?;
     let (device, queue) = (&ctx.device, &ctx.queue);
     println!("adapter: {}", ctx.describe());
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("load_paths"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("load_paths"),
+        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+    });
     for side in SIDES {
-        let words: Vec<u32> = (0..side * side * 4).map(|i| i.wrapping_mul(2_654_435_761) ^ (i >> 7)).collect();
+        let words: Vec<u32> =
+            (0..side * side * 4).map(|i| i.wrapping_mul(2_654_435_761) ^ (i >> 7)).collect();
         let table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("table"),
             contents: bytemuck::cast_slice(&words),
@@ -122,30 +126,52 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mapped_at_creation: false,
         });
         let mut results = Vec::new();
-        for entry in ["buffer_per_lane", "texture_per_lane", "buffer_uniform", "texture_uniform", "buffer_divergent", "texture_divergent"] {
+        for entry in [
+            "buffer_per_lane",
+            "texture_per_lane",
+            "buffer_uniform",
+            "texture_uniform",
+            "buffer_divergent",
+            "texture_divergent",
+        ] {
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: None,
                 module: &module,
                 entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &[("SIDE", side as f64)], ..Default::default() },
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &[("SIDE", side as f64)],
+                    ..Default::default()
+                },
                 cache: None,
             });
             let layout = pipeline.get_bind_group_layout(0);
             let uses_table = entry.starts_with("buffer");
-            let mut entries = vec![wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() }];
+            let mut entries =
+                vec![wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() }];
             entries.push(if uses_table {
                 wgpu::BindGroupEntry { binding: 0, resource: table.as_entire_binding() }
             } else {
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) }
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&view),
+                }
             });
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &layout,
+                entries: &entries,
+            });
             let mut times = Vec::new();
             for _ in 0..6 {
                 let t = Instant::now();
-                let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                let mut encoder =
+                    device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
                 {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes: None });
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: None,
+                        timestamp_writes: None,
+                    });
                     pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &bind, &[]);
                     pass.dispatch_workgroups(INVOCATIONS / 64, 1, 1);
@@ -155,11 +181,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 times.push(t.elapsed().as_secs_f64());
             }
             times.remove(0); // the first run compiles
-            let folded: Vec<u32> = vplgi_gpu::buffers::read_back(device, queue, &out, INVOCATIONS as usize)?;
+            let folded: Vec<u32> =
+                vplgi_gpu::buffers::read_back(device, queue, &out, INVOCATIONS as usize)?;
             // The divergent variants read about half the time.
-            let reads = INVOCATIONS as f64 * READS as f64 * if entry.ends_with("divergent") { 0.5 } else { 1.0 };
+            let reads = INVOCATIONS as f64
+                * READS as f64
+                * if entry.ends_with("divergent") { 0.5 } else { 1.0 };
             let s = median(times);
-            println!("{side:>5}² {entry:>17}: {:8.1} ms, {:7.1} M vec4 reads/s", s * 1e3, reads / s / 1e6);
+            println!(
+                "{side:>5}² {entry:>17}: {:8.1} ms, {:7.1} M vec4 reads/s",
+                s * 1e3,
+                reads / s / 1e6
+            );
             results.push(folded);
         }
         let errors = ctx.take_uncaptured_errors();

@@ -4,7 +4,9 @@
 //! data box and occupancy counts) and the shaded pixels. Each stage implements its trait of
 //! [`vplgi_frame::stages`] in its own module; the frame itself is [`vplgi_frame::render`].
 
-use crate::buffers::{dispatch_windows, kernel_params, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN};
+use crate::buffers::{
+    dispatch_windows, kernel_params, read_word, storage_zeroed, sync, Window, WINDOW_ALIGN,
+};
 use crate::cluster::GpuClustering;
 use crate::context::{validated, within_loop_limit};
 use crate::interpolate::GpuIrradianceSamples;
@@ -87,7 +89,15 @@ impl GlueKernels {
                 )
                 .try_into()
                 .unwrap_or_else(|_| unreachable!("one pipeline per entry point"));
-            GlueKernels { sp_flags, sp_compact, vpl_endpoints, vpl_lights, cluster_lights, cluster_lights_finish, light_endpoints }
+            GlueKernels {
+                sp_flags,
+                sp_compact,
+                vpl_endpoints,
+                vpl_lights,
+                cluster_lights,
+                cluster_lights_finish,
+                light_endpoints,
+            }
         })
     }
 }
@@ -110,7 +120,10 @@ pub struct GpuPoints {
 impl GpuPoints {
     /// `points` copied to the device.
     pub fn upload(device: &wgpu::Device, label: &str, points: &[Endpoint]) -> GpuPoints {
-        GpuPoints { buffer: crate::buffers::storage(device, label, points), count: points.len() as u32 }
+        GpuPoints {
+            buffer: crate::buffers::storage(device, label, points),
+            count: points.len() as u32,
+        }
     }
 }
 
@@ -135,14 +148,25 @@ impl Counted for GpuHits {
 }
 
 /// Renders one frame of `scene` on the device (uploading the scene first).
-pub fn render(device: &wgpu::Device, queue: &wgpu::Queue, kernels: &GpuKernels, scene: &Scene, cfg: &FrameConfig) -> Result<Frame, GpuError> {
+pub fn render(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernels: &GpuKernels,
+    scene: &Scene,
+    cfg: &FrameConfig,
+) -> Result<Frame, GpuError> {
     vplgi_frame::render(&GpuBackend::new(device, queue, kernels, scene)?, cfg, &NoProgress)
 }
 
 impl<'a> GpuBackend<'a> {
     /// Uploads the scene (BVH, triangles, textures, light tables) and waits until it is on the
     /// device.
-    pub fn new(device: &'a wgpu::Device, queue: &'a wgpu::Queue, kernels: &'a GpuKernels, scene: &Scene) -> Result<GpuBackend<'a>, GpuError> {
+    pub fn new(
+        device: &'a wgpu::Device,
+        queue: &'a wgpu::Queue,
+        kernels: &'a GpuKernels,
+        scene: &Scene,
+    ) -> Result<GpuBackend<'a>, GpuError> {
         let gs = GpuScene::new(device, scene)?;
         // wgpu copies buffers created mapped to the device with the next submission: without
         // one here, the scene's upload ran inside the frame's first stage (trace_vpls), a third
@@ -168,7 +192,13 @@ impl<'a> GpuBackend<'a> {
     }
 
     /// Runs a glue kernel of `frame.wgsl` over `threads` items.
-    fn glue(&self, pipeline: &wgpu::ComputePipeline, params: GlueParams, bound: &[(u32, wgpu::BufferBinding)], threads: u32) -> Result<(), GpuError> {
+    fn glue(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        params: GlueParams,
+        bound: &[(u32, wgpu::BufferBinding)],
+        threads: u32,
+    ) -> Result<(), GpuError> {
         validated(self.device, "frame glue", || {
             let p = kernel_params(self.device, "frame params", &params);
             let mut all = vec![(0, p.as_entire_buffer_binding())];
@@ -231,7 +261,9 @@ impl Storage for GpuBackend<'_> {
         }
         if cfg.cluster.clusters_vpls() {
             match cfg.vpl_cluster {
-                vplgi_types::VplClustering::Eq7 => crate::cluster::searchable(cfg.k_vpl, "--k-vpl: VPL clusters")?,
+                vplgi_types::VplClustering::Eq7 => {
+                    crate::cluster::searchable(cfg.k_vpl, "--k-vpl: VPL clusters")?
+                }
                 vplgi_types::VplClustering::Rsm => within_loop_limit(
                     "--k-vpl: RSM-space clusters",
                     cfg.k_vpl,
@@ -240,9 +272,14 @@ impl Storage for GpuBackend<'_> {
                 )?,
             }
         }
-        let per_point = n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);
+        let per_point =
+            n_sp * (4 * cfg.effective_f() as u64).max(std::mem::size_of::<Endpoint>() as u64);
         if per_point > l.max_buffer_size {
-            return Err(GpuError::TooLarge { what: format!("bytes of per-point labels of {what} in one buffer"), needed: per_point, limit: l.max_buffer_size });
+            return Err(GpuError::TooLarge {
+                what: format!("bytes of per-point labels of {what} in one buffer"),
+                needed: per_point,
+                limit: l.max_buffer_size,
+            });
         }
         Ok(())
     }
@@ -251,36 +288,56 @@ impl Storage for GpuBackend<'_> {
     /// labels and weights (at most 64 B per hit, like a shading point) from the aligned hit at or
     /// below the chunk's first.
     fn max_samples_per_chunk(&self) -> u32 {
-        (self.limit() / std::mem::size_of::<ShadingPoint>() as u64).saturating_sub(WINDOW_ALIGN).min(u32::MAX as u64) as u32
+        (self.limit() / std::mem::size_of::<ShadingPoint>() as u64)
+            .saturating_sub(WINDOW_ALIGN)
+            .min(u32::MAX as u64) as u32
     }
 
     /// A block's words fit one storage binding, and so do its rows' Endpoints (bound from the
     /// aligned row at or below the first).
     fn max_visibility_rows(&self, cols: u32) -> u64 {
         let wpr = words_per_row(cols as usize).max(1) as u64;
-        (self.limit() / 4 / wpr).min((self.limit() / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN))
+        (self.limit() / 4 / wpr).min(
+            (self.limit() / std::mem::size_of::<Endpoint>() as u64).saturating_sub(WINDOW_ALIGN),
+        )
     }
 
     fn sync(&self) -> Result<(), GpuError> {
         sync(self.device)
     }
 
-    fn compact_hits(&self, chunks: &[SampleChunk<wgpu::Buffer>], n_samples: u32) -> Result<GpuHits, GpuError> {
+    fn compact_hits(
+        &self,
+        chunks: &[SampleChunk<wgpu::Buffer>],
+        n_samples: u32,
+    ) -> Result<GpuHits, GpuError> {
         let (device, g) = (self.device, &self.kernels.glue);
         let flags = storage_zeroed::<u32>(device, "hit flags", n_samples as usize);
         let offsets = storage_zeroed::<u32>(device, "hit offsets", n_samples as usize + 1);
         for c in chunks {
             let p = GlueParams { n: c.count, first: c.first, ..Default::default() };
-            self.glue(&g.sp_flags, p, &[(1, c.samples.as_entire_buffer_binding()), (2, flags.as_entire_buffer_binding())], c.count)?;
+            self.glue(
+                &g.sp_flags,
+                p,
+                &[(1, c.samples.as_entire_buffer_binding()), (2, flags.as_entire_buffer_binding())],
+                c.count,
+            )?;
         }
         self.kernels.scan.run(device, self.queue, &flags, n_samples, &offsets)?;
         let hits = read_word(device, self.queue, &offsets, n_samples as u64)?;
         let row_of = storage_zeroed::<u32>(device, "row of", n_samples as usize);
         let points = storage_zeroed::<Endpoint>(device, "hit points", hits as usize);
-        let windows = Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, self.limit());
+        let windows =
+            Window::split(hits as u64, std::mem::size_of::<Endpoint>() as u64, self.limit());
         for c in chunks {
             for w in &windows {
-                let p = GlueParams { n: c.count, first: c.first, hit_first: w.first as u32, hit_count: w.count as u32, ..Default::default() };
+                let p = GlueParams {
+                    n: c.count,
+                    first: c.first,
+                    hit_first: w.first as u32,
+                    hit_count: w.count as u32,
+                    ..Default::default()
+                };
                 let b = [
                     (1, c.samples.as_entire_buffer_binding()),
                     (3, offsets.as_entire_buffer_binding()),
@@ -313,7 +370,11 @@ impl Storage for GpuBackend<'_> {
         Ok(GpuPoints { buffer: pts, count: n })
     }
 
-    fn vpl_lights(&self, vpls: &GpuVpls, set: LightSet<'_, GpuClustering>) -> Result<VplLightSet, GpuError> {
+    fn vpl_lights(
+        &self,
+        vpls: &GpuVpls,
+        set: LightSet<'_, GpuClustering>,
+    ) -> Result<VplLightSet, GpuError> {
         let n = vpls.count;
         let g = &self.kernels.glue;
         let vb = vpls.buffer.as_entire_buffer_binding();
@@ -321,9 +382,17 @@ impl Storage for GpuBackend<'_> {
             LightSet::Clusters { clusters: c, shape } => {
                 let k = c.k;
                 let lights = storage_zeroed::<VplLight>(self.device, "cluster lights", k as usize);
-                let sums = storage_zeroed::<[f32; 4]>(self.device, "cluster light sums", 4 * k.max(1) as usize);
+                let sums = storage_zeroed::<[f32; 4]>(
+                    self.device,
+                    "cluster light sums",
+                    4 * k.max(1) as usize,
+                );
                 let polygons = shape == LightShape::Polygon;
-                let outlines = storage_zeroed::<LightOutline>(self.device, "light outlines", if polygons { k.max(1) as usize } else { 1 });
+                let outlines = storage_zeroed::<LightOutline>(
+                    self.device,
+                    "light outlines",
+                    if polygons { k.max(1) as usize } else { 1 },
+                );
                 let b = [
                     (6, vb),
                     (7, c.labels.as_entire_buffer_binding()),
@@ -340,12 +409,30 @@ impl Storage for GpuBackend<'_> {
                     while first < n {
                         let end = n.min(first + VPLS_PER_DISPATCH);
                         let sum = [b[0].clone(), b[1].clone(), b[2].clone(), b[4].clone()];
-                        self.glue(&g.cluster_lights, GlueParams { n, k, first, end, phase: pass, shape: shape.code(), ..Default::default() }, &sum, k)?;
+                        self.glue(
+                            &g.cluster_lights,
+                            GlueParams {
+                                n,
+                                k,
+                                first,
+                                end,
+                                phase: pass,
+                                shape: shape.code(),
+                                ..Default::default()
+                            },
+                            &sum,
+                            k,
+                        )?;
                         first = end;
                     }
                 }
                 let finish = [b[0].clone(), b[2].clone(), b[3].clone(), b[4].clone(), b[5].clone()];
-                self.glue(&g.cluster_lights_finish, GlueParams { n, k, shape: shape.code(), ..Default::default() }, &finish, k)?;
+                self.glue(
+                    &g.cluster_lights_finish,
+                    GlueParams { n, k, shape: shape.code(), ..Default::default() },
+                    &finish,
+                    k,
+                )?;
                 VplLightSet {
                     buffer: lights,
                     count: k,
@@ -355,10 +442,20 @@ impl Storage for GpuBackend<'_> {
             }
             LightSet::EachVpl { max_bounce } => {
                 let lights = storage_zeroed::<VplLight>(self.device, "vpl lights", n as usize);
-                self.glue(&g.vpl_lights, GlueParams { n, max_bounce, ..Default::default() }, &[(6, vb), (9, lights.as_entire_buffer_binding())], n)?;
+                self.glue(
+                    &g.vpl_lights,
+                    GlueParams { n, max_bounce, ..Default::default() },
+                    &[(6, vb), (9, lights.as_entire_buffer_binding())],
+                    n,
+                )?;
                 VplLightSet { buffer: lights, count: n, outlines: None, exact_shapes: false }
             }
-            LightSet::Nothing => VplLightSet { buffer: storage_zeroed::<VplLight>(self.device, "no lights", 0), count: 0, outlines: None, exact_shapes: false },
+            LightSet::Nothing => VplLightSet {
+                buffer: storage_zeroed::<VplLight>(self.device, "no lights", 0),
+                count: 0,
+                outlines: None,
+                exact_shapes: false,
+            },
         })
     }
 
@@ -378,7 +475,9 @@ impl Storage for GpuBackend<'_> {
 impl From<FrameError> for GpuError {
     fn from(e: FrameError) -> GpuError {
         match e {
-            FrameError::InvalidConfig(message) => GpuError::Validation { what: "the frame configuration".into(), message },
+            FrameError::InvalidConfig(message) => {
+                GpuError::Validation { what: "the frame configuration".into(), message }
+            }
         }
     }
 }

@@ -20,17 +20,24 @@ struct Batch {
 
 /// Runs `work` with every dispatch and copy it makes through this module recorded into one
 /// command buffer, submitted when a read-back or [`sync`] needs the results and when `work`
-/// ends, instead of one submission per dispatch: on lavapipe a submission costs about 0.05 ms
-/// beyond the dispatch it carries, and a clustering makes about 90 of them. `work` must send
+/// ends, instead of one submission per dispatch: a submission has a fixed cost beyond the
+/// dispatch it carries, and a clustering makes dozens of dispatches. `work` must send
 /// nothing to `queue` by other means (`write_buffer`, its own submissions): those would run
 /// before the recorded commands. Nested calls join the outer batch. Errors wgpu finds in the
 /// recorded passes surface when they are submitted, as the error of that read-back or of this
 /// call.
-pub fn batched<T>(device: &wgpu::Device, queue: &wgpu::Queue, work: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
+pub fn batched<T>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    work: impl FnOnce() -> Result<T, GpuError>,
+) -> Result<T, GpuError> {
     if BATCH.with(|b| b.borrow().is_some()) {
         return work();
     }
-    BATCH.with(|b| *b.borrow_mut() = Some(Batch { device: device.clone(), queue: queue.clone(), encoder: None }));
+    BATCH.with(|b| {
+        *b.borrow_mut() =
+            Some(Batch { device: device.clone(), queue: queue.clone(), encoder: None })
+    });
     let out = work();
     let submitted = flush();
     BATCH.with(|b| *b.borrow_mut() = None);
@@ -40,19 +47,34 @@ pub fn batched<T>(device: &wgpu::Device, queue: &wgpu::Queue, work: impl FnOnce(
 
 /// Submits what the batch on this thread has recorded so far, if anything, inside error scopes.
 fn flush() -> Result<(), GpuError> {
-    let pending = BATCH.with(|b| b.borrow_mut().as_mut().and_then(|batch| batch.encoder.take().map(|e| (batch.device.clone(), batch.queue.clone(), e))));
+    let pending = BATCH.with(|b| {
+        b.borrow_mut().as_mut().and_then(|batch| {
+            batch.encoder.take().map(|e| (batch.device.clone(), batch.queue.clone(), e))
+        })
+    });
     match pending {
-        Some((device, queue, encoder)) => crate::context::validated(&device, "batched dispatches", || queue.submit([encoder.finish()])).map(|_| ()),
+        Some((device, queue, encoder)) => {
+            crate::context::validated(&device, "batched dispatches", || {
+                queue.submit([encoder.finish()])
+            })
+            .map(|_| ())
+        }
         None => Ok(()),
     }
 }
 
 /// Records commands into the batch's encoder when a batch is open on this thread, else into a
 /// new encoder submitted at once.
-pub(crate) fn record(device: &wgpu::Device, queue: &wgpu::Queue, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
+pub(crate) fn record(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    f: impl FnOnce(&mut wgpu::CommandEncoder),
+) {
     let open = BATCH.with(|b| b.borrow_mut().as_mut().map(|batch| batch.encoder.take()));
     let in_batch = open.is_some();
-    let mut encoder = open.flatten().unwrap_or_else(|| device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None }));
+    let mut encoder = open.flatten().unwrap_or_else(|| {
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+    });
     f(&mut encoder);
     if in_batch {
         BATCH.with(|b| {
@@ -72,7 +94,12 @@ pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::
     let bytes: &[u8] = bytemuck::cast_slice(data);
     let zeros = vec![0u8; std::mem::size_of::<T>().max(16)];
     let contents = if bytes.is_empty() { &zeros[..] } else { bytes };
-    filled(device, label, contents, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST)
+    filled(
+        device,
+        label,
+        contents,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    )
 }
 
 /// A buffer created mapped and filled with `contents` (padded to 4 bytes). Unlike wgpu's
@@ -80,9 +107,21 @@ pub fn storage<T: Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::
 /// memory) leaves the buffer unfilled: the buffer is invalid, wgpu reports that to the error
 /// scope around the call or to the context's error sink, and the next read-back fails with
 /// [`GpuError::Lost`].
-fn filled(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    let size = (contents.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT).max(wgpu::COPY_BUFFER_ALIGNMENT);
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: true });
+fn filled(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let size = (contents.len() as u64)
+        .next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT)
+        .max(wgpu::COPY_BUFFER_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage,
+        mapped_at_creation: true,
+    });
     if let Ok(mut view) = buffer.get_mapped_range_mut(..) {
         view.slice(..contents.len()).copy_from_slice(contents);
         drop(view);
@@ -97,7 +136,9 @@ pub fn storage_zeroed<T: Pod>(device: &wgpu::Device, label: &str, len: usize) ->
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: ((len.max(1) * std::mem::size_of::<T>()) as u64).max(16).next_multiple_of(4),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
 }
@@ -114,7 +155,12 @@ pub fn kernel_params<T: Pod>(device: &wgpu::Device, label: &str, value: &T) -> w
 
 /// Copies the first `len` elements of `buffer` back to the host. Waits with a timeout, so a lost
 /// or hung device becomes an error instead of a hang.
-pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<T>, GpuError> {
+pub fn read_back<T: Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+    len: usize,
+) -> Result<Vec<T>, GpuError> {
     let size = (len * std::mem::size_of::<T>()) as u64;
     if size == 0 {
         return Ok(Vec::new());
@@ -125,7 +171,9 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    record(device, queue, |e| e.copy_buffer_to_buffer(buffer, 0, &staging, 0, size.next_multiple_of(4)));
+    record(device, queue, |e| {
+        e.copy_buffer_to_buffer(buffer, 0, &staging, 0, size.next_multiple_of(4))
+    });
     flush()?;
     let (tx, rx) = std::sync::mpsc::channel();
     staging.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -134,10 +182,14 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
     wait_for_device(device, "read-back")?;
     match rx.recv() {
         Ok(Ok(())) => {}
-        Ok(Err(e)) => return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() }),
+        Ok(Err(e)) => {
+            return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() })
+        }
         Err(e) => return Err(GpuError::Lost { what: "read-back".into(), message: e.to_string() }),
     }
-    let view = staging.get_mapped_range(..).map_err(|e| GpuError::Lost { what: "read-back".into(), message: e.to_string() })?;
+    let view = staging
+        .get_mapped_range(..)
+        .map_err(|e| GpuError::Lost { what: "read-back".into(), message: e.to_string() })?;
     let out = bytemuck::cast_slice::<u8, T>(&view[..size as usize]).to_vec();
     drop(view);
     staging.unmap();
@@ -147,25 +199,54 @@ pub fn read_back<T: Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wg
 /// Records one compute dispatch of `pipeline` with `buffers` bound in order at group 0 and
 /// submits it. `groups` is split over y when it exceeds the per-dimension limit; shaders
 /// linearise with `thread_index` (shaders/common/types.wgsl).
-pub fn dispatch(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer], groups: u32) {
-    let bound: Vec<(u32, &wgpu::Buffer)> = buffers.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
+pub fn dispatch(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[&wgpu::Buffer],
+    groups: u32,
+) {
+    let bound: Vec<(u32, &wgpu::Buffer)> =
+        buffers.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
     dispatch_bound(device, queue, pipeline, &bound, groups);
 }
 
 /// Like [`dispatch`], with explicit binding numbers: a pipeline whose layout is derived from one
 /// entry point of a multi-entry module only has the bindings that entry point uses.
-pub fn dispatch_bound(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, &wgpu::Buffer)], groups: u32) {
-    let whole: Vec<(u32, wgpu::BufferBinding)> = buffers.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
+pub fn dispatch_bound(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[(u32, &wgpu::Buffer)],
+    groups: u32,
+) {
+    let whole: Vec<(u32, wgpu::BufferBinding)> =
+        buffers.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
     dispatch_windows(device, queue, pipeline, &whole, groups);
 }
 
 /// Like [`dispatch_bound`], with any buffer bindings, e.g. [`Window`]s of per-item arrays
 /// larger than one binding.
-pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &wgpu::ComputePipeline, buffers: &[(u32, wgpu::BufferBinding)], groups: u32) {
+pub fn dispatch_windows(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[(u32, wgpu::BufferBinding)],
+    groups: u32,
+) {
     let layout = pipeline.get_bind_group_layout(0);
-    let entries: Vec<wgpu::BindGroupEntry> =
-        buffers.iter().map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: wgpu::BindingResource::Buffer(b.clone()) }).collect();
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: *i,
+            resource: wgpu::BindingResource::Buffer(b.clone()),
+        })
+        .collect();
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &layout,
+        entries: &entries,
+    });
     let timed = crate::timing::pass_queries(device);
     record(device, queue, |encoder| {
         let timestamp_writes = timed.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
@@ -173,7 +254,8 @@ pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &w
             beginning_of_pass_write_index: Some(0),
             end_of_pass_write_index: Some(1),
         });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes });
+        let mut pass = encoder
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: None, timestamp_writes });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind, &[]);
         let max = device.limits().max_compute_workgroups_per_dimension.max(1);
@@ -187,11 +269,18 @@ pub fn dispatch_windows(device: &wgpu::Device, queue: &wgpu::Queue, pipeline: &w
 }
 
 /// One u32 of `buffer`, at element `index` (for the few counters the host needs).
-pub fn read_word(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer, index: u64) -> Result<u32, GpuError> {
+pub fn read_word(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+    index: u64,
+) -> Result<u32, GpuError> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("word"),
         size: 4,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     record(device, queue, |e| e.copy_buffer_to_buffer(buffer, index * 4, &staging, 0, 4));
@@ -222,7 +311,9 @@ impl Window {
     /// (`item_bytes` per item); at least [`WINDOW_ALIGN`] items each. Empty for `n = 0`.
     pub fn split(n: u64, item_bytes: u64, limit: u64) -> Vec<Window> {
         let per = ((limit / item_bytes.max(1)) / WINDOW_ALIGN).max(1) * WINDOW_ALIGN;
-        (0..n.div_ceil(per)).map(|i| Window { first: i * per, count: per.min(n - i * per) }).collect()
+        (0..n.div_ceil(per))
+            .map(|i| Window { first: i * per, count: per.min(n - i * per) })
+            .collect()
     }
 
     /// The smallest window holding items `first .. end`: it starts at the aligned item at or
@@ -237,9 +328,17 @@ impl Window {
     pub fn of<'a, T>(&self, buffer: &'a wgpu::Buffer, per_item: u64) -> wgpu::BufferBinding<'a> {
         let item = (per_item * std::mem::size_of::<T>() as u64).max(4);
         if self.count == 0 {
-            return wgpu::BufferBinding { buffer, offset: 0, size: std::num::NonZeroU64::new(item) };
+            return wgpu::BufferBinding {
+                buffer,
+                offset: 0,
+                size: std::num::NonZeroU64::new(item),
+            };
         }
-        wgpu::BufferBinding { buffer, offset: self.first * item, size: std::num::NonZeroU64::new(self.count * item) }
+        wgpu::BufferBinding {
+            buffer,
+            offset: self.first * item,
+            size: std::num::NonZeroU64::new(self.count * item),
+        }
     }
 }
 
@@ -249,7 +348,13 @@ mod tests {
 
     #[test]
     fn windows_cover_the_run_once_and_start_aligned() {
-        for (n, item, limit) in [(0u64, 32u64, 1024u64), (1, 32, 1024), (1000, 32, 4096), (1000, 64, 100), (5000, 4, 1 << 20)] {
+        for (n, item, limit) in [
+            (0u64, 32u64, 1024u64),
+            (1, 32, 1024),
+            (1000, 32, 4096),
+            (1000, 64, 100),
+            (5000, 4, 1 << 20),
+        ] {
             let w = Window::split(n, item, limit);
             let mut next = 0;
             for x in &w {
@@ -257,7 +362,10 @@ mod tests {
                 assert_eq!(x.first % WINDOW_ALIGN, 0);
                 assert!(x.count > 0);
                 // Within the limit unless the limit is below one aligned group of items.
-                assert!(x.count * item <= limit.max(WINDOW_ALIGN * item), "{x:?} exceeds {limit} B");
+                assert!(
+                    x.count * item <= limit.max(WINDOW_ALIGN * item),
+                    "{x:?} exceeds {limit} B"
+                );
                 next += x.count;
             }
             assert_eq!(next, n);
@@ -273,7 +381,9 @@ mod tests {
     /// back as an error.
     #[test]
     fn batched_dispatches_run_in_order_and_report_errors() {
-        let Some(ctx) = crate::context::tests::test_gpu("batched_dispatches_run_in_order_and_report_errors") else {
+        let Some(ctx) =
+            crate::context::tests::test_gpu("batched_dispatches_run_in_order_and_report_errors")
+        else {
             return;
         };
         let (device, queue) = (&ctx.device, &ctx.queue);
@@ -281,7 +391,10 @@ mod tests {
         let src = "@group(0) @binding(0) var<storage, read_write> a: array<u32>;\n\
                    @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {\n\
                    if (g.x < arrayLength(&a)) { a[g.x] = a[g.x] * 2u + 1u; } }";
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: None, source: wgpu::ShaderSource::Wgsl(src.into()) });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: None,
+            source: wgpu::ShaderSource::Wgsl(src.into()),
+        });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: None,
             layout: None,
@@ -310,10 +423,21 @@ mod tests {
 
         // A 4-byte buffer where the shader needs 48-byte records.
         let kernel = crate::visibility::VisibilityKernel::new(device).unwrap();
-        let scene = crate::scene::GpuScene::new(device, &vplgi_scene::cornell::cornell_box()).unwrap();
-        let tiny =
-            device.create_buffer(&wgpu::BufferDescriptor { label: Some("too small"), size: 4, usage: wgpu::BufferUsages::STORAGE, mapped_at_creation: false });
-        let r = batched(device, queue, || kernel.run_on_device(device, queue, &scene, (&tiny, 1), (&tiny, 1), 0..1).map(|_| ()));
-        assert!(matches!(r, Err(GpuError::Validation { .. })), "the invalid pass was not reported: {:?}", r.err());
+        let scene =
+            crate::scene::GpuScene::new(device, &vplgi_scene::cornell::cornell_box()).unwrap();
+        let tiny = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("too small"),
+            size: 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let r = batched(device, queue, || {
+            kernel.run_on_device(device, queue, &scene, (&tiny, 1), (&tiny, 1), 0..1).map(|_| ())
+        });
+        assert!(
+            matches!(r, Err(GpuError::Validation { .. })),
+            "the invalid pass was not reported: {:?}",
+            r.err()
+        );
     }
 }

@@ -62,7 +62,10 @@ impl BvhFrame {
     pub fn dequantize(&self, node: &BvhNode) -> ([f32; 3], [f32; 3]) {
         let w = node.words;
         let q = [w[0] & 0xffff, w[0] >> 16, w[1] & 0xffff, w[1] >> 16, w[2] & 0xffff, w[2] >> 16];
-        (std::array::from_fn(|a| self.corner(a, q[a]).1), std::array::from_fn(|a| self.corner(a, q[3 + a]).0))
+        (
+            std::array::from_fn(|a| self.corner(a, q[a]).1),
+            std::array::from_fn(|a| self.corner(a, q[3 + a]).0),
+        )
     }
 }
 
@@ -73,8 +76,11 @@ impl BvhFrame {
 /// commit b2f6076. And smaller leaves (a leaf collapses when a node costs as much as a triangle
 /// test, not three times as much): a 16-byte node is a third of a triangle's loads, and the
 /// triangle fetch became the hot spot of `visibility` once nodes were quantized.
-pub const BUILD: obvhs::BvhBuildParams =
-    obvhs::BvhBuildParams { search_depth_threshold: 0, collapse_traversal_cost: 1.0, ..obvhs::BvhBuildParams::medium_build() };
+pub const BUILD: obvhs::BvhBuildParams = obvhs::BvhBuildParams {
+    search_depth_threshold: 0,
+    collapse_traversal_cost: 1.0,
+    ..obvhs::BvhBuildParams::medium_build()
+};
 
 /// The flat arrays uploaded to the device.
 pub struct BvhArrays {
@@ -98,7 +104,11 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
     if scene.triangle_count() == 0 {
         // One leaf without triangles: every ray misses.
         let empty = BvhNode { words: [0, 0, 0, LINK_LEAF | LINK_LAST] };
-        return Ok(BvhArrays { nodes: vec![empty], tris: vec![BvhTri::zeroed()], frame: BvhFrame::zeroed() });
+        return Ok(BvhArrays {
+            nodes: vec![empty],
+            tris: vec![BvhTri::zeroed()],
+            frame: BvhFrame::zeroed(),
+        });
     }
     let tris = triangles(scene);
     let mut build_time = std::time::Duration::ZERO;
@@ -109,7 +119,11 @@ pub fn build(scene: &Scene) -> Result<BvhArrays, GpuError> {
         .iter()
         .map(|&p| {
             let [a, b, c] = scene.triangle(p as usize);
-            BvhTri { v0: [a.x, a.y, a.z, f32::from_bits(p)], v1: [b.x, b.y, b.z, 0.0], v2: [c.x, c.y, c.z, 0.0] }
+            BvhTri {
+                v0: [a.x, a.y, a.z, f32::from_bits(p)],
+                v1: [b.x, b.y, b.z, 0.0],
+                v2: [c.x, c.y, c.z, 0.0],
+            }
         })
         .collect();
     Ok(BvhArrays { nodes, tris: laid_out, frame })
@@ -141,7 +155,11 @@ fn thread(nodes: &[Bvh2Node]) -> Result<Vec<Threaded>, GpuError> {
     let max_count = (1 << LEAF_COUNT_BITS) - 1;
     let max_slot = 1u32 << (30 - LEAF_COUNT_BITS);
     if order.len() as u64 >= LINK_END as u64 {
-        return Err(GpuError::TooLarge { what: "BVH nodes".into(), needed: order.len() as u64, limit: LINK_END as u64 - 1 });
+        return Err(GpuError::TooLarge {
+            what: "BVH nodes".into(),
+            needed: order.len() as u64,
+            limit: LINK_END as u64 - 1,
+        });
     }
     order
         .iter()
@@ -187,7 +205,8 @@ fn quantize(nodes: &[Threaded]) -> Result<(Vec<BvhNode>, BvhFrame), GpuError> {
         // steps span the box, one more lies on each side, and one spare absorbs the rounding.
         let far = lo.abs().max(hi.abs());
         let spacing = f32::from_bits(far.to_bits() + 1) - far;
-        let step = if hi > lo { ((hi - lo) / 65532.0).max(2.0 * CRACK_ULPS * spacing) } else { 0.0 };
+        let step =
+            if hi > lo { ((hi - lo) / 65532.0).max(2.0 * CRACK_ULPS * spacing) } else { 0.0 };
         frame.origin[a] = lo - step;
         frame.step[a] = step;
     }
@@ -209,7 +228,11 @@ fn quantize(nodes: &[Threaded]) -> Result<(Vec<BvhNode>, BvhFrame), GpuError> {
                 hi += 1;
             }
             if frame.corner(a, lo).1 > node.min[a] || frame.corner(a, hi).0 < node.max[a] {
-                return Err(GpuError::TooLarge { what: "BVH box quantization steps (a box outside the root's)".into(), needed: 65536, limit: 65535 });
+                return Err(GpuError::TooLarge {
+                    what: "BVH box quantization steps (a box outside the root's)".into(),
+                    needed: 65536,
+                    limit: 65535,
+                });
             }
             (q[a], q[3 + a]) = (lo, hi);
         }
@@ -222,7 +245,12 @@ fn quantize(nodes: &[Threaded]) -> Result<(Vec<BvhNode>, BvhFrame), GpuError> {
         .map(|(p, node)| {
             let q = quantized(node)?;
             let link = match node.leaf {
-                Some((first, count)) => LINK_LEAF | if p == last { LINK_LAST } else { 0 } | first << LEAF_COUNT_BITS | count,
+                Some((first, count)) => {
+                    LINK_LEAF
+                        | if p == last { LINK_LAST } else { 0 }
+                        | first << LEAF_COUNT_BITS
+                        | count
+                }
                 None if node.skip == END => LINK_END,
                 None => node.skip,
             };
@@ -250,7 +278,10 @@ mod tests {
 
     /// A node as bvh.wgsl decodes it: its box, the node after it when the ray misses the box
     /// (or has tested the leaf), and a leaf's triangle slots.
-    fn decode(arrays: &BvhArrays, i: u32) -> (obvhs::aabb::Aabb, u32, Option<std::ops::Range<u32>>) {
+    fn decode(
+        arrays: &BvhArrays,
+        i: u32,
+    ) -> (obvhs::aabb::Aabb, u32, Option<std::ops::Range<u32>>) {
         let node = &arrays.nodes[i as usize];
         let (min, max) = arrays.frame.dequantize(node);
         let aabb = obvhs::aabb::Aabb { min: Vec3A::from(min), max: Vec3A::from(max) };
@@ -306,7 +337,8 @@ mod tests {
     fn threaded_traversal_finds_the_brute_force_closest_hit() {
         let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Oracle, 0);
         let mut r = || rng.next_f32();
-        let mut scene = Scene { materials: vec![vplgi_scene::Material::default()], ..Scene::default() };
+        let mut scene =
+            Scene { materials: vec![vplgi_scene::Material::default()], ..Scene::default() };
         for i in 0..3000u32 {
             let c = glam::Vec3::new(r(), r(), r()) * 2.0 - 1.0;
             for _ in 0..3 {
@@ -341,7 +373,11 @@ mod tests {
             visited += v;
         }
         assert!(hits > 200 && hits < 1800, "{hits} of 2000 rays hit: the test needs both");
-        assert!(visited < 2000 * n / 10, "{} nodes visited per ray of {n}: the boxes prune nothing", visited / 2000);
+        assert!(
+            visited < 2000 * n / 10,
+            "{} nodes visited per ray of {n}: the boxes prune nothing",
+            visited / 2000
+        );
     }
 
     /// Every quantized box holds its node's exact box with the triangle test's crack to spare
@@ -352,11 +388,17 @@ mod tests {
     fn quantized_boxes_hold_the_exact_boxes() {
         let mut rng = vplgi_types::Rng::new(4, vplgi_types::Stream::Oracle, 0);
         for (offset, size) in [(0.0f32, 2.0f32), (1.0e5, 1.0e-2), (-3.0e3, 1.0e3)] {
-            let mut scene = Scene { materials: vec![vplgi_scene::Material::default()], ..Scene::default() };
+            let mut scene =
+                Scene { materials: vec![vplgi_scene::Material::default()], ..Scene::default() };
             for i in 0..500u32 {
-                let c = glam::Vec3::splat(offset) + glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * size;
+                let c = glam::Vec3::splat(offset)
+                    + glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * size;
                 for _ in 0..3 {
-                    scene.positions.push(c + (glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * size * 0.05);
+                    scene.positions.push(
+                        c + (glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5)
+                            * size
+                            * 0.05,
+                    );
                     scene.normals.push(glam::Vec3::Z);
                     scene.uvs.push(glam::Vec2::ZERO);
                 }
@@ -369,7 +411,9 @@ mod tests {
             let threaded = thread(&bvh.nodes).unwrap();
             let (packed, frame) = quantize(&threaded).unwrap();
             // The crack bvh.wgsl's triangle test closes at this scene's coordinates.
-            let far = (0..3).map(|a| threaded[0].min[a].abs().max(threaded[0].max[a].abs())).fold(0.0f32, f32::max);
+            let far = (0..3)
+                .map(|a| threaded[0].min[a].abs().max(threaded[0].max[a].abs()))
+                .fold(0.0f32, f32::max);
             let crack = CRACK_ULPS * f32::EPSILON * far;
             for (exact, node) in threaded.iter().zip(&packed) {
                 let (min, max) = frame.dequantize(node);

@@ -13,7 +13,9 @@ pub enum GpuError {
     Validation { what: String, message: String },
     #[error("GPU device lost or timed out in {what}: {message}")]
     Lost { what: String, message: String },
-    #[error("the GPU ran out of memory in {what} (use a smaller frame, or --backend cpu): {message}")]
+    #[error(
+        "the GPU ran out of memory in {what} (use a smaller frame, or --backend cpu): {message}"
+    )]
     OutOfMemory { what: String, message: String },
     /// `what` names the quantity and its unit.
     #[error("{what}: {needed} needed, this adapter allows {limit} (use --backend cpu, or a smaller input)")]
@@ -25,7 +27,9 @@ pub enum GpuError {
 pub fn within_loop_limit(what: &str, needed: u32, limit: u32, why: &str) -> Result<(), GpuError> {
     if needed > limit {
         return Err(GpuError::TooLarge {
-            what: format!("{what} ({why}, and lavapipe ends an invocation's loops after 65,535 iterations)"),
+            what: format!(
+                "{what} ({why}, and lavapipe ends an invocation's loops after 65,535 iterations)"
+            ),
             needed: needed as u64,
             limit: limit as u64,
         });
@@ -56,12 +60,19 @@ impl GpuContext {
     /// A device whose storage-binding size and workgroups per dimension are forced below the
     /// adapter's, so tests exercise the chunking paths on small inputs: every stage reads its
     /// limits from the device.
-    pub fn with_limits(max_binding_bytes: Option<u64>, max_workgroups: Option<u32>) -> Result<GpuContext, GpuError> {
+    pub fn with_limits(
+        max_binding_bytes: Option<u64>,
+        max_workgroups: Option<u32>,
+    ) -> Result<GpuContext, GpuError> {
         pollster::block_on(Self::new_async(max_binding_bytes, max_workgroups))
     }
 
-    async fn new_async(max_binding_bytes: Option<u64>, max_workgroups: Option<u32>) -> Result<GpuContext, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    async fn new_async(
+        max_binding_bytes: Option<u64>,
+        max_workgroups: Option<u32>,
+    ) -> Result<GpuContext, GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = instance
             .request_adapter(&wgpu::RequestAdapterOptions {
                 power_preference: wgpu::PowerPreference::HighPerformance,
@@ -77,7 +88,8 @@ impl GpuContext {
             limits.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size.min(b);
         }
         if let Some(g) = max_workgroups {
-            limits.max_compute_workgroups_per_dimension = limits.max_compute_workgroups_per_dimension.min(g);
+            limits.max_compute_workgroups_per_dimension =
+                limits.max_compute_workgroups_per_dimension.min(g);
         }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
@@ -136,15 +148,23 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 /// Runs `f` inside validation and out-of-memory error scopes and turns a captured error into
 /// [`GpuError`]. Running out of memory is reported first: the invalid buffer it leaves behind
 /// also fails validation, and "out of memory" is the cause a user can act on.
-pub fn validated<T>(device: &wgpu::Device, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+pub fn validated<T>(
+    device: &wgpu::Device,
+    what: &str,
+    f: impl FnOnce() -> T,
+) -> Result<T, GpuError> {
     let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
     let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let value = crate::timing::in_kernel(what, f);
     let invalid = pollster::block_on(validation.pop());
     let exhausted = pollster::block_on(memory.pop());
     match (exhausted, invalid) {
-        (Some(e), _) => Err(GpuError::OutOfMemory { what: what.to_string(), message: e.to_string() }),
-        (None, Some(e)) => Err(GpuError::Validation { what: what.to_string(), message: e.to_string() }),
+        (Some(e), _) => {
+            Err(GpuError::OutOfMemory { what: what.to_string(), message: e.to_string() })
+        }
+        (None, Some(e)) => {
+            Err(GpuError::Validation { what: what.to_string(), message: e.to_string() })
+        }
         (None, None) => Ok(value),
     }
 }
@@ -182,14 +202,21 @@ pub(crate) mod tests {
                 Ok(ctx) => panic!("expected no adapter, got {}", ctx.describe()),
                 Err(e) => {
                     let msg = e.to_string();
-                    assert!(msg.contains("no GPU adapter") && msg.contains("mesa-vulkan-drivers"), "{msg}");
+                    assert!(
+                        msg.contains("no GPU adapter") && msg.contains("mesa-vulkan-drivers"),
+                        "{msg}"
+                    );
                     return;
                 }
             }
         }
         let exe = std::env::current_exe().expect("test binary");
         let status = std::process::Command::new(exe)
-            .args(["--exact", "context::tests::missing_adapter_is_a_clear_error_with_a_hint", "--nocapture"])
+            .args([
+                "--exact",
+                "context::tests::missing_adapter_is_a_clear_error_with_a_hint",
+                "--nocapture",
+            ])
             .env("VPLGI_CHILD_NO_ADAPTER", "1")
             .env("WGPU_BACKEND", "dx12")
             .status()
@@ -207,13 +234,20 @@ pub(crate) mod tests {
         if std::env::var("VPLGI_CHILD_OUT_OF_MEMORY").is_ok() {
             let ctx = GpuContext::new().expect("a GPU adapter (the parent found one)");
             let status = std::fs::read_to_string("/proc/self/status").expect("/proc/self/status");
-            let mapped_kib: u64 =
-                status.lines().find_map(|l| l.strip_prefix("VmSize:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok()).expect("VmSize");
+            let mapped_kib: u64 = status
+                .lines()
+                .find_map(|l| l.strip_prefix("VmSize:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+                .expect("VmSize");
             let cap = (mapped_kib + 256 * 1024) * 1024;
             // SAFETY: setrlimit reads the struct it is given and nothing else.
-            let set = unsafe { libc::setrlimit(libc::RLIMIT_AS, &libc::rlimit { rlim_cur: cap, rlim_max: cap }) };
+            let set = unsafe {
+                libc::setrlimit(libc::RLIMIT_AS, &libc::rlimit { rlim_cur: cap, rlim_max: cap })
+            };
             assert_eq!(set, 0, "setrlimit failed");
-            let r = validated(&ctx.device, "a 1 GiB buffer", || crate::buffers::storage_zeroed::<u32>(&ctx.device, "huge", 1 << 28));
+            let r = validated(&ctx.device, "a 1 GiB buffer", || {
+                crate::buffers::storage_zeroed::<u32>(&ctx.device, "huge", 1 << 28)
+            });
             match r {
                 Err(e @ GpuError::OutOfMemory { .. }) => println!("captured: {e}"),
                 Err(e) => panic!("expected out of memory, got {e}"),
@@ -235,7 +269,10 @@ pub(crate) mod tests {
         let stdout = String::from_utf8_lossy(&out.stdout);
         println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
         assert!(out.status.success(), "the child process did not see the expected error");
-        assert!(stdout.contains("ran out of memory in a 1 GiB buffer"), "the message names neither the cause nor the step");
+        assert!(
+            stdout.contains("ran out of memory in a 1 GiB buffer"),
+            "the message names neither the cause nor the step"
+        );
     }
 
     /// A wgpu validation error inside `validated` comes back as `GpuError::Validation`, not a
@@ -260,6 +297,9 @@ pub(crate) mod tests {
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("an invalid binding was accepted"),
         }
-        assert!(ctx.take_uncaptured_errors().is_empty(), "the error must be captured by the scope, not left uncaptured");
+        assert!(
+            ctx.take_uncaptured_errors().is_empty(),
+            "the error must be captured by the scope, not left uncaptured"
+        );
     }
 }

@@ -46,12 +46,22 @@ impl GpuLights {
             .punctual()
             .iter()
             .map(|l| match *l {
-                PunctualLight::Point { position: p, intensity: i } => {
-                    Punctual { position: [p.x, p.y, p.z, PUNCTUAL_POINT], direction: [0.0, 0.0, 1.0, 1.0], intensity: [i.x, i.y, i.z, 0.0] }
-                }
-                PunctualLight::Spot { position: p, direction: d, intensity: i, cos_inner, cos_outer } => {
-                    Punctual { position: [p.x, p.y, p.z, PUNCTUAL_SPOT], direction: [d.x, d.y, d.z, cos_inner], intensity: [i.x, i.y, i.z, cos_outer] }
-                }
+                PunctualLight::Point { position: p, intensity: i } => Punctual {
+                    position: [p.x, p.y, p.z, PUNCTUAL_POINT],
+                    direction: [0.0, 0.0, 1.0, 1.0],
+                    intensity: [i.x, i.y, i.z, 0.0],
+                },
+                PunctualLight::Spot {
+                    position: p,
+                    direction: d,
+                    intensity: i,
+                    cos_inner,
+                    cos_outer,
+                } => Punctual {
+                    position: [p.x, p.y, p.z, PUNCTUAL_SPOT],
+                    direction: [d.x, d.y, d.z, cos_inner],
+                    intensity: [i.x, i.y, i.z, cos_outer],
+                },
                 PunctualLight::Directional { direction: d, irradiance: e } => {
                     // The centre of the disk its particles start from, and the disk's radius.
                     let c = sampler.sun.disk_centre(d);
@@ -63,7 +73,8 @@ impl GpuLights {
                 }
             })
             .collect();
-        let counts = [emitters.len() as u32, punctual.len() as u32, sampler.groups().len() as u32, 0];
+        let counts =
+            [emitters.len() as u32, punctual.len() as u32, sampler.groups().len() as u32, 0];
         GpuLights {
             counts: kernel_params(device, "light counts", &counts),
             emitters: storage(device, "emitters", &emitters),

@@ -20,14 +20,28 @@ pub(crate) struct Params {
 
 /// `draws` numbers from each of the streams (seed, stream, first_index + i), i < count, stream
 /// after stream.
-pub fn rng_streams(device: &wgpu::Device, queue: &wgpu::Queue, seed: u32, stream: u32, first_index: u32, count: u32, draws: u32) -> Result<Vec<u32>, GpuError> {
+pub fn rng_streams(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    seed: u32,
+    stream: u32,
+    first_index: u32,
+    count: u32,
+    draws: u32,
+) -> Result<Vec<u32>, GpuError> {
     let n = count as usize * draws as usize;
     let (pipe, params, out) = validated(device, "rng_streams", || {
         let pipe = pipeline(device, "rng_streams.wgsl", "main");
-        let params = kernel_params(device, "rng params", &Params { seed, stream, first_index, count, draws, pad: [0; 3] });
+        let params = kernel_params(
+            device,
+            "rng params",
+            &Params { seed, stream, first_index, count, draws, pad: [0; 3] },
+        );
         let out = storage_zeroed::<u32>(device, "rng out", n);
         (pipe, params, out)
     })?;
-    validated(device, "rng_streams dispatch", || dispatch(device, queue, &pipe, &[&params, &out], count.div_ceil(64)))?;
+    validated(device, "rng_streams dispatch", || {
+        dispatch(device, queue, &pipe, &[&params, &out], count.div_ceil(64))
+    })?;
     read_back(device, queue, &out, n)
 }

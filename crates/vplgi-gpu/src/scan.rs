@@ -15,12 +15,21 @@ pub struct ScanKernel {
 
 impl ScanKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
-        validated(device, "scan pipeline", || ScanKernel { pipeline: pipeline(device, "scan.wgsl", "main") })
+        validated(device, "scan pipeline", || ScanKernel {
+            pipeline: pipeline(device, "scan.wgsl", "main"),
+        })
     }
 
     /// `offsets[i] = counts[0] + .. + counts[i - 1]` for i <= n (`offsets` holds n + 1 words; the
     /// last is the total), [`ITEMS_PER_DISPATCH`] items per dispatch.
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, counts: &wgpu::Buffer, n: u32, offsets: &wgpu::Buffer) -> Result<(), GpuError> {
+    pub fn run(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        counts: &wgpu::Buffer,
+        n: u32,
+        offsets: &wgpu::Buffer,
+    ) -> Result<(), GpuError> {
         validated(device, "scan", || {
             let mut first = 0;
             loop {
@@ -45,7 +54,9 @@ mod tests {
     /// dispatch by dispatch and recorded into one batch: every offset is the CPU's prefix sum.
     #[test]
     fn scans_past_one_dispatch_match_the_prefix_sum() {
-        let Some(ctx) = crate::context::tests::test_gpu("scans_past_one_dispatch_match_the_prefix_sum") else {
+        let Some(ctx) =
+            crate::context::tests::test_gpu("scans_past_one_dispatch_match_the_prefix_sum")
+        else {
             return;
         };
         let (device, queue) = (&ctx.device, &ctx.queue);
@@ -70,7 +81,10 @@ mod tests {
                 }
                 let got = read_back::<u32>(device, queue, &offsets, n as usize + 1).unwrap();
                 let first_wrong = got.iter().zip(&want).position(|(a, b)| a != b);
-                assert_eq!(first_wrong, None, "n = {n} (batched: {in_batch}): offset {first_wrong:?} differs");
+                assert_eq!(
+                    first_wrong, None,
+                    "n = {n} (batched: {in_batch}): offset {first_wrong:?} differs"
+                );
             }
         }
     }

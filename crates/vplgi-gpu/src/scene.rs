@@ -21,17 +21,34 @@ pub const SCENE_TRI_PAGES: usize = 4;
 /// texels, and their infos.
 pub fn texel_words(scene: &Scene) -> (Vec<u32>, Vec<TextureInfo>) {
     let table = vplgi_scene::srgb8_table();
-    let code: std::collections::HashMap<u32, u32> = table.iter().enumerate().map(|(i, v)| (v.to_bits(), i as u32)).collect();
+    let code: std::collections::HashMap<u32, u32> =
+        table.iter().enumerate().map(|(i, v)| (v.to_bits(), i as u32)).collect();
     let mut words: Vec<u32> = table.iter().map(|v| v.to_bits()).collect();
     let mut infos = Vec::new();
     for t in &scene.textures {
-        let codes: Option<Vec<u32>> =
-            t.texels.iter().map(|c| Some(code.get(&c.x.to_bits())? | code.get(&c.y.to_bits())? << 8 | code.get(&c.z.to_bits())? << 16)).collect();
+        let codes: Option<Vec<u32>> = t
+            .texels
+            .iter()
+            .map(|c| {
+                Some(
+                    code.get(&c.x.to_bits())?
+                        | code.get(&c.y.to_bits())? << 8
+                        | code.get(&c.z.to_bits())? << 16,
+                )
+            })
+            .collect();
         let format = if codes.is_some() { TEXELS_SRGB8 } else { TEXELS_F32 };
-        infos.push(TextureInfo { offset: words.len() as u32, width: t.width, height: t.height, format });
+        infos.push(TextureInfo {
+            offset: words.len() as u32,
+            width: t.width,
+            height: t.height,
+            format,
+        });
         match codes {
             Some(c) => words.extend(c),
-            None => words.extend(t.texels.iter().flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()])),
+            None => words.extend(
+                t.texels.iter().flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]),
+            ),
         }
     }
     (words, infos)
@@ -138,14 +155,20 @@ impl GpuScene {
             .materials
             .iter()
             .map(|m| GpuMaterial {
-                base_color: [m.base_color.x, m.base_color.y, m.base_color.z, f32::from_bits(m.base_color_texture.unwrap_or(MISS))],
+                base_color: [
+                    m.base_color.x,
+                    m.base_color.y,
+                    m.base_color.z,
+                    f32::from_bits(m.base_color_texture.unwrap_or(MISS)),
+                ],
                 emission: [m.emission.x, m.emission.y, m.emission.z, 0.0],
             })
             .collect();
         let sampler = vplgi_scene::lights::LightSampler::new(scene);
         let (words, infos) = texel_words(scene);
         let texels = pages::<u32, TEXEL_PAGES>(device, "texel words", &words)?;
-        let bvh_paged = arrays.nodes.len() as u64 > page_len::<bvh::BvhNode>(device) || arrays.tris.len() as u64 > page_len::<bvh::BvhTri>(device);
+        let bvh_paged = arrays.nodes.len() as u64 > page_len::<bvh::BvhNode>(device)
+            || arrays.tris.len() as u64 > page_len::<bvh::BvhTri>(device);
         let (bvh_nodes, bvh_nodes_hi) = paged(device, "bvh nodes", &arrays.nodes)?;
         let (bvh_tris, bvh_tris_hi) = paged(device, "bvh tris", &arrays.tris)?;
         let scene_tris = pages::<SceneTri, SCENE_TRI_PAGES>(device, "scene tris", &tris)?;
@@ -176,14 +199,22 @@ pub fn page_len<T>(device: &wgpu::Device) -> u64 {
 }
 
 /// `data` over two bindings: the first page, then the rest (at most one more page).
-fn paged<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, data: &[T]) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+fn paged<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[T],
+) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
     let [lo, hi] = pages::<T, 2>(device, label, data)?;
     Ok((lo, hi))
 }
 
 /// `data` over `N` bindings of [`page_len`] elements each (unused pages hold one zeroed
 /// element).
-fn pages<T: bytemuck::Pod, const N: usize>(device: &wgpu::Device, label: &str, data: &[T]) -> Result<[wgpu::Buffer; N], GpuError> {
+fn pages<T: bytemuck::Pod, const N: usize>(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[T],
+) -> Result<[wgpu::Buffer; N], GpuError> {
     let page = (page_len::<T>(device) as usize).max(1);
     if data.len() > N * page {
         let size = std::mem::size_of::<T>() as u64;
@@ -193,5 +224,7 @@ fn pages<T: bytemuck::Pod, const N: usize>(device: &wgpu::Device, label: &str, d
             limit: (N * page) as u64 * size,
         });
     }
-    Ok(std::array::from_fn(|i| storage(device, label, &data[(i * page).min(data.len())..((i + 1) * page).min(data.len())])))
+    Ok(std::array::from_fn(|i| {
+        storage(device, label, &data[(i * page).min(data.len())..((i + 1) * page).min(data.len())])
+    }))
 }

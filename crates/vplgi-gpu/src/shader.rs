@@ -44,7 +44,9 @@ static REPLACED: OnceLock<BTreeMap<&'static str, String>> = OnceLock::new();
 pub enum SourceError {
     #[error("{path}: {message}")]
     Read { path: PathBuf, message: String },
-    #[error("{dir} holds none of vplgi's shader files (expected e.g. shade.wgsl, common/rng.wgsl)")]
+    #[error(
+        "{dir} holds none of vplgi's shader files (expected e.g. shade.wgsl, common/rng.wgsl)"
+    )]
     Empty { dir: PathBuf },
     #[error("{file} does not compile as part of {stage}:\n{message}")]
     Invalid { file: String, stage: String, message: String },
@@ -68,7 +70,10 @@ pub struct ReplacedSource {
 /// broken file is an error naming it, never a panic inside wgpu. Call before building kernels.
 pub fn use_sources_from(dir: &Path) -> Result<Vec<ReplacedSource>, SourceError> {
     if !dir.is_dir() {
-        return Err(SourceError::Read { path: dir.to_path_buf(), message: "not a directory".into() });
+        return Err(SourceError::Read {
+            path: dir.to_path_buf(),
+            message: "not a directory".into(),
+        });
     }
     let known = COMMON.iter().map(|(n, t)| (*n, *t)).chain(STAGES.iter().map(|(n, t, _)| (*n, *t)));
     let mut map = BTreeMap::new();
@@ -78,7 +83,8 @@ pub fn use_sources_from(dir: &Path) -> Result<Vec<ReplacedSource>, SourceError> 
         if !path.exists() {
             continue;
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| SourceError::Read { path: path.clone(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| SourceError::Read { path: path.clone(), message: e.to_string() })?;
         replaced.push(ReplacedSource { name, path, differs: text != builtin });
         map.insert(name, text);
     }
@@ -86,12 +92,19 @@ pub fn use_sources_from(dir: &Path) -> Result<Vec<ReplacedSource>, SourceError> 
         return Err(SourceError::Empty { dir: dir.to_path_buf() });
     }
     for (stage, _, includes) in STAGES {
-        let touched: Vec<&str> = std::iter::once(*stage).chain(includes.iter().copied()).filter(|n| map.contains_key(n)).collect();
+        let touched: Vec<&str> = std::iter::once(*stage)
+            .chain(includes.iter().copied())
+            .filter(|n| map.contains_key(n))
+            .collect();
         if touched.is_empty() {
             continue;
         }
         let src = compose_from(stage, &map);
-        validate(&src).map_err(|message| SourceError::Invalid { file: touched.join(", "), stage: stage.to_string(), message })?;
+        validate(&src).map_err(|message| SourceError::Invalid {
+            file: touched.join(", "),
+            stage: stage.to_string(),
+            message,
+        })?;
     }
     REPLACED.set(map).map_err(|_| SourceError::AlreadySet)?;
     Ok(replaced)
@@ -100,9 +113,12 @@ pub fn use_sources_from(dir: &Path) -> Result<Vec<ReplacedSource>, SourceError> 
 /// Parses and validates a composed module; the error is naga's report, with the offending lines.
 fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| e.emit_to_string(src))?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| e.emit_to_string(src))?;
     Ok((module, info))
 }
 
@@ -204,7 +220,8 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
 /// first lines of every composed module.
 pub fn prelude() -> String {
     let (u, f) = shared_constants();
-    let mut src = String::from("// Generated from the Rust values by vplgi_gpu::shader::prelude.\n");
+    let mut src =
+        String::from("// Generated from the Rust values by vplgi_gpu::shader::prelude.\n");
     for (name, v) in u {
         src.push_str(&format!("const {name}: u32 = {v}u;\n"));
     }
@@ -222,9 +239,19 @@ pub fn prelude() -> String {
 pub fn used_bindings(name: &str, entry: &str) -> Vec<u32> {
     let src = compose(name);
     let (module, info) = validate(&src).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let index = module.entry_points.iter().position(|e| e.name == entry).unwrap_or_else(|| panic!("{name} has no entry point {entry}"));
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == entry)
+        .unwrap_or_else(|| panic!("{name} has no entry point {entry}"));
     let uses = info.get_entry_point(index);
-    module.global_variables.iter().filter_map(|(h, v)| v.binding.as_ref().filter(|b| b.group == 0 && !uses[h].is_empty()).map(|b| b.binding)).collect()
+    module
+        .global_variables
+        .iter()
+        .filter_map(|(h, v)| {
+            v.binding.as_ref().filter(|b| b.group == 0 && !uses[h].is_empty()).map(|b| b.binding)
+        })
+        .collect()
 }
 
 /// The composed source of stage `name` (a file name from [`STAGES`]): the prelude, its common
@@ -238,11 +265,18 @@ pub fn compose(name: &str) -> String {
 }
 
 fn compose_from(name: &str, replaced: &BTreeMap<&'static str, String>) -> String {
-    let (_, stage, includes) = STAGES.iter().find(|(n, _, _)| *n == name).unwrap_or_else(|| panic!("unknown stage shader {name}"));
+    let (_, stage, includes) = STAGES
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .unwrap_or_else(|| panic!("unknown stage shader {name}"));
     let text_of = |n: &str, builtin: &'static str| replaced.get(n).map_or(builtin, String::as_str);
     let mut src = prelude();
     for inc in includes.iter() {
-        let builtin = COMMON.iter().find(|(n, _)| n == inc).map(|(_, t)| *t).unwrap_or_else(|| panic!("unknown common shader {inc}"));
+        let builtin = COMMON
+            .iter()
+            .find(|(n, _)| n == inc)
+            .map(|(_, t)| *t)
+            .unwrap_or_else(|| panic!("unknown common shader {inc}"));
         src.push_str(&format!("// ---- {inc}\n{}\n", text_of(inc, builtin)));
     }
     src.push_str(&format!("// ---- {name}\n{}\n", text_of(name, stage)));
@@ -276,11 +310,11 @@ impl SceneVariant {
 
 /// The pipeline of a stage entry that traverses the BVH, in variants per [`SceneVariant`]. The
 /// BVH's nodes and triangles may each spill into a second binding (`bvh_node`/`bvh_tri` in
-/// bvh.wgsl), but branching between the pages on every node costs lavapipe about a quarter of
-/// its traversal throughput (`examples/bvh_choice.rs`: 0.10 against 0.13 Mrays/s), and almost
-/// every scene fits one page. A texture lookup at every surface hit costs an untextured scene's
-/// `trace_vpls` kernel about a quarter of its time on lavapipe (paper Cornell frame: 8.4-8.8
-/// against 6.4-6.7 ms without the branch). So the pipeline every scene starts with is compiled
+/// bvh.wgsl), but branching between the pages on every node costs lavapipe, which runs both sides
+/// of a branch for every lane, a large share of its traversal throughput (`examples/bvh_choice.rs`
+/// measures it), and almost every scene fits one page. A texture lookup at every surface hit,
+/// even one no lane takes, costs an untextured scene's `trace_vpls` kernel the same way. So the
+/// pipeline every scene starts with is compiled
 /// with `BVH_PAGED = false` and `TEXTURED = false`, which fold those branches away, and the
 /// other variants are compiled the first time a scene needs one.
 pub struct RayPipeline {
@@ -293,40 +327,66 @@ pub struct RayPipeline {
 
 impl RayPipeline {
     pub fn new(device: &wgpu::Device, name: &'static str, entry: &'static str) -> RayPipeline {
-        let pipeline = RayPipeline { name, entry, variants: Default::default(), used: used_bindings(name, entry) };
+        let pipeline = RayPipeline {
+            name,
+            entry,
+            variants: Default::default(),
+            used: used_bindings(name, entry),
+        };
         pipeline.variant(device, SceneVariant { bvh_paged: false, textured: false });
         pipeline
     }
 
     /// The arrays of `scene.wgsl` this entry point reads, bound from `scene`: a stage binds its
     /// own arrays and these.
-    pub fn scene_bindings<'a>(&self, scene: &'a crate::scene::GpuScene) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
+    pub fn scene_bindings<'a>(
+        &self,
+        scene: &'a crate::scene::GpuScene,
+    ) -> Vec<(u32, wgpu::BufferBinding<'a>)> {
         scene.bindings(&self.used)
     }
 
     /// The variant for `scene`.
-    pub fn get(&self, device: &wgpu::Device, scene: &crate::scene::GpuScene) -> &wgpu::ComputePipeline {
+    pub fn get(
+        &self,
+        device: &wgpu::Device,
+        scene: &crate::scene::GpuScene,
+    ) -> &wgpu::ComputePipeline {
         self.variant(device, SceneVariant { bvh_paged: scene.bvh_paged, textured: scene.textured })
     }
 
     fn variant(&self, device: &wgpu::Device, v: SceneVariant) -> &wgpu::ComputePipeline {
-        self.variants[v.index()].get_or_init(|| compile(device, self.name, &[self.entry], v, &[]).remove(0))
+        self.variants[v.index()]
+            .get_or_init(|| compile(device, self.name, &[self.entry], v, &[]).remove(0))
     }
 }
 
 /// The page-size overrides of the paged scene arrays a stage reads, from the device's limits,
 /// and whether the BVH arrays may use their second pages.
-fn page_constants(device: &wgpu::Device, name: &str, variant: SceneVariant) -> Vec<(&'static str, f64)> {
+fn page_constants(
+    device: &wgpu::Device,
+    name: &str,
+    variant: SceneVariant,
+) -> Vec<(&'static str, f64)> {
     let includes = STAGES.iter().find(|(n, _, _)| *n == name).map(|(_, _, i)| *i).unwrap_or(&[]);
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     let mut c = Vec::new();
     if includes.contains(&"common/bvh.wgsl") {
         c.push(("BVH_PAGED", flag(variant.bvh_paged)));
-        c.push(("BVH_NODE_PAGE", page_len::<crate::bvh::BvhNode>(device).min(u32::MAX as u64) as f64));
-        c.push(("BVH_TRI_PAGE", page_len::<crate::bvh::BvhTri>(device).min(u32::MAX as u64) as f64));
+        c.push((
+            "BVH_NODE_PAGE",
+            page_len::<crate::bvh::BvhNode>(device).min(u32::MAX as u64) as f64,
+        ));
+        c.push((
+            "BVH_TRI_PAGE",
+            page_len::<crate::bvh::BvhTri>(device).min(u32::MAX as u64) as f64,
+        ));
     }
     if includes.contains(&"common/surface.wgsl") {
-        c.push(("SCENE_TRI_PAGE", page_len::<crate::scene::SceneTri>(device).min(u32::MAX as u64) as f64));
+        c.push((
+            "SCENE_TRI_PAGE",
+            page_len::<crate::scene::SceneTri>(device).min(u32::MAX as u64) as f64,
+        ));
         c.push(("TEXEL_PAGE", page_len::<u32>(device).min(u32::MAX as u64) as f64));
         c.push(("TEXTURED", flag(variant.textured)));
     }
@@ -335,19 +395,37 @@ fn page_constants(device: &wgpu::Device, name: &str, variant: SceneVariant) -> V
 
 /// One pipeline per entry point of stage `name`, compiled from one module. Each layout is
 /// derived from the bindings its entry point uses.
-pub fn pipelines(device: &wgpu::Device, name: &str, entries: &[&str]) -> Vec<wgpu::ComputePipeline> {
+pub fn pipelines(
+    device: &wgpu::Device,
+    name: &str,
+    entries: &[&str],
+) -> Vec<wgpu::ComputePipeline> {
     compile(device, name, entries, SceneVariant::GENERAL, &[])
 }
 
 /// The pipeline of `entry` of stage `name` with its own values of some of the module's overrides
 /// (e.g. a loop's trip count, fixed so that the loop is unrolled), for an entry point that does
 /// not traverse the BVH.
-pub fn pipeline_with(device: &wgpu::Device, name: &str, entry: &str, overrides: &[(&'static str, f64)]) -> wgpu::ComputePipeline {
+pub fn pipeline_with(
+    device: &wgpu::Device,
+    name: &str,
+    entry: &str,
+    overrides: &[(&'static str, f64)],
+) -> wgpu::ComputePipeline {
     compile(device, name, &[entry], SceneVariant::GENERAL, overrides).remove(0)
 }
 
-fn compile(device: &wgpu::Device, name: &str, entries: &[&str], variant: SceneVariant, overrides: &[(&'static str, f64)]) -> Vec<wgpu::ComputePipeline> {
-    let desc = wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(compose(name).into()) };
+fn compile(
+    device: &wgpu::Device,
+    name: &str,
+    entries: &[&str],
+    variant: SceneVariant,
+    overrides: &[(&'static str, f64)],
+) -> Vec<wgpu::ComputePipeline> {
+    let desc = wgpu::ShaderModuleDescriptor {
+        label: Some(name),
+        source: wgpu::ShaderSource::Wgsl(compose(name).into()),
+    };
     let module = match REPLACED.get() {
         // Sources from a user's directory (--shaders) are untrusted: every check stays on.
         Some(_) => device.create_shader_module(desc),
@@ -357,10 +435,15 @@ fn compile(device: &wgpu::Device, name: &str, entries: &[&str], variant: SceneVa
         // to the grid's extent, and BVH traversal, whose node index only moves forward in
         // preorder (a child is the next node, a skip link points past the subtree) until
         // BVH_END. Bounds checks stay on. The bounding costs a 64-bit counter update and a
-        // branch per iteration of every loop: measured on lavapipe at the paper's Cornell frame,
-        // shade took 910-1040 ms with it and 665-705 ms without.
+        // branch per iteration of every loop, in the hottest loops of every kernel.
         None => unsafe {
-            device.create_shader_module_trusted(desc, wgpu::ShaderRuntimeChecks { force_loop_bounding: false, ..wgpu::ShaderRuntimeChecks::checked() })
+            device.create_shader_module_trusted(
+                desc,
+                wgpu::ShaderRuntimeChecks {
+                    force_loop_bounding: false,
+                    ..wgpu::ShaderRuntimeChecks::checked()
+                },
+            )
         },
     };
     let mut constants = page_constants(device, name, variant);
@@ -373,7 +456,10 @@ fn compile(device: &wgpu::Device, name: &str, entries: &[&str], variant: SceneVa
                 layout: None,
                 module: &module,
                 entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
                 cache: None,
             })
         })
@@ -421,7 +507,13 @@ pub(crate) mod layout {
             if ty.name.as_deref() == Some(name) {
                 if let naga::TypeInner::Struct { members, span } = &ty.inner {
                     assert_eq!(layouter[handle].size, *span);
-                    return (*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect());
+                    return (
+                        *span,
+                        members
+                            .iter()
+                            .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                            .collect(),
+                    );
                 }
             }
         }
@@ -432,11 +524,20 @@ pub(crate) mod layout {
     pub(crate) fn check(table: Vec<Row>) {
         for row in table {
             let (size, members) = wgsl_layout(row.stage, row.wgsl);
-            assert_eq!(size as usize, row.size, "{} ({}): WGSL size {size}, Rust size {}", row.rust, row.stage, row.size);
+            assert_eq!(
+                size as usize, row.size,
+                "{} ({}): WGSL size {size}, Rust size {}",
+                row.rust, row.stage, row.size
+            );
             for (field, offset) in row.fields {
-                let m =
-                    members.iter().find(|(n, _)| n == field).unwrap_or_else(|| panic!("{}.{field}: no such member of {} in {}", row.rust, row.wgsl, row.stage));
-                assert_eq!(m.1 as usize, offset, "{}.{field}: WGSL offset {}, Rust offset {offset}", row.rust, m.1);
+                let m = members.iter().find(|(n, _)| n == field).unwrap_or_else(|| {
+                    panic!("{}.{field}: no such member of {} in {}", row.rust, row.wgsl, row.stage)
+                });
+                assert_eq!(
+                    m.1 as usize, offset,
+                    "{}.{field}: WGSL offset {}, Rust offset {offset}",
+                    row.rust, m.1
+                );
             }
         }
     }
@@ -465,7 +566,8 @@ mod tests {
         assert!(matches!(use_sources_from(dir.path()), Err(SourceError::Empty { .. })));
         std::fs::create_dir(dir.path().join("common")).expect("mkdir");
         let rng = COMMON.iter().find(|(n, _)| *n == "common/rng.wgsl").expect("rng.wgsl").1;
-        std::fs::write(dir.path().join("common/rng.wgsl"), rng.replacen("fn ", "fn broken(", 1)).expect("write");
+        std::fs::write(dir.path().join("common/rng.wgsl"), rng.replacen("fn ", "fn broken(", 1))
+            .expect("write");
         match use_sources_from(dir.path()) {
             Err(SourceError::Invalid { file, stage, message }) => {
                 assert_eq!(file, "common/rng.wgsl");
@@ -476,7 +578,10 @@ mod tests {
         assert!(REPLACED.get().is_none(), "a refused directory must not replace the sources");
         let mut map = BTreeMap::new();
         map.insert("shade.wgsl", "// replaced".to_string());
-        assert!(compose_from("shade.wgsl", &map).ends_with("// replaced\n") && !empty.ends_with("// replaced\n"));
+        assert!(
+            compose_from("shade.wgsl", &map).ends_with("// replaced\n")
+                && !empty.ends_with("// replaced\n")
+        );
     }
 
     /// `scene.wgsl` declares the scene's arrays at the bindings and under the names of
@@ -484,24 +589,45 @@ mod tests {
     #[test]
     fn scene_declarations_match_the_binding_table() {
         use crate::scene::{FIRST_SCENE_BINDING, SCENE_BINDINGS};
-        let with_scene: Vec<&str> = STAGES.iter().filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl")).map(|(n, _, _)| *n).collect();
+        let with_scene: Vec<&str> = STAGES
+            .iter()
+            .filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl"))
+            .map(|(n, _, _)| *n)
+            .collect();
         assert_eq!(with_scene.len(), 7, "the ray-tracing stages: {with_scene:?}");
         for stage in with_scene {
             let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
             let mut seen: Vec<(u32, String)> = module
                 .global_variables
                 .iter()
-                .filter_map(|(_, v)| v.binding.as_ref().filter(|b| b.binding >= FIRST_SCENE_BINDING).map(|b| (b.binding, v.name.clone().unwrap_or_default())))
+                .filter_map(|(_, v)| {
+                    v.binding
+                        .as_ref()
+                        .filter(|b| b.binding >= FIRST_SCENE_BINDING)
+                        .map(|b| (b.binding, v.name.clone().unwrap_or_default()))
+                })
                 .collect();
             seen.sort();
-            let table: Vec<(u32, String)> = (FIRST_SCENE_BINDING..).zip(SCENE_BINDINGS).map(|(n, (name, _))| (n, name.to_string())).collect();
+            let table: Vec<(u32, String)> = (FIRST_SCENE_BINDING..)
+                .zip(SCENE_BINDINGS)
+                .map(|(n, (name, _))| (n, name.to_string()))
+                .collect();
             assert_eq!(seen, table, "{stage}");
             // A stage's own bindings stay below the scene's.
-            assert!(module.global_variables.iter().all(|(_, v)| v.binding.as_ref().is_none_or(|b| b.group == 0)), "{stage}");
+            assert!(
+                module
+                    .global_variables
+                    .iter()
+                    .all(|(_, v)| v.binding.as_ref().is_none_or(|b| b.group == 0)),
+                "{stage}"
+            );
         }
         // Each pipeline binds what its entry point uses: visibility reads the BVH, not the texels.
         let used = used_bindings("visibility.wgsl", "main");
-        assert!(used.contains(&FIRST_SCENE_BINDING) && !used.contains(&(FIRST_SCENE_BINDING + 10)), "{used:?}");
+        assert!(
+            used.contains(&FIRST_SCENE_BINDING) && !used.contains(&(FIRST_SCENE_BINDING + 10)),
+            "{used:?}"
+        );
     }
 
     /// Every constant of the prelude reads back, in naga, as the bits of its Rust value.
@@ -512,12 +638,18 @@ mod tests {
         assert_eq!(module.constants.len(), u.len() + f.len());
         for (_, c) in module.constants.iter() {
             let name = c.name.as_deref().unwrap_or_default();
-            let naga::Expression::Literal(lit) = module.global_expressions[c.init] else { panic!("{name} is not a literal") };
+            let naga::Expression::Literal(lit) = module.global_expressions[c.init] else {
+                panic!("{name} is not a literal")
+            };
             match lit {
                 naga::Literal::U32(v) => {
                     assert_eq!(Some(v), u.iter().find(|x| x.0 == name).map(|x| x.1), "{name}")
                 }
-                naga::Literal::F32(v) => assert_eq!(Some(v.to_bits()), f.iter().find(|x| x.0 == name).map(|x| x.1.to_bits()), "{name}"),
+                naga::Literal::F32(v) => assert_eq!(
+                    Some(v.to_bits()),
+                    f.iter().find(|x| x.0 == name).map(|x| x.1.to_bits()),
+                    "{name}"
+                ),
                 other => panic!("{name}: unexpected literal {other:?}"),
             }
         }

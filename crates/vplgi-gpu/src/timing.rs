@@ -32,7 +32,11 @@ pub fn supported(device: &wgpu::Device) -> bool {
 /// Runs `work` and sums the device time of every compute pass it dispatches on this thread
 /// (through `buffers::dispatch_windows`). The time is `None` on devices without timestamp
 /// queries.
-pub fn device_time<R>(device: &wgpu::Device, queue: &wgpu::Queue, work: impl FnOnce() -> R) -> Result<(R, Option<Duration>), GpuError> {
+pub fn device_time<R>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    work: impl FnOnce() -> R,
+) -> Result<(R, Option<Duration>), GpuError> {
     let (out, kernels) = device_time_by_kernel(device, queue, work)?;
     Ok((out, kernels.map(|k| k.iter().map(|k| k.time).sum())))
 }
@@ -46,13 +50,18 @@ pub struct KernelTime {
 }
 
 /// Like [`device_time`], broken down by kernel, the most expensive first.
-pub fn device_time_by_kernel<R>(device: &wgpu::Device, queue: &wgpu::Queue, work: impl FnOnce() -> R) -> Result<(R, Option<Vec<KernelTime>>), GpuError> {
+pub fn device_time_by_kernel<R>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    work: impl FnOnce() -> R,
+) -> Result<(R, Option<Vec<KernelTime>>), GpuError> {
     if !supported(device) {
         return Ok((work(), None));
     }
     PASSES.with(|p| *p.borrow_mut() = Some(Vec::new()));
     let out = work();
-    let (kernels, staging): (Vec<String>, Vec<wgpu::Buffer>) = PASSES.with(|p| p.borrow_mut().take()).unwrap_or_default().into_iter().unzip();
+    let (kernels, staging): (Vec<String>, Vec<wgpu::Buffer>) =
+        PASSES.with(|p| p.borrow_mut().take()).unwrap_or_default().into_iter().unzip();
     let period_ns = queue.get_timestamp_period() as f64;
     let (tx, rx) = std::sync::mpsc::channel();
     for (i, b) in staging.iter().enumerate() {
@@ -65,8 +74,14 @@ pub fn device_time_by_kernel<R>(device: &wgpu::Device, queue: &wgpu::Queue, work
     crate::wait::wait_for_device(device, "timestamp read-back")?;
     let mut by_kernel: Vec<KernelTime> = Vec::new();
     for (i, r) in rx {
-        r.map_err(|e| GpuError::Lost { what: "timestamp read-back".into(), message: e.to_string() })?;
-        let view = staging[i].get_mapped_range(..).map_err(|e| GpuError::Lost { what: "timestamp read-back".into(), message: e.to_string() })?;
+        r.map_err(|e| GpuError::Lost {
+            what: "timestamp read-back".into(),
+            message: e.to_string(),
+        })?;
+        let view = staging[i].get_mapped_range(..).map_err(|e| GpuError::Lost {
+            what: "timestamp read-back".into(),
+            message: e.to_string(),
+        })?;
         let t: &[u64] = bytemuck::cast_slice(&view[..16]);
         let time = Duration::from_nanos((t[1].saturating_sub(t[0]) as f64 * period_ns) as u64);
         match by_kernel.iter_mut().find(|k| k.kernel == kernels[i]) {
@@ -94,10 +109,25 @@ pub(crate) fn pass_queries(device: &wgpu::Device) -> Option<PassQueries> {
     if !on {
         return None;
     }
-    let set = device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("pass time"), ty: wgpu::QueryType::Timestamp, count: 2 });
-    let buffer = |label, usage| device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: 16, usage, mapped_at_creation: false });
-    let resolve = buffer("pass time resolve", wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC);
-    let staging = buffer("pass time read-back", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+    let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+        label: Some("pass time"),
+        ty: wgpu::QueryType::Timestamp,
+        count: 2,
+    });
+    let buffer = |label, usage| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: 16,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let resolve = buffer(
+        "pass time resolve",
+        wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let staging =
+        buffer("pass time read-back", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
     Some(PassQueries { set, resolve, staging })
 }
 

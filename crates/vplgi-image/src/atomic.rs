@@ -24,9 +24,14 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// If `write` (or any later step) fails, or panics, the temporary file is removed and `path` is
 /// left untouched: it keeps its old content, or stays absent if it did not exist.
 /// Errors are reported as [`ImageError::Write`] naming `path`.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>) -> Result<(), ImageError> {
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> Result<(), ImageError> {
     let wrap = |source: io::Error| ImageError::Write { path: path.to_path_buf(), source };
-    let file_name = path.file_name().ok_or_else(|| wrap(io::Error::new(io::ErrorKind::InvalidInput, "the path does not name a file")))?;
+    let file_name = path.file_name().ok_or_else(|| {
+        wrap(io::Error::new(io::ErrorKind::InvalidInput, "the path does not name a file"))
+    })?;
     // `Path::parent` of a bare file name is "", which means the current directory.
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -34,7 +39,11 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     };
     let mut temp_name = std::ffi::OsString::from(".");
     temp_name.push(file_name);
-    temp_name.push(format!(".tmp-{}-{}", std::process::id(), TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
+    temp_name.push(format!(
+        ".tmp-{}-{}",
+        std::process::id(),
+        TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
     let mut guard = TempGuard { path: dir.join(temp_name), named: false, renamed: false };
 
     let (file, unnamed) = match open_unnamed(dir) {
@@ -43,7 +52,15 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
         // from a dead process that had our pid, and it is ours to overwrite.
         None => {
             guard.named = true;
-            (OpenOptions::new().write(true).create(true).truncate(true).open(&guard.path).map_err(wrap)?, false)
+            (
+                OpenOptions::new()
+                    .write(true)
+                    .create(true)
+                    .truncate(true)
+                    .open(&guard.path)
+                    .map_err(wrap)?,
+                false,
+            )
         }
     };
     let mut writer = BufWriter::new(file);
@@ -104,10 +121,19 @@ fn link_unnamed(file: &File, to: &Path) -> io::Result<()> {
     use std::os::unix::ffi::OsStrExt;
     use std::os::unix::io::AsRawFd;
     let invalid = |_| io::Error::new(io::ErrorKind::InvalidInput, "a path with a NUL byte");
-    let from = std::ffi::CString::new(format!("/proc/self/fd/{}", file.as_raw_fd())).map_err(invalid)?;
+    let from =
+        std::ffi::CString::new(format!("/proc/self/fd/{}", file.as_raw_fd())).map_err(invalid)?;
     let to = std::ffi::CString::new(to.as_os_str().as_bytes()).map_err(invalid)?;
     // SAFETY: both arguments are NUL-terminated strings that outlive the call.
-    let r = unsafe { libc::linkat(libc::AT_FDCWD, from.as_ptr(), libc::AT_FDCWD, to.as_ptr(), libc::AT_SYMLINK_FOLLOW) };
+    let r = unsafe {
+        libc::linkat(
+            libc::AT_FDCWD,
+            from.as_ptr(),
+            libc::AT_FDCWD,
+            to.as_ptr(),
+            libc::AT_SYMLINK_FOLLOW,
+        )
+    };
     if r == 0 {
         Ok(())
     } else {
@@ -146,8 +172,10 @@ mod tests {
     use std::io::Write;
 
     fn entries(dir: &Path) -> Vec<String> {
-        let mut names: Vec<String> =
-            fs::read_dir(dir).expect("read test dir").map(|e| e.expect("dir entry").file_name().to_string_lossy().into_owned()).collect();
+        let mut names: Vec<String> = fs::read_dir(dir)
+            .expect("read test dir")
+            .map(|e| e.expect("dir entry").file_name().to_string_lossy().into_owned())
+            .collect();
         names.sort();
         names
     }
@@ -201,7 +229,11 @@ mod tests {
         let target = dir.path().join("unnamed.exr");
         write_atomically(&target, |w| {
             w.write_all(b"partial")?;
-            assert!(entries(dir.path()).is_empty(), "a named file appeared while writing: {:?}", entries(dir.path()));
+            assert!(
+                entries(dir.path()).is_empty(),
+                "a named file appeared while writing: {:?}",
+                entries(dir.path())
+            );
             w.write_all(b" and complete")
         })
         .expect("write");

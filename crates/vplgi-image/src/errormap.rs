@@ -33,7 +33,8 @@ mod tests {
     fn identical_images_map_to_magma_zero() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("flip.png");
-        let img = Image { width: 6, height: 4, pixels: (0..24).map(|i| [i as f32 / 24.0; 3]).collect() };
+        let img =
+            Image { width: 6, height: 4, pixels: (0..24).map(|i| [i as f32 / 24.0; 3]).collect() };
         let cmp = compare(&img, &img).expect("compare");
         write_error_map(&path, &cmp).expect("write error map");
         let png = decode(&path);
@@ -58,7 +59,8 @@ mod tests {
         let cmp = compare(&reference, &test).expect("compare");
         write_error_map(&path, &cmp).expect("write error map");
         let png = decode(&path);
-        let brightness = |x: u32, y: u32| png.get_pixel(x, y).0.iter().map(|&c| u32::from(c)).sum::<u32>();
+        let brightness =
+            |x: u32, y: u32| png.get_pixel(x, y).0.iter().map(|&c| u32::from(c)).sum::<u32>();
         // Away from the edge, where FLIP's spatial filters blur the difference.
         assert!(brightness(28, 8) > brightness(2, 8) + 100);
     }

@@ -4,7 +4,10 @@ use std::fs::File;
 use std::io::{self, BufReader, Seek};
 use std::path::Path;
 
-use exr::prelude::{Encoding, Layer, LayerAttributes, MetaData, ReadChannels, ReadLayers, ReadSpecificChannel, SpecificChannels, Vec2, WritableImage};
+use exr::prelude::{
+    Encoding, Layer, LayerAttributes, MetaData, ReadChannels, ReadLayers, ReadSpecificChannel,
+    SpecificChannels, Vec2, WritableImage,
+};
 use image::{ExtendedColorType, ImageEncoder};
 
 use crate::{check_buffer_len, pixel_count, write_atomically, Image, ImageError};
@@ -20,7 +23,12 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageError> {
         let [r, g, b] = img.pixels[pos.y() * width + pos.x()];
         (r, g, b)
     });
-    let layer = Layer::new((width, img.height as usize), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, channels);
+    let layer = Layer::new(
+        (width, img.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
     let exr_image = exr::image::Image::from_layer(layer);
     write_atomically(path, |out| {
         exr_image.write().to_buffered(out).map_err(|e| match e {
@@ -49,7 +57,12 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
     // Look at the headers first: the exr crate only says "no layer matched your requirements"
     // when the channels are missing, and the user deserves to know which channels exist.
     let meta = MetaData::read_from_buffered(&mut reader, false).map_err(exr_err)?;
-    let has_rgb = meta.headers.iter().any(|header| !header.deep && ["R", "G", "B"].iter().all(|name| header.channels.list.iter().any(|c| c.name.eq(name))));
+    let has_rgb = meta.headers.iter().any(|header| {
+        !header.deep
+            && ["R", "G", "B"]
+                .iter()
+                .all(|name| header.channels.list.iter().any(|c| c.name.eq(name)))
+    });
     if !has_rgb {
         let mut found: Vec<String> = Vec::new();
         for header in &meta.headers {
@@ -63,8 +76,17 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
         return Err(ImageError::MissingChannels { path: path.to_path_buf(), found });
     }
     // Found by fuzzing: a header declaring billions of pixels made the decoder allocate them.
-    if let Some(h) = meta.headers.iter().find(|h| h.layer_size.width().saturating_mul(h.layer_size.height()) > MAX_EXR_PIXELS) {
-        return Err(ImageError::TooLarge { path: path.to_path_buf(), width: h.layer_size.width(), height: h.layer_size.height(), max: MAX_EXR_PIXELS });
+    if let Some(h) = meta
+        .headers
+        .iter()
+        .find(|h| h.layer_size.width().saturating_mul(h.layer_size.height()) > MAX_EXR_PIXELS)
+    {
+        return Err(ImageError::TooLarge {
+            path: path.to_path_buf(),
+            width: h.layer_size.width(),
+            height: h.layer_size.height(),
+            max: MAX_EXR_PIXELS,
+        });
     }
     reader.rewind().map_err(read_err)?;
 
@@ -77,7 +99,9 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
         .required("B")
         .collect_pixels(
             |size: Vec2<usize>, _| (size.x(), vec![[0.0f32; 3]; size.area()]),
-            |(width, pixels): &mut (usize, Vec<[f32; 3]>), pos: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
+            |(width, pixels): &mut (usize, Vec<[f32; 3]>),
+             pos: Vec2<usize>,
+             (r, g, b): (f32, f32, f32)| {
                 // Positions are always inside the layer; `get_mut` just keeps a corrupt file
                 // from turning into a panic.
                 if let Some(p) = pixels.get_mut(pos.y() * *width + pos.x()) {
@@ -92,7 +116,9 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
 
     let layer = exr_image.layer_data;
     // The EXR format stores sizes as i32, so these conversions only fail on a corrupt header.
-    let too_large = || exr_err(exr::error::Error::NotSupported("image larger than 2^32 pixels per side".into()));
+    let too_large = || {
+        exr_err(exr::error::Error::NotSupported("image larger than 2^32 pixels per side".into()))
+    };
     let width = u32::try_from(layer.size.x()).map_err(|_| too_large())?;
     let height = u32::try_from(layer.size.y()).map_err(|_| too_large())?;
     let (_, pixels) = layer.channel_data.pixels;
@@ -130,7 +156,11 @@ pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageErr
 /// atomically.
 pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), ImageError> {
     check_buffer_len(path.display().to_string(), width, height, 3, rgb.len())?;
-    write_atomically(path, |out| image::codecs::png::PngEncoder::new(out).write_image(rgb, width, height, ExtendedColorType::Rgb8).map_err(io::Error::other))
+    write_atomically(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(rgb, width, height, ExtendedColorType::Rgb8)
+            .map_err(io::Error::other)
+    })
 }
 
 /// `src` (`w` x `h` 8-bit RGB rows) resized to `to` by averaging the source pixels each target
@@ -224,7 +254,8 @@ mod tests {
 
         // u32 RGB.
         let uint_path = dir.path().join("uint.exr");
-        exr::prelude::write_rgb_file(&uint_path, 2, 2, |x, y| (x as u32, y as u32, 7u32)).expect("write u32 rgb");
+        exr::prelude::write_rgb_file(&uint_path, 2, 2, |x, y| (x as u32, y as u32, 7u32))
+            .expect("write u32 rgb");
         let img = read_exr(&uint_path).expect("read u32");
         assert_eq!(img.get(1, 0), Some([1.0, 0.0, 7.0]));
         assert_eq!(img.get(0, 1), Some([0.0, 1.0, 7.0]));
@@ -234,8 +265,11 @@ mod tests {
     fn exr_without_rgb_names_path_and_channels() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("luma.exr");
-        let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|_pos: Vec2<usize>| (0.5f32,));
-        let layer = Layer::new((2, 2), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels);
+        let channels = SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|_pos: Vec2<usize>| (0.5f32,));
+        let layer =
+            Layer::new((2, 2), LayerAttributes::default(), Encoding::UNCOMPRESSED, channels);
         exr::image::Image::from_layer(layer).write().to_file(&path).expect("write luma exr");
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, ImageError::MissingChannels { .. }), "{err:?}");
@@ -253,14 +287,19 @@ mod tests {
         write_exr(&path, &sample_image()).expect("write exr");
         let mut bytes = std::fs::read(&path).expect("read back");
         let key = b"dataWindow\0box2i\0";
-        let at = bytes.windows(key.len()).position(|w| w == key).expect("a dataWindow attribute") + key.len() + 4;
+        let at = bytes.windows(key.len()).position(|w| w == key).expect("a dataWindow attribute")
+            + key.len()
+            + 4;
         for (i, v) in [0i32, 0, 9999, 9999].into_iter().enumerate() {
             bytes[at + 4 * i..at + 4 * i + 4].copy_from_slice(&v.to_le_bytes());
         }
         std::fs::write(&path, bytes).expect("rewrite");
         let err = read_exr(&path).unwrap_err();
         assert!(matches!(err, ImageError::TooLarge { width: 10000, height: 10000, .. }), "{err:?}");
-        assert!(err.to_string().contains("huge.exr") && err.to_string().contains("10000x10000"), "{err}");
+        assert!(
+            err.to_string().contains("huge.exr") && err.to_string().contains("10000x10000"),
+            "{err}"
+        );
     }
 
     #[test]

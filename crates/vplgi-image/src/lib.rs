@@ -125,13 +125,21 @@ pub enum ImageError {
     )]
     SizeMismatch { reference: (u32, u32), test: (u32, u32) },
     /// The images of a comparison have no pixels, so the metrics (means) are undefined.
-    #[error("cannot compare empty ({width}x{height}) images: the metrics are means over no pixels")]
+    #[error(
+        "cannot compare empty ({width}x{height}) images: the metrics are means over no pixels"
+    )]
     EmptyComparison { width: u32, height: u32 },
 }
 
 /// Checks that a buffer of `actual` values matches a `width` x `height` image with `per_pixel`
 /// values per pixel.
-pub(crate) fn check_buffer_len(what: impl Into<String>, width: u32, height: u32, per_pixel: usize, actual: usize) -> Result<(), ImageError> {
+pub(crate) fn check_buffer_len(
+    what: impl Into<String>,
+    width: u32,
+    height: u32,
+    per_pixel: usize,
+    actual: usize,
+) -> Result<(), ImageError> {
     let expected = pixel_count(width, height) * per_pixel;
     if actual == expected {
         Ok(())

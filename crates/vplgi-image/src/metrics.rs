@@ -44,12 +44,18 @@ pub struct Comparison {
 /// buffer that does not match their stated size.
 pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError> {
     if (reference.width, reference.height) != (test.width, test.height) {
-        return Err(ImageError::SizeMismatch { reference: (reference.width, reference.height), test: (test.width, test.height) });
+        return Err(ImageError::SizeMismatch {
+            reference: (reference.width, reference.height),
+            test: (test.width, test.height),
+        });
     }
     reference.check_len("reference image")?;
     test.check_len("test image")?;
     if reference.pixels.is_empty() {
-        return Err(ImageError::EmptyComparison { width: reference.width, height: reference.height });
+        return Err(ImageError::EmptyComparison {
+            width: reference.width,
+            height: reference.height,
+        });
     }
 
     // Accumulate in f64: a 4K image has ~25M terms, too many for an f32 sum.
@@ -66,7 +72,8 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
             sum_test[c] += t;
         }
     }
-    let mean_ratio = [0, 1, 2].map(|c| if sum_ref[c] == 0.0 { f64::NAN } else { sum_test[c] / sum_ref[c] });
+    let mean_ratio =
+        [0, 1, 2].map(|c| if sum_ref[c] == 0.0 { f64::NAN } else { sum_test[c] / sum_ref[c] });
     let samples = (reference.pixels.len() * 3) as f64;
 
     let flip_error = ldr_flip(reference, test);
@@ -84,7 +91,9 @@ pub fn compare(reference: &Image, test: &Image) -> Result<Comparison, ImageError
 /// The LDR-FLIP error map of two same-sized, consistent, non-empty images (checked by
 /// [`compare`]), after the fixed sRGB tonemap at exposure 1.
 fn ldr_flip(reference: &Image, test: &Image) -> Vec<f32> {
-    let to_flip = |img: &Image| nv_flip::FlipImageRgb8::with_data(img.width, img.height, &tonemap_srgb8(img, 1.0));
+    let to_flip = |img: &Image| {
+        nv_flip::FlipImageRgb8::with_data(img.width, img.height, &tonemap_srgb8(img, 1.0))
+    };
     nv_flip::flip(to_flip(reference), to_flip(test), nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec()
 }
 
@@ -94,7 +103,10 @@ fn ldr_flip(reference: &Image, test: &Image) -> Vec<f32> {
 /// too, so it is read against the same measure of a converged sequence along the same path.
 pub fn relative_change(previous: &Image, next: &Image) -> Result<f64, ImageError> {
     if (previous.width, previous.height) != (next.width, next.height) {
-        return Err(ImageError::SizeMismatch { reference: (previous.width, previous.height), test: (next.width, next.height) });
+        return Err(ImageError::SizeMismatch {
+            reference: (previous.width, previous.height),
+            test: (next.width, next.height),
+        });
     }
     previous.check_len("previous frame")?;
     next.check_len("next frame")?;
@@ -119,16 +131,29 @@ pub fn relative_change(previous: &Image, next: &Image) -> Result<f64, ImageError
 /// Camera motion changes both sequences alike and cancels; what is left is the approximation's
 /// own change from frame to frame (its flicker), 0 for a sequence that changes exactly as the
 /// converged one does.
-pub fn excess_change(previous: &Image, next: &Image, (ref_previous, ref_next): (&Image, &Image)) -> Result<f64, ImageError> {
-    for (what, img) in [("next frame", next), ("converged previous frame", ref_previous), ("converged next frame", ref_next)] {
+pub fn excess_change(
+    previous: &Image,
+    next: &Image,
+    (ref_previous, ref_next): (&Image, &Image),
+) -> Result<f64, ImageError> {
+    for (what, img) in [
+        ("next frame", next),
+        ("converged previous frame", ref_previous),
+        ("converged next frame", ref_next),
+    ] {
         if (img.width, img.height) != (previous.width, previous.height) {
-            return Err(ImageError::SizeMismatch { reference: (previous.width, previous.height), test: (img.width, img.height) });
+            return Err(ImageError::SizeMismatch {
+                reference: (previous.width, previous.height),
+                test: (img.width, img.height),
+            });
         }
         img.check_len(what)?;
     }
     previous.check_len("previous frame")?;
     let (mut excess, mut total) = (0.0f64, 0.0f64);
-    for (((a, b), ra), rb) in previous.pixels.iter().zip(&next.pixels).zip(&ref_previous.pixels).zip(&ref_next.pixels) {
+    for (((a, b), ra), rb) in
+        previous.pixels.iter().zip(&next.pixels).zip(&ref_previous.pixels).zip(&ref_next.pixels)
+    {
         for c in 0..3 {
             let change = f64::from(b[c]) - f64::from(a[c]);
             let converged = f64::from(rb[c]) - f64::from(ra[c]);
@@ -156,10 +181,16 @@ mod tests {
         let moved = Image { pixels: a.pixels.iter().rev().copied().collect(), ..a.clone() };
         assert_eq!(excess_change(&a, &moved, (&a, &moved)).unwrap(), 0.0);
         // The approximation brightens by 10 % where the converged one only moved.
-        let brighter = Image { pixels: moved.pixels.iter().map(|p| p.map(|c| 1.1 * c)).collect(), ..a.clone() };
+        let brighter = Image {
+            pixels: moved.pixels.iter().map(|p| p.map(|c| 1.1 * c)).collect(),
+            ..a.clone()
+        };
         assert!((excess_change(&a, &brighter, (&a, &moved)).unwrap() - 0.1).abs() < 1e-6);
         // An approximation that stands still while the converged one moves has its motion as excess.
-        assert_eq!(excess_change(&a, &a, (&a, &moved)).unwrap(), relative_change(&a, &moved).unwrap());
+        assert_eq!(
+            excess_change(&a, &a, (&a, &moved)).unwrap(),
+            relative_change(&a, &moved).unwrap()
+        );
         assert!(excess_change(&a, &a, (&a, &filled(2, 2, [1.0; 3]))).is_err());
     }
 
@@ -167,7 +198,10 @@ mod tests {
     fn relative_change_is_the_l1_change_over_the_previous_sum() {
         let img = pattern(16, 8);
         assert_eq!(relative_change(&img, &img).unwrap(), 0.0);
-        let brighter = Image { pixels: img.pixels.iter().map(|p| p.map(|c| 1.25 * c)).collect(), ..img.clone() };
+        let brighter = Image {
+            pixels: img.pixels.iter().map(|p| p.map(|c| 1.25 * c)).collect(),
+            ..img.clone()
+        };
         assert!((relative_change(&img, &brighter).unwrap() - 0.25).abs() < 1e-6);
         // Light moving between pixels counts once where it left and once where it arrived.
         let a = Image { width: 2, height: 1, pixels: vec![[1.0; 3], [0.0; 3]] };
@@ -224,7 +258,8 @@ mod tests {
         // pixel 0: ref [0, 1, 2], test [1, 1, 2.5] => d² = [1, 0, 0.25],
         //          rel = [1/0.01, 0, 0.25/4.01]
         // pixel 1: ref [3, 0, 0], test [3, 0, 0]   => all 0
-        let reference = Image { width: 2, height: 1, pixels: vec![[0.0, 1.0, 2.0], [3.0, 0.0, 0.0]] };
+        let reference =
+            Image { width: 2, height: 1, pixels: vec![[0.0, 1.0, 2.0], [3.0, 0.0, 0.0]] };
         let test = Image { width: 2, height: 1, pixels: vec![[1.0, 1.0, 2.5], [3.0, 0.0, 0.0]] };
         let cmp = compare(&reference, &test).expect("compare");
         let mse = (1.0 + 0.25) / 6.0;
@@ -282,6 +317,9 @@ mod tests {
     fn metrics_serialize_with_field_names() {
         let m = Metrics { mse: 0.5, rel_mse: 0.25, flip: 0.125, mean_ratio: [1.0, 0.5, 2.0] };
         let json = serde_json::to_value(m).expect("serialize");
-        assert_eq!(json, serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125, "mean_ratio": [1.0, 0.5, 2.0]}));
+        assert_eq!(
+            json,
+            serde_json::json!({"mse": 0.5, "rel_mse": 0.25, "flip": 0.125, "mean_ratio": [1.0, 0.5, 2.0]})
+        );
     }
 }

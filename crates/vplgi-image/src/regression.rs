@@ -49,7 +49,14 @@ impl Regression {
 
 /// The conservative block test (module docs): `block` x `block` pixel blocks (the last ones
 /// smaller), at family-wise level `alpha`.
-pub fn compare_regions(mean: &Image, variance: &Image, seeds: u32, render: &Image, block: u32, alpha: f64) -> Regression {
+pub fn compare_regions(
+    mean: &Image,
+    variance: &Image,
+    seeds: u32,
+    render: &Image,
+    block: u32,
+    alpha: f64,
+) -> Regression {
     let (w, h) = (mean.width, mean.height);
     let (bx, by) = (w.div_ceil(block), h.div_ceil(block));
     let tests = (bx * by * 3) as usize;
@@ -93,14 +100,21 @@ pub fn compare_regions(mean: &Image, variance: &Image, seeds: u32, render: &Imag
 
 /// Tests `render` against the reference (`mean`, `variance` of `seeds` renders) at family-wise
 /// level `alpha`.
-pub fn compare_with_reference(mean: &Image, variance: &Image, seeds: u32, render: &Image, alpha: f64) -> Regression {
+pub fn compare_with_reference(
+    mean: &Image,
+    variance: &Image,
+    seeds: u32,
+    render: &Image,
+    alpha: f64,
+) -> Regression {
     let tests = mean.pixels.len() * 3;
     let dof = seeds.saturating_sub(1).max(1) as f64;
     let threshold = student_t_two_sided(alpha / tests as f64, dof);
     let scale = (1.0 + 1.0 / seeds.max(1) as f64).sqrt();
     let mut failures = 0;
     let mut worst = (0.0f64, 0usize, 0usize);
-    for (i, ((m, v), x)) in mean.pixels.iter().zip(&variance.pixels).zip(&render.pixels).enumerate() {
+    for (i, ((m, v), x)) in mean.pixels.iter().zip(&variance.pixels).zip(&render.pixels).enumerate()
+    {
         for c in 0..3 {
             let (m, v, x) = (m[c] as f64, v[c] as f64, x[c] as f64);
             let t = if v > 0.0 {
@@ -174,7 +188,8 @@ fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
     if x >= 1.0 {
         return 1.0;
     }
-    let front = (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    let front =
+        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
     if x > (a + 1.0) / (a + b + 2.0) {
         return 1.0 - incomplete_beta(1.0 - x, b, a);
     }
@@ -184,7 +199,10 @@ fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
     let mut f = d;
     for m in 1..500 {
         let m = m as f64;
-        for numerator in [m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m)), -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0))] {
+        for numerator in [
+            m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m)),
+            -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0)),
+        ] {
             d = 1.0 + numerator * d;
             d = 1.0 / if d.abs() < tiny { tiny } else { d };
             c = 1.0 + numerator / c;
@@ -208,7 +226,12 @@ mod tests {
     fn student_t_quantiles_match_tables() {
         // Two-sided: P(|T| > t) = 0.05 with 7 dof is t = 2.3646; 0.01 with 15 dof, 2.9467;
         // 1e-6 with 1e6 dof approaches the normal's 4.8916.
-        for (p, dof, t) in [(0.05, 7.0, 2.364_624), (0.01, 15.0, 2.946_713), (0.2, 1.0, 3.077_684), (1e-6, 1e6, 4.891_638)] {
+        for (p, dof, t) in [
+            (0.05, 7.0, 2.364_624),
+            (0.01, 15.0, 2.946_713),
+            (0.2, 1.0, 3.077_684),
+            (1e-6, 1e6, 4.891_638),
+        ] {
             let got = student_t_two_sided(p, dof);
             assert!((got - t).abs() < 1e-4 * t, "p {p}, dof {dof}: {got} vs {t}");
         }

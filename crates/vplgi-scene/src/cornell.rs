@@ -5,9 +5,17 @@ use crate::{Camera, Material, PunctualLight, Scene};
 use glam::{Vec2, Vec3};
 
 /// Centre of the short box's footprint on the floor, its half extents and its rotation about y.
-const SHORT_BOX: BoxSpec = BoxSpec { center: Vec3::new(0.35, 0.0, 0.35), half: Vec3::new(0.3, 0.3, 0.3), angle_deg: -18.0 };
+const SHORT_BOX: BoxSpec = BoxSpec {
+    center: Vec3::new(0.35, 0.0, 0.35),
+    half: Vec3::new(0.3, 0.3, 0.3),
+    angle_deg: -18.0,
+};
 /// The tall box, standing back left like in the classic arrangement.
-const TALL_BOX: BoxSpec = BoxSpec { center: Vec3::new(-0.35, 0.0, -0.3), half: Vec3::new(0.3, 0.6, 0.3), angle_deg: 18.0 };
+const TALL_BOX: BoxSpec = BoxSpec {
+    center: Vec3::new(-0.35, 0.0, -0.3),
+    half: Vec3::new(0.3, 0.6, 0.3),
+    angle_deg: 18.0,
+};
 /// Half size of the square ceiling light.
 const LIGHT_HALF: f32 = 0.25;
 /// Height of the ceiling light: a little below the ceiling (y = 2) so the two never coincide.
@@ -35,22 +43,62 @@ pub fn cornell_box() -> Scene {
     let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 2.0, -1.0, 1.0);
     let corners = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     // Floor, ceiling and back wall: white.
-    add_quad(&mut s, [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y0, z1), corners(x0, y0, z1)], Vec3::Y, white);
-    add_quad(&mut s, [corners(x0, y1, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x0, y1, z1)], -Vec3::Y, white);
-    add_quad(&mut s, [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y1, z0), corners(x0, y1, z0)], Vec3::Z, white);
+    add_quad(
+        &mut s,
+        [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y0, z1), corners(x0, y0, z1)],
+        Vec3::Y,
+        white,
+    );
+    add_quad(
+        &mut s,
+        [corners(x0, y1, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x0, y1, z1)],
+        -Vec3::Y,
+        white,
+    );
+    add_quad(
+        &mut s,
+        [corners(x0, y0, z0), corners(x1, y0, z0), corners(x1, y1, z0), corners(x0, y1, z0)],
+        Vec3::Z,
+        white,
+    );
     // Left wall red, right wall green.
-    add_quad(&mut s, [corners(x0, y0, z0), corners(x0, y1, z0), corners(x0, y1, z1), corners(x0, y0, z1)], Vec3::X, red);
-    add_quad(&mut s, [corners(x1, y0, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x1, y0, z1)], -Vec3::X, green);
+    add_quad(
+        &mut s,
+        [corners(x0, y0, z0), corners(x0, y1, z0), corners(x0, y1, z1), corners(x0, y0, z1)],
+        Vec3::X,
+        red,
+    );
+    add_quad(
+        &mut s,
+        [corners(x1, y0, z0), corners(x1, y1, z0), corners(x1, y1, z1), corners(x1, y0, z1)],
+        -Vec3::X,
+        green,
+    );
 
     add_box(&mut s, &SHORT_BOX, white);
     add_box(&mut s, &TALL_BOX, white);
 
     let h = LIGHT_HALF;
-    add_quad(&mut s, [Vec3::new(-h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, -h), Vec3::new(h, LIGHT_Y, h), Vec3::new(-h, LIGHT_Y, h)], -Vec3::Y, light);
+    add_quad(
+        &mut s,
+        [
+            Vec3::new(-h, LIGHT_Y, -h),
+            Vec3::new(h, LIGHT_Y, -h),
+            Vec3::new(h, LIGHT_Y, h),
+            Vec3::new(-h, LIGHT_Y, h),
+        ],
+        -Vec3::Y,
+        light,
+    );
 
     // At z = 3.9 a 40 degree field of view sees 2 * 2.9 * tan(20 deg) = 2.1 units of height at
     // the opening (z = 1), so the whole 2-unit-high front fills the frame.
-    s.camera = Camera { position: Vec3::new(0.0, 1.0, 3.9), forward: -Vec3::Z, up: Vec3::Y, yfov: 40f32.to_radians() };
+    s.camera = Camera {
+        position: Vec3::new(0.0, 1.0, 3.9),
+        forward: -Vec3::Z,
+        up: Vec3::Y,
+        yfov: 40f32.to_radians(),
+    };
     s
 }
 
@@ -62,19 +110,38 @@ pub fn plane_with_point_light(half_size: f32, height: f32, albedo: f32, intensit
     let mut s = Scene { name: "plane-with-point-light".into(), ..Scene::default() };
     let floor = add_material(&mut s, "floor", Vec3::splat(albedo), Vec3::ZERO);
     let a = half_size;
-    add_quad(&mut s, [Vec3::new(-a, 0.0, -a), Vec3::new(a, 0.0, -a), Vec3::new(a, 0.0, a), Vec3::new(-a, 0.0, a)], Vec3::Y, floor);
-    s.lights.push(PunctualLight::Point { position: Vec3::new(0.0, height, 0.0), intensity: Vec3::splat(intensity) });
+    add_quad(
+        &mut s,
+        [
+            Vec3::new(-a, 0.0, -a),
+            Vec3::new(a, 0.0, -a),
+            Vec3::new(a, 0.0, a),
+            Vec3::new(-a, 0.0, a),
+        ],
+        Vec3::Y,
+        floor,
+    );
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::new(0.0, height, 0.0),
+        intensity: Vec3::splat(intensity),
+    });
 
     let yfov = 45f32.to_radians();
     // Far enough that the plane's half size fits the half field of view, with a 10% margin.
     let distance = 1.1 * half_size / (0.5 * yfov).tan();
     // Looking down, "up" in the image must be horizontal; -z keeps +x to the right.
-    s.camera = Camera { position: Vec3::new(0.0, distance, 0.0), forward: -Vec3::Y, up: -Vec3::Z, yfov };
+    s.camera =
+        Camera { position: Vec3::new(0.0, distance, 0.0), forward: -Vec3::Y, up: -Vec3::Z, yfov };
     s
 }
 
 fn add_material(s: &mut Scene, name: &str, base_color: Vec3, emission: Vec3) -> u32 {
-    s.materials.push(Material { name: name.into(), base_color, base_color_texture: None, emission });
+    s.materials.push(Material {
+        name: name.into(),
+        base_color,
+        base_color_texture: None,
+        emission,
+    });
     (s.materials.len() - 1) as u32
 }
 
@@ -105,14 +172,20 @@ fn add_box(s: &mut Scene, b: &BoxSpec, material: u32) {
     let ax = Vec3::new(cos, 0.0, -sin) * b.half.x;
     let az = Vec3::new(sin, 0.0, cos) * b.half.z;
     let up = Vec3::Y * (2.0 * b.half.y);
-    let at = |i: f32, k: f32, top: bool| b.center + ax * i + az * k + if top { up } else { Vec3::ZERO };
+    let at =
+        |i: f32, k: f32, top: bool| b.center + ax * i + az * k + if top { up } else { Vec3::ZERO };
     let centre = b.center + 0.5 * up;
     let mut face = |corners: [Vec3; 4]| {
         let mid = 0.25 * corners.iter().copied().sum::<Vec3>();
         add_quad(s, corners, mid - centre, material);
     };
     face([at(-1.0, -1.0, true), at(1.0, -1.0, true), at(1.0, 1.0, true), at(-1.0, 1.0, true)]);
-    for (i0, k0, i1, k1) in [(-1.0, -1.0, 1.0, -1.0), (1.0, -1.0, 1.0, 1.0), (1.0, 1.0, -1.0, 1.0), (-1.0, 1.0, -1.0, -1.0)] {
+    for (i0, k0, i1, k1) in [
+        (-1.0, -1.0, 1.0, -1.0),
+        (1.0, -1.0, 1.0, 1.0),
+        (1.0, 1.0, -1.0, 1.0),
+        (-1.0, 1.0, -1.0, -1.0),
+    ] {
         face([at(i0, k0, false), at(i1, k1, false), at(i1, k1, true), at(i0, k0, true)]);
     }
 }
@@ -128,7 +201,10 @@ mod tests {
     /// True when `p` lies on one of the room's five walls.
     fn on_room_boundary(p: Vec3) -> bool {
         let eps = 1e-4;
-        (p.x.abs() - 1.0).abs() < eps || p.y.abs() < eps || (p.y - 2.0).abs() < eps || (p.z + 1.0).abs() < eps
+        (p.x.abs() - 1.0).abs() < eps
+            || p.y.abs() < eps
+            || (p.y - 2.0).abs() < eps
+            || (p.z + 1.0).abs() < eps
     }
 
     #[test]
@@ -164,7 +240,10 @@ mod tests {
             let (c, n) = (centroid(tri), s.geometric_normal(t));
             // Vertex normals are the flat face normals.
             for &v in &s.indices[t] {
-                assert!((s.normals[v as usize] - n).length() < 1e-5, "triangle {t}: vertex normal differs");
+                assert!(
+                    (s.normals[v as usize] - n).length() < 1e-5,
+                    "triangle {t}: vertex normal differs"
+                );
             }
             if s.emission(t) != Vec3::ZERO {
                 continue;
@@ -211,7 +290,11 @@ mod tests {
             }
         }
         // The tall box top is at 1.2, the short box top at 0.6.
-        let max_box_y = (0..s.triangle_count()).flat_map(|t| s.triangle(t)).filter(|p| p.y < 1.9).map(|p| p.y).fold(0.0f32, f32::max);
+        let max_box_y = (0..s.triangle_count())
+            .flat_map(|t| s.triangle(t))
+            .filter(|p| p.y < 1.9)
+            .map(|p| p.y)
+            .fold(0.0f32, f32::max);
         assert!((max_box_y - 1.2).abs() < 1e-6);
     }
 
@@ -225,7 +308,10 @@ mod tests {
         for (sy, expect_outside) in [(0.0, 2.0), (100.0, 0.0)] {
             let d = c.ray_direction(50.0, sy, 100, 100);
             let p = c.position + d * ((1.0 - c.position.z) / d.z);
-            assert!((p.y - 1.0).abs() > 1.0 && (p.y - expect_outside).abs() < 0.1, "edge ray hits the opening at {p}");
+            assert!(
+                (p.y - 1.0).abs() > 1.0 && (p.y - expect_outside).abs() < 0.1,
+                "edge ray hits the opening at {p}"
+            );
         }
     }
 
@@ -236,10 +322,19 @@ mod tests {
         assert_eq!(s.triangle_count(), 2);
         for t in 0..2 {
             assert_eq!(s.geometric_normal(t), Vec3::Y);
-            assert!(s.triangle(t).iter().all(|p| p.y == 0.0 && p.x.abs() <= 2.0 && p.z.abs() <= 2.0));
+            assert!(s
+                .triangle(t)
+                .iter()
+                .all(|p| p.y == 0.0 && p.x.abs() <= 2.0 && p.z.abs() <= 2.0));
         }
         assert_eq!(s.bounds(), (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 1.5, 2.0)));
-        assert_eq!(s.lights, vec![PunctualLight::Point { position: Vec3::new(0.0, 1.5, 0.0), intensity: Vec3::splat(10.0) }]);
+        assert_eq!(
+            s.lights,
+            vec![PunctualLight::Point {
+                position: Vec3::new(0.0, 1.5, 0.0),
+                intensity: Vec3::splat(10.0)
+            }]
+        );
         assert_eq!(s.albedo(0, 0.2, 0.2), Vec3::splat(0.5));
         assert_eq!(s.emission(0), Vec3::ZERO);
         let c = s.camera;

@@ -26,10 +26,26 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 /// The generators, by name: (name, default triangle budget, what it is).
 pub const GENERATORS: [(&str, usize, &str); 6] = [
     ("cornell-fine", 1_900_000, "the Cornell box tessellated to the paper's 1.9 M triangles"),
-    ("conference", 300_000, "a meeting room with rows of tables and chairs on thin legs, ceiling panels"),
-    ("living-room", 300_000, "large smooth walls, two sofas and a table, lit through a window-like panel"),
-    ("sunlit-living-room", 300_000, "the living room with an open window and the sun shining through it"),
-    ("seams", 36, "a Cornell box of separately transformed meshes meeting at hairline cracks, centred camera"),
+    (
+        "conference",
+        300_000,
+        "a meeting room with rows of tables and chairs on thin legs, ceiling panels",
+    ),
+    (
+        "living-room",
+        300_000,
+        "large smooth walls, two sofas and a table, lit through a window-like panel",
+    ),
+    (
+        "sunlit-living-room",
+        300_000,
+        "the living room with an open window and the sun shining through it",
+    ),
+    (
+        "seams",
+        36,
+        "a Cornell box of separately transformed meshes meeting at hairline cracks, centred camera",
+    ),
     ("seams-rotated", 36, "the same room turned about a tilted axis and moved off the origin"),
 ];
 
@@ -41,8 +57,16 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
         "living-room" => living_room(triangles),
         "sunlit-living-room" => sunlit_living_room(triangles),
         "seams" => crate::seams::seam_room(crate::seams::Placement::AXIS_ALIGNED, triangles).scene,
-        "seams-rotated" => Scene { name: "seams-rotated".into(), ..crate::seams::seam_room(crate::seams::Placement::rotated(), triangles).scene },
-        _ => return Err(format!("unknown scene {name:?}; the generators are {}", GENERATORS.map(|g| g.0).join(", "))),
+        "seams-rotated" => Scene {
+            name: "seams-rotated".into(),
+            ..crate::seams::seam_room(crate::seams::Placement::rotated(), triangles).scene
+        },
+        _ => {
+            return Err(format!(
+                "unknown scene {name:?}; the generators are {}",
+                GENERATORS.map(|g| g.0).join(", ")
+            ))
+        }
     };
     scene.validate()?;
     Ok(scene)
@@ -66,7 +90,8 @@ pub fn camera_walk(scene: &Scene, keys: u32) -> Result<CameraPath, String> {
         let s = i as f32 / (keys - 1) as f32;
         let sway = (std::f32::consts::TAU * s).sin();
         times.push(i as f32);
-        positions.push(c.position + ahead * (0.12 * diagonal * s) + side * (0.02 * diagonal * sway));
+        positions
+            .push(c.position + ahead * (0.12 * diagonal * s) + side * (0.02 * diagonal * sway));
         rotations.push((Quat::from_rotation_y(8f32.to_radians() * sway) * base).normalize());
     }
     Ok(CameraPath {
@@ -83,10 +108,19 @@ pub fn camera_walk(scene: &Scene, keys: u32) -> Result<CameraPath, String> {
 /// triangles sharing an edge get bit-identical vertices there: no cracks for shadow rays.
 pub fn cornell_fine(triangles: usize) -> Scene {
     let base = crate::cornell::cornell_box();
-    let split: Vec<usize> = (0..base.triangle_count()).filter(|&t| base.materials[base.material_ids[t] as usize].emission == Vec3::ZERO).collect();
+    let split: Vec<usize> = (0..base.triangle_count())
+        .filter(|&t| base.materials[base.material_ids[t] as usize].emission == Vec3::ZERO)
+        .collect();
     let kept = base.triangle_count() - split.len();
-    let n = (((triangles.saturating_sub(kept)) as f64 / split.len().max(1) as f64).sqrt().round() as usize).max(1);
-    let mut s = Scene { name: "cornell-fine".into(), materials: base.materials.clone(), camera: base.camera, ..Scene::default() };
+    let n = (((triangles.saturating_sub(kept)) as f64 / split.len().max(1) as f64).sqrt().round()
+        as usize)
+        .max(1);
+    let mut s = Scene {
+        name: "cornell-fine".into(),
+        materials: base.materials.clone(),
+        camera: base.camera,
+        ..Scene::default()
+    };
     for t in 0..base.triangle_count() {
         let [a, b, c] = base.indices[t];
         let m = base.material_ids[t];
@@ -160,7 +194,12 @@ impl Builder {
     }
 
     fn material(&mut self, name: &str, base_color: Vec3, emission: Vec3) -> u32 {
-        self.s.materials.push(Material { name: name.into(), base_color, base_color_texture: None, emission });
+        self.s.materials.push(Material {
+            name: name.into(),
+            base_color,
+            base_color_texture: None,
+            emission,
+        });
         (self.s.materials.len() - 1) as u32
     }
 
@@ -218,7 +257,8 @@ impl Builder {
             }
         }
         for k in 0..segments as u32 {
-            let (b0, t0, b1, t1) = (first + 2 * k, first + 2 * k + 1, first + 2 * k + 2, first + 2 * k + 3);
+            let (b0, t0, b1, t1) =
+                (first + 2 * k, first + 2 * k + 1, first + 2 * k + 2, first + 2 * k + 3);
             self.s.indices.push([b0, b1, t1]);
             self.s.indices.push([b0, t1, t0]);
             self.s.material_ids.extend([material, material]);
@@ -241,7 +281,14 @@ impl Builder {
 
     /// [`Builder::room`], the left wall (x = lo.x) with an open window over the (y, z) rectangle
     /// `window` when given: the wall is then four grids around the opening.
-    fn room_with_window(&mut self, lo: Vec3, hi: Vec3, triangles: usize, materials: RoomMaterials, window: Option<(Vec2, Vec2)>) {
+    fn room_with_window(
+        &mut self,
+        lo: Vec3,
+        hi: Vec3,
+        triangles: usize,
+        materials: RoomMaterials,
+        window: Option<(Vec2, Vec2)>,
+    ) {
         let RoomMaterials { floor, walls, ceiling } = materials;
         let d = hi - lo;
         let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
@@ -258,12 +305,20 @@ impl Builder {
             Some((w_lo, w_hi)) => {
                 // Below, above, and either side of the opening, each facing +x.
                 let at = |yy: f32, zz: f32| Vec3::new(lo.x, yy, zz);
-                let (dy_lo, dy_hi, dz_lo, dz_hi) = (w_lo.x - lo.y, hi.y - w_hi.x, w_lo.y - lo.z, hi.z - w_hi.y);
+                let (dy_lo, dy_hi, dz_lo, dz_hi) =
+                    (w_lo.x - lo.y, hi.y - w_hi.x, w_lo.y - lo.z, hi.z - w_hi.y);
                 let wy = w_hi.x - w_lo.x;
                 self.grid(at(lo.y, lo.z), Vec3::Y * dy_lo, z, n(dy_lo), n(d.z), walls);
                 self.grid(at(w_hi.x, lo.z), Vec3::Y * dy_hi, z, n(dy_hi), n(d.z), walls);
                 self.grid(at(w_lo.x, lo.z), Vec3::Y * wy, Vec3::Z * dz_lo, n(wy), n(dz_lo), walls);
-                self.grid(at(w_lo.x, w_hi.y), Vec3::Y * wy, Vec3::Z * dz_hi, n(wy), n(dz_hi), walls);
+                self.grid(
+                    at(w_lo.x, w_hi.y),
+                    Vec3::Y * wy,
+                    Vec3::Z * dz_hi,
+                    n(wy),
+                    n(dz_hi),
+                    walls,
+                );
             }
         }
         self.grid(lo + x, z, y, n(d.z), n(d.y), walls); // right wall faces -x
@@ -285,16 +340,34 @@ pub fn conference(triangles: usize) -> Scene {
     for row in [-2.5f32, 0.0, 2.5] {
         for side in [-3.0f32, 3.0] {
             let c = Vec3::new(side, 0.0, row);
-            b.boxed(c + Vec3::new(-1.2, 0.72, -0.45), c + Vec3::new(1.2, 0.76, 0.45), 2, true, wood);
+            b.boxed(
+                c + Vec3::new(-1.2, 0.72, -0.45),
+                c + Vec3::new(1.2, 0.76, 0.45),
+                2,
+                true,
+                wood,
+            );
             for (lx, lz) in [(-1.1, -0.38), (1.1, -0.38), (-1.1, 0.38), (1.1, 0.38)] {
                 b.cylinder(c + Vec3::new(lx, 0.0, lz), 0.025, 0.72, segments, metal);
             }
             for k in 0..4 {
                 for dir in [-1.0f32, 1.0] {
                     let s = c + Vec3::new(-0.9 + 0.6 * k as f32, 0.0, dir * 0.75);
-                    b.boxed(s + Vec3::new(-0.22, 0.44, -0.22), s + Vec3::new(0.22, 0.48, 0.22), 1, true, seat);
+                    b.boxed(
+                        s + Vec3::new(-0.22, 0.44, -0.22),
+                        s + Vec3::new(0.22, 0.48, 0.22),
+                        1,
+                        true,
+                        seat,
+                    );
                     let back = s + Vec3::new(0.0, 0.0, dir * 0.2);
-                    b.boxed(back + Vec3::new(-0.22, 0.48, -0.02), back + Vec3::new(0.22, 0.95, 0.02), 1, true, seat);
+                    b.boxed(
+                        back + Vec3::new(-0.22, 0.48, -0.02),
+                        back + Vec3::new(0.22, 0.95, 0.02),
+                        1,
+                        true,
+                        seat,
+                    );
                     for (lx, lz) in [(-0.19, -0.19), (0.19, -0.19), (-0.19, 0.19), (0.19, 0.19)] {
                         b.cylinder(s + Vec3::new(lx, 0.0, lz), 0.015, 0.44, segments, metal);
                     }
@@ -309,7 +382,12 @@ pub fn conference(triangles: usize) -> Scene {
         }
     }
     let used = b.s.triangle_count();
-    b.room(Vec3::new(-6.0, 0.0, -4.0), Vec3::new(6.0, 3.0, 4.0), triangles.saturating_sub(used), RoomMaterials { floor, walls, ceiling });
+    b.room(
+        Vec3::new(-6.0, 0.0, -4.0),
+        Vec3::new(6.0, 3.0, 4.0),
+        triangles.saturating_sub(used),
+        RoomMaterials { floor, walls, ceiling },
+    );
     b.s.camera = Camera {
         position: Vec3::new(0.0, 1.6, 3.8),
         forward: Vec3::new(0.0, -0.25, -1.0).normalize(),
@@ -348,7 +426,8 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
     let fabric = b.material("sofa", Vec3::new(0.6, 0.2, 0.15), Vec3::ZERO);
     let cushion = b.material("cushions", Vec3::new(0.7, 0.6, 0.45), Vec3::ZERO);
     let wood = b.material("table", Vec3::new(0.3, 0.2, 0.12), Vec3::ZERO);
-    let window = (!sun).then(|| b.material("window", Vec3::splat(0.9), Vec3::new(20.0, 19.0, 17.0)));
+    let window =
+        (!sun).then(|| b.material("window", Vec3::splat(0.9), Vec3::new(20.0, 19.0, 17.0)));
     let lamp = b.material("lamp", Vec3::splat(0.9), Vec3::new(4.0, 3.5, 2.8));
     // Sofas: against the back wall (facing +z) and the right wall (facing -x).
     let sofa = |b: &mut Builder, lo: Vec3, hi: Vec3, along_x: bool| {
@@ -360,9 +439,15 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
             let f0 = k as f32 / seats as f32;
             let f1 = (k + 1) as f32 / seats as f32;
             let (a, c) = if along_x {
-                (Vec3::new(lo.x + d.x * f0 + 0.02, 0.4, lo.z + 0.2), Vec3::new(lo.x + d.x * f1 - 0.02, 0.52, hi.z - 0.02))
+                (
+                    Vec3::new(lo.x + d.x * f0 + 0.02, 0.4, lo.z + 0.2),
+                    Vec3::new(lo.x + d.x * f1 - 0.02, 0.52, hi.z - 0.02),
+                )
             } else {
-                (Vec3::new(lo.x + 0.02, 0.4, lo.z + d.z * f0 + 0.02), Vec3::new(hi.x - 0.2, 0.52, lo.z + d.z * f1 - 0.02))
+                (
+                    Vec3::new(lo.x + 0.02, 0.4, lo.z + d.z * f0 + 0.02),
+                    Vec3::new(hi.x - 0.2, 0.52, lo.z + d.z * f1 - 0.02),
+                )
             };
             b.boxed(a, c, n, false, cushion);
         }
@@ -382,8 +467,18 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
     // an opening there.
     let opening = (Vec2::new(0.8, -1.5), Vec2::new(2.2, 0.9));
     match window {
-        Some(window) => b.grid(Vec3::new(-3.49, opening.0.x, opening.0.y), Vec3::Y * 1.4, Vec3::Z * 2.4, 1, 1, window),
-        None => b.s.lights.push(PunctualLight::Directional { direction: LIVING_ROOM_SUN.normalize(), irradiance: Vec3::new(20.0, 19.0, 17.0) }),
+        Some(window) => b.grid(
+            Vec3::new(-3.49, opening.0.x, opening.0.y),
+            Vec3::Y * 1.4,
+            Vec3::Z * 2.4,
+            1,
+            1,
+            window,
+        ),
+        None => b.s.lights.push(PunctualLight::Directional {
+            direction: LIVING_ROOM_SUN.normalize(),
+            irradiance: Vec3::new(20.0, 19.0, 17.0),
+        }),
     }
     b.grid(Vec3::new(-0.3, 2.79, -0.3), Vec3::X * 0.6, Vec3::Z * 0.6, 1, 1, lamp);
     let used = b.s.triangle_count();
@@ -394,7 +489,12 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
         RoomMaterials { floor, walls, ceiling },
         sun.then_some(opening),
     );
-    b.s.camera = Camera { position: Vec3::new(1.5, 1.5, 2.8), forward: Vec3::new(-0.45, -0.3, -1.0).normalize(), up: Vec3::Y, yfov: 60f32.to_radians() };
+    b.s.camera = Camera {
+        position: Vec3::new(1.5, 1.5, 2.8),
+        forward: Vec3::new(-0.45, -0.3, -1.0).normalize(),
+        up: Vec3::Y,
+        yfov: 60f32.to_radians(),
+    };
     // Keep `up` orthogonal to `forward`.
     let f = b.s.camera.forward;
     b.s.camera.up = (Vec3::Y - f * f.dot(Vec3::Y)).normalize();
@@ -413,8 +513,14 @@ mod tests {
                 let s = generate(name, budget).unwrap();
                 let t = s.triangle_count();
                 println!("{name} at a budget of {budget}: {t} triangles");
-                assert!((t as f64) > 0.8 * budget as f64 && (t as f64) < 1.25 * budget as f64, "{name}: {t} triangles for {budget}");
-                assert!(s.materials.iter().any(|m| m.emission.max_element() > 0.0), "{name} has no light");
+                assert!(
+                    (t as f64) > 0.8 * budget as f64 && (t as f64) < 1.25 * budget as f64,
+                    "{name}: {t} triangles for {budget}"
+                );
+                assert!(
+                    s.materials.iter().any(|m| m.emission.max_element() > 0.0),
+                    "{name} has no light"
+                );
                 let again = generate(name, budget).unwrap();
                 assert_eq!(s.positions, again.positions, "{name} is not deterministic");
                 assert_eq!(s.indices, again.indices);
@@ -434,9 +540,13 @@ mod tests {
             for t in 0..s.triangle_count() {
                 let [a, b, c] = s.triangle(t);
                 let mid = (a + b + c) / 3.0;
-                let on_boundary = (0..3).any(|k| (mid[k] - lo[k]).abs() < 1e-4 || (mid[k] - hi[k]).abs() < 1e-4);
+                let on_boundary =
+                    (0..3).any(|k| (mid[k] - lo[k]).abs() < 1e-4 || (mid[k] - hi[k]).abs() < 1e-4);
                 if on_boundary {
-                    assert!(s.geometric_normal(t).dot(centre - mid) > 0.0, "{name}: triangle {t} of the room faces outwards");
+                    assert!(
+                        s.geometric_normal(t).dot(centre - mid) > 0.0,
+                        "{name}: triangle {t} of the room faces outwards"
+                    );
                 }
             }
         }
@@ -453,7 +563,10 @@ mod tests {
             for t in 0..s.triangle_count() {
                 if s.materials[s.material_ids[t] as usize].emission.max_element() > 0.0 {
                     let [a, b, c] = s.triangle(t);
-                    assert!(s.geometric_normal(t).dot(centre - (a + b + c) / 3.0) > 0.0, "{name}: light triangle {t} faces away");
+                    assert!(
+                        s.geometric_normal(t).dot(centre - (a + b + c) / 3.0) > 0.0,
+                        "{name}: light triangle {t} faces away"
+                    );
                     lights += 1;
                 }
             }
@@ -478,9 +591,21 @@ mod tests {
         assert!((area(&coarse) - area(&fine)).abs() < 1e-3 * area(&coarse));
         // Vertices on the shared diagonal of the floor quad (from (-1, 0, 1) to (1, 0, -1)) appear
         // in both halves, bitwise equal.
-        let on_floor: Vec<Vec3> = fine.positions.iter().copied().filter(|p| p.y == 0.0 && (p.x + p.z).abs() < 1e-6 && p.x.abs() < 1.0).collect();
-        let distinct: std::collections::HashSet<[u32; 3]> = on_floor.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+        let on_floor: Vec<Vec3> = fine
+            .positions
+            .iter()
+            .copied()
+            .filter(|p| p.y == 0.0 && (p.x + p.z).abs() < 1e-6 && p.x.abs() < 1.0)
+            .collect();
+        let distinct: std::collections::HashSet<[u32; 3]> =
+            on_floor.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
         assert!(distinct.len() > 10);
-        assert_eq!(on_floor.len(), 2 * distinct.len(), "{} diagonal vertices, {} distinct", on_floor.len(), distinct.len());
+        assert_eq!(
+            on_floor.len(),
+            2 * distinct.len(),
+            "{} diagonal vertices, {} distinct",
+            on_floor.len(),
+            distinct.len()
+        );
     }
 }

@@ -27,19 +27,41 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         bin.extend_from_slice(bytes);
         views.len() - 1
     };
-    let floats = |v: &mut dyn Iterator<Item = f32>| -> Vec<u8> { v.flat_map(f32::to_le_bytes).collect() };
+    let floats =
+        |v: &mut dyn Iterator<Item = f32>| -> Vec<u8> { v.flat_map(f32::to_le_bytes).collect() };
     let n = scene.positions.len();
-    let (lo, hi) = scene.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| (a.min(p), b.max(p)));
-    let pos_view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(34962));
+    let (lo, hi) = scene
+        .positions
+        .iter()
+        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), &p| {
+            (a.min(p), b.max(p))
+        });
+    let pos_view = push_view(
+        &mut bin,
+        &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())),
+        Some(34962),
+    );
     accessors.push(json!({"bufferView": pos_view, "componentType": 5126, "count": n, "type": "VEC3", "min": lo.to_array(), "max": hi.to_array()}));
-    let nrm_view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|p| p.to_array())), Some(34962));
-    accessors.push(json!({"bufferView": nrm_view, "componentType": 5126, "count": n, "type": "VEC3"}));
-    let uv_view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|p| p.to_array())), Some(34962));
-    accessors.push(json!({"bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2"}));
+    let nrm_view = push_view(
+        &mut bin,
+        &floats(&mut scene.normals.iter().flat_map(|p| p.to_array())),
+        Some(34962),
+    );
+    accessors
+        .push(json!({"bufferView": nrm_view, "componentType": 5126, "count": n, "type": "VEC3"}));
+    let uv_view =
+        push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|p| p.to_array())), Some(34962));
+    accessors
+        .push(json!({"bufferView": uv_view, "componentType": 5126, "count": n, "type": "VEC2"}));
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
-        let idx: Vec<u8> =
-            scene.indices.iter().zip(&scene.material_ids).filter(|(_, &id)| id == m).flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes())).collect();
+        let idx: Vec<u8> = scene
+            .indices
+            .iter()
+            .zip(&scene.material_ids)
+            .filter(|(_, &id)| id == m)
+            .flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes()))
+            .collect();
         if idx.is_empty() {
             continue;
         }
@@ -77,7 +99,12 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         }
         let mut samplers = Vec::new();
         let mut channels = Vec::new();
-        let mut track = |bin: &mut Vec<u8>, times: &[f32], values: Vec<f32>, kind: &str, step: bool, property: &str| {
+        let mut track = |bin: &mut Vec<u8>,
+                         times: &[f32],
+                         values: Vec<f32>,
+                         kind: &str,
+                         step: bool,
+                         property: &str| {
             let (lo, hi) = (times[0], times[times.len() - 1]);
             let view = push_view(bin, &floats(&mut times.iter().copied()), None);
             accessors.push(json!({"bufferView": view, "componentType": 5126, "count": times.len(), "type": "SCALAR", "min": [lo], "max": [hi]}));
@@ -85,15 +112,31 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
             accessors.push(json!({"bufferView": view, "componentType": 5126, "count": times.len(), "type": kind}));
             let interpolation = if step { "STEP" } else { "LINEAR" };
             samplers.push(json!({"input": accessors.len() - 2, "output": accessors.len() - 1, "interpolation": interpolation}));
-            channels.push(json!({"sampler": samplers.len() - 1, "target": {"node": 1, "path": property}}));
+            channels.push(
+                json!({"sampler": samplers.len() - 1, "target": {"node": 1, "path": property}}),
+            );
         };
         // A constant track is the node's own translation or rotation: no channel.
         let (t, r) = (&path.translation, &path.rotation);
         if t.span().is_some() {
-            track(&mut bin, t.times(), t.values().iter().flat_map(|v| v.to_array()).collect(), "VEC3", t.is_step(), "translation");
+            track(
+                &mut bin,
+                t.times(),
+                t.values().iter().flat_map(|v| v.to_array()).collect(),
+                "VEC3",
+                t.is_step(),
+                "translation",
+            );
         }
         if r.span().is_some() {
-            track(&mut bin, r.times(), r.values().iter().flat_map(|q| q.to_array()).collect(), "VEC4", r.is_step(), "rotation");
+            track(
+                &mut bin,
+                r.times(),
+                r.values().iter().flat_map(|q| q.to_array()).collect(),
+                "VEC4",
+                r.is_step(),
+                "rotation",
+            );
         }
         animations.push(json!({"name": "camera path", "samplers": samplers, "channels": channels}));
     }
@@ -105,14 +148,15 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
     for l in &scene.lights {
         // Radiant intensity per channel = colour x intensity (the loader's reading).
         let (position, intensity, extra) = match l {
-            PunctualLight::Point { position, intensity } => (position, intensity, json!({"type": "point"})),
+            PunctualLight::Point { position, intensity } => {
+                (position, intensity, json!({"type": "point"}))
+            }
             PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => {
                 let z = -direction.normalize();
                 let x = if z.x.abs() < 0.9 { Vec3::X } else { Vec3::Y }.cross(z).normalize();
                 let rot = Quat::from_mat3(&Mat3::from_cols(x, z.cross(x), z)).normalize();
                 nodes.push(json!({"name": "spot", "rotation": rot.to_array(), "translation": position.to_array(), "extensions": {"KHR_lights_punctual": {"light": lights.len()}}}));
-                let spot =
-                    json!({"type": "spot", "spot": {"innerConeAngle": cos_inner.clamp(-1.0, 1.0).acos(), "outerConeAngle": cos_outer.clamp(-1.0, 1.0).acos()}});
+                let spot = json!({"type": "spot", "spot": {"innerConeAngle": cos_inner.clamp(-1.0, 1.0).acos(), "outerConeAngle": cos_outer.clamp(-1.0, 1.0).acos()}});
                 lights.push(light_json(intensity, spot));
                 continue;
             }
@@ -170,12 +214,18 @@ mod tests {
     #[test]
     fn generated_scenes_survive_a_glb_round_trip() {
         let dir = tempfile::tempdir().unwrap();
-        let mut scenes: Vec<Scene> = crate::generate::GENERATORS.iter().map(|(name, _, _)| crate::generate::generate(name, 15_000).unwrap()).collect();
+        let mut scenes: Vec<Scene> = crate::generate::GENERATORS
+            .iter()
+            .map(|(name, _, _)| crate::generate::generate(name, 15_000).unwrap())
+            .collect();
         scenes.push(crate::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0));
         let mut sunlit = crate::cornell::plane_with_point_light(1.0, 0.9, 0.6, 3.0);
         sunlit.name = "sunlit".into();
         let sun = Vec3::new(-0.3, -0.8, 0.52).normalize();
-        sunlit.lights.push(PunctualLight::Directional { direction: sun, irradiance: Vec3::new(3.0, 2.0, 1.0) });
+        sunlit.lights.push(PunctualLight::Directional {
+            direction: sun,
+            irradiance: Vec3::new(3.0, 2.0, 1.0),
+        });
         scenes.push(sunlit);
         for s in scenes {
             let path = dir.path().join(format!("{}.glb", s.name));
@@ -203,18 +253,43 @@ mod tests {
             assert_eq!(back.materials.len(), s.materials.len());
             for (a, b) in back.materials.iter().zip(&s.materials) {
                 assert_eq!(a.base_color, b.base_color);
-                assert!((a.emission - b.emission).abs().max_element() <= 1e-5 * b.emission.max_element().max(1.0), "{} vs {}", a.emission, b.emission);
+                assert!(
+                    (a.emission - b.emission).abs().max_element()
+                        <= 1e-5 * b.emission.max_element().max(1.0),
+                    "{} vs {}",
+                    a.emission,
+                    b.emission
+                );
             }
             assert_eq!(back.lights.len(), s.lights.len());
             for (a, b) in back.lights.iter().zip(&s.lights) {
-                if let (PunctualLight::Directional { direction: da, irradiance: ea }, PunctualLight::Directional { direction: db, irradiance: eb }) = (a, b) {
-                    assert!((*da - *db).length() < 1e-5 && (*ea - *eb).abs().max_element() < 1e-5, "{}: sun {a:?} vs {b:?}", s.name);
+                if let (
+                    PunctualLight::Directional { direction: da, irradiance: ea },
+                    PunctualLight::Directional { direction: db, irradiance: eb },
+                ) = (a, b)
+                {
+                    assert!(
+                        (*da - *db).length() < 1e-5 && (*ea - *eb).abs().max_element() < 1e-5,
+                        "{}: sun {a:?} vs {b:?}",
+                        s.name
+                    );
                 } else {
-                    assert_eq!(a.position().is_some(), b.position().is_some(), "{}: light kinds", s.name);
+                    assert_eq!(
+                        a.position().is_some(),
+                        b.position().is_some(),
+                        "{}: light kinds",
+                        s.name
+                    );
                 }
             }
             assert!((back.camera.position - s.camera.position).length() < 1e-5);
-            assert!((back.camera.forward - s.camera.forward).length() < 1e-5, "{}: camera {:?} vs {:?}", s.name, back.camera, s.camera);
+            assert!(
+                (back.camera.forward - s.camera.forward).length() < 1e-5,
+                "{}: camera {:?} vs {:?}",
+                s.name,
+                back.camera,
+                s.camera
+            );
             assert!((back.camera.yfov - s.camera.yfov).abs() < 1e-6);
         }
     }
@@ -233,7 +308,11 @@ mod tests {
         assert_eq!(back.span(), (0.0, 4.0));
         let (a, b) = (walk.frames(9).unwrap(), back.frames(9).unwrap());
         for (x, y) in a.iter().zip(&b) {
-            assert!((x.position - y.position).length() < 1e-5 && (x.forward - y.forward).length() < 1e-5, "{x:?} vs {y:?}");
+            assert!(
+                (x.position - y.position).length() < 1e-5
+                    && (x.forward - y.forward).length() < 1e-5,
+                "{x:?} vs {y:?}"
+            );
         }
         assert_eq!(a[0].position, s.camera.position, "the walk starts at the scene's camera");
         assert!((a[8].position - a[0].position).length() > 0.1 * s.extent(), "it walks");
@@ -242,8 +321,18 @@ mod tests {
 
         // Stepped tracks stay stepped: between keys the camera holds the earlier key's pose.
         let stepped = crate::CameraPath {
-            translation: crate::Track::new(walk.translation.times().to_vec(), walk.translation.values().to_vec(), true).unwrap(),
-            rotation: crate::Track::new(walk.rotation.times().to_vec(), walk.rotation.values().to_vec(), true).unwrap(),
+            translation: crate::Track::new(
+                walk.translation.times().to_vec(),
+                walk.translation.values().to_vec(),
+                true,
+            )
+            .unwrap(),
+            rotation: crate::Track::new(
+                walk.rotation.times().to_vec(),
+                walk.rotation.values().to_vec(),
+                true,
+            )
+            .unwrap(),
             ..walk
         };
         s.camera_path = Some(stepped.clone());
@@ -252,7 +341,14 @@ mod tests {
         assert!(back.translation.is_step() && back.rotation.is_step());
         let (held, read) = (stepped.at(0.5).unwrap(), back.at(0.5).unwrap());
         assert_eq!(held.position, stepped.at(0.0).unwrap().position);
-        assert!((walk.at(0.5).unwrap().position - held.position).length() > 1e-3, "read as linear, the walk has moved by then");
-        assert!((read.position - held.position).length() < 1e-5 && (read.forward - held.forward).length() < 1e-5, "{read:?} vs {held:?}");
+        assert!(
+            (walk.at(0.5).unwrap().position - held.position).length() > 1e-3,
+            "read as linear, the walk has moved by then"
+        );
+        assert!(
+            (read.position - held.position).length() < 1e-5
+                && (read.forward - held.forward).length() < 1e-5,
+            "{read:?} vs {held:?}"
+        );
     }
 }

@@ -59,7 +59,12 @@ pub struct Material {
 
 impl Default for Material {
     fn default() -> Self {
-        Material { name: "default".into(), base_color: Vec3::splat(0.8), base_color_texture: None, emission: Vec3::ZERO }
+        Material {
+            name: "default".into(),
+            base_color: Vec3::splat(0.8),
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+        }
     }
 }
 
@@ -142,7 +147,9 @@ impl PunctualLight {
     pub fn falloff(&self, dir_from_light: Vec3) -> f32 {
         match *self {
             PunctualLight::Point { .. } | PunctualLight::Directional { .. } => 1.0,
-            PunctualLight::Spot { direction, .. } => self.falloff_cos(direction.dot(dir_from_light)),
+            PunctualLight::Spot { direction, .. } => {
+                self.falloff_cos(direction.dot(dir_from_light))
+            }
         }
     }
 
@@ -162,7 +169,9 @@ impl PunctualLight {
     pub fn turned(&self, rotation: glam::Quat, pivot: Vec3) -> PunctualLight {
         let mut l = self.clone();
         match &mut l {
-            PunctualLight::Point { position, .. } => *position = pivot + rotation * (*position - pivot),
+            PunctualLight::Point { position, .. } => {
+                *position = pivot + rotation * (*position - pivot)
+            }
             PunctualLight::Spot { position, direction, .. } => {
                 *position = pivot + rotation * (*position - pivot);
                 *direction = rotation * *direction;
@@ -175,7 +184,9 @@ impl PunctualLight {
     /// Where the light is; `None` for a directional light, which is at infinity.
     pub fn position(&self) -> Option<Vec3> {
         match *self {
-            PunctualLight::Point { position, .. } | PunctualLight::Spot { position, .. } => Some(position),
+            PunctualLight::Point { position, .. } | PunctualLight::Spot { position, .. } => {
+                Some(position)
+            }
             PunctualLight::Directional { .. } => None,
         }
     }
@@ -220,7 +231,10 @@ impl Scene {
     pub fn with_lights_turned(&self, degrees: f32) -> Scene {
         let (lo, hi) = self.bounds();
         let turn = glam::Quat::from_rotation_y(degrees.to_radians());
-        Scene { lights: self.lights.iter().map(|l| l.turned(turn, 0.5 * (lo + hi))).collect(), ..self.clone() }
+        Scene {
+            lights: self.lights.iter().map(|l| l.turned(turn, 0.5 * (lo + hi))).collect(),
+            ..self.clone()
+        }
     }
 
     pub fn bounds(&self) -> (Vec3, Vec3) {
@@ -254,7 +268,8 @@ impl Scene {
                 h = h.wrapping_mul(0x0000_0100_0000_01b3);
             }
         };
-        let v3 = |v: Vec3, eat: &mut dyn FnMut(u32)| v.to_array().iter().for_each(|x| eat(x.to_bits()));
+        let v3 =
+            |v: Vec3, eat: &mut dyn FnMut(u32)| v.to_array().iter().for_each(|x| eat(x.to_bits()));
         for p in self.positions.iter().chain(&self.normals) {
             v3(*p, &mut eat);
         }
@@ -318,7 +333,9 @@ impl Scene {
         match m.base_color_texture {
             Some(tex) => {
                 let [a, b, c] = self.indices[t];
-                let uv = self.uvs[a as usize] * (1.0 - b1 - b2) + self.uvs[b as usize] * b1 + self.uvs[c as usize] * b2;
+                let uv = self.uvs[a as usize] * (1.0 - b1 - b2)
+                    + self.uvs[b as usize] * b1
+                    + self.uvs[c as usize] * b2;
                 m.base_color * self.textures[tex as usize].sample(uv)
             }
             None => m.base_color,
@@ -328,7 +345,9 @@ impl Scene {
     /// Interpolated, normalised shading normal at barycentrics (`b1`, `b2`) of triangle `t`.
     pub fn shading_normal(&self, t: usize, b1: f32, b2: f32) -> Vec3 {
         let [a, b, c] = self.indices[t];
-        let n = self.normals[a as usize] * (1.0 - b1 - b2) + self.normals[b as usize] * b1 + self.normals[c as usize] * b2;
+        let n = self.normals[a as usize] * (1.0 - b1 - b2)
+            + self.normals[b as usize] * b1
+            + self.normals[c as usize] * b2;
         n.try_normalize().unwrap_or_else(|| self.geometric_normal(t))
     }
 
@@ -348,7 +367,12 @@ impl Scene {
     pub fn validate(&self) -> Result<(), String> {
         let nv = self.positions.len();
         if self.normals.len() != nv || self.uvs.len() != nv {
-            return Err(format!("{} positions but {} normals and {} uvs", nv, self.normals.len(), self.uvs.len()));
+            return Err(format!(
+                "{} positions but {} normals and {} uvs",
+                nv,
+                self.normals.len(),
+                self.uvs.len()
+            ));
         }
         if self.material_ids.len() != self.indices.len() {
             return Err("one material id per triangle is required".into());
@@ -356,7 +380,8 @@ impl Scene {
         if let Some(t) = self.indices.iter().position(|tri| tri.iter().any(|&i| i as usize >= nv)) {
             return Err(format!("triangle {t} refers to a vertex past the {nv} vertices"));
         }
-        if let Some(t) = self.material_ids.iter().position(|&m| m as usize >= self.materials.len()) {
+        if let Some(t) = self.material_ids.iter().position(|&m| m as usize >= self.materials.len())
+        {
             return Err(format!("triangle {t} refers to a missing material"));
         }
         if let Some(v) = self.positions.iter().position(|p| !p.is_finite()) {
@@ -369,19 +394,32 @@ impl Scene {
             return Err(format!("vertex {v} has non-finite texture coordinates"));
         }
         for (i, m) in self.materials.iter().enumerate() {
-            if !m.base_color.is_finite() || !m.emission.is_finite() || m.emission.min_element() < 0.0 {
-                return Err(format!("material {i} ({}) has a non-finite or negative colour or emission", m.name));
+            if !m.base_color.is_finite()
+                || !m.emission.is_finite()
+                || m.emission.min_element() < 0.0
+            {
+                return Err(format!(
+                    "material {i} ({}) has a non-finite or negative colour or emission",
+                    m.name
+                ));
             }
         }
         for (i, l) in self.lights.iter().enumerate() {
             match *l {
-                PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. } => {
-                    if !position.is_finite() || !intensity.is_finite() || intensity.min_element() < 0.0 {
+                PunctualLight::Point { position, intensity }
+                | PunctualLight::Spot { position, intensity, .. } => {
+                    if !position.is_finite()
+                        || !intensity.is_finite()
+                        || intensity.min_element() < 0.0
+                    {
                         return Err(format!("light {i} has a non-finite position or a non-finite or negative intensity"));
                     }
                 }
                 PunctualLight::Directional { direction, irradiance } => {
-                    if !direction.is_normalized() || !irradiance.is_finite() || irradiance.min_element() < 0.0 {
+                    if !direction.is_normalized()
+                        || !irradiance.is_finite()
+                        || irradiance.min_element() < 0.0
+                    {
                         return Err(format!("directional light {i} has no direction or a non-finite or negative irradiance"));
                     }
                     if self.indices.is_empty() {
@@ -417,8 +455,17 @@ mod tests {
         let c = 0.5 * (lo + hi);
         scene.lights = vec![
             PunctualLight::Point { position: c + Vec3::new(1.0, 0.5, 0.0), intensity: Vec3::ONE },
-            PunctualLight::Directional { direction: Vec3::new(1.0, -1.0, 0.0).normalize(), irradiance: Vec3::ONE },
-            PunctualLight::Spot { position: c, direction: Vec3::X, intensity: Vec3::ONE, cos_inner: 0.9, cos_outer: 0.8 },
+            PunctualLight::Directional {
+                direction: Vec3::new(1.0, -1.0, 0.0).normalize(),
+                irradiance: Vec3::ONE,
+            },
+            PunctualLight::Spot {
+                position: c,
+                direction: Vec3::X,
+                intensity: Vec3::ONE,
+                cos_inner: 0.9,
+                cos_outer: 0.8,
+            },
         ];
         let turned = scene.with_lights_turned(90.0);
         let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;

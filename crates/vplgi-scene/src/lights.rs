@@ -45,7 +45,11 @@ impl Distribution {
         // probability instead of the exact weight share keeps the estimators unbiased for tiny
         // lights (an item below 2^-24 of the total is never drawn and its energy is lost).
         let grid = |c: f32| (c as f64 * 16_777_216.0).ceil();
-        let pmf = (0..cdf.len()).map(|i| ((grid(cdf[i]) - if i == 0 { 0.0 } else { grid(cdf[i - 1]) }) / 16_777_216.0) as f32).collect();
+        let pmf = (0..cdf.len())
+            .map(|i| {
+                ((grid(cdf[i]) - if i == 0 { 0.0 } else { grid(cdf[i - 1]) }) / 16_777_216.0) as f32
+            })
+            .collect();
         Distribution { cdf, pmf }
     }
 
@@ -173,7 +177,13 @@ pub struct GroupChoice {
 /// Cuts emitters (in triangle order) into at most [`MAX_GROUPS`] runs of nearly equal length and
 /// bounds each: the sphere around its vertices' box, the cone around its area-weighted normal.
 /// Both are widened by 1e-4 so that rounding never excludes a point that can contribute.
-fn light_groups(scene: &Scene, emitters: &[u32], areas: &[f32], powers: &[f32], area: &Distribution) -> Vec<LightGroup> {
+fn light_groups(
+    scene: &Scene,
+    emitters: &[u32],
+    areas: &[f32],
+    powers: &[f32],
+    area: &Distribution,
+) -> Vec<LightGroup> {
     let n = emitters.len();
     let count = n.min(MAX_GROUPS);
     (0..count)
@@ -188,11 +198,21 @@ fn light_groups(scene: &Scene, emitters: &[u32], areas: &[f32], powers: &[f32], 
                 }
             }
             let centre = (lo + hi) * 0.5;
-            let r = tris().flat_map(|t| scene.triangle(t)).map(|v| (v - centre).length()).fold(0.0f32, f32::max);
-            let sum_n = range.clone().fold(Vec3::ZERO, |a, e| a + scene.geometric_normal(emitters[e] as usize) * areas[e]);
+            let r = tris()
+                .flat_map(|t| scene.triangle(t))
+                .map(|v| (v - centre).length())
+                .fold(0.0f32, f32::max);
+            let sum_n = range.clone().fold(Vec3::ZERO, |a, e| {
+                a + scene.geometric_normal(emitters[e] as usize) * areas[e]
+            });
             let axis = sum_n.normalize_or_zero();
-            let cos_n = tris().map(|t| axis.dot(scene.geometric_normal(t))).fold(1.0f32, f32::min) - 1e-4;
-            let cone = if axis == Vec3::ZERO || cos_n <= 0.0 { [0.0, 0.0, 0.0, ANY_ORIENTATION] } else { [axis.x, axis.y, axis.z, cos_n] };
+            let cos_n =
+                tris().map(|t| axis.dot(scene.geometric_normal(t))).fold(1.0f32, f32::min) - 1e-4;
+            let cone = if axis == Vec3::ZERO || cos_n <= 0.0 {
+                [0.0, 0.0, 0.0, ANY_ORIENTATION]
+            } else {
+                [axis.x, axis.y, axis.z, cos_n]
+            };
             let pmf: f32 = range.clone().map(|e| area.pmf(e)).sum();
             let before = if range.start == 0 { 0.0 } else { area.cdf()[range.start - 1] };
             LightGroup {
@@ -212,7 +232,9 @@ fn light_groups(scene: &Scene, emitters: &[u32], areas: &[f32], powers: &[f32], 
 pub fn punctual_power(l: &PunctualLight, sun: &SunFrame) -> Vec3 {
     match *l {
         PunctualLight::Point { intensity, .. } => intensity * (4.0 * PI),
-        PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)),
+        PunctualLight::Spot { intensity, cos_inner, cos_outer, .. } => {
+            intensity * (2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0))
+        }
         PunctualLight::Directional { irradiance, .. } => sun.power(irradiance),
     }
 }
@@ -251,12 +273,28 @@ impl LightSampler {
             .collect();
         rsm.extend(scene.lights.iter().map(|l| match *l {
             PunctualLight::Point { position, intensity } => rsm::point(position, intensity),
-            PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => rsm::spot(position, direction, intensity, cos_inner, cos_outer),
-            PunctualLight::Directional { direction, irradiance } => rsm::directional(sun.disk_centre(direction), direction, sun.radius, irradiance),
+            PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer } => {
+                rsm::spot(position, direction, intensity, cos_inner, cos_outer)
+            }
+            PunctualLight::Directional { direction, irradiance } => {
+                rsm::directional(sun.disk_centre(direction), direction, sun.radius, irradiance)
+            }
         }));
         let total = scalar(total_power);
-        let rsm_shares = powers.iter().map(|&p| if total > 0.0 { scalar(p) / total } else { 0.0 }).collect();
-        LightSampler { emitters, areas, all, area, punctual: scene.lights.clone(), groups, total_power, rsm, rsm_shares, sun }
+        let rsm_shares =
+            powers.iter().map(|&p| if total > 0.0 { scalar(p) / total } else { 0.0 }).collect();
+        LightSampler {
+            emitters,
+            areas,
+            all,
+            area,
+            punctual: scene.lights.clone(),
+            groups,
+            total_power,
+            rsm,
+            rsm_shares,
+            sun,
+        }
     }
 
     /// The reflective shadow maps of every light for a budget of about `size²` texels, sized by
@@ -303,7 +341,12 @@ impl LightSampler {
             let origin = a + (b - a) * b1 + (c - a) * b2;
             // Position pdf 1/A times cosine pdf cos/pi against Le cos: power = pi A Le.
             let power = scene.emission(t) * (PI * self.areas[i]) / pmf;
-            Some(Emission { origin, dir: sampling::cosine_hemisphere(n, u[3], u[4]), power, surface_normal: n })
+            Some(Emission {
+                origin,
+                dir: sampling::cosine_hemisphere(n, u[3], u[4]),
+                power,
+                surface_normal: n,
+            })
         } else {
             let light = &self.punctual[i - self.emitters.len()];
             match *light {
@@ -320,10 +363,21 @@ impl LightSampler {
                     // narrow ramp between the cones multiplies the direction's rounding by up to
                     // 1,000 (the GPU twin differed by 2e-4 in flux on random spots).
                     let falloff = light.falloff_cos(sampling::uniform_cone_cos(cos_outer, u[3]));
-                    Some(Emission { origin: position, dir, power: intensity * (falloff * inv_pdf / pmf), surface_normal: Vec3::ZERO })
+                    Some(Emission {
+                        origin: position,
+                        dir,
+                        power: intensity * (falloff * inv_pdf / pmf),
+                        surface_normal: Vec3::ZERO,
+                    })
                 }
                 PunctualLight::Directional { direction, irradiance } => Some(Emission {
-                    origin: sun_origin(self.sun.disk_centre(direction), direction, self.sun.radius, u[3], u[4]),
+                    origin: sun_origin(
+                        self.sun.disk_centre(direction),
+                        direction,
+                        self.sun.radius,
+                        u[3],
+                        u[4],
+                    ),
                     dir: direction,
                     power: self.sun.power(irradiance) / pmf,
                     surface_normal: Vec3::ZERO,
@@ -353,7 +407,12 @@ impl LightSampler {
     /// that group by power (from where `u[0]` fell inside the group's share, so one stratified
     /// number serves both choices), then a uniform point on it. `None` when no group can light
     /// the point.
-    pub fn sample_area_at(&self, scene: &Scene, choice: &GroupChoice, u: [f32; 3]) -> Option<AreaSample> {
+    pub fn sample_area_at(
+        &self,
+        scene: &Scene,
+        choice: &GroupChoice,
+        u: [f32; 3],
+    ) -> Option<AreaSample> {
         // Also false for a NaN total.
         if choice.total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
@@ -405,14 +464,21 @@ mod tests {
         assert_eq!(d.pmf(1), 0.0);
         // A tiny item keeps the probability it is really drawn with on the 2^-24 grid.
         let tiny = Distribution::new(&[1.0, 1e-9]);
-        let draws = (0..1u32 << 24).filter(|&k| tiny.sample(k as f32 / 16_777_216.0).0 == 1).count();
+        let draws =
+            (0..1u32 << 24).filter(|&k| tiny.sample(k as f32 / 16_777_216.0).0 == 1).count();
         assert_eq!(tiny.pmf(1), draws as f32 / 16_777_216.0);
         assert!(Distribution::new(&[0.0, 0.0]).is_empty());
     }
 
     #[test]
     fn spot_power_matches_numerical_integral() {
-        let light = PunctualLight::Spot { position: Vec3::ZERO, direction: Vec3::Z, intensity: Vec3::ONE, cos_inner: 0.9, cos_outer: 0.6 };
+        let light = PunctualLight::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::Z,
+            intensity: Vec3::ONE,
+            cos_inner: 0.9,
+            cos_outer: 0.6,
+        };
         // Integrate the falloff over the sphere in cos(theta): dω = 2π d(cos θ).
         let n = 200_000;
         let mut acc = 0.0f64;
@@ -437,13 +503,20 @@ mod tests {
         let n = 70;
         for t in 0..n {
             let x = t as f32 * 0.1;
-            scene.positions.extend_from_slice(&[Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.1, 0.0, 0.0), Vec3::new(x, 0.0, 1.0)]);
+            scene.positions.extend_from_slice(&[
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 0.1, 0.0, 0.0),
+                Vec3::new(x, 0.0, 1.0),
+            ]);
             scene.normals.extend_from_slice(&[Vec3::Y; 3]);
             scene.uvs.extend_from_slice(&[glam::Vec2::ZERO; 3]);
             let base = 3 * t as u32;
             scene.indices.push([base, base + 2, base + 1]);
             scene.material_ids.push(t as u32);
-            scene.materials.push(Material { emission: Vec3::splat(1.0 + (t % 7) as f32), ..Material::default() });
+            scene.materials.push(Material {
+                emission: Vec3::splat(1.0 + (t % 7) as f32),
+                ..Material::default()
+            });
         }
         let sampler = LightSampler::new(&scene);
         assert_eq!(sampler.groups().len(), MAX_GROUPS);
@@ -454,14 +527,20 @@ mod tests {
         let mut prob = vec![0.0f64; n];
         let mut rng = Rng::new(6, Stream::Oracle, 0);
         for _ in 0..samples {
-            let s = sampler.sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
+            let s = sampler
+                .sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()])
+                .unwrap();
             let t = ((s.position.x / 0.1).floor() as usize).min(n - 1);
             counts[t] += 1;
             prob[t] = s.pdf_area as f64 * 0.05;
         }
         let total: f64 = prob.iter().sum();
         assert!((total - 1.0).abs() < 1e-4, "probabilities sum to {total}");
-        let chi2: f64 = (0..n).map(|t| (counts[t] as f64 - samples as f64 * prob[t]).powi(2) / (samples as f64 * prob[t])).sum();
+        let chi2: f64 = (0..n)
+            .map(|t| {
+                (counts[t] as f64 - samples as f64 * prob[t]).powi(2) / (samples as f64 * prob[t])
+            })
+            .sum();
         // 69 degrees of freedom: the 0.999 quantile is 111.
         println!("emitters in groups: chi2 = {chi2:.1} (69 dof, reject above 111)");
         assert!(chi2 < 111.0, "chi2 = {chi2}, counts {counts:?}");
@@ -488,7 +567,10 @@ mod tests {
             let base = 3 * t as u32;
             scene.indices.push([base, base + 2, base + 1]);
             scene.material_ids.push(t as u32);
-            scene.materials.push(Material { emission: Vec3::splat(1.0 + 3.0 * t as f32), ..Material::default() });
+            scene.materials.push(Material {
+                emission: Vec3::splat(1.0 + 3.0 * t as f32),
+                ..Material::default()
+            });
         }
         let sampler = LightSampler::new(&scene);
         assert_eq!(sampler.groups().len(), 2, "two emitters, two groups");
@@ -498,7 +580,9 @@ mod tests {
         let samples = 100_000;
         let mut rng = Rng::new(5, Stream::Oracle, 0);
         for _ in 0..samples {
-            let s = sampler.sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()]).unwrap();
+            let s = sampler
+                .sample_area_at(&scene, &choice, [rng.next_f32(), rng.next_f32(), rng.next_f32()])
+                .unwrap();
             let t = if s.position.x < 1.5 { 0 } else { 1 };
             // Barycentric coordinates on the triangle as indexed: (a, c, b) for the winding above.
             let [a, b, c] = scene.triangle(t);
@@ -518,12 +602,19 @@ mod tests {
             };
             counts[t * 4 + sub] += 1;
             let p = s.pdf_area * 0.5 * d.length();
-            assert!(share[t].is_nan() || (share[t] - p).abs() < 1e-6, "emitter {t}: probability {p}, before {}", share[t]);
+            assert!(
+                share[t].is_nan() || (share[t] - p).abs() < 1e-6,
+                "emitter {t}: probability {p}, before {}",
+                share[t]
+            );
             share[t] = p;
         }
         assert!((share[0] + share[1] - 1.0).abs() < 1e-5, "probabilities {share:?}");
         let powers = [0.5 * 1.0, 3.0 * 4.0]; // area x radiance
-        assert!(share[0] > powers[0] / (powers[0] + powers[1]), "the nearer emitter gains over its power share: {share:?}");
+        assert!(
+            share[0] > powers[0] / (powers[0] + powers[1]),
+            "the nearer emitter gains over its power share: {share:?}"
+        );
         let mut chi2 = 0.0f64;
         for t in 0..2 {
             let expected = samples as f64 * share[t] as f64 / 4.0;
@@ -532,7 +623,9 @@ mod tests {
             }
         }
         // 7 degrees of freedom: the 0.999 quantile is 24.3.
-        println!("area-light sampling: chi2 = {chi2:.2} (7 dof, reject above 24.3), counts {counts:?}");
+        println!(
+            "area-light sampling: chi2 = {chi2:.2} (7 dof, reject above 24.3), counts {counts:?}"
+        );
         assert!(chi2 < 24.3, "chi2 = {chi2}, counts {counts:?}");
     }
 }

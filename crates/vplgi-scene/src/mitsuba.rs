@@ -86,7 +86,11 @@ fn ply(scene: &Scene, tris: &[usize]) -> Vec<u8> {
     )
     .into_bytes();
     for &v in &used {
-        let values = scene.positions[v].to_array().into_iter().chain(scene.normals[v].to_array()).chain(scene.uvs[v].to_array());
+        let values = scene.positions[v]
+            .to_array()
+            .into_iter()
+            .chain(scene.normals[v].to_array())
+            .chain(scene.uvs[v].to_array());
         values.for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
     }
     for f in faces {
@@ -117,9 +121,15 @@ pub fn export(scene: &Scene, defaults: RenderDefaults) -> MitsubaScene {
     let mut xml = String::new();
     let RenderDefaults { width, height, spp, max_depth } = defaults;
     let _ = writeln!(xml, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
-    let _ = writeln!(xml, "<!-- {}: written by vplgi scene export (format mitsuba) -->", comment(&scene.name));
+    let _ = writeln!(
+        xml,
+        "<!-- {}: written by vplgi scene export (format mitsuba) -->",
+        comment(&scene.name)
+    );
     let _ = writeln!(xml, "<scene version=\"3.0.0\">");
-    for (name, value) in [("width", width), ("height", height), ("spp", spp), ("max_depth", max_depth)] {
+    for (name, value) in
+        [("width", width), ("height", height), ("spp", spp), ("max_depth", max_depth)]
+    {
         let _ = writeln!(xml, "  <default name=\"{name}\" value=\"{value}\"/>");
     }
     let _ = writeln!(xml, "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"$max_depth\"/>\n  </integrator>");
@@ -221,7 +231,8 @@ mod tests {
     use glam::Vec2;
     use std::collections::HashMap;
 
-    const DEFAULTS: RenderDefaults = RenderDefaults { width: 64, height: 48, spp: 16, max_depth: 5 };
+    const DEFAULTS: RenderDefaults =
+        RenderDefaults { width: 64, height: 48, spp: 16, max_depth: 5 };
 
     fn floats(s: &str) -> Vec<f32> {
         s.split([',', ' ']).filter(|t| !t.is_empty()).map(|t| t.parse().unwrap()).collect()
@@ -251,9 +262,17 @@ mod tests {
         for line in header.lines() {
             let w: Vec<&str> = line.split_whitespace().collect();
             match w.as_slice() {
-                ["element", name, n] => elements.push((name.to_string(), n.parse().unwrap(), Vec::new())),
-                ["property", "list", count, item, name] => elements.last_mut().unwrap().2.push((name.to_string(), item.to_string(), Some(count.to_string()))),
-                ["property", ty, name] => elements.last_mut().unwrap().2.push((name.to_string(), ty.to_string(), None)),
+                ["element", name, n] => {
+                    elements.push((name.to_string(), n.parse().unwrap(), Vec::new()))
+                }
+                ["property", "list", count, item, name] => elements.last_mut().unwrap().2.push((
+                    name.to_string(),
+                    item.to_string(),
+                    Some(count.to_string()),
+                )),
+                ["property", ty, name] => {
+                    elements.last_mut().unwrap().2.push((name.to_string(), ty.to_string(), None))
+                }
                 _ => {}
             }
         }
@@ -308,7 +327,11 @@ mod tests {
                     .iter()
                     .flat_map(|&v| {
                         let v = v as usize;
-                        s.positions[v].to_array().into_iter().chain(s.normals[v].to_array()).chain(s.uvs[v].to_array())
+                        s.positions[v]
+                            .to_array()
+                            .into_iter()
+                            .chain(s.normals[v].to_array())
+                            .chain(s.uvs[v].to_array())
                     })
                     .collect();
                 let m = &s.materials[s.material_ids[t] as usize];
@@ -324,13 +347,16 @@ mod tests {
     }
 
     fn read_back(files: &[(String, Vec<u8>)]) -> (roxmltree::Document<'_>, HashMap<&str, &[u8]>) {
-        let map: HashMap<&str, &[u8]> = files.iter().map(|(n, b)| (n.as_str(), b.as_slice())).collect();
+        let map: HashMap<&str, &[u8]> =
+            files.iter().map(|(n, b)| (n.as_str(), b.as_slice())).collect();
         let xml = std::str::from_utf8(map["scene.xml"]).unwrap();
         (roxmltree::Document::parse(xml).expect("scene.xml parses"), map)
     }
 
     fn named<'a>(node: roxmltree::Node<'a, 'a>, tag: &str, name: &str) -> roxmltree::Node<'a, 'a> {
-        node.descendants().find(|n| n.has_tag_name(tag) && n.attribute("name") == Some(name)).unwrap_or_else(|| panic!("no <{tag} name=\"{name}\">"))
+        node.descendants()
+            .find(|n| n.has_tag_name(tag) && n.attribute("name") == Some(name))
+            .unwrap_or_else(|| panic!("no <{tag} name=\"{name}\">"))
     }
 
     /// Rebuilds the triangles from the XML's shapes and their PLY files.
@@ -340,8 +366,16 @@ mod tests {
             assert_eq!(shape.attribute("type"), Some("ply"));
             let file = named(shape, "string", "filename").attribute("value").unwrap();
             let bsdf = shape.children().find(|n| n.has_tag_name("bsdf")).unwrap();
-            assert_eq!(bsdf.attribute("type"), Some("twosided"), "vplgi's surfaces reflect on both sides");
-            let refl = match bsdf.descendants().find(|n| n.attribute("name") == Some("reflectance")).unwrap() {
+            assert_eq!(
+                bsdf.attribute("type"),
+                Some("twosided"),
+                "vplgi's surfaces reflect on both sides"
+            );
+            let refl = match bsdf
+                .descendants()
+                .find(|n| n.attribute("name") == Some("reflectance"))
+                .unwrap()
+            {
                 n if n.has_tag_name("rgb") => {
                     format!("{:?}", bits(&v3(n.attribute("value").unwrap()).to_array()))
                 }
@@ -358,7 +392,12 @@ mod tests {
             let ply = read_ply(files[file]);
             for f in &ply.faces {
                 assert_eq!(f.len(), 3);
-                let corners: Vec<f32> = f.iter().flat_map(|&v| ["x", "y", "z", "nx", "ny", "nz", "u", "v"].map(|p| ply.vertices[v][p])).collect();
+                let corners: Vec<f32> = f
+                    .iter()
+                    .flat_map(|&v| {
+                        ["x", "y", "z", "nx", "ny", "nz", "u", "v"].map(|p| ply.vertices[v][p])
+                    })
+                    .collect();
                 out.push((bits(&corners), refl.clone(), bits(&emission.to_array())));
             }
         }
@@ -374,7 +413,11 @@ mod tests {
         let (doc, files) = read_back(&exported.files);
         assert_eq!(exported_triangles(&doc, &files), scene_triangles(&scene, &|_| unreachable!()));
         // Every file the XML names was written, and nothing else.
-        let named_files: Vec<&str> = doc.descendants().filter(|n| n.attribute("name") == Some("filename")).map(|n| n.attribute("value").unwrap()).collect();
+        let named_files: Vec<&str> = doc
+            .descendants()
+            .filter(|n| n.attribute("name") == Some("filename"))
+            .map(|n| n.attribute("value").unwrap())
+            .collect();
         assert_eq!(named_files.len() + 1, exported.files.len());
         // The camera: the same ray through every pixel corner as vplgi's.
         let sensor = doc.descendants().find(|n| n.has_tag_name("sensor")).unwrap();
@@ -384,15 +427,29 @@ mod tests {
         let lookat = sensor.descendants().find(|n| n.has_tag_name("lookat")).unwrap();
         let origin = v3(lookat.attribute("origin").unwrap());
         assert_eq!(origin, scene.camera.position);
-        assert!((v3(lookat.attribute("target").unwrap()) - origin - scene.camera.forward).length() < 1e-6);
+        assert!(
+            (v3(lookat.attribute("target").unwrap()) - origin - scene.camera.forward).length()
+                < 1e-6
+        );
         assert_eq!(v3(lookat.attribute("up").unwrap()), scene.camera.up);
         let rfilter = sensor.descendants().find(|n| n.has_tag_name("rfilter")).unwrap();
         assert_eq!(rfilter.attribute("type"), Some("box"));
         // Overridable defaults, and max_depth used by the path integrator.
-        let default =
-            |name: &str| doc.descendants().find(|n| n.has_tag_name("default") && n.attribute("name") == Some(name)).unwrap().attribute("value").unwrap();
-        assert_eq!([default("width"), default("height"), default("spp"), default("max_depth")], ["64", "48", "16", "5"]);
-        assert_eq!(named(doc.root_element(), "integer", "max_depth").attribute("value"), Some("$max_depth"));
+        let default = |name: &str| {
+            doc.descendants()
+                .find(|n| n.has_tag_name("default") && n.attribute("name") == Some(name))
+                .unwrap()
+                .attribute("value")
+                .unwrap()
+        };
+        assert_eq!(
+            [default("width"), default("height"), default("spp"), default("max_depth")],
+            ["64", "48", "16", "5"]
+        );
+        assert_eq!(
+            named(doc.root_element(), "integer", "max_depth").attribute("value"),
+            Some("$max_depth")
+        );
     }
 
     #[test]
@@ -406,44 +463,93 @@ mod tests {
             cos_outer: 0.8,
         });
         let sun = Vec3::new(0.3, -0.9, 0.1).normalize();
-        scene.lights.push(PunctualLight::Directional { direction: sun, irradiance: Vec3::new(2.0, 1.5, 1.0) });
+        scene.lights.push(PunctualLight::Directional {
+            direction: sun,
+            irradiance: Vec3::new(2.0, 1.5, 1.0),
+        });
         // One textured material: a 3 x 2 texture whose texels all differ.
-        let texels: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32 * 0.1, 0.5, 1.0 - i as f32 * 0.1)).collect();
+        let texels: Vec<Vec3> =
+            (0..6).map(|i| Vec3::new(i as f32 * 0.1, 0.5, 1.0 - i as f32 * 0.1)).collect();
         scene.textures.push(Texture { width: 3, height: 2, texels: texels.clone() });
-        scene.materials.push(Material { name: "tex".into(), base_color: Vec3::new(0.5, 1.0, 1.0), base_color_texture: Some(0), emission: Vec3::ZERO });
+        scene.materials.push(Material {
+            name: "tex".into(),
+            base_color: Vec3::new(0.5, 1.0, 1.0),
+            base_color_texture: Some(0),
+            emission: Vec3::ZERO,
+        });
         let last = scene.material_ids.len() - 1;
         scene.material_ids[last] = scene.materials.len() as u32 - 1;
         scene.uvs = (0..scene.positions.len()).map(|i| Vec2::new(i as f32 * 0.25, 0.5)).collect();
         let exported = export(&scene, DEFAULTS);
         let (doc, files) = read_back(&exported.files);
         let tex_file = format!("textures/mat{}.pfm", scene.materials.len() - 1);
-        assert_eq!(exported_triangles(&doc, &files), scene_triangles(&scene, &|_| tex_file.clone()));
+        assert_eq!(
+            exported_triangles(&doc, &files),
+            scene_triangles(&scene, &|_| tex_file.clone())
+        );
         // The albedo image: base colour times texel, rows bottom to top.
         let pfm = files[tex_file.as_str()];
         let header = b"PF\n3 2\n-1.0\n";
         assert_eq!(&pfm[..header.len()], header);
-        let data: Vec<f32> = pfm[header.len()..].chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        let data: Vec<f32> = pfm[header.len()..]
+            .chunks(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
         assert_eq!(data.len(), 18);
         for (i, texel) in texels.iter().enumerate() {
             let (x, y) = (i % 3, i / 3);
             let stored = 3 * ((1 - y) * 3 + x);
-            assert_eq!(Vec3::from_slice(&data[stored..stored + 3]), *texel * Vec3::new(0.5, 1.0, 1.0), "texel ({x}, {y})");
+            assert_eq!(
+                Vec3::from_slice(&data[stored..stored + 3]),
+                *texel * Vec3::new(0.5, 1.0, 1.0),
+                "texel ({x}, {y})"
+            );
         }
         // The lights.
-        let emitters: Vec<roxmltree::Node> = doc.root_element().children().filter(|n| n.has_tag_name("emitter")).collect();
+        let emitters: Vec<roxmltree::Node> =
+            doc.root_element().children().filter(|n| n.has_tag_name("emitter")).collect();
         assert_eq!(emitters.len(), 3);
         assert_eq!(emitters[2].attribute("type"), Some("directional"));
-        assert!((v3(named(emitters[2], "vector", "direction").attribute("value").unwrap()) - sun).length() < 1e-6);
-        assert_eq!(v3(named(emitters[2], "rgb", "irradiance").attribute("value").unwrap()), Vec3::new(2.0, 1.5, 1.0));
+        assert!(
+            (v3(named(emitters[2], "vector", "direction").attribute("value").unwrap()) - sun)
+                .length()
+                < 1e-6
+        );
+        assert_eq!(
+            v3(named(emitters[2], "rgb", "irradiance").attribute("value").unwrap()),
+            Vec3::new(2.0, 1.5, 1.0)
+        );
         assert_eq!(emitters[0].attribute("type"), Some("point"));
-        assert_eq!(v3(named(emitters[0], "point", "position").attribute("value").unwrap()), Vec3::new(0.0, 1.5, 0.0));
-        assert_eq!(v3(named(emitters[0], "rgb", "intensity").attribute("value").unwrap()), Vec3::splat(10.0));
+        assert_eq!(
+            v3(named(emitters[0], "point", "position").attribute("value").unwrap()),
+            Vec3::new(0.0, 1.5, 0.0)
+        );
+        assert_eq!(
+            v3(named(emitters[0], "rgb", "intensity").attribute("value").unwrap()),
+            Vec3::splat(10.0)
+        );
         assert_eq!(emitters[1].attribute("type"), Some("spot"));
         let lookat = emitters[1].descendants().find(|n| n.has_tag_name("lookat")).unwrap();
         assert_eq!(v3(lookat.attribute("origin").unwrap()), Vec3::new(0.1, 2.0, -0.3));
-        assert!((v3(lookat.attribute("target").unwrap()) - Vec3::new(0.1, 1.0, -0.3)).length() < 1e-6);
-        let angle = |name: &str| named(emitters[1], "float", name).attribute("value").unwrap().parse::<f32>().unwrap().to_radians().cos();
-        assert!((angle("cutoff_angle") - 0.8).abs() < 1e-6 && (angle("beam_width") - 0.9).abs() < 1e-6);
-        assert_eq!(exported.warnings.len(), 1, "the spot's falloff differs, and the export says so");
+        assert!(
+            (v3(lookat.attribute("target").unwrap()) - Vec3::new(0.1, 1.0, -0.3)).length() < 1e-6
+        );
+        let angle = |name: &str| {
+            named(emitters[1], "float", name)
+                .attribute("value")
+                .unwrap()
+                .parse::<f32>()
+                .unwrap()
+                .to_radians()
+                .cos()
+        };
+        assert!(
+            (angle("cutoff_angle") - 0.8).abs() < 1e-6 && (angle("beam_width") - 0.9).abs() < 1e-6
+        );
+        assert_eq!(
+            exported.warnings.len(),
+            1,
+            "the spot's falloff differs, and the export says so"
+        );
     }
 }

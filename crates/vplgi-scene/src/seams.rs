@@ -25,12 +25,17 @@ pub struct Placement {
 
 impl Placement {
     /// The room as built: axis-aligned, centred on the origin.
-    pub const AXIS_ALIGNED: Placement = Placement { scale: Vec3::ONE, rotation: Quat::IDENTITY, offset: Vec3::ZERO };
+    pub const AXIS_ALIGNED: Placement =
+        Placement { scale: Vec3::ONE, rotation: Quat::IDENTITY, offset: Vec3::ZERO };
 
     /// The room turned 40 degrees about a tilted axis and moved off the origin, so that no
     /// seam is axis-aligned and every coordinate is rounded.
     pub fn rotated() -> Placement {
-        Placement { scale: Vec3::ONE, rotation: Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7), offset: Vec3::new(0.31, 1.27, -0.53) }
+        Placement {
+            scale: Vec3::ONE,
+            rotation: Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7),
+            offset: Vec3::new(0.31, 1.27, -0.53),
+        }
     }
 
     fn matrix(&self) -> Mat4 {
@@ -77,7 +82,12 @@ pub fn seam_room(placement: Placement, triangles: usize) -> SeamRoom {
         ("green", Vec3::new(0.14, 0.45, 0.09), Vec3::ZERO),
         ("light", Vec3::splat(0.78), Vec3::new(34.0, 24.0, 8.0)),
     ] {
-        s.materials.push(Material { name: name.into(), base_color, base_color_texture: None, emission });
+        s.materials.push(Material {
+            name: name.into(),
+            base_color,
+            base_color_texture: None,
+            emission,
+        });
     }
     let (white, red, green, light) = (0, 1, 2, 3);
 
@@ -86,25 +96,81 @@ pub fn seam_room(placement: Placement, triangles: usize) -> SeamRoom {
     let depth = FRONT - BACK;
     let mid = 0.5 * (FRONT + BACK);
     let width = 2.0 * HALF;
-    let wall = |size: Vec2, rotation: Quat, centre: Vec3| place * Mat4::from_scale_rotation_translation(size.extend(1.0), rotation, centre);
+    let wall = |size: Vec2, rotation: Quat, centre: Vec3| {
+        place * Mat4::from_scale_rotation_translation(size.extend(1.0), rotation, centre)
+    };
     let mut meshes = vec![
         (wall(Vec2::splat(width), Quat::IDENTITY, Vec3::new(0.0, 0.0, BACK)), white),
-        (wall(Vec2::new(width, depth), Quat::from_rotation_x(FRAC_PI_2), Vec3::new(0.0, HALF, mid)), white),
-        (wall(Vec2::new(depth, width), Quat::from_rotation_y(FRAC_PI_2), Vec3::new(-HALF, 0.0, mid)), red),
-        (wall(Vec2::new(depth, width), Quat::from_rotation_y(-FRAC_PI_2), Vec3::new(HALF, 0.0, mid)), green),
+        (
+            wall(
+                Vec2::new(width, depth),
+                Quat::from_rotation_x(FRAC_PI_2),
+                Vec3::new(0.0, HALF, mid),
+            ),
+            white,
+        ),
+        (
+            wall(
+                Vec2::new(depth, width),
+                Quat::from_rotation_y(FRAC_PI_2),
+                Vec3::new(-HALF, 0.0, mid),
+            ),
+            red,
+        ),
+        (
+            wall(
+                Vec2::new(depth, width),
+                Quat::from_rotation_y(-FRAC_PI_2),
+                Vec3::new(HALF, 0.0, mid),
+            ),
+            green,
+        ),
         // The floor: its left half whole, its right half in two, so the right halves' shared
         // corner lies on the middle of the left half's edge (a T-junction).
-        (wall(Vec2::new(HALF, depth), Quat::from_rotation_x(-FRAC_PI_2), Vec3::new(-0.5 * HALF, -HALF, mid)), white),
-        (wall(Vec2::new(HALF, 0.5 * depth), Quat::from_rotation_x(-FRAC_PI_2), Vec3::new(0.5 * HALF, -HALF, mid - 0.25 * depth)), white),
-        (wall(Vec2::new(HALF, 0.5 * depth), Quat::from_rotation_x(-FRAC_PI_2), Vec3::new(0.5 * HALF, -HALF, mid + 0.25 * depth)), white),
-        (wall(Vec2::splat(0.5), Quat::from_rotation_x(FRAC_PI_2), Vec3::new(0.0, 0.98 * HALF, 0.0)), light),
+        (
+            wall(
+                Vec2::new(HALF, depth),
+                Quat::from_rotation_x(-FRAC_PI_2),
+                Vec3::new(-0.5 * HALF, -HALF, mid),
+            ),
+            white,
+        ),
+        (
+            wall(
+                Vec2::new(HALF, 0.5 * depth),
+                Quat::from_rotation_x(-FRAC_PI_2),
+                Vec3::new(0.5 * HALF, -HALF, mid - 0.25 * depth),
+            ),
+            white,
+        ),
+        (
+            wall(
+                Vec2::new(HALF, 0.5 * depth),
+                Quat::from_rotation_x(-FRAC_PI_2),
+                Vec3::new(0.5 * HALF, -HALF, mid + 0.25 * depth),
+            ),
+            white,
+        ),
+        (
+            wall(
+                Vec2::splat(0.5),
+                Quat::from_rotation_x(FRAC_PI_2),
+                Vec3::new(0.0, 0.98 * HALF, 0.0),
+            ),
+            light,
+        ),
     ];
     let mut seams = Vec::new();
     let corner = |x: f32, y: f32, z: f32| place.transform_point3(Vec3::new(x, y, z));
     for (x, y) in [(-HALF, -HALF), (-HALF, HALF), (HALF, -HALF), (HALF, HALF)] {
         seams.push([corner(x, y, BACK), corner(x, y, FRONT)]);
     }
-    for (a, b) in [((-HALF, -HALF), (HALF, -HALF)), ((-HALF, HALF), (HALF, HALF)), ((-HALF, -HALF), (-HALF, HALF)), ((HALF, -HALF), (HALF, HALF))] {
+    for (a, b) in [
+        ((-HALF, -HALF), (HALF, -HALF)),
+        ((-HALF, HALF), (HALF, HALF)),
+        ((-HALF, -HALF), (-HALF, HALF)),
+        ((HALF, -HALF), (HALF, HALF)),
+    ] {
         seams.push([corner(a.0, a.1, BACK), corner(b.0, b.1, BACK)]);
     }
     seams.push([corner(0.0, -HALF, BACK), corner(0.0, -HALF, FRONT)]);
@@ -114,7 +180,11 @@ pub fn seam_room(placement: Placement, triangles: usize) -> SeamRoom {
     // face, then the block's scale, turn and position.
     for b in &BLOCKS {
         let block = place
-            * Mat4::from_scale_rotation_translation(b.size, Quat::from_rotation_y(b.angle_deg.to_radians()), b.base + Vec3::new(0.0, 0.5 * b.size.y, 0.0));
+            * Mat4::from_scale_rotation_translation(
+                b.size,
+                Quat::from_rotation_y(b.angle_deg.to_radians()),
+                b.base + Vec3::new(0.0, 0.5 * b.size.y, 0.0),
+            );
         let faces = [
             (Quat::from_rotation_x(-FRAC_PI_2), Vec3::Y),
             (Quat::IDENTITY, Vec3::Z),
@@ -129,7 +199,12 @@ pub fn seam_room(placement: Placement, triangles: usize) -> SeamRoom {
         for (x, z) in [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)] {
             seams.push([at(x, -0.5, z), at(x, 0.5, z)]);
         }
-        for ((x0, z0), (x1, z1)) in [((-0.5, -0.5), (0.5, -0.5)), ((0.5, -0.5), (0.5, 0.5)), ((0.5, 0.5), (-0.5, 0.5)), ((-0.5, 0.5), (-0.5, -0.5))] {
+        for ((x0, z0), (x1, z1)) in [
+            ((-0.5, -0.5), (0.5, -0.5)),
+            ((0.5, -0.5), (0.5, 0.5)),
+            ((0.5, 0.5), (-0.5, 0.5)),
+            ((-0.5, 0.5), (-0.5, -0.5)),
+        ] {
             seams.push([at(x0, 0.5, z0), at(x1, 0.5, z1)]);
         }
     }
@@ -197,7 +272,10 @@ mod tests {
                     }
                 }
             }
-            assert!(apart >= 8, "{placement:?}: only {apart} meeting vertices differ ({same} are equal): no cracks");
+            assert!(
+                apart >= 8,
+                "{placement:?}: only {apart} meeting vertices differ ({same} are equal): no cracks"
+            );
             // Fronts: the room's inner side, the blocks' outer side, the light's downward side.
             let centre = placement.matrix().transform_point3(Vec3::ZERO);
             let up = placement.rotation * Vec3::Y;
@@ -237,8 +315,12 @@ mod tests {
         };
         for (k, [a, b]) in room.seams.iter().enumerate() {
             let p = (*a + *b) * 0.5;
-            let meshes: std::collections::BTreeSet<usize> = (0..s.triangle_count()).filter(|&t| near_edge(p, t)).map(|t| t / 2).collect();
-            assert!(meshes.len() >= 2, "seam {k} ({a} to {b}) lies on the edge of meshes {meshes:?} only");
+            let meshes: std::collections::BTreeSet<usize> =
+                (0..s.triangle_count()).filter(|&t| near_edge(p, t)).map(|t| t / 2).collect();
+            assert!(
+                meshes.len() >= 2,
+                "seam {k} ({a} to {b}) lies on the edge of meshes {meshes:?} only"
+            );
         }
     }
 

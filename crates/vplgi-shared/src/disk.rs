@@ -260,7 +260,10 @@ mod tests {
             let eq2 = form_factor_eq2([0.0, 0.0, h], [0.0, 0.0, -1.0], r);
             let quad = form_factor_by_quadrature([0.0, 0.0, h], [0.0, 0.0, -1.0], r);
             println!("R {r}, h {h}: exact {exact:.6}, Eq. 2 {eq2:.6}, quadrature {quad:.6}");
-            assert!((eq2 - exact).abs() <= 1e-6 * exact.max(1e-3), "Eq. 2 {eq2} vs R²/(R²+h²) {exact}");
+            assert!(
+                (eq2 - exact).abs() <= 1e-6 * exact.max(1e-3),
+                "Eq. 2 {eq2} vs R²/(R²+h²) {exact}"
+            );
             // The quadrature itself is checked against the closed form.
             assert!((quad - exact).abs() <= 1e-4 * exact, "quadrature {quad} vs {exact}");
         }
@@ -275,7 +278,13 @@ mod tests {
     /// instead (the first two) or keeps it from vanishing on the axis (the last).
     #[test]
     fn off_the_axis_eq2_converges_to_the_form_factor() {
-        let cases = [([0.6f64, 0.2, 1.0], 0.0f64), ([1.0, 0.0, 1.0], 20.0), ([0.3, 0.8, 1.0], -35.0), ([1.5, 1.0, 1.0], -45.0), ([0.0, 0.7, 1.0], 10.0)];
+        let cases = [
+            ([0.6f64, 0.2, 1.0], 0.0f64),
+            ([1.0, 0.0, 1.0], 20.0),
+            ([0.3, 0.8, 1.0], -35.0),
+            ([1.5, 1.0, 1.0], -45.0),
+            ([0.0, 0.7, 1.0], 10.0),
+        ];
         for (dir, deg) in cases {
             let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
             let a = deg.to_radians();
@@ -284,7 +293,8 @@ mod tests {
                 .iter()
                 .map(|&d| {
                     let p = [dir[0] / len * d, dir[1] / len * d, dir[2] / len * d];
-                    let (eq2, quad) = (form_factor_eq2(p, np, 1.0), form_factor_by_quadrature(p, np, 1.0));
+                    let (eq2, quad) =
+                        (form_factor_eq2(p, np, 1.0), form_factor_by_quadrature(p, np, 1.0));
                     (eq2 - quad).abs() / quad
                 })
                 .collect();
@@ -294,7 +304,10 @@ mod tests {
             );
             for w in errors.windows(2) {
                 let ratio = w[0] / w[1];
-                assert!((3.0..=5.0).contains(&ratio), "error ratio {ratio} per doubling of d: {errors:?}");
+                assert!(
+                    (3.0..=5.0).contains(&ratio),
+                    "error ratio {ratio} per doubling of d: {errors:?}"
+                );
             }
             for (e, d) in errors.iter().zip([4.0f64, 8.0, 16.0, 32.0]) {
                 assert!(*e <= 4.0 / (d * d), "error {e} at d = {d} R beyond 4 (R / d)²");
@@ -305,7 +318,9 @@ mod tests {
     /// [`exact_geometry_term`] as a form factor for the disk of radius `r` at the origin in z = 0.
     fn form_factor_exact(p: [f64; 3], np: [f64; 3], r: f64) -> f64 {
         let v = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        exact_geometry_term(v(p), v(np).normalize(), Vec3::ZERO, Vec3::Z, (r * r) as f32) as f64 * r * r
+        exact_geometry_term(v(p), v(np).normalize(), Vec3::ZERO, Vec3::Z, (r * r) as f32) as f64
+            * r
+            * r
     }
 
     #[test]
@@ -314,7 +329,10 @@ mod tests {
         for (r, h) in [(1.0, 1.0), (0.5, 2.0), (2.0, 0.25), (0.01, 3.0), (3.0, 0.01)] {
             let exact = r * r / (r * r + h * h);
             let f = form_factor_exact([0.0, 0.0, h], [0.0, 0.0, -1.0], r);
-            assert!((f - exact).abs() <= 2e-6 * exact.max(1e-3), "on the axis: {f} vs R²/(R²+h²) {exact}");
+            assert!(
+                (f - exact).abs() <= 2e-6 * exact.max(1e-3),
+                "on the axis: {f} vs R²/(R²+h²) {exact}"
+            );
         }
         // Everywhere else against quadrature: points from a hundredth of a radius to 8 radii away,
         // over the rim and beside it (at least 0.03 R above the plane, where the quadrature still
@@ -327,18 +345,32 @@ mod tests {
             let mut f = || rng.next_f32() as f64;
             let dist = 0.01 * 800f64.powf(f());
             let (polar, azimuth) = ((0.02 + 0.96 * f()) * PI / 2.0, f() * 2.0 * PI);
-            let p = [dist * polar.sin() * azimuth.cos() + 0.3, dist * polar.sin() * azimuth.sin(), dist * polar.cos() + 0.03];
+            let p = [
+                dist * polar.sin() * azimuth.cos() + 0.3,
+                dist * polar.sin() * azimuth.sin(),
+                dist * polar.cos() + 0.03,
+            ];
             let (np_polar, np_azimuth) = (f() * PI, f() * 2.0 * PI);
-            let np = [np_polar.sin() * np_azimuth.cos(), np_polar.sin() * np_azimuth.sin(), np_polar.cos()];
+            let np = [
+                np_polar.sin() * np_azimuth.cos(),
+                np_polar.sin() * np_azimuth.sin(),
+                np_polar.cos(),
+            ];
             let quad = form_factor_by_quadrature(p, np, 1.0);
             let exact = form_factor_exact(p, np, 1.0);
             // n · (z − p) over the unit disk spans −n · p ± |n_xy|: the horizon cuts the disk
             // where that range holds 0.
-            let (reach, centre) = ((np[0] * np[0] + np[1] * np[1]).sqrt(), -(np[0] * p[0] + np[1] * p[1] + np[2] * p[2]));
+            let (reach, centre) = (
+                (np[0] * np[0] + np[1] * np[1]).sqrt(),
+                -(np[0] * p[0] + np[1] * p[1] + np[2] * p[2]),
+            );
             clipped += (centre - reach < 0.0 && centre + reach > 0.0) as u32;
             let err = (exact - quad).abs() / quad.max(1e-3);
             worst = worst.max(err);
-            assert!(err <= 2e-3, "case {case}: p {p:?}, n {np:?}: exact {exact}, quadrature {quad}");
+            assert!(
+                err <= 2e-3,
+                "case {case}: p {p:?}, n {np:?}: exact {exact}, quadrature {quad}"
+            );
         }
         println!("60 cases, {clipped} cut by the horizon: worst relative difference {worst:.2e}");
         assert!(clipped >= 15, "only {clipped} cases exercised the cut disk");
@@ -354,7 +386,10 @@ mod tests {
             let len = (np[0] * np[0] + np[1] * np[1] + np[2] * np[2]).sqrt();
             let np = np.map(|c| c / len);
             let (quad, exact) = (form_factor_by_quadrature(p, np, r), form_factor_exact(p, np, r));
-            assert!((exact - quad).abs() <= 2e-3 * quad.max(1e-3), "p {p:?}, n {np:?}, R {r}: exact {exact}, quadrature {quad}");
+            assert!(
+                (exact - quad).abs() <= 2e-3 * quad.max(1e-3),
+                "p {p:?}, n {np:?}, R {r}: exact {exact}, quadrature {quad}"
+            );
         }
     }
 
@@ -366,13 +401,25 @@ mod tests {
     fn a_receiver_on_the_disk_itself_gets_nothing() {
         let p = Vec3::new(-0.034616858, -0.4385121, -0.45487833);
         let n = Vec3::new(-0.9009671, -0.34830597, 0.25873032);
-        let (centre, normal) = (Vec3::new(0.0046733357, -0.47797665, -0.37118727), Vec3::new(-0.900967, -0.34830597, 0.25873026));
+        let (centre, normal) = (
+            Vec3::new(0.0046733357, -0.47797665, -0.37118727),
+            Vec3::new(-0.900967, -0.34830597, 0.25873026),
+        );
         assert_eq!(exact_geometry_term(p, n, centre, normal, 1.0099542e-2), 0.0);
         // The same tilts about a unit disk in z = 0: rounding-sized ones (below MIN_TILT) give 0
         // at heights from 1e-9 to 1e-3 and radii from the centre to past the rim.
-        for (tilt_x, h, rho) in [(1e-7, 1e-9, 1.0), (3e-6, 1e-7, 0.999_999), (-5e-6, 1e-3, 0.5), (2e-6, 1e-8, 1.000_001)] {
+        for (tilt_x, h, rho) in [
+            (1e-7, 1e-9, 1.0),
+            (3e-6, 1e-7, 0.999_999),
+            (-5e-6, 1e-3, 0.5),
+            (2e-6, 1e-8, 1.000_001),
+        ] {
             let n = Vec3::new(tilt_x, 0.0, 1.0).normalize();
-            assert_eq!(exact_geometry_term(Vec3::new(rho, 0.0, h), n, Vec3::ZERO, Vec3::Z, 1.0), 0.0, "tilt {tilt_x}, h {h}, ρ {rho}");
+            assert_eq!(
+                exact_geometry_term(Vec3::new(rho, 0.0, h), n, Vec3::ZERO, Vec3::Z, 1.0),
+                0.0,
+                "tilt {tilt_x}, h {h}, ρ {rho}"
+            );
         }
         // A real tilt at the rim, just above the plane: the cancelling terms stay within the
         // form factor's bound, 1 / R².
@@ -392,9 +439,18 @@ mod tests {
         let exact = exact_geometry_term(p, n, Vec3::ZERO, Vec3::Z, 1e-2);
         assert!((exact / point - 1.0).abs() < 1e-4, "{exact} vs {point}");
         // Behind the disk's plane, in it, or facing away from all of it: nothing.
-        assert_eq!(exact_geometry_term(Vec3::new(0.2, 0.0, -1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
-        assert_eq!(exact_geometry_term(Vec3::new(3.0, 0.0, 0.0), -Vec3::X, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
-        assert_eq!(exact_geometry_term(Vec3::new(0.0, 0.0, 1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0), 0.0);
+        assert_eq!(
+            exact_geometry_term(Vec3::new(0.2, 0.0, -1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0),
+            0.0
+        );
+        assert_eq!(
+            exact_geometry_term(Vec3::new(3.0, 0.0, 0.0), -Vec3::X, Vec3::ZERO, Vec3::Z, 1.0),
+            0.0
+        );
+        assert_eq!(
+            exact_geometry_term(Vec3::new(0.0, 0.0, 1.0), Vec3::Z, Vec3::ZERO, Vec3::Z, 1.0),
+            0.0
+        );
         // Points behind the plane or in it, over the disk and beside it, with receivers turned
         // every way (many facing the disk's back, where the contour integral alone would not be
         // 0): the disk emits on its front side only.
@@ -405,7 +461,10 @@ mod tests {
             let n = Vec3::new(f(), f(), f()).normalize();
             assert_eq!(exact_geometry_term(p, n, Vec3::ZERO, Vec3::Z, 1.0), 0.0, "p {p}, n {n}");
         }
-        assert_eq!(exact_geometry_term(Vec3::ZERO, Vec3::new(0.6, 0.0, 0.8), Vec3::ZERO, Vec3::Z, 1.0), 0.0);
+        assert_eq!(
+            exact_geometry_term(Vec3::ZERO, Vec3::new(0.6, 0.0, 0.8), Vec3::ZERO, Vec3::Z, 1.0),
+            0.0
+        );
     }
 
     /// A form factor has no units, so the form factor / R² goes as 1 / length²: scaling the whole
@@ -429,8 +488,14 @@ mod tests {
             let at_one = exact_geometry_term(centre + p, n, centre, normal, r * r);
             assert!(at_one > 0.0, "p {p}, n {n}, R {r}: nothing to compare");
             for k in [1e-3f32, 0.1, 10.0, 1e3] {
-                let scaled = exact_geometry_term(centre * k + p * k, n, centre * k, normal, r * r * k * k) * k * k;
-                assert!((scaled / at_one - 1.0).abs() < 1e-4, "p {p}, n {n}, R {r}, scale {k}: {scaled} vs {at_one}");
+                let scaled =
+                    exact_geometry_term(centre * k + p * k, n, centre * k, normal, r * r * k * k)
+                        * k
+                        * k;
+                assert!(
+                    (scaled / at_one - 1.0).abs() < 1e-4,
+                    "p {p}, n {n}, R {r}, scale {k}: {scaled} vs {at_one}"
+                );
             }
         }
     }
@@ -445,14 +510,33 @@ mod tests {
         let (centre, normal) = (Vec3::new(0.25, -0.5, 0.125), Vec3::new(0.0, 0.6, 0.8));
         let (t, b) = (Vec3::X, normal.cross(Vec3::X));
         let to_world = |v: Vec3| t * v.x + b * v.y + normal * v.z;
-        for (h, n) in [(0.5, Vec3::new(0.866, 0.0, -0.5)), (0.2, Vec3::new(0.0, 0.6, -0.8)), (1.5, Vec3::new(-0.7, 0.7, -0.1))] {
+        for (h, n) in [
+            (0.5, Vec3::new(0.866, 0.0, -0.5)),
+            (0.2, Vec3::new(0.0, 0.6, -0.8)),
+            (1.5, Vec3::new(-0.7, 0.7, -0.1)),
+        ] {
             let n = to_world(n.normalize());
             // The on-axis value in the disk's own coordinates, where rel − normal h is exact.
-            let axis = exact_geometry_term(Vec3::new(0.0, 0.0, h), (n.dot(t), n.dot(b), n.dot(normal)).into(), Vec3::ZERO, Vec3::Z, 1.0);
+            let axis = exact_geometry_term(
+                Vec3::new(0.0, 0.0, h),
+                (n.dot(t), n.dot(b), n.dot(normal)).into(),
+                Vec3::ZERO,
+                Vec3::Z,
+                1.0,
+            );
             for off in [0.0, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3] {
                 for dir in [t, b, (t - b).normalize()] {
-                    let g = exact_geometry_term(centre + normal * h + dir * (off * h), n, centre, normal, 1.0);
-                    assert!((g - axis).abs() <= 1e-5 + 4.0 * off * axis, "h {h}, n {n}, {off} off the axis along {dir}: {g} vs {axis}");
+                    let g = exact_geometry_term(
+                        centre + normal * h + dir * (off * h),
+                        n,
+                        centre,
+                        normal,
+                        1.0,
+                    );
+                    assert!(
+                        (g - axis).abs() <= 1e-5 + 4.0 * off * axis,
+                        "h {h}, n {n}, {off} off the axis along {dir}: {g} vs {axis}"
+                    );
                 }
             }
         }
@@ -480,8 +564,14 @@ mod tests {
                 (normal * (dist * f()), 0.0)
             };
             let (got, u) = off_axis(rho_vec, normal, dist * dist);
-            assert!((got - rho).abs() <= 1e-5 * rho, "case {case}: ρ {got}, expected {rho} (normal {normal}, |rel| {dist})");
-            assert!((u.length() - 1.0).abs() < 1e-6 && u.dot(normal).abs() < 1e-5, "case {case}: ρ̂ {u} is not in the plane of {normal}");
+            assert!(
+                (got - rho).abs() <= 1e-5 * rho,
+                "case {case}: ρ {got}, expected {rho} (normal {normal}, |rel| {dist})"
+            );
+            assert!(
+                (u.length() - 1.0).abs() < 1e-6 && u.dot(normal).abs() < 1e-5,
+                "case {case}: ρ̂ {u} is not in the plane of {normal}"
+            );
         }
     }
 
@@ -502,7 +592,8 @@ mod tests {
         println!("R² of 20,000 members of a disk of R² {}: {r2}", r * r);
         assert!((r2 / (r * r) - 1.0).abs() < 0.02, "{r2}");
         // Moving the members along the normal changes nothing; scaling the flux changes nothing.
-        let lifted = members.iter().enumerate().map(|(i, &(x, f))| (x + normal * (i % 7) as f32, f * 3.0));
+        let lifted =
+            members.iter().enumerate().map(|(i, &(x, f))| (x + normal * (i % 7) as f32, f * 3.0));
         assert!((radius2(lifted, normal) / r2 - 1.0).abs() < 1e-3);
     }
 
@@ -511,7 +602,12 @@ mod tests {
         // Two members 2 apart: equal flux puts the centre between them (R² = 2 · 1 = 2); all the
         // flux on one makes a point (R² = 0); 3:1 gives 2 · (3 · 0.25 + 1 · 2.25) / 4 = 1.5.
         let n = Vec3::Z;
-        let m = |f0: f32, f1: f32| radius2([(Vec3::ZERO, Vec3::splat(f0)), (Vec3::X * 2.0, Vec3::splat(f1))].into_iter(), n);
+        let m = |f0: f32, f1: f32| {
+            radius2(
+                [(Vec3::ZERO, Vec3::splat(f0)), (Vec3::X * 2.0, Vec3::splat(f1))].into_iter(),
+                n,
+            )
+        };
         assert_eq!(m(1.0, 1.0), 2.0);
         assert_eq!(m(1.0, 0.0), 0.0);
         assert!((m(3.0, 1.0) - 1.5).abs() < 1e-6);

@@ -44,7 +44,11 @@ pub fn frame(normal: Vec3) -> (Vec3, Vec3) {
 /// Per direction u_a of [`directions`], the largest (x − centre) · u_a over the members (position,
 /// flux) that carry light, and at least 0: the outline always holds the centre. Members without
 /// flux emit nothing and do not widen it.
-pub fn support(members: impl Iterator<Item = (Vec3, Vec3)>, centre: Vec3, normal: Vec3) -> [f32; SIDES] {
+pub fn support(
+    members: impl Iterator<Item = (Vec3, Vec3)>,
+    centre: Vec3,
+    normal: Vec3,
+) -> [f32; SIDES] {
     let u = directions(normal);
     let mut s = [0.0f32; SIDES];
     for (x, flux) in members {
@@ -86,10 +90,20 @@ impl Outline {
     pub fn new(support: &[f32; SIDES]) -> Outline {
         let [s0, s1, s2, s3, s4, s5, s6, s7] = *support;
         let mut o = Outline { count: 4, ..Default::default() };
-        o.vertices[..4].copy_from_slice(&[Vec2::new(s0, -s6), Vec2::new(s0, s2), Vec2::new(-s4, s2), Vec2::new(-s4, -s6)]);
+        o.vertices[..4].copy_from_slice(&[
+            Vec2::new(s0, -s6),
+            Vec2::new(s0, s2),
+            Vec2::new(-s4, s2),
+            Vec2::new(-s4, -s6),
+        ]);
         let eps = CUT_TOLERANCE * support.iter().fold(0.0f32, |m, s| m.max(*s));
         let h = std::f32::consts::FRAC_1_SQRT_2;
-        for (d, s) in [(Vec2::new(h, h), s1), (Vec2::new(-h, h), s3), (Vec2::new(-h, -h), s5), (Vec2::new(h, -h), s7)] {
+        for (d, s) in [
+            (Vec2::new(h, h), s1),
+            (Vec2::new(-h, h), s3),
+            (Vec2::new(-h, -h), s5),
+            (Vec2::new(h, -h), s7),
+        ] {
             o = o.clipped(d, s, eps);
         }
         o
@@ -205,13 +219,24 @@ mod tests {
     /// sharing nothing with the contour form but the outline.
     fn quadrature(p: Vec3, n: Vec3, centre: Vec3, normal: Vec3, o: &Outline, cells: usize) -> f64 {
         let (t, b) = frame(normal);
-        let (lo, hi) = o.vertices[..o.count].iter().fold((Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-        let inside = |q: Vec2| (0..o.count).all(|i| (o.vertices[(i + 1) % o.count] - o.vertices[i]).perp_dot(q - o.vertices[i]) >= 0.0);
+        let (lo, hi) = o.vertices[..o.count]
+            .iter()
+            .fold((Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)), |(lo, hi), v| {
+                (lo.min(*v), hi.max(*v))
+            });
+        let inside = |q: Vec2| {
+            (0..o.count).all(|i| {
+                (o.vertices[(i + 1) % o.count] - o.vertices[i]).perp_dot(q - o.vertices[i]) >= 0.0
+            })
+        };
         let (w, h) = ((hi.x - lo.x) as f64 / cells as f64, (hi.y - lo.y) as f64 / cells as f64);
         let mut sum = 0.0;
         for i in 0..cells {
             for j in 0..cells {
-                let q = Vec2::new(lo.x + ((i as f64 + 0.5) * w) as f32, lo.y + ((j as f64 + 0.5) * h) as f32);
+                let q = Vec2::new(
+                    lo.x + ((i as f64 + 0.5) * w) as f32,
+                    lo.y + ((j as f64 + 0.5) * h) as f32,
+                );
                 if !inside(q) {
                     continue;
                 }
@@ -250,12 +275,22 @@ mod tests {
         // Members on the square [-1, 2] x [-0.5, 1] of the plane: the diagonals cut nothing.
         let normal = Vec3::Z;
         let (t, b) = frame(normal);
-        let members: Vec<(Vec3, Vec3)> =
-            (0..=30).flat_map(|i| (0..=15).map(move |j| (t * (-1.0 + 0.1 * i as f32) + b * (-0.5 + 0.1 * j as f32), Vec3::ONE))).collect();
+        let members: Vec<(Vec3, Vec3)> = (0..=30)
+            .flat_map(|i| {
+                (0..=15).map(move |j| {
+                    (t * (-1.0 + 0.1 * i as f32) + b * (-0.5 + 0.1 * j as f32), Vec3::ONE)
+                })
+            })
+            .collect();
         let o = Outline::new(&support(members.into_iter(), Vec3::ZERO, normal));
         assert_eq!(o.count, 4);
         assert!((o.area() - 4.5).abs() < 1e-4, "{}", o.area());
-        let want = [Vec2::new(2.0, -0.5), Vec2::new(2.0, 1.0), Vec2::new(-1.0, 1.0), Vec2::new(-1.0, -0.5)];
+        let want = [
+            Vec2::new(2.0, -0.5),
+            Vec2::new(2.0, 1.0),
+            Vec2::new(-1.0, 1.0),
+            Vec2::new(-1.0, -0.5),
+        ];
         for (got, want) in o.vertices[..4].iter().zip(want) {
             assert!((*got - want).length() < 1e-5, "{got} vs {want}");
         }
@@ -313,7 +348,11 @@ mod tests {
         let least = o.vertices[..o.count].iter().map(|v| v.x).fold(f32::MAX, f32::min);
         assert!((least + 0.3).abs() < 1e-5, "the outline reaches x = {} of the wall's -0.3", least);
         let r2 = crate::disk::radius2(members.iter().copied(), normal);
-        assert!(r2.sqrt() > 0.5, "the disk of the same members reaches {} past the wall", r2.sqrt() - 0.3);
+        assert!(
+            r2.sqrt() > 0.5,
+            "the disk of the same members reaches {} past the wall",
+            r2.sqrt() - 0.3
+        );
     }
 
     #[test]
@@ -330,7 +369,8 @@ mod tests {
     /// Y = y/h, in f64.
     fn corner_form_factor(x: f64, y: f64, h: f64) -> f64 {
         let (x, y) = (x / h, y / h);
-        (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan() + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
+        (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan()
+            + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
             / (2.0 * std::f64::consts::PI)
     }
 
@@ -341,9 +381,20 @@ mod tests {
             let o = Outline::new(&[a, 9.0, a, 9.0, a, 9.0, a, 9.0]);
             assert_eq!(o.count, 4);
             let area = o.area();
-            let g = geometry_term(centre + normal * h, -normal, normal, &placed(&o, centre, normal), area);
-            let want = 4.0 * corner_form_factor(a as f64, a as f64, h as f64) * std::f64::consts::PI / area as f64;
-            assert!((g as f64 / want - 1.0).abs() < 1e-4, "normal {normal}, centre {centre}, a {a} h {h}: {g} vs {want}");
+            let g = geometry_term(
+                centre + normal * h,
+                -normal,
+                normal,
+                &placed(&o, centre, normal),
+                area,
+            );
+            let want =
+                4.0 * corner_form_factor(a as f64, a as f64, h as f64) * std::f64::consts::PI
+                    / area as f64;
+            assert!(
+                (g as f64 / want - 1.0).abs() < 1e-4,
+                "normal {normal}, centre {centre}, a {a} h {h}: {g} vs {want}"
+            );
         }
     }
 
@@ -361,7 +412,12 @@ mod tests {
     #[test]
     fn on_the_axis_of_a_tilted_square_the_term_matches_the_closed_form() {
         let centre = Vec3::new(0.25, -0.5, 0.125);
-        for normal in [Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.3, -0.8, 0.2).normalize(), Vec3::new(-0.48, 0.6, 0.64), Vec3::new(0.95, 0.3, -0.1).normalize()] {
+        for normal in [
+            Vec3::new(0.0, 0.6, 0.8),
+            Vec3::new(0.3, -0.8, 0.2).normalize(),
+            Vec3::new(-0.48, 0.6, 0.64),
+            Vec3::new(0.95, 0.3, -0.1).normalize(),
+        ] {
             check_on_the_axis_of_a_square(centre, normal);
         }
     }
@@ -377,11 +433,20 @@ mod tests {
             let normal = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
             let centre = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let (t, b) = frame(normal);
-            let members: Vec<(Vec3, Vec3)> = (0..12).map(|_| (centre + t * (rng.next_f32() - 0.5) * 2.0 + b * (rng.next_f32() - 0.5), Vec3::ONE)).collect();
+            let members: Vec<(Vec3, Vec3)> = (0..12)
+                .map(|_| {
+                    (
+                        centre + t * (rng.next_f32() - 0.5) * 2.0 + b * (rng.next_f32() - 0.5),
+                        Vec3::ONE,
+                    )
+                })
+                .collect();
             let o = Outline::new(&support(members.into_iter(), centre, normal));
             let verts = placed(&o, centre, normal);
             let dir = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
-            let p = centre + normal * (0.05 + 1.5 * rng.next_f32()) + (dir - normal * dir.dot(normal)) * 1.5 * rng.next_f32();
+            let p = centre
+                + normal * (0.05 + 1.5 * rng.next_f32())
+                + (dir - normal * dir.dot(normal)) * 1.5 * rng.next_f32();
             let n = vplgi_types::sampling::uniform_sphere(rng.next_f32(), rng.next_f32());
             let g = geometry_term(p, n, normal, &verts, o.area()) as f64;
             let want = quadrature(p, n, centre, normal, &o, 1200);

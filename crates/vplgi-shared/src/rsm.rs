@@ -99,15 +99,30 @@ pub fn texel_ray(map: &RsmLight, t: u32) -> Option<TexelRay> {
             let (r1, r2) = r2_point(k);
             let (b1, b2) = sampling::uniform_triangle(r1, r2);
             let p = origin + Vec3::from(map.e1) * b1 + Vec3::from(map.e2) * b2;
-            Some(TexelRay { origin: p, dir: sampling::cosine_hemisphere(axis, u, v), power: power / texels, surface_normal: axis })
+            Some(TexelRay {
+                origin: p,
+                dir: sampling::cosine_hemisphere(axis, u, v),
+                power: power / texels,
+                surface_normal: axis,
+            })
         }
-        RSM_POINT => Some(TexelRay { origin, dir: sampling::uniform_sphere(u, v), power: power / texels, surface_normal: Vec3::ZERO }),
+        RSM_POINT => Some(TexelRay {
+            origin,
+            dir: sampling::uniform_sphere(u, v),
+            power: power / texels,
+            surface_normal: Vec3::ZERO,
+        }),
         RSM_DIRECTIONAL => {
             let (x, y) = (2.0 * u - 1.0, 2.0 * v - 1.0);
             let (e1, e2) = (Vec3::from(map.e1), Vec3::from(map.e2));
             // The texel's area: (2R / n)², R = |e1|.
             let side = 2.0 * inv;
-            Some(TexelRay { origin: origin + e1 * x + e2 * y, dir: axis, power: power * (side * side * e1.length_squared()), surface_normal: Vec3::ZERO })
+            Some(TexelRay {
+                origin: origin + e1 * x + e2 * y,
+                dir: axis,
+                power: power * (side * side * e1.length_squared()),
+                surface_normal: Vec3::ZERO,
+            })
         }
         _ => {
             let (x, y) = (2.0 * u - 1.0, 2.0 * v - 1.0);
@@ -123,13 +138,24 @@ pub fn texel_ray(map: &RsmLight, t: u32) -> Option<TexelRay> {
             // cos³ θ (cos θ for the tilt, 1 / r² = cos² θ for the distance).
             let side = 2.0 * inv;
             let omega = side * side * e1.length_squared() * cos * cos * cos;
-            Some(TexelRay { origin, dir: d * cos, power: power * (falloff * omega), surface_normal: Vec3::ZERO })
+            Some(TexelRay {
+                origin,
+                dir: d * cos,
+                power: power * (falloff * omega),
+                surface_normal: Vec3::ZERO,
+            })
         }
     }
 }
 
 /// The map of a spot light at `position` pointing along unit `direction`.
-pub fn spot(position: Vec3, direction: Vec3, intensity: Vec3, cos_inner: f32, cos_outer: f32) -> RsmLight {
+pub fn spot(
+    position: Vec3,
+    direction: Vec3,
+    intensity: Vec3,
+    cos_inner: f32,
+    cos_outer: f32,
+) -> RsmLight {
     let (right, up) = sampling::orthonormal_basis(direction);
     let cos_outer = cos_outer.clamp(-1.0, 1.0);
     // A perspective map cannot hold a cone of 90 degrees or more: it is cut at 89.
@@ -164,7 +190,12 @@ pub fn directional(centre: Vec3, direction: Vec3, half_side: f32, irradiance: Ve
 
 /// The map of a point light.
 pub fn point(position: Vec3, intensity: Vec3) -> RsmLight {
-    RsmLight { origin: position.to_array(), kind: RSM_POINT, power: (intensity * (4.0 * PI)).to_array(), ..Default::default() }
+    RsmLight {
+        origin: position.to_array(),
+        kind: RSM_POINT,
+        power: (intensity * (4.0 * PI)).to_array(),
+        ..Default::default()
+    }
 }
 
 /// The map of an emissive triangle (vertices `a`, `b`, `c`, unit normal `normal`, emitted
@@ -231,14 +262,26 @@ pub fn halton_texel(i: u32, n: u32) -> (u32, u32) {
         x3 = x3 * 3 + j % 3;
         j /= 3;
     }
-    (((x2 as u64 * n as u64) >> HALTON_BITS) as u32, (x3 as u64 * n as u64 / THREE_TO_THE_DIGITS as u64) as u32)
+    (
+        ((x2 as u64 * n as u64) >> HALTON_BITS) as u32,
+        (x3 as u64 * n as u64 / THREE_TO_THE_DIGITS as u64) as u32,
+    )
 }
 
 /// K clusters shared among maps in proportion to their VPLs: map m gets round(K v_m / V),
 /// at least 1 if it has a VPL and at most its VPL count.
 pub fn clusters_per_map(vpls_per_map: &[u32], k: u32) -> Vec<u32> {
     let total: u64 = vpls_per_map.iter().map(|&v| v as u64).sum();
-    vpls_per_map.iter().map(|&v| if v == 0 || total == 0 { 0 } else { ((k as f64 * v as f64 / total as f64).round() as u32).clamp(1, v) }).collect()
+    vpls_per_map
+        .iter()
+        .map(|&v| {
+            if v == 0 || total == 0 {
+                0
+            } else {
+                ((k as f64 * v as f64 / total as f64).round() as u32).clamp(1, v)
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -269,7 +312,9 @@ mod tests {
         assert!((m - (0.09 + 0.5 + 2.0)).abs() < 1e-6, "{m}");
         // Each weight scales its own term only.
         let w = RsmWeights { position: 10.0, normal: 0.0, flux: 0.5 };
-        assert!((mu(&w, Vec3::new(0.3, 0.0, 0.0), Vec3::Z, n60, red, green) - (0.9 + 1.0)).abs() < 1e-6);
+        assert!(
+            (mu(&w, Vec3::new(0.3, 0.0, 0.0), Vec3::Z, n60, red, green) - (0.9 + 1.0)).abs() < 1e-6
+        );
         // Brightness does not count, colour does.
         assert_eq!(chroma(Vec3::new(1.0, 2.0, 2.0)), chroma(Vec3::new(3.0, 6.0, 6.0)));
         assert_eq!(chroma(Vec3::ZERO), Vec3::ZERO);
@@ -278,9 +323,18 @@ mod tests {
     #[test]
     fn weights_are_checked() {
         assert_eq!(RsmWeights::default().validate(), Ok(()));
-        assert!(RsmWeights { position: -1.0, ..Default::default() }.validate().unwrap_err().contains(">= 0"));
-        assert!(RsmWeights { flux: f32::NAN, ..Default::default() }.validate().unwrap_err().contains("finite"));
-        assert!(RsmWeights { position: 0.0, normal: 0.0, flux: 0.0 }.validate().unwrap_err().contains("all be 0"));
+        assert!(RsmWeights { position: -1.0, ..Default::default() }
+            .validate()
+            .unwrap_err()
+            .contains(">= 0"));
+        assert!(RsmWeights { flux: f32::NAN, ..Default::default() }
+            .validate()
+            .unwrap_err()
+            .contains("finite"));
+        assert!(RsmWeights { position: 0.0, normal: 0.0, flux: 0.0 }
+            .validate()
+            .unwrap_err()
+            .contains("all be 0"));
     }
 
     #[test]
@@ -292,9 +346,15 @@ mod tests {
         for n in [1u32, 7, 128, 4096] {
             for i in 1..2000u32 {
                 let (x, y) = halton_texel(i, n);
-                let (fx, fy) = ((halton(i, 2) as f64 * n as f64).floor() as u32, (halton(i, 3) as f64 * n as f64).floor() as u32);
+                let (fx, fy) = (
+                    (halton(i, 2) as f64 * n as f64).floor() as u32,
+                    (halton(i, 3) as f64 * n as f64).floor() as u32,
+                );
                 // The truncated digits can only move a point down across a texel edge.
-                assert!(x == fx && (y == fy || y + 1 == fy), "i {i}, n {n}: ({x}, {y}) vs ({fx}, {fy})");
+                assert!(
+                    x == fx && (y == fy || y + 1 == fy),
+                    "i {i}, n {n}: ({x}, {y}) vs ({fx}, {fy})"
+                );
                 assert!(x < n && y < n);
             }
         }
@@ -314,7 +374,10 @@ mod tests {
         let sizes: Vec<(u32, u32)> = maps.iter().map(|m| (m.size, m.first)).collect();
         assert_eq!(sizes, vec![(80, 0), (60, 6400), (1, 10_000)]);
         assert_eq!(texel_count(&maps), 10_001);
-        assert_eq!([map_of(&maps, 0), map_of(&maps, 6399), map_of(&maps, 6400), map_of(&maps, 10_000)], [0, 0, 1, 2]);
+        assert_eq!(
+            [map_of(&maps, 0), map_of(&maps, 6399), map_of(&maps, 6400), map_of(&maps, 10_000)],
+            [0, 0, 1, 2]
+        );
         assert_eq!(texel_count(&[]), 0);
     }
 
@@ -324,11 +387,18 @@ mod tests {
         let o = Vec3::new(0.5, 1.0, -2.0);
         let a = area(o, o + Vec3::X * 2.0, o + Vec3::Z * 3.0, Vec3::Y, Vec3::new(1.0, 2.0, 3.0));
         // π A L_e with A = 3.
-        assert!((Vec3::from(a.power) - Vec3::new(1.0, 2.0, 3.0) * 3.0 * PI).abs().max_element() < 1e-5);
+        assert!(
+            (Vec3::from(a.power) - Vec3::new(1.0, 2.0, 3.0) * 3.0 * PI).abs().max_element() < 1e-5
+        );
         for l in [a, point(Vec3::ONE, Vec3::splat(0.5))] {
             let m = sized_one(l, 37);
-            let total: Vec3 = (0..37 * 37).map(|t| texel_ray(&m, t).expect("every texel emits").power).sum();
-            assert!((total - Vec3::from(l.power)).abs().max_element() <= 1e-4 * Vec3::from(l.power).max_element(), "{total}");
+            let total: Vec3 =
+                (0..37 * 37).map(|t| texel_ray(&m, t).expect("every texel emits").power).sum();
+            assert!(
+                (total - Vec3::from(l.power)).abs().max_element()
+                    <= 1e-4 * Vec3::from(l.power).max_element(),
+                "{total}"
+            );
         }
     }
 
@@ -337,13 +407,19 @@ mod tests {
     /// origins' barycentrics 1/3 each (the R2 points are uniform on the triangle).
     #[test]
     fn area_rays_start_on_the_emitter_and_leave_its_front() {
-        let (a, b, c) = (Vec3::new(1.0, 2.0, 0.0), Vec3::new(3.0, 2.0, 0.0), Vec3::new(1.0, 2.0, -2.0));
+        let (a, b, c) =
+            (Vec3::new(1.0, 2.0, 0.0), Vec3::new(3.0, 2.0, 0.0), Vec3::new(1.0, 2.0, -2.0));
         let m = sized_one(area(a, b, c, Vec3::Y, Vec3::ONE), 64);
         let (mut cos, mut centre) = (0.0f64, Vec3::ZERO);
         for t in 0..64 * 64 {
             let r = texel_ray(&m, t).expect("emits");
             assert!(r.dir.dot(Vec3::Y) > 0.0 && (r.dir.length() - 1.0).abs() < 1e-5);
-            assert!((r.origin.y - 2.0).abs() < 1e-6 && r.origin.x >= 1.0 - 1e-6 && r.origin.z <= 1e-6 && (r.origin.x - 1.0) - r.origin.z <= 2.0 + 1e-5);
+            assert!(
+                (r.origin.y - 2.0).abs() < 1e-6
+                    && r.origin.x >= 1.0 - 1e-6
+                    && r.origin.z <= 1e-6
+                    && (r.origin.x - 1.0) - r.origin.z <= 2.0 + 1e-5
+            );
             cos += r.dir.y as f64;
             centre += r.origin;
         }
@@ -358,7 +434,8 @@ mod tests {
     /// sin θ dθ): a midpoint rule on the map converges to it.
     #[test]
     fn spot_maps_carry_the_spots_power() {
-        for (inner_deg, outer_deg) in [(10.0f64, 30.0f64), (0.0, 45.0), (40.0, 41.0), (60.0, 80.0)] {
+        for (inner_deg, outer_deg) in [(10.0f64, 30.0f64), (0.0, 45.0), (40.0, 41.0), (60.0, 80.0)]
+        {
             let (ci, co) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
             let steps = 200_000;
             let mut exact = 0.0f64;
@@ -368,16 +445,24 @@ mod tests {
                 exact += t * t * theta.sin();
             }
             exact *= 2.0 * std::f64::consts::PI * outer_deg.to_radians() / steps as f64;
-            let m = sized_one(spot(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), Vec3::ONE, ci as f32, co as f32), 512);
+            let m = sized_one(
+                spot(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.0), Vec3::ONE, ci as f32, co as f32),
+                512,
+            );
             let mut total = 0.0f64;
             for t in 0..512 * 512 {
                 if let Some(r) = texel_ray(&m, t) {
                     assert!((r.dir.length() - 1.0).abs() < 1e-5);
-                    assert!(r.dir.dot(Vec3::NEG_Y) >= co as f32 - 1e-6, "a ray outside the outer cone");
+                    assert!(
+                        r.dir.dot(Vec3::NEG_Y) >= co as f32 - 1e-6,
+                        "a ray outside the outer cone"
+                    );
                     total += r.power.x as f64;
                 }
             }
-            println!("spot {inner_deg}-{outer_deg} deg: map power {total:.6}, ∫ I falloff dΩ {exact:.6}");
+            println!(
+                "spot {inner_deg}-{outer_deg} deg: map power {total:.6}, ∫ I falloff dΩ {exact:.6}"
+            );
             assert!((total / exact - 1.0).abs() < 2e-3, "{total} vs {exact}");
         }
     }
@@ -394,14 +479,24 @@ mod tests {
             let light = spot(position, dir, Vec3::ONE, 1.0, co);
             for e in [light.e1, light.e2] {
                 let edge = (dir + Vec3::from(e)).normalize();
-                assert!((edge.dot(dir) - co).abs() < 1e-5, "{outer_deg} deg: an edge's middle at cos {} for {co}", edge.dot(dir));
+                assert!(
+                    (edge.dot(dir) - co).abs() < 1e-5,
+                    "{outer_deg} deg: an edge's middle at cos {} for {co}",
+                    edge.dot(dir)
+                );
             }
             let m = sized_one(light, 256);
             let rays: Vec<TexelRay> = (0..256 * 256).filter_map(|t| texel_ray(&m, t)).collect();
-            assert!(rays.iter().all(|r| r.origin == position), "{outer_deg} deg: a ray that does not start at the spot");
+            assert!(
+                rays.iter().all(|r| r.origin == position),
+                "{outer_deg} deg: a ray that does not start at the spot"
+            );
             let inside = rays.len();
             let share = inside as f32 / (256.0 * 256.0);
-            assert!((share / (PI / 4.0) - 1.0).abs() < 0.01, "{outer_deg} deg: {share} of the texels in the cone, not π/4");
+            assert!(
+                (share / (PI / 4.0) - 1.0).abs() < 0.01,
+                "{outer_deg} deg: {share} of the texels in the cone, not π/4"
+            );
         }
     }
 
@@ -411,7 +506,15 @@ mod tests {
     #[test]
     fn warm_slots_keep_at_most_each_maps_share_in_order() {
         let centre = |map: u32, x: f32| RsmCentre { texel_x: x, map, ..Default::default() };
-        let previous = [centre(0, 0.0), centre(1, 1.0), centre(0, 2.0), centre(0, 3.0), centre(2, 4.0), centre(1, 5.0), centre(0, 6.0)];
+        let previous = [
+            centre(0, 0.0),
+            centre(1, 1.0),
+            centre(0, 2.0),
+            centre(0, 3.0),
+            centre(2, 4.0),
+            centre(1, 5.0),
+            centre(0, 6.0),
+        ];
         let slots = warm_slots(&previous, &[3, 5]);
         let xs = |m: usize| slots[m].iter().map(|c| c.texel_x).collect::<Vec<_>>();
         assert_eq!(slots.len(), 2);
@@ -429,7 +532,10 @@ mod tests {
             let (x, y) = r2_point(k);
             let fx = (0.5 + k as f64 / g).fract();
             let fy = (0.5 + k as f64 / (g * g)).fract();
-            assert!((x as f64 - fx).abs() < 1e-6 && (y as f64 - fy).abs() < 1e-6, "k {k}: {x} {y} vs {fx} {fy}");
+            assert!(
+                (x as f64 - fx).abs() < 1e-6 && (y as f64 - fy).abs() < 1e-6,
+                "k {k}: {x} {y} vs {fx} {fy}"
+            );
             mean = (mean.0 + x as f64, mean.1 + y as f64);
         }
         assert!((mean.0 / 4096.0 - 0.5).abs() < 1e-3 && (mean.1 / 4096.0 - 0.5).abs() < 1e-3);

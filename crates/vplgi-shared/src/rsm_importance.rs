@@ -159,7 +159,8 @@ pub fn map_weights(importance: &[f32], n: u32, k: u32) -> (Vec<u32>, Vec<u32>) {
     }
     let scale = quantum_scale(max, n * n);
     // (A negative importance, which no texel has, would quantise to 0 too: the cast saturates.)
-    let q: Vec<u32> = importance.iter().map(|&x| if x.is_finite() { quantize(x, scale) } else { 0 }).collect();
+    let q: Vec<u32> =
+        importance.iter().map(|&x| if x.is_finite() { quantize(x, scale) } else { 0 }).collect();
     let mut cap = u32::MAX;
     for _ in 0..CAP_PASSES {
         cap = weight_cap(q.iter().map(|&w| w.min(cap)).sum(), k);
@@ -193,8 +194,16 @@ mod tests {
     fn halton_fractions_are_the_radical_inverses() {
         for i in [1u32, 2, 3, 7, 100, 255, 256, 4096, 531_440] {
             let (f2, f3) = halton_fractions(i);
-            assert_eq!(f2 as f64, (radical_inverse(i, 2) * (1u64 << 20) as f64).floor(), "base 2 at {i}");
-            assert_eq!(f3 as f64, (radical_inverse(i, 3) * (1u64 << 20) as f64).floor(), "base 3 at {i}");
+            assert_eq!(
+                f2 as f64,
+                (radical_inverse(i, 2) * (1u64 << 20) as f64).floor(),
+                "base 2 at {i}"
+            );
+            assert_eq!(
+                f3 as f64,
+                (radical_inverse(i, 3) * (1u64 << 20) as f64).floor(),
+                "base 3 at {i}"
+            );
         }
     }
 
@@ -215,7 +224,14 @@ mod tests {
     }
 
     fn vpl(position: Vec3, normal: Vec3, flux: f32) -> Vpl {
-        Vpl { position: position.to_array(), path: 0, normal: normal.to_array(), bounce: 1, flux: [flux; 3], _pad: 0 }
+        Vpl {
+            position: position.to_array(),
+            path: 0,
+            normal: normal.to_array(),
+            bounce: 1,
+            flux: [flux; 3],
+            _pad: 0,
+        }
     }
 
     /// The geometry term against its definition for two facing patches, and the floor.
@@ -242,7 +258,10 @@ mod tests {
                 let s = quantum_scale(max, texels);
                 assert_eq!(s.to_bits() & 0x7f_ffff, 0, "{s} is a power of two");
                 let top = quantize(max, s);
-                assert!(top >= 1 << (bits - 1) && top <= 1 << bits, "max {max} over {texels}: {top} of {bits} bits");
+                assert!(
+                    top >= 1 << (bits - 1) && top <= 1 << bits,
+                    "max {max} over {texels}: {top} of {bits} bits"
+                );
             }
         }
     }
@@ -302,7 +321,10 @@ mod tests {
         importance[100] = 0.9 / 0.1 * 255.0;
         let distinct = |k: u32| {
             let (q, rows) = map_weights(&importance, n, k);
-            (1..=16).map(|i| warp(i, n, &q, &rows).expect("importance")).collect::<std::collections::BTreeSet<_>>().len()
+            (1..=16)
+                .map(|i| warp(i, n, &q, &rows).expect("importance"))
+                .collect::<std::collections::BTreeSet<_>>()
+                .len()
         };
         assert!(distinct(16) >= 12, "{} texels", distinct(16));
         assert!(distinct(1) <= 4, "uncapped: {} texels", distinct(1));
@@ -315,7 +337,8 @@ mod tests {
     #[test]
     fn warped_seeds_match_a_smooth_importance() {
         let n = 16u32;
-        let importance: Vec<f32> = (0..n * n).map(|t| (1 + t % n) as f32 * (1 + t / n) as f32).collect();
+        let importance: Vec<f32> =
+            (0..n * n).map(|t| (1 + t % n) as f32 * (1 + t / n) as f32).collect();
         let (q, rows) = map_weights(&importance, n, 1);
         let total: f64 = importance.iter().map(|&x| x as f64).sum();
         let mut blocks = [0u32; 16];
@@ -325,9 +348,16 @@ mod tests {
             blocks[((y / 4) * 4 + x / 4) as usize] += 1;
         }
         for b in 0..16u32 {
-            let share: f64 = (0..n * n).filter(|t| ((t / n) / 4) * 4 + (t % n) / 4 == b).map(|t| importance[t as usize] as f64).sum::<f64>() / total;
+            let share: f64 = (0..n * n)
+                .filter(|t| ((t / n) / 4) * 4 + (t % n) / 4 == b)
+                .map(|t| importance[t as usize] as f64)
+                .sum::<f64>()
+                / total;
             let got = blocks[b as usize] as f64 / seeds as f64;
-            assert!((got - share).abs() < 0.01, "block {b}: {got:.4} of the seeds for {share:.4} of the importance");
+            assert!(
+                (got - share).abs() < 0.01,
+                "block {b}: {got:.4} of the seeds for {share:.4} of the importance"
+            );
         }
     }
 }

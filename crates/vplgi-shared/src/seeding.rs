@@ -175,7 +175,10 @@ mod tests {
         let q = Quadtree::new(5, 3);
         assert_eq!(q.levels, 3, "5 x 3 pads to 8 x 8");
         assert_eq!((q.side(1), q.side(2), q.side(3)), (4, 2, 1));
-        assert_eq!((q.level_offset(1), q.level_offset(2), q.level_offset(3), q.nodes()), (0, 16, 20, 21));
+        assert_eq!(
+            (q.level_offset(1), q.level_offset(2), q.level_offset(3), q.nodes()),
+            (0, 16, 20, 21)
+        );
         assert_eq!(q.node(3, 0, 0), 20);
         assert_eq!(q.pixel(4, 2), Some(14));
         assert_eq!(q.pixel(5, 0), None);
@@ -188,11 +191,23 @@ mod tests {
     #[test]
     fn u64s_convert_within_their_roundings() {
         let mut rng = vplgi_types::Rng::new(3, vplgi_types::Stream::Seeding, 0);
-        let edges = [0u64, 1, u32::MAX as u64, 1 << 32, (1 << 32) + u32::MAX as u64, (3 << 40) | 0x8000_0000, u64::MAX];
-        let random = (0..1000).map(|_| ((rng.next_u32() as u64) << (rng.next_u32() % 33)) | rng.next_u32() as u64);
+        let edges = [
+            0u64,
+            1,
+            u32::MAX as u64,
+            1 << 32,
+            (1 << 32) + u32::MAX as u64,
+            (3 << 40) | 0x8000_0000,
+            u64::MAX,
+        ];
+        let random = (0..1000)
+            .map(|_| ((rng.next_u32() as u64) << (rng.next_u32() % 33)) | rng.next_u32() as u64);
         for x in edges.into_iter().chain(random) {
             let (got, exact) = (u64_f32(x) as f64, x as f64);
-            assert!((got - exact).abs() <= exact * 2.0 * f32::EPSILON as f64, "{x}: {got} vs {exact}");
+            assert!(
+                (got - exact).abs() <= exact * 2.0 * f32::EPSILON as f64,
+                "{x}: {got} vs {exact}"
+            );
         }
     }
 
@@ -222,7 +237,11 @@ mod tests {
         // The weights left are all 0: by hits.
         assert_eq!(capped_shares(6, [50, 0, 0, 0], [2, 1, 3, 0]), [2, 1, 3, 0]);
         for s in 0..40u32 {
-            for (w, cap) in [([7u64, 0, 2, 100], [5u32, 9, 9, 20]), ([1, 1, 1, 1], [0, 40, 1, 2]), ([0, 0, 0, 9], [10, 10, 10, 10])] {
+            for (w, cap) in [
+                ([7u64, 0, 2, 100], [5u32, 9, 9, 20]),
+                ([1, 1, 1, 1], [0, 40, 1, 2]),
+                ([0, 0, 0, 9], [10, 10, 10, 10]),
+            ] {
                 if s >= cap.iter().sum::<u32>() {
                     continue;
                 }
@@ -239,14 +258,21 @@ mod tests {
             let r: Vec<u32> = ranks(7, 3, s, n).collect();
             assert_eq!(r.len(), s as usize);
             for (j, &x) in r.iter().enumerate() {
-                let (lo, hi) = (j as f32 * n as f32 / s as f32, (j + 1) as f32 * n as f32 / s as f32);
-                assert!(x as f32 >= lo.floor() && (x as f32) < hi.ceil() && x < n, "{s} of {n}: rank {x} outside stratum {j}");
+                let (lo, hi) =
+                    (j as f32 * n as f32 / s as f32, (j + 1) as f32 * n as f32 / s as f32);
+                assert!(
+                    x as f32 >= lo.floor() && (x as f32) < hi.ceil() && x < n,
+                    "{s} of {n}: rank {x} outside stratum {j}"
+                );
             }
             assert!(r.windows(2).all(|p| p[0] < p[1]), "{s} of {n}: {r:?}");
         }
         // 11 (13 / 11) rounds to 12.99... in f32: the last stratum must still end at rank 12, not
         // at floor(s r), or the node's last hit could never be picked.
-        assert!((0..64).any(|node| ranks(7, node, 11, 13).last() == Some(12)), "rank 12 of 13 is never picked");
+        assert!(
+            (0..64).any(|node| ranks(7, node, 11, 13).last() == Some(12)),
+            "rank 12 of 13 is never picked"
+        );
     }
 
     #[test]

@@ -49,7 +49,12 @@ impl Camera {
         let forward = world.transform_vector3(-Vec3::Z).try_normalize()?;
         let up = world.transform_vector3(Vec3::Y);
         let up = (up - forward * up.dot(forward)).try_normalize()?;
-        (yfov > 0.0 && yfov < std::f32::consts::PI).then(|| Camera { position: world.transform_point3(Vec3::ZERO), forward, up, yfov })
+        (yfov > 0.0 && yfov < std::f32::consts::PI).then(|| Camera {
+            position: world.transform_point3(Vec3::ZERO),
+            forward,
+            up,
+            yfov,
+        })
     }
 
     /// The node rotation that makes a glTF camera look along `forward` with `up` (the inverse of
@@ -107,7 +112,12 @@ impl<T: Interpolate> Track<T> {
             return Err(format!("key time {i} is {}", times[i]));
         }
         if let Some(i) = times.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(format!("key times are not increasing: key {} at {} s follows {} s", i + 1, times[i + 1], times[i]));
+            return Err(format!(
+                "key times are not increasing: key {} at {} s follows {} s",
+                i + 1,
+                times[i + 1],
+                times[i]
+            ));
         }
         Ok(Track { times, values, step })
     }
@@ -170,7 +180,11 @@ impl CameraPath {
 
     /// The camera at time `t`, or `None` where the transform is degenerate.
     pub fn at(&self, t: f32) -> Option<Camera> {
-        let local = Mat4::from_scale_rotation_translation(self.scale, self.rotation.at(t).normalize(), self.translation.at(t));
+        let local = Mat4::from_scale_rotation_translation(
+            self.scale,
+            self.rotation.at(t).normalize(),
+            self.translation.at(t),
+        );
         Camera::from_world(&(self.parent * local), self.yfov)
     }
 
@@ -183,7 +197,8 @@ impl CameraPath {
         let (t0, t1) = self.span();
         (0..frames)
             .map(|i| {
-                let t = if frames == 1 { t0 } else { t0 + (t1 - t0) * i as f32 / (frames - 1) as f32 };
+                let t =
+                    if frames == 1 { t0 } else { t0 + (t1 - t0) * i as f32 / (frames - 1) as f32 };
                 self.at(t).ok_or_else(|| format!("the camera's transform is degenerate at {t} s"))
             })
             .collect()
@@ -205,7 +220,10 @@ mod tests {
         assert!((c.yfov - std::f32::consts::FRAC_PI_4).abs() < 1e-7, "{c:?}");
         // A box with no extent is still seen, from the distance of a sphere of radius 1e-3.
         let p = Camera::framing(Vec3::ONE, Vec3::ONE);
-        assert!((p.position - Vec3::new(1.0, 1.0, 1.0 + 1e-3 / 0.382_683_43)).length() < 1e-6, "{p:?}");
+        assert!(
+            (p.position - Vec3::new(1.0, 1.0, 1.0 + 1e-3 / 0.382_683_43)).length() < 1e-6,
+            "{p:?}"
+        );
     }
 
     /// A sheared node transform gives a camera whose up is the node's +y made orthogonal to the
@@ -213,7 +231,12 @@ mod tests {
     #[test]
     fn from_world_orthogonalises_up_and_refuses_bad_fields_of_view() {
         // Local +y maps to (0, 1, 1) while local -z still maps to -z: up must become +y.
-        let shear = Mat4::from_cols(Vec3::X.extend(0.0), Vec3::new(0.0, 1.0, 1.0).extend(0.0), Vec3::Z.extend(0.0), glam::Vec4::W);
+        let shear = Mat4::from_cols(
+            Vec3::X.extend(0.0),
+            Vec3::new(0.0, 1.0, 1.0).extend(0.0),
+            Vec3::Z.extend(0.0),
+            glam::Vec4::W,
+        );
         let c = Camera::from_world(&shear, 1.0).unwrap();
         assert_eq!((c.forward, c.up), (-Vec3::Z, Vec3::Y));
         for yfov in [0.0, -1.0, std::f32::consts::PI, 4.0, f32::NAN] {
@@ -225,10 +248,20 @@ mod tests {
     /// The node rotation written for a camera reads back as the same camera.
     #[test]
     fn rotation_round_trips_through_from_world() {
-        let c = Camera { position: Vec3::new(1.0, 2.0, 3.0), forward: Vec3::new(-0.3, -0.2, -1.0).normalize(), up: Vec3::Y, yfov: 0.9 };
+        let c = Camera {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            forward: Vec3::new(-0.3, -0.2, -1.0).normalize(),
+            up: Vec3::Y,
+            yfov: 0.9,
+        };
         let c = Camera { up: (c.up - c.forward * c.up.dot(c.forward)).normalize(), ..c };
-        let back = Camera::from_world(&Mat4::from_rotation_translation(c.rotation(), c.position), c.yfov).unwrap();
-        assert!((back.forward - c.forward).length() < 1e-6 && (back.up - c.up).length() < 1e-6, "{back:?} vs {c:?}");
+        let back =
+            Camera::from_world(&Mat4::from_rotation_translation(c.rotation(), c.position), c.yfov)
+                .unwrap();
+        assert!(
+            (back.forward - c.forward).length() < 1e-6 && (back.up - c.up).length() < 1e-6,
+            "{back:?} vs {c:?}"
+        );
         assert_eq!(back.position, c.position);
     }
 
@@ -237,7 +270,8 @@ mod tests {
     /// value at other fractions.
     #[test]
     fn tracks_interpolate_hold_and_step() {
-        let t = Track::new(vec![1.0, 3.0], vec![Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0)], false).unwrap();
+        let t =
+            Track::new(vec![1.0, 3.0], vec![Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0)], false).unwrap();
         assert_eq!(t.at(2.5), Vec3::new(3.0, 0.0, 0.0));
         assert_eq!(t.at(0.0), Vec3::ZERO, "held before the first key");
         assert_eq!(t.at(9.0), Vec3::new(4.0, 0.0, 0.0), "held after the last key");
@@ -247,15 +281,25 @@ mod tests {
         let r = Track::new(vec![0.0, 1.0], vec![Quat::IDENTITY, quarter], false).unwrap();
         let at = r.at(0.25);
         let (axis, angle) = at.to_axis_angle();
-        assert!((angle - std::f32::consts::FRAC_PI_8).abs() < 1e-5 && (axis - Vec3::Y).length() < 1e-5, "{axis} {angle}");
+        assert!(
+            (angle - std::f32::consts::FRAC_PI_8).abs() < 1e-5 && (axis - Vec3::Y).length() < 1e-5,
+            "{axis} {angle}"
+        );
     }
 
     #[test]
     fn bad_keyframes_are_refused_by_name() {
-        assert_eq!(Track::new(vec![0.0, 1.0], vec![Vec3::ZERO], false).unwrap_err(), "2 key times but 1 values");
+        assert_eq!(
+            Track::new(vec![0.0, 1.0], vec![Vec3::ZERO], false).unwrap_err(),
+            "2 key times but 1 values"
+        );
         assert!(Track::<Vec3>::new(vec![], vec![], false).unwrap_err().contains("no keyframes"));
-        assert!(Track::new(vec![0.0, 0.0], vec![Vec3::ZERO; 2], false).unwrap_err().contains("not increasing"));
-        assert!(Track::new(vec![0.0, f32::NAN], vec![Vec3::ZERO; 2], false).unwrap_err().contains("NaN"));
+        assert!(Track::new(vec![0.0, 0.0], vec![Vec3::ZERO; 2], false)
+            .unwrap_err()
+            .contains("not increasing"));
+        assert!(Track::new(vec![0.0, f32::NAN], vec![Vec3::ZERO; 2], false)
+            .unwrap_err()
+            .contains("NaN"));
     }
 
     /// Frames sample the span evenly, ends included; zero frames are refused.
@@ -263,7 +307,12 @@ mod tests {
     fn frames_span_the_animation() {
         let path = CameraPath {
             parent: Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)),
-            translation: Track::new(vec![2.0, 4.0], vec![Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0)], false).unwrap(),
+            translation: Track::new(
+                vec![2.0, 4.0],
+                vec![Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0)],
+                false,
+            )
+            .unwrap(),
             rotation: Track::constant(Quat::IDENTITY),
             scale: Vec3::ONE,
             yfov: 0.8,

@@ -196,10 +196,17 @@ pub fn min_cell(ext: Vec3) -> f64 {
 /// centroids per occupied cell when centroids follow the data. The square-root update assumes
 /// surface-like data, where occupied cells scale with 1 / cell². `occupied(cell)` counts the
 /// distinct cells `floor((p - min) / cell)` (f32 arithmetic) of the downsampled points.
-pub fn grid_geometry(min: Vec3, max: Vec3, k: usize, mut occupied: impl FnMut(f32) -> usize) -> GridGeometry {
+pub fn grid_geometry(
+    min: Vec3,
+    max: Vec3,
+    k: usize,
+    mut occupied: impl FnMut(f32) -> usize,
+) -> GridGeometry {
     let ext = (max - min).max(Vec3::splat(1e-12));
     let target = (k as f64 / 2.0).max(1.0);
-    let mut cell = (ext.x as f64 * ext.y as f64 * ext.z as f64 / k.max(1) as f64).cbrt().max(ext.max_element() as f64 / 1024.0);
+    let mut cell = (ext.x as f64 * ext.y as f64 * ext.z as f64 / k.max(1) as f64)
+        .cbrt()
+        .max(ext.max_element() as f64 / 1024.0);
     for _ in 0..4 {
         cell = cell.max(min_cell(ext));
         let occ = occupied(cell as f32) as f64;
@@ -225,7 +232,9 @@ pub fn downsample(m: usize, gamma: usize, seed: u32) -> Vec<u32> {
 pub fn seed_centroids(sample: &[u32], k: usize, seed: u32) -> Vec<u32> {
     let u = Rng::new(seed, Stream::Cluster, 0).next_f32() as f64;
     let s = sample.len() as f64;
-    (0..k).map(|i| sample[(((i as f64 + u) * s / k as f64) as usize).min(sample.len() - 1)]).collect()
+    (0..k)
+        .map(|i| sample[(((i as f64 + u) * s / k as f64) as usize).min(sample.len() - 1)])
+        .collect()
 }
 
 /// Fixed-point format of the centroid sums.
@@ -252,7 +261,8 @@ impl FixedPoint {
     #[inline]
     pub fn quantize(&self, p: Vec3, n: Vec3) -> [u32; 6] {
         let q = ((p - self.min) / self.ext * FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(FIX_ONE));
-        let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE).clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
+        let m = (n.clamp(Vec3::NEG_ONE, Vec3::ONE) * FIX_ONE + FIX_ONE)
+            .clamp(Vec3::ZERO, Vec3::splat(2.0 * FIX_ONE));
         [q.x, q.y, q.z, m.x, m.y, m.z].map(|v| round_ties_even_nonnegative(v) as u32)
     }
 
@@ -293,7 +303,13 @@ pub fn u64_mean(sum: u64, count: u32) -> f32 {
 /// `Weighted`: inverse distance, or inverse Eq. 2 error; Eq. 8's plain mean for `Average`).
 /// Distances are floored at 1e-4 of a grid cell ([`Metric::weight_distance`]), so a point
 /// sitting on a centroid gets a large but finite weight.
-pub fn fuzzy_weights(best: &[(f32, u32)], mode: FuzzyMode, metric: Metric, cell: f32, out: &mut [f32]) {
+pub fn fuzzy_weights(
+    best: &[(f32, u32)],
+    mode: FuzzyMode,
+    metric: Metric,
+    cell: f32,
+    out: &mut [f32],
+) {
     let mut total = 0.0f32;
     for (w, &(key, _)) in out.iter_mut().zip(best) {
         *w = match mode {
@@ -326,11 +342,17 @@ mod tests {
             let mut offsets = vec![0; gamma];
             for (b, &i) in s.iter().enumerate() {
                 let i = i as usize;
-                assert!(i >= b * gamma && i < ((b + 1) * gamma).min(m), "m {m}, gamma {gamma}: block {b} took point {i}");
+                assert!(
+                    i >= b * gamma && i < ((b + 1) * gamma).min(m),
+                    "m {m}, gamma {gamma}: block {b} took point {i}"
+                );
                 offsets[i - b * gamma] += 1;
             }
             if m > 100 * gamma {
-                assert!(offsets.iter().all(|&c| c > 0), "m {m}, gamma {gamma}: offsets {offsets:?}");
+                assert!(
+                    offsets.iter().all(|&c| c > 0),
+                    "m {m}, gamma {gamma}: offsets {offsets:?}"
+                );
             }
         }
     }
@@ -347,7 +369,11 @@ mod tests {
         assert_eq!([0, 6, 40].map(|f| effective_f(FuzzyMode::Hard, f)), [1, 1, 1]);
         assert_eq!([0, 6, 40].map(|f| effective_f(FuzzyMode::Weighted, f)), [1, 6, max]);
         assert_eq!(effective_f(FuzzyMode::Average, max), max);
-        let frame = crate::FrameConfig { fuzzy: FuzzyMode::Weighted, f: 6, ..crate::FrameConfig::default() };
+        let frame = crate::FrameConfig {
+            fuzzy: FuzzyMode::Weighted,
+            f: 6,
+            ..crate::FrameConfig::default()
+        };
         assert_eq!(frame.effective_f(), 6);
     }
 
@@ -358,10 +384,19 @@ mod tests {
         assert!(cells <= 1.1 * MAX_CELLS, "{cube:?}: {cells} cells");
         // Flat, near-flat, linear and point-like data: at most about MAX_CELLS cells too, and
         // at most two cells across an axis far thinner than the others.
-        for max in [Vec3::new(100.0, 1e-3, 1.0), Vec3::new(10.0, 10.0, 0.0), Vec3::new(10.0, 1e-3, 10.0), Vec3::new(0.0, 0.0, 7.0), Vec3::ZERO] {
+        for max in [
+            Vec3::new(100.0, 1e-3, 1.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(10.0, 1e-3, 10.0),
+            Vec3::new(0.0, 0.0, 7.0),
+            Vec3::ZERO,
+        ] {
             let g = grid_geometry(Vec3::ZERO, max, 1 << 20, |_| 1);
             let cells: f64 = g.dims.iter().map(|&d| d as f64).product();
-            assert!(g.dims.iter().all(|&d| (1..=4097).contains(&d)) && cells <= 1.1 * MAX_CELLS, "{max}: {g:?}, {cells} cells");
+            assert!(
+                g.dims.iter().all(|&d| (1..=4097).contains(&d)) && cells <= 1.1 * MAX_CELLS,
+                "{max}: {g:?}, {cells} cells"
+            );
             for a in 0..3 {
                 if max[a] <= 1e-3 {
                     assert!(g.dims[a] <= 2, "{max}: axis {a}: {g:?}");
@@ -372,9 +407,18 @@ mod tests {
         let mut points = Vec::new();
         for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
             let (u, v) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            points.extend([(u, v, 0.0), (u, v, 1.0), (u, 0.0, v), (u, 1.0, v), (0.0, u, v), (1.0, u, v)].map(Vec3::from));
+            points.extend(
+                [(u, v, 0.0), (u, v, 1.0), (u, 0.0, v), (u, 1.0, v), (0.0, u, v), (1.0, u, v)]
+                    .map(Vec3::from),
+            );
         }
-        let occupied = |cell: f32| points.iter().map(|&p| (p / cell).floor().as_ivec3().to_array()).collect::<std::collections::HashSet<_>>().len();
+        let occupied = |cell: f32| {
+            points
+                .iter()
+                .map(|&p| (p / cell).floor().as_ivec3().to_array())
+                .collect::<std::collections::HashSet<_>>()
+                .len()
+        };
         for k in [100, 2000, 20000] {
             let g = grid_geometry(Vec3::ZERO, Vec3::ONE, k, occupied);
             let occ = occupied(g.cell);
@@ -390,15 +434,33 @@ mod tests {
     fn weights_floor_a_zero_distance_at_a_ten_thousandth_of_a_cell() {
         let mut w = [0.0; 2];
         // Eq. 7 keys are squared distances: 0 is held at 1e-4 x 0.5 = 5e-5, against 1e-4.
-        fuzzy_weights(&[(0.0, 0), (1e-8, 1)], FuzzyMode::Weighted, Metric::Eq7 { normal_threshold: 0.5 }, 0.5, &mut w);
+        fuzzy_weights(
+            &[(0.0, 0), (1e-8, 1)],
+            FuzzyMode::Weighted,
+            Metric::Eq7 { normal_threshold: 0.5 },
+            0.5,
+            &mut w,
+        );
         assert!((w[0] - 2.0 / 3.0).abs() < 1e-5 && (w[1] - 1.0 / 3.0).abs() < 1e-5, "{w:?}");
         // Eq. 2 keys are errors: 0 is held at 1e-4 x (4 x 0.5) = 2e-4, against 1e-3.
-        fuzzy_weights(&[(0.0, 0), (1e-3, 1)], FuzzyMode::Weighted, Metric::Ward { alpha: 4.0 }, 0.5, &mut w);
+        fuzzy_weights(
+            &[(0.0, 0), (1e-3, 1)],
+            FuzzyMode::Weighted,
+            Metric::Ward { alpha: 4.0 },
+            0.5,
+            &mut w,
+        );
         assert!((w[0] - 5.0 / 6.0).abs() < 1e-5 && (w[1] - 1.0 / 6.0).abs() < 1e-5, "{w:?}");
         // Squared distances that overflowed (points ~1e19 apart) leave no inverse distance to
         // weigh by: the weights fall back to Eq. 8's plain mean instead of 0 / 0.
         for metric in [Metric::Eq7 { normal_threshold: 0.5 }, Metric::Ward { alpha: 4.0 }] {
-            fuzzy_weights(&[(f32::INFINITY, 0), (f32::INFINITY, 1)], FuzzyMode::Weighted, metric, 0.5, &mut w);
+            fuzzy_weights(
+                &[(f32::INFINITY, 0), (f32::INFINITY, 1)],
+                FuzzyMode::Weighted,
+                metric,
+                0.5,
+                &mut w,
+            );
             assert_eq!(w, [0.5, 0.5], "{metric:?}");
         }
     }
@@ -407,7 +469,17 @@ mod tests {
     fn rounding_without_libm_is_round_ties_even() {
         // Ties at every magnitude, their neighbours one ulp away, and sweeps of the range the
         // quantiser produces ([0, 2^25]), against the standard library.
-        let mut values = vec![0.0f32, 0.5, 1.5, 2.5, 8_388_607.5, 8_388_608.0, 16_777_216.0, 33_554_432.0, f32::NAN];
+        let mut values = vec![
+            0.0f32,
+            0.5,
+            1.5,
+            2.5,
+            8_388_607.5,
+            8_388_608.0,
+            16_777_216.0,
+            33_554_432.0,
+            f32::NAN,
+        ];
         for e in 0..24 {
             let t = (1u32 << e) as f32 + 0.5;
             values.extend([t, f32::from_bits(t.to_bits() - 1), f32::from_bits(t.to_bits() + 1)]);

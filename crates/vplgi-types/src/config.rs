@@ -388,7 +388,13 @@ impl FrameConfig {
     }
 
     fn clustered(k_vpl: u32, k_sp: u32) -> Self {
-        FrameConfig { cluster: ClusterMode::Both, k_vpl, k_sp, bias_compensation: false, ..Self::reference() }
+        FrameConfig {
+            cluster: ClusterMode::Both,
+            k_vpl,
+            k_sp,
+            bias_compensation: false,
+            ..Self::reference()
+        }
     }
 
     /// The paper's light setting: 0.75k VPL clusters, 1k SP clusters.
@@ -457,7 +463,11 @@ impl FrameConfig {
     /// bounding-box diagonal `extent`: K_SP seeds, Eq. 2 with α per unit length, the
     /// shading-point clustering's seed.
     pub fn seed_params(&self, extent: f32) -> crate::params::SeedParams {
-        crate::params::SeedParams { k: self.k_sp, alpha: self.alpha / extent.max(f32::MIN_POSITIVE), seed: self.seed.wrapping_add(1) }
+        crate::params::SeedParams {
+            k: self.k_sp,
+            alpha: self.alpha / extent.max(f32::MIN_POSITIVE),
+            seed: self.seed.wrapping_add(1),
+        }
     }
 
     /// The parameters of the sample points' gather rays (`ShadeMode::Interpolate`).
@@ -473,12 +483,23 @@ impl FrameConfig {
     /// The RSM-space clustering of the VPLs (`VplClustering::Rsm`) in a scene of diagonal
     /// `extent`: K_VPL clusters, the frame's iterations and Eq. 1's weights.
     pub fn rsm_cluster_params(&self, extent: f32) -> crate::rsm::RsmClusterParams {
-        crate::rsm::RsmClusterParams { k: self.k_vpl, iterations: self.iterations, weights: self.rsm_weights, extent }
+        crate::rsm::RsmClusterParams {
+            k: self.k_vpl,
+            iterations: self.iterations,
+            weights: self.rsm_weights,
+            extent,
+        }
     }
 
     /// The parameters of `shading_points`.
     pub fn camera_params(&self, camera: crate::Camera) -> crate::CameraParams {
-        crate::CameraParams { camera, width: self.width, height: self.height, spp: self.spp, seed: self.seed }
+        crate::CameraParams {
+            camera,
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            seed: self.seed,
+        }
     }
 
     /// The clamp's bound on the geometry term for a scene of bounding-box diagonal `extent`:
@@ -505,7 +526,10 @@ impl FrameConfig {
 
     /// The parameters of `bias_points` at compensation level `level` (1 ..= `bounces`).
     pub fn bias_params(&self, extent: f32, level: u32) -> crate::BiasParams {
-        crate::BiasParams { seed: crate::params::level_seed(self.seed, level), g_max: self.g_max(extent) }
+        crate::BiasParams {
+            seed: crate::params::level_seed(self.seed, level),
+            g_max: self.g_max(extent),
+        }
     }
 
     /// Checks ranges; the message names the offending parameter.
@@ -531,7 +555,9 @@ impl FrameConfig {
         }
         let points = self.width as u64 * self.height as u64 * self.spp as u64;
         if points > (1 << 28) {
-            return Err(format!("width x height x spp must be at most 2^28 shading points (got {points})"));
+            return Err(format!(
+                "width x height x spp must be at most 2^28 shading points (got {points})"
+            ));
         }
         if !(-1.0..1.0).contains(&self.normal_threshold) {
             // n1 . n2 > 1 never holds: every point would be incompatible with every centroid.
@@ -558,7 +584,10 @@ impl FrameConfig {
             }
             let max = crate::interpolation::MAX_GATHER_RAYS;
             if !(1..=max).contains(&self.gather_rays) {
-                return Err(format!("gather-rays must be between 1 and {max} (got {})", self.gather_rays));
+                return Err(format!(
+                    "gather-rays must be between 1 and {max} (got {})",
+                    self.gather_rays
+                ));
             }
         }
         if !(self.g_clamp_rel >= 0.0 && self.g_clamp_rel.is_finite()) {
@@ -572,7 +601,10 @@ impl FrameConfig {
                 ));
             }
             if !(1..=MAX_RSM_SIZE).contains(&self.rsm_size) {
-                return Err(format!("rsm-size must be between 1 and {MAX_RSM_SIZE} texels per side (got {})", self.rsm_size));
+                return Err(format!(
+                    "rsm-size must be between 1 and {MAX_RSM_SIZE} texels per side (got {})",
+                    self.rsm_size
+                ));
             }
         }
         if self.vpl_cluster == VplClustering::Rsm {
@@ -620,13 +652,21 @@ mod tests {
         // The clamp's bias is what the clustered settings measure; the reference puts it back.
         let r = Preset::Reference.config();
         assert_eq!((r.cluster, r.bias_compensation), (ClusterMode::None, true));
-        for p in [Preset::Light, Preset::Intermediate, Preset::High, Preset::Default, Preset::Verify] {
+        for p in
+            [Preset::Light, Preset::Intermediate, Preset::High, Preset::Default, Preset::Verify]
+        {
             assert!(!p.config().bias_compensation, "{p:?}");
         }
         let v = Preset::Verify.config();
-        assert_eq!((v.cluster, v.width, v.height, v.vpls, v.k_vpl, v.k_sp), (ClusterMode::Both, 128, 128, 2_000, 250, 1_500));
+        assert_eq!(
+            (v.cluster, v.width, v.height, v.vpls, v.k_vpl, v.k_sp),
+            (ClusterMode::Both, 128, 128, 2_000, 250, 1_500)
+        );
         let modes = [ClusterMode::None, ClusterMode::Sp, ClusterMode::Vpl, ClusterMode::Both];
-        assert_eq!(modes.map(|m| (m.clusters_sps(), m.clusters_vpls())), [(false, false), (true, false), (false, true), (true, true)]);
+        assert_eq!(
+            modes.map(|m| (m.clusters_sps(), m.clusters_vpls())),
+            [(false, false), (true, false), (false, true), (true, true)]
+        );
     }
 
     /// What a config hands the clustering stages: `Hard` means F = 1 whatever `f` says (and
@@ -635,9 +675,18 @@ mod tests {
     #[test]
     fn cluster_params_turn_options_into_stage_inputs() {
         use crate::clustering::{Metric, Representative};
-        let c = FrameConfig { f: 6, alpha: 0.3, metric: SpMetric::Ward, representative: SpRepresentative::MinError, ..FrameConfig::default() };
+        let c = FrameConfig {
+            f: 6,
+            alpha: 0.3,
+            metric: SpMetric::Ward,
+            representative: SpRepresentative::MinError,
+            ..FrameConfig::default()
+        };
         let p = c.sp_cluster_params(2.0);
-        assert_eq!((p.f, p.metric, p.representative), (6, Metric::Ward { alpha: 0.15 }, Representative::MinError { alpha: 0.15 }));
+        assert_eq!(
+            (p.f, p.metric, p.representative),
+            (6, Metric::Ward { alpha: 0.15 }, Representative::MinError { alpha: 0.15 })
+        );
         assert_eq!(c.seed_params(2.0).alpha, 0.15);
         let hard = FrameConfig { fuzzy: FuzzyMode::Hard, ..c.clone() };
         assert_eq!((hard.effective_f(), hard.sp_cluster_params(2.0).f), (1, 1));
@@ -728,19 +777,34 @@ mod tests {
             }
             c.validate()
         };
-        for (cluster, rsm) in [(ClusterMode::None, false), (ClusterMode::Vpl, false), (ClusterMode::None, true)] {
-            assert!(temporal(cluster, rsm).unwrap_err().contains("temporal on"), "{cluster:?}, rsm {rsm}");
+        for (cluster, rsm) in
+            [(ClusterMode::None, false), (ClusterMode::Vpl, false), (ClusterMode::None, true)]
+        {
+            assert!(
+                temporal(cluster, rsm).unwrap_err().contains("temporal on"),
+                "{cluster:?}, rsm {rsm}"
+            );
         }
-        for (cluster, rsm) in [(ClusterMode::Sp, false), (ClusterMode::Both, false), (ClusterMode::Vpl, true), (ClusterMode::Sp, true)] {
+        for (cluster, rsm) in [
+            (ClusterMode::Sp, false),
+            (ClusterMode::Both, false),
+            (ClusterMode::Vpl, true),
+            (ClusterMode::Sp, true),
+        ] {
             assert_eq!(temporal(cluster, rsm), Ok(()), "{cluster:?}, rsm {rsm}");
         }
         assert!(bad(|c| c.alpha = 0.0).contains("alpha"));
         assert!(bad(|c| c.alpha = f32::INFINITY).contains("alpha"));
-        assert!(bad(|c| (c.shade, c.cluster) = (ShadeMode::Interpolate, ClusterMode::Vpl)).contains("--cluster sp or both"));
-        assert!(bad(|c| (c.shade, c.gather_rays) = (ShadeMode::Interpolate, 0)).contains("gather-rays"));
-        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2)).contains("2^28 shading points (got 536870912)"));
+        assert!(bad(|c| (c.shade, c.cluster) = (ShadeMode::Interpolate, ClusterMode::Vpl))
+            .contains("--cluster sp or both"));
+        assert!(
+            bad(|c| (c.shade, c.gather_rays) = (ShadeMode::Interpolate, 0)).contains("gather-rays")
+        );
+        assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 14, 1 << 14, 2))
+            .contains("2^28 shading points (got 536870912)"));
         assert!(bad(|c| (c.width, c.height, c.spp) = (1 << 13, 1 << 13, 8)).contains("2^28"));
-        let largest = FrameConfig { width: 1 << 14, height: 1 << 14, spp: 1, ..FrameConfig::default() };
+        let largest =
+            FrameConfig { width: 1 << 14, height: 1 << 14, spp: 1, ..FrameConfig::default() };
         assert_eq!(largest.validate(), Ok(()), "2^28 shading points are allowed");
     }
 }

@@ -30,8 +30,8 @@ pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
 pub use config::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering,
-    VplSource,
+    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding,
+    ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 pub use params::{BiasParams, CameraParams, SeedParams, ShadeParams, TraceParams};
 pub use pod::{Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};

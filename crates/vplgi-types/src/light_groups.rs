@@ -80,7 +80,12 @@ mod tests {
     use super::*;
 
     fn group(centre: Vec3, r: f32, axis: Vec3, cos_n: f32) -> LightGroup {
-        LightGroup { sphere: [centre.x, centre.y, centre.z, r], cone: [axis.x, axis.y, axis.z, cos_n], power: [2.0, 1.0, 0.0, 0.0], range: [0, 1, 0, 0] }
+        LightGroup {
+            sphere: [centre.x, centre.y, centre.z, r],
+            cone: [axis.x, axis.y, axis.z, cos_n],
+            power: [2.0, 1.0, 0.0, 0.0],
+            range: [0, 1, 0, 0],
+        }
     }
 
     /// Hand-computed cases: a small light straight above a floor point, facing down, is power /
@@ -103,7 +108,9 @@ mod tests {
         let want = 2.0 * (60f32.to_radians() - theta_s).cos() * (light - theta_s).cos() / 4.0;
         assert!((i - want).abs() < 1e-5 * want, "{i} vs {want}");
         // Inside the sphere: power / r².
-        assert!((group_importance(&g, Vec3::new(0.0, 1.95, 0.0), Vec3::Y) - 2.0 / 0.01).abs() < 1e-3);
+        assert!(
+            (group_importance(&g, Vec3::new(0.0, 1.95, 0.0), Vec3::Y) - 2.0 / 0.01).abs() < 1e-3
+        );
     }
 
     /// The bounds are upper bounds: whenever some point of a random triangle lights a random
@@ -132,7 +139,10 @@ mod tests {
             });
             if lit {
                 checked += 1;
-                assert!(group_importance(&g, p, n) > 0.0, "triangle {v:?} lights {p} (normal {n}) but has importance 0");
+                assert!(
+                    group_importance(&g, p, n) > 0.0,
+                    "triangle {v:?} lights {p} (normal {n}) but has importance 0"
+                );
             }
         }
         assert!(checked > 300, "only {checked} lit cases");

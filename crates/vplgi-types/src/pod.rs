@@ -70,7 +70,12 @@ pub struct Endpoint {
 
 impl Endpoint {
     pub fn new(position: Vec3, normal: Vec3) -> Endpoint {
-        Endpoint { position: position.to_array(), _pad0: 0.0, normal: normal.to_array(), _pad1: 0.0 }
+        Endpoint {
+            position: position.to_array(),
+            _pad0: 0.0,
+            normal: normal.to_array(),
+            _pad1: 0.0,
+        }
     }
 
     /// A shading point as a shadow-ray end.
@@ -146,7 +151,12 @@ impl LightOutline {
 
 impl VplLight {
     pub fn new(position: Vec3, normal: Vec3, flux: Vec3) -> VplLight {
-        VplLight { position: position.to_array(), normal: normal.to_array(), flux: flux.to_array(), ..Default::default() }
+        VplLight {
+            position: position.to_array(),
+            normal: normal.to_array(),
+            flux: flux.to_array(),
+            ..Default::default()
+        }
     }
 
     /// Where its shadow rays end.

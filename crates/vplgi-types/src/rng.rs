@@ -56,7 +56,8 @@ pub struct Rng {
 impl Rng {
     #[inline]
     pub fn new(seed: u32, stream: Stream, index: u32) -> Self {
-        let key = pcg_hash(index.wrapping_add(pcg_hash((stream as u32).wrapping_add(pcg_hash(seed)))));
+        let key =
+            pcg_hash(index.wrapping_add(pcg_hash((stream as u32).wrapping_add(pcg_hash(seed)))));
         Rng { key, counter: 0 }
     }
 

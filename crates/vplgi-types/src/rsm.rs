@@ -70,10 +70,15 @@ impl RsmWeights {
     pub fn validate(&self) -> Result<(), String> {
         let w = [self.position, self.normal, self.flux];
         if w.iter().any(|x| !x.is_finite() || *x < 0.0) {
-            return Err(format!("rsm-weights must be finite and >= 0 (got {},{},{})", self.position, self.normal, self.flux));
+            return Err(format!(
+                "rsm-weights must be finite and >= 0 (got {},{},{})",
+                self.position, self.normal, self.flux
+            ));
         }
         if w.iter().all(|&x| x == 0.0) {
-            return Err("rsm-weights cannot all be 0: every texel would tie with every cluster".into());
+            return Err(
+                "rsm-weights cannot all be 0: every texel would tie with every cluster".into()
+            );
         }
         Ok(())
     }

@@ -177,7 +177,8 @@ mod tests {
     fn sobols_first_two_dimensions_match_their_closed_forms() {
         let pascal = |j: u32| {
             (0..32u32).fold(0u32, |x, d| {
-                let parity = (d..32).filter(|&c| c & d == d && (j >> c) & 1 == 1).count() as u32 & 1;
+                let parity =
+                    (d..32).filter(|&c| c & d == d && (j >> c) & 1 == 1).count() as u32 & 1;
                 x | parity << (31 - d)
             })
         };
@@ -209,7 +210,10 @@ mod tests {
             for a in 0..=m {
                 let mut seen = vec![false; n as usize];
                 for p in &pts {
-                    let (cx, cy) = (if a == 0 { 0 } else { p[0] >> (32 - a) }, if a == m { 0 } else { p[1] >> (32 - (m - a)) });
+                    let (cx, cy) = (
+                        if a == 0 { 0 } else { p[0] >> (32 - a) },
+                        if a == m { 0 } else { p[1] >> (32 - (m - a)) },
+                    );
                     let cell = ((cx << (m - a)) | cy) as usize;
                     assert!(!seen[cell], "n = {n}: two points in rectangle {a}x{}", m - a);
                     seen[cell] = true;
@@ -244,7 +248,13 @@ mod tests {
 
     #[test]
     fn basis_is_orthonormal_for_awkward_normals() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.0, 0.0, -0.99999).normalize(), Vec3::new(1.0, 2.0, -3.0).normalize()] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.0, 0.0, -0.99999).normalize(),
+            Vec3::new(1.0, 2.0, -3.0).normalize(),
+        ] {
             let (t, b) = orthonormal_basis(n);
             assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
             assert!(t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5 && t.dot(b).abs() < 1e-5);

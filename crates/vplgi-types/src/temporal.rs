@@ -23,9 +23,11 @@ pub fn admits(metric: Metric, centre: &Centre, d2: f32, cos: f32) -> bool {
 /// points fitting no kept centre (`unfit[i]`), in their order; then, while there is room, the
 /// other unfit points spread evenly ([`seed_centroids`] with `seed`).
 pub fn new_seeds(seeds: &[u32], unfit: &[bool], room: usize, seed: u32) -> Vec<u32> {
-    let mut chosen: Vec<u32> = seeds.iter().copied().filter(|&s| unfit[s as usize]).take(room).collect();
+    let mut chosen: Vec<u32> =
+        seeds.iter().copied().filter(|&s| unfit[s as usize]).take(room).collect();
     let taken: std::collections::HashSet<u32> = chosen.iter().copied().collect();
-    let rest: Vec<u32> = (0..unfit.len() as u32).filter(|&i| unfit[i as usize] && !taken.contains(&i)).collect();
+    let rest: Vec<u32> =
+        (0..unfit.len() as u32).filter(|&i| unfit[i as usize] && !taken.contains(&i)).collect();
     let more = (room - chosen.len()).min(rest.len());
     if more > 0 {
         chosen.extend(seed_centroids(&rest, more, seed));

@@ -20,14 +20,26 @@ struct Shared {
 
 impl Shared {
     fn new(twins: &Twins, cfg: &FrameConfig, modes: &[Mode]) -> Result<Shared, VerifyError> {
-        let (c_sp, g_sp) = crate::shading_points::both(twins, &cfg.camera_params(twins.scene.camera))?;
-        let hits = hit_differences(&c_sp, &g_sp, twins.cpu.extent, twins.scene.camera.position, (cfg.width, cfg.spp));
+        let (c_sp, g_sp) =
+            crate::shading_points::both(twins, &cfg.camera_params(twins.scene.camera))?;
+        let hits = hit_differences(
+            &c_sp,
+            &g_sp,
+            twins.cpu.extent,
+            twins.scene.camera.position,
+            (cfg.width, cfg.spp),
+        );
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
             let checks = match cfg.vpl_source {
                 VplSource::Paths => crate::trace_vpls::compare(twins, &cfg.trace_params())?,
                 VplSource::Rsm => crate::rsm_vpls::compare(twins, cfg.rsm_size)?,
             };
-            Some(checks.into_iter().find(|c| c.what.starts_with("largest relative difference")).map_or(f64::NAN, |c| c.measured))
+            Some(
+                checks
+                    .into_iter()
+                    .find(|c| c.what.starts_with("largest relative difference"))
+                    .map_or(f64::NAN, |c| c.measured),
+            )
         } else {
             None
         };
@@ -36,7 +48,11 @@ impl Shared {
 }
 
 /// One mode's frame on both backends.
-fn compare(twins: &Twins, cfg: &FrameConfig, shared: &Shared) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair), VerifyError> {
+fn compare(
+    twins: &Twins,
+    cfg: &FrameConfig,
+    shared: &Shared,
+) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair), VerifyError> {
     let cpu = vplgi_frame::render(twins.cpu, cfg, &vplgi_frame::NoProgress)?;
     let gpu = vplgi_frame::render(twins.gpu, cfg, &vplgi_frame::NoProgress)?;
     let Shared { c_sp, g_sp, hits, vpl_rounding } = shared;
@@ -44,24 +60,36 @@ fn compare(twins: &Twins, cfg: &FrameConfig, shared: &Shared) -> Result<(Vec<Dis
     let case = mode.name();
     let spp = cfg.spp as usize;
     // Pixels all of whose samples hit the same triangle on both backends.
-    let agree: Vec<bool> = (0..cpu.pixels.len()).map(|p| (p * spp..(p + 1) * spp).all(|s| c_sp[s].triangle == g_sp[s].triangle)).collect();
-    let pick = |img: &[[f32; 3]]| -> Vec<[f32; 3]> { img.iter().zip(&agree).filter(|(_, a)| **a).map(|(p, _)| *p).collect() };
+    let agree: Vec<bool> = (0..cpu.pixels.len())
+        .map(|p| (p * spp..(p + 1) * spp).all(|s| c_sp[s].triangle == g_sp[s].triangle))
+        .collect();
+    let pick = |img: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        img.iter().zip(&agree).filter(|(_, a)| **a).map(|(p, _)| *p).collect()
+    };
     let (c_agree, g_agree) = (pick(&cpu.pixels), pick(&gpu.pixels));
     let whole = rel_mse(&cpu.pixels, &gpu.pixels);
     let same_surface = (hits.same + hits.ties) as f64 / hits.samples.max(1) as f64;
-    let mut checks = vec![Disagreement::at_least("frame", "share of primary hits on the same surface point", same_surface, SHADING_POINTS_SAME_SURFACE)
-        .with_case(&case)
-        .with_worst(hits.first_other.clone())];
+    let mut checks = vec![Disagreement::at_least(
+        "frame",
+        "share of primary hits on the same surface point",
+        same_surface,
+        SHADING_POINTS_SAME_SURFACE,
+    )
+    .with_case(&case)
+    .with_worst(hits.first_other.clone())];
     let mut notes = Vec::new();
     let (_, worst) = worst_pixel(&cpu.pixels, &gpu.pixels, cfg.width, |i| agree[i]);
     let agreeing = rel_mse(&c_agree, &g_agree);
     let what = "relMSE(GPU, CPU) on pixels whose primary hits agree";
     checks.push(if mode.cluster == ClusterMode::None {
-        Disagreement::at_most("frame", what, agreeing, SHADE_REL_MSE).with_case(&case).with_worst(worst)
+        Disagreement::at_most("frame", what, agreeing, SHADE_REL_MSE)
+            .with_case(&case)
+            .with_worst(worst)
     } else {
         Disagreement::info("frame", what, agreeing).with_case(&case).with_worst(worst)
     });
-    checks.push(Disagreement::info("frame", "relMSE(GPU, CPU), whole image", whole).with_case(&case));
+    checks
+        .push(Disagreement::info("frame", "relMSE(GPU, CPU), whole image", whole).with_case(&case));
     if hits.ties > 0 {
         notes.push(format!(
             "{case}: {} of {} primary hits land on another triangle at the same point (a ray through a shared edge), and those pixels shade another surface",
@@ -93,11 +121,18 @@ fn compare(twins: &Twins, cfg: &FrameConfig, shared: &Shared) -> Result<(Vec<Dis
     checks.push(
         Disagreement::info("frame", "clusters, |CPU - GPU| (VPL + shading point)", {
             let d = |a: u32, b: u32| (a as f64 - b as f64).abs();
-            d(cpu.stats.vpl_clusters, gpu.stats.vpl_clusters) + d(cpu.stats.sp_clusters, gpu.stats.sp_clusters)
+            d(cpu.stats.vpl_clusters, gpu.stats.vpl_clusters)
+                + d(cpu.stats.sp_clusters, gpu.stats.sp_clusters)
         })
         .with_case(&case),
     );
-    let pair = ImagePair { case: format!("frame-{}", case.replace('/', "-")), width: cfg.width, height: cfg.height, cpu: cpu.pixels, gpu: gpu.pixels };
+    let pair = ImagePair {
+        case: format!("frame-{}", case.replace('/', "-")),
+        width: cfg.width,
+        height: cfg.height,
+        cpu: cpu.pixels,
+        gpu: gpu.pixels,
+    };
     Ok((checks, notes, pair))
 }
 

@@ -6,7 +6,9 @@ use vplgi_cpu::seeding::{seeding, ImageHits};
 use vplgi_cpu::shade::{VplLight, VplLights};
 use vplgi_cpu::CpuScene;
 use vplgi_shared::rsm_importance;
-use vplgi_types::{Endpoint, FrameConfig, RsmSeeding, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS};
+use vplgi_types::{
+    Endpoint, FrameConfig, RsmSeeding, Seeding, ShadingPoint, Vpl, VplClustering, VplSource, MISS,
+};
 
 /// Points as clustering takes them: positions and normals.
 pub type PointSet = (Vec<Vec3>, Vec<Vec3>);
@@ -23,16 +25,29 @@ pub struct CpuFrame {
 
 impl CpuFrame {
     pub fn new(cs: &CpuScene, cfg: &FrameConfig) -> CpuFrame {
-        let sps = vplgi_cpu::shading_points::shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
-        let hits: Vec<u32> = (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
+        let sps =
+            vplgi_cpu::shading_points::shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+        let hits: Vec<u32> =
+            (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
         let mut row_of = vec![MISS; sps.len()];
         for (r, &i) in hits.iter().enumerate() {
             row_of[i as usize] = r as u32;
         }
         let p = cfg.trace_params();
         let vpls = match cfg.vpl_source {
-            VplSource::Paths => vplgi_cpu::trace_vpls::trace_vpls(cs, p.seed, p.count, p.bounces, &vplgi_cpu::NoProgress).vpls,
-            VplSource::Rsm => vplgi_cpu::rsm_vpls::rsm_vpls(cs, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls,
+            VplSource::Paths => {
+                vplgi_cpu::trace_vpls::trace_vpls(
+                    cs,
+                    p.seed,
+                    p.count,
+                    p.bounces,
+                    &vplgi_cpu::NoProgress,
+                )
+                .vpls
+            }
+            VplSource::Rsm => {
+                vplgi_cpu::rsm_vpls::rsm_vpls(cs, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls
+            }
         };
         CpuFrame { sps, row_of, hits, vpls }
     }
@@ -44,7 +59,12 @@ impl CpuFrame {
 
     /// The hits as clustering input.
     pub fn hit_points(&self) -> PointSet {
-        self.hits.iter().map(|&i| (Vec3::from(self.sps[i as usize].position), Vec3::from(self.sps[i as usize].normal))).unzip()
+        self.hits
+            .iter()
+            .map(|&i| {
+                (Vec3::from(self.sps[i as usize].position), Vec3::from(self.sps[i as usize].normal))
+            })
+            .unzip()
     }
 
     /// Hits before each camera sample, one entry past the last (the GPU's hit offsets).
@@ -64,7 +84,13 @@ impl CpuFrame {
         let (p, n) = self.hit_points();
         let offsets = self.sample_offsets();
         let pixel_first: Vec<u32> = offsets.iter().step_by(cfg.spp as usize).copied().collect();
-        let image = ImageHits { positions: &p, normals: &n, pixel_first: &pixel_first, width: cfg.width, height: cfg.height };
+        let image = ImageHits {
+            positions: &p,
+            normals: &n,
+            pixel_first: &pixel_first,
+            width: cfg.width,
+            height: cfg.height,
+        };
         seeding(&image, &cfg.seed_params(extent))
     }
 
@@ -72,15 +98,26 @@ impl CpuFrame {
     /// `rsm_importance::pixel_samples`).
     pub fn gbuffer_points(&self, cfg: &FrameConfig) -> Vec<Endpoint> {
         let samples = rsm_importance::pixel_samples(cfg.width, cfg.height, cfg.spp);
-        samples.iter().filter(|&&s| self.row_of[s as usize] != MISS).map(|&s| Endpoint::of(&self.sps[s as usize])).collect()
+        samples
+            .iter()
+            .filter(|&&s| self.row_of[s as usize] != MISS)
+            .map(|&s| Endpoint::of(&self.sps[s as usize]))
+            .collect()
     }
 
     /// The importance map of the frame's RSM clustering, if it is seeded by one.
     pub fn rsm_importance(&self, cs: &CpuScene, cfg: &FrameConfig) -> Option<Vec<f32>> {
-        (cfg.vpl_cluster == VplClustering::Rsm && cfg.rsm_seeding == RsmSeeding::Importance).then(|| {
-            let maps = cs.lights.rsm_maps(cfg.rsm_size);
-            vplgi_cpu::rsm_importance::rsm_importance(&self.vpls, &maps, &self.gbuffer_points(cfg), rsm_importance::D_MIN_REL * cs.extent)
-        })
+        (cfg.vpl_cluster == VplClustering::Rsm && cfg.rsm_seeding == RsmSeeding::Importance).then(
+            || {
+                let maps = cs.lights.rsm_maps(cfg.rsm_size);
+                vplgi_cpu::rsm_importance::rsm_importance(
+                    &self.vpls,
+                    &maps,
+                    &self.gbuffer_points(cfg),
+                    rsm_importance::D_MIN_REL * cs.extent,
+                )
+            },
+        )
     }
 
     /// The VPLs as clustering input.
@@ -103,25 +140,44 @@ pub struct CpuClusters {
 
 impl CpuClusters {
     pub fn new(cs: &CpuScene, frame: &CpuFrame, cfg: &FrameConfig) -> CpuClusters {
-        let vpl_clusters = (cfg.cluster.clusters_vpls() && !frame.vpls.is_empty()).then(|| match cfg.vpl_cluster {
-            VplClustering::Eq7 => {
-                let (p, n) = frame.vpl_points();
-                cluster(&p, &n, &cfg.vpl_cluster_params())
-            }
-            VplClustering::Rsm => {
-                let importance = frame.rsm_importance(cs, cfg);
-                vplgi_cpu::rsm_cluster::rsm_cluster(&frame.vpls, &cs.lights.rsm_maps(cfg.rsm_size), &cfg.rsm_cluster_params(cs.extent), importance.as_deref())
-            }
-        });
-        let lights = vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
+        let vpl_clusters =
+            (cfg.cluster.clusters_vpls() && !frame.vpls.is_empty()).then(|| {
+                match cfg.vpl_cluster {
+                    VplClustering::Eq7 => {
+                        let (p, n) = frame.vpl_points();
+                        cluster(&p, &n, &cfg.vpl_cluster_params())
+                    }
+                    VplClustering::Rsm => {
+                        let importance = frame.rsm_importance(cs, cfg);
+                        vplgi_cpu::rsm_cluster::rsm_cluster(
+                            &frame.vpls,
+                            &cs.lights.rsm_maps(cfg.rsm_size),
+                            &cfg.rsm_cluster_params(cs.extent),
+                            importance.as_deref(),
+                        )
+                    }
+                }
+            });
+        let lights =
+            vplgi_cpu::shade::vpl_lights(&frame.vpls, vpl_clusters.as_ref(), cfg.light_shape);
         let cols = lights.lights.iter().map(VplLight::endpoint).collect();
         let sp_clusters = (cfg.cluster.clusters_sps() && !frame.hits.is_empty()).then(|| {
             let (p, n) = frame.hit_points();
-            let seeds = (cfg.seeding == Seeding::Adaptive).then(|| frame.adaptive_seeds(cfg, cs.extent));
-            cluster_from(&p, &n, &cfg.sp_cluster_params(cs.extent), seeds.as_deref().map_or(ClusterStart::Stride, ClusterStart::Seeds))
+            let seeds =
+                (cfg.seeding == Seeding::Adaptive).then(|| frame.adaptive_seeds(cfg, cs.extent));
+            cluster_from(
+                &p,
+                &n,
+                &cfg.sp_cluster_params(cs.extent),
+                seeds.as_deref().map_or(ClusterStart::Stride, ClusterStart::Seeds),
+            )
         });
         let rows = match &sp_clusters {
-            Some(c) => c.representatives.iter().map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize])).collect(),
+            Some(c) => c
+                .representatives
+                .iter()
+                .map(|&r| Endpoint::of(&frame.sps[frame.hits[r as usize] as usize]))
+                .collect(),
             None => frame.hit_endpoints(),
         };
         CpuClusters { lights, vpl_clusters, cols, rows, sp_clusters }

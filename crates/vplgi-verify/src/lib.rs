@@ -147,9 +147,15 @@ impl Mode {
 
     /// `both/weighted`; `none` and `vpl` alone (their fuzzy choice does not apply).
     pub fn name(self) -> String {
-        let c = serde_json::to_value(self.cluster).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+        let c = serde_json::to_value(self.cluster)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default();
         if self.cluster.clusters_sps() {
-            let f = serde_json::to_value(self.fuzzy).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+            let f = serde_json::to_value(self.fuzzy)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+                .unwrap_or_default();
             format!("{c}/{f}")
         } else {
             c
@@ -218,7 +224,11 @@ pub struct Quiet;
 impl Listener for Quiet {}
 
 /// Runs the plan's stages in pipeline order.
-pub fn run(twins: &Twins, plan: &Plan, listener: &dyn Listener) -> Result<Vec<StageResult>, VerifyError> {
+pub fn run(
+    twins: &Twins,
+    plan: &Plan,
+    listener: &dyn Listener,
+) -> Result<Vec<StageResult>, VerifyError> {
     let mut stages = plan.stages.clone();
     stages.sort();
     stages.dedup();
@@ -266,7 +276,8 @@ mod tests {
         for s in VerifyStage::ALL {
             assert_eq!(VerifyStage::from_name(s.name()), Some(s));
         }
-        let names: std::collections::BTreeSet<String> = Mode::ALL.iter().map(|m| m.name()).collect();
+        let names: std::collections::BTreeSet<String> =
+            Mode::ALL.iter().map(|m| m.name()).collect();
         assert_eq!(names.len(), Mode::ALL.len());
         assert!(names.contains("both/weighted") && names.contains("none"));
         assert_eq!(count(16384), "16,384");

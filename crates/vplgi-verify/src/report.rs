@@ -49,7 +49,8 @@ fn image(pair: &ImagePair, pixels: &[[f32; 3]]) -> Image {
 
 /// Writes each stage's image pairs into `dir/images` and returns their files.
 pub fn write_images(dir: &Path, stages: &[StageResult]) -> Result<Vec<ImageFiles>, ImageError> {
-    std::fs::create_dir_all(dir.join("images")).map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
+    std::fs::create_dir_all(dir.join("images"))
+        .map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
     let mut files = Vec::new();
     for s in stages {
         for pair in &s.images {
@@ -64,7 +65,14 @@ pub fn write_images(dir: &Path, stages: &[StageResult]) -> Result<Vec<ImageFiles
                 }
                 Err(_) => (None, None),
             };
-            files.push(ImageFiles { stage: s.stage.name().into(), case: pair.case.clone(), cpu: name("cpu"), gpu: name("gpu"), error_map, flip });
+            files.push(ImageFiles {
+                stage: s.stage.name().into(),
+                case: pair.case.clone(),
+                cpu: name("cpu"),
+                gpu: name("gpu"),
+                error_map,
+                flip,
+            });
         }
     }
     Ok(files)
@@ -72,7 +80,8 @@ pub fn write_images(dir: &Path, stages: &[StageResult]) -> Result<Vec<ImageFiles
 
 /// Writes `verify.json`, `verify.md` and `verify.html` into `dir`, each atomically.
 pub fn write(dir: &Path, report: &VerifyReport) -> Result<(), ImageError> {
-    let json = serde_json::to_string_pretty(report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+    let json =
+        serde_json::to_string_pretty(report).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
     write_atomically(&dir.join("verify.json"), |w| w.write_all(json.as_bytes()))?;
     let md = markdown(report);
     write_atomically(&dir.join("verify.md"), |w| w.write_all(md.as_bytes()))?;
@@ -99,29 +108,65 @@ fn config_line(r: &VerifyReport) -> String {
 /// The report as Markdown.
 pub fn markdown(r: &VerifyReport) -> String {
     let mut s = format!("# vplgi verify: {}\n\n", verdict(r.passed));
-    s += &format!("- scene: {}\n- GPU: {} (on lavapipe the GPU runs on the CPU)\n- frame: {}\n", r.scene, r.adapter, config_line(r));
+    s += &format!(
+        "- scene: {}\n- GPU: {} (on lavapipe the GPU runs on the CPU)\n- frame: {}\n",
+        r.scene,
+        r.adapter,
+        config_line(r)
+    );
     s += &format!("- modes: {}\n- {:.1} s\n", r.modes.join(", "), r.seconds);
     for sh in &r.shaders {
-        s += &format!("- shader `{}` read from {}{}\n", sh.name, sh.path.display(), if sh.differs { " (differs from the built-in copy)" } else { "" });
+        s += &format!(
+            "- shader `{}` read from {}{}\n",
+            sh.name,
+            sh.path.display(),
+            if sh.differs { " (differs from the built-in copy)" } else { "" }
+        );
     }
     for st in &r.stages {
-        s += &format!("\n## {} — {} ({:.1} s)\n\n", st.stage.name(), verdict(st.passed()), st.seconds);
-        s += "| SPEC row | case | measured | value | bound | verdict |\n|---|---|---|---|---|---|\n";
+        s += &format!(
+            "\n## {} — {} ({:.1} s)\n\n",
+            st.stage.name(),
+            verdict(st.passed()),
+            st.seconds
+        );
+        s +=
+            "| SPEC row | case | measured | value | bound | verdict |\n|---|---|---|---|---|---|\n";
         for c in &st.checks {
-            s += &format!("| {} | {} | {} | {} | {} | {} |\n", c.stage, c.case, c.what, c.measured_text(), c.bound_text(), c.verdict());
+            s += &format!(
+                "| {} | {} | {} | {} | {} | {} |\n",
+                c.stage,
+                c.case,
+                c.what,
+                c.measured_text(),
+                c.bound_text(),
+                c.verdict()
+            );
         }
-        let worst: Vec<_> = st.checks.iter().filter(|c| c.worst.is_some() && (!c.holds() || c.judged())).collect();
+        let worst: Vec<_> =
+            st.checks.iter().filter(|c| c.worst.is_some() && (!c.holds() || c.judged())).collect();
         if !worst.is_empty() {
             s += "\nWorst items:\n\n";
             for c in worst {
-                s += &format!("- {} ({}), {}: {}\n", c.stage, c.case, c.what, c.worst.as_deref().unwrap_or_default());
+                s += &format!(
+                    "- {} ({}), {}: {}\n",
+                    c.stage,
+                    c.case,
+                    c.what,
+                    c.worst.as_deref().unwrap_or_default()
+                );
             }
         }
         for n in &st.notes {
             s += &format!("\n{n}\n");
         }
         for im in r.images.iter().filter(|i| i.stage == st.stage.name()) {
-            let err = im.error_map.as_deref().map_or(String::from("(no error map: a pixel is not finite)"), |e| format!("![error]({e})"));
+            let err = im
+                .error_map
+                .as_deref()
+                .map_or(String::from("(no error map: a pixel is not finite)"), |e| {
+                    format!("![error]({e})")
+                });
             s += &format!("\n{}: ![CPU]({}) ![GPU]({}) {err}\n", im.case, im.cpu, im.gpu);
         }
     }
@@ -163,7 +208,11 @@ pub fn html(r: &VerifyReport) -> String {
     s += "</ul>\n";
     for st in &r.stages {
         let v = verdict(st.passed());
-        s += &format!("<section id=\"{0}\"><h2>{0}: <span class=\"{v}\">{v}</span> ({1:.1} s)</h2>\n", st.stage.name(), st.seconds);
+        s += &format!(
+            "<section id=\"{0}\"><h2>{0}: <span class=\"{v}\">{v}</span> ({1:.1} s)</h2>\n",
+            st.stage.name(),
+            st.seconds
+        );
         s += "<table><tr><th>SPEC row</th><th>case</th><th>measured</th><th>value</th><th>bound</th><th>verdict</th><th>worst item</th></tr>\n";
         for c in &st.checks {
             s += &format!(
@@ -184,8 +233,14 @@ pub fn html(r: &VerifyReport) -> String {
         }
         for im in r.images.iter().filter(|i| i.stage == st.stage.name()) {
             s += &format!("<div class=\"pair\"><h3>{}</h3>", esc(&im.case));
-            s += &format!("<figure><img src=\"{}\" alt=\"CPU image\"><figcaption>CPU</figcaption></figure>", esc(&im.cpu));
-            s += &format!("<figure><img src=\"{}\" alt=\"GPU image\"><figcaption>GPU</figcaption></figure>", esc(&im.gpu));
+            s += &format!(
+                "<figure><img src=\"{}\" alt=\"CPU image\"><figcaption>CPU</figcaption></figure>",
+                esc(&im.cpu)
+            );
+            s += &format!(
+                "<figure><img src=\"{}\" alt=\"GPU image\"><figcaption>GPU</figcaption></figure>",
+                esc(&im.gpu)
+            );
             match (&im.error_map, im.flip) {
                 (Some(e), Some(f)) => {
                     s += &format!("<figure><img src=\"{}\" alt=\"FLIP error map\"><figcaption>FLIP error map (mean {f:.2e})</figcaption></figure>", esc(e))

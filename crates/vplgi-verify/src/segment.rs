@@ -38,9 +38,15 @@ impl TieOracle {
     pub fn new(scene: &vplgi_scene::Scene) -> TieOracle {
         let (min, max) = scene.bounds();
         let far = min.abs().max(max.abs()).max_element() as f64;
-        let tris = (0..scene.triangle_count()).map(|t| scene.triangle(t).map(|v| v.as_dvec3())).collect();
+        let tris =
+            (0..scene.triangle_count()).map(|t| scene.triangle(t).map(|v| v.as_dvec3())).collect();
         let (min, max) = (min.as_dvec3(), max.as_dvec3());
-        TieOracle { tris, tol: 64.0 * f32::EPSILON as f64 * far.max(1e-6), centre: (min + max) / 2.0, radius: (max - min).length() / 2.0 }
+        TieOracle {
+            tris,
+            tol: 64.0 * f32::EPSILON as f64 * far.max(1e-6),
+            centre: (min + max) / 2.0,
+            radius: (max - min).length() / 2.0,
+        }
     }
 
     pub fn tolerance(&self) -> f64 {
@@ -56,7 +62,11 @@ impl TieOracle {
     /// `vplgi_cpu::ShadowSpan`). An infinite `tmax` (a directional light's ray) ends where the
     /// ray is more than the tolerance outside every triangle's bounding sphere.
     pub fn span_verdict(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Verdict {
-        let end = if tmax.is_finite() { tmax } else { ((o - self.centre).length() + self.radius + 2.0 * self.tol) / d.length() };
+        let end = if tmax.is_finite() {
+            tmax
+        } else {
+            ((o - self.centre).length() + self.radius + 2.0 * self.tol) / d.length()
+        };
         let (a, b) = (o + d * tmin, o + d * end);
         let mut near = false;
         for tri in &self.tris {
@@ -78,7 +88,8 @@ impl TieOracle {
     /// as a hit at t ≈ `tmin`, a graze of an edge, or a near miss are.
     pub fn ray_is_tie(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
         let (a, far) = (o + d * tmin, o + d * tmax);
-        let robust: Vec<Option<f64>> = self.tris.iter().map(|tri| crossing_with_room(a, far, tri, self.tol)).collect();
+        let robust: Vec<Option<f64>> =
+            self.tris.iter().map(|tri| crossing_with_room(a, far, tri, self.tol)).collect();
         let first = robust.iter().flatten().fold(1.0f64, |m, &s| m.min(s));
         let b = a + (far - a) * first;
         self.tris.iter().zip(&robust).any(|(tri, r)| r.is_none() && is_near(a, b, tri, self.tol))
@@ -91,7 +102,8 @@ impl TieOracle {
 /// crossing it 4e-4 outside an edge (tol 7.6e-6), was blocked by obvhs' Möller–Trumbore test
 /// from one end and visible to Embree and from the other end (found at 10,000 cases).
 fn is_near(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
-    segment_triangle_distance(a, b, tri) <= tol || plane_crossing(a, b, tri).is_some_and(|c| c.inside > -room(tol, c.sin))
+    segment_triangle_distance(a, b, tri) <= tol
+        || plane_crossing(a, b, tri).is_some_and(|c| c.inside > -room(tol, c.sin))
 }
 
 /// Where a segment crosses a triangle's plane, its ends on opposite sides of it.
@@ -146,7 +158,8 @@ fn crosses_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> bool {
 /// `tol` from the plane, the crossing more than [`room`] inside every edge.
 fn crossing_with_room(a: DVec3, b: DVec3, tri: &[DVec3; 3], tol: f64) -> Option<f64> {
     let c = plane_crossing(a, b, tri)?;
-    (c.heights.0.abs() > tol && c.heights.1.abs() > tol && c.inside > room(tol, c.sin)).then_some(c.s)
+    (c.heights.0.abs() > tol && c.heights.1.abs() > tol && c.inside > room(tol, c.sin))
+        .then_some(c.s)
 }
 
 /// Distance between segment `a`-`b` and a triangle (0 if they meet).
@@ -157,7 +170,9 @@ pub fn segment_triangle_distance(a: DVec3, b: DVec3, tri: &[DVec3; 3]) -> f64 {
     }
     // Apart, the closest pair has an end of the segment or a point on an edge of the triangle.
     let ends = point_triangle_distance(a, tri).min(point_triangle_distance(b, tri));
-    [(v0, v1), (v1, v2), (v2, v0)].iter().fold(ends, |m, &(e0, e1)| m.min(segment_segment_distance(a, b, e0, e1)))
+    [(v0, v1), (v1, v2), (v2, v0)]
+        .iter()
+        .fold(ends, |m, &(e0, e1)| m.min(segment_segment_distance(a, b, e0, e1)))
 }
 
 fn segment_meets_triangle(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> bool {
@@ -167,7 +182,9 @@ fn segment_meets_triangle(a: DVec3, b: DVec3, [v0, v1, v2]: &[DVec3; 3]) -> bool
         return false;
     }
     let x = a + (b - a) * (da / (da - db));
-    [(*v0, *v1), (*v1, *v2), (*v2, *v0)].iter().all(|&(e0, e1)| n.dot((e1 - e0).cross(x - e0)) >= 0.0)
+    [(*v0, *v1), (*v1, *v2), (*v2, *v0)]
+        .iter()
+        .all(|&(e0, e1)| n.dot((e1 - e0).cross(x - e0)) >= 0.0)
 }
 
 /// Distance from `p` to the triangle: to its interior if `p` projects inside, else to the nearest
@@ -229,7 +246,10 @@ pub(crate) mod tests {
         // Straight through the interior.
         assert_eq!(segment_triangle_distance(v(0.2, 0.2, 1.0), v(0.2, 0.2, -1.0), &TRI), 0.0);
         // Stops 0.5 above the interior.
-        assert!((segment_triangle_distance(v(0.2, 0.2, 2.0), v(0.2, 0.2, 0.5), &TRI) - 0.5).abs() < 1e-15);
+        assert!(
+            (segment_triangle_distance(v(0.2, 0.2, 2.0), v(0.2, 0.2, 0.5), &TRI) - 0.5).abs()
+                < 1e-15
+        );
         // Passes the hypotenuse x + y = 1 at (0.75, 0.75): sqrt(2) / 4 from it.
         let d = segment_triangle_distance(v(0.75, 0.75, 1.0), v(0.75, 0.75, -1.0), &TRI);
         assert!((d - 2f64.sqrt() / 4.0).abs() < 1e-15, "{d}");
@@ -251,12 +271,27 @@ pub(crate) mod tests {
         assert!(!crosses_with_room(v(0.2, 0.2, 1.0), v(0.2, 0.2, -5e-7), &TRI, tol));
         // 45 degrees from the plane, 1.5e-6 inside the edge: rounding across the plane moves
         // the crossing by up to tol along it, so 2 tol is needed.
-        assert!(!crosses_with_room(v(0.5, 1.5e-6 - 1.0, 1.0), v(0.5, 1.5e-6 + 1.0, -1.0), &TRI, tol));
-        assert!(crosses_with_room(v(0.5, 2.5e-6 - 1.0, 1.0), v(0.5, 2.5e-6 + 1.0, -1.0), &TRI, tol));
+        assert!(!crosses_with_room(
+            v(0.5, 1.5e-6 - 1.0, 1.0),
+            v(0.5, 1.5e-6 + 1.0, -1.0),
+            &TRI,
+            tol
+        ));
+        assert!(crosses_with_room(
+            v(0.5, 2.5e-6 - 1.0, 1.0),
+            v(0.5, 2.5e-6 + 1.0, -1.0),
+            &TRI,
+            tol
+        ));
         // 1e-3 rad from the plane, 1e-4 inside the edge: no room (it needs about 1e-3).
         assert!(!crosses_with_room(v(0.5, 1e-4 - 1.0, 1e-3), v(0.5, 1e-4 + 1.0, -1e-3), &TRI, tol));
         // Either winding.
-        assert!(crosses_with_room(v(0.2, 0.2, 1.0), v(0.2, 0.2, -1.0), &[DVec3::ZERO, DVec3::Y, DVec3::X], tol));
+        assert!(crosses_with_room(
+            v(0.2, 0.2, 1.0),
+            v(0.2, 0.2, -1.0),
+            &[DVec3::ZERO, DVec3::Y, DVec3::X],
+            tol
+        ));
     }
 
     #[test]
@@ -267,7 +302,9 @@ pub(crate) mod tests {
         // the room rounding gives it (tol / 3.5e-5 = 0.029), so a tie.
         assert!(!is_near(v(0.5, -4e-4, 1.0), v(0.5, -4e-4, -1.0), &TRI, tol));
         assert!(is_near(v(-0.5, -4e-4, 3.5e-5), v(1.5, -4e-4, -3.5e-5), &TRI, tol));
-        assert!(segment_triangle_distance(v(-0.5, -4e-4, 3.5e-5), v(1.5, -4e-4, -3.5e-5), &TRI) > 3e-4);
+        assert!(
+            segment_triangle_distance(v(-0.5, -4e-4, 3.5e-5), v(1.5, -4e-4, -3.5e-5), &TRI) > 3e-4
+        );
         // Within tol of the edge without crossing the plane, and clear of it.
         assert!(is_near(v(0.5, -5e-7, 1.0), v(0.5, -5e-7, 1e-7), &TRI, tol));
         assert!(!is_near(v(0.5, -1e-3, 1.0), v(0.5, -1e-3, 1e-7), &TRI, tol));
@@ -276,7 +313,8 @@ pub(crate) mod tests {
     /// The unit square in z = 0, two triangles sharing the diagonal x = y, no lights.
     pub(crate) fn square() -> vplgi_scene::Scene {
         let mut s = vplgi_scene::cornell::cornell_box();
-        s.positions = vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::new(1.0, 1.0, 0.0), glam::Vec3::Y];
+        s.positions =
+            vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::new(1.0, 1.0, 0.0), glam::Vec3::Y];
         s.normals = vec![glam::Vec3::Z; 4];
         s.uvs = vec![glam::Vec2::ZERO; 4];
         s.indices = vec![[0, 1, 2], [0, 2, 3]];
@@ -310,7 +348,10 @@ pub(crate) mod tests {
         assert_eq!(o.span_verdict(v(0.3, 0.6, 1.0), v(0.0, 0.0, 1.0), 0.0, inf), Verdict::Visible);
         assert_eq!(o.span_verdict(v(0.5, 0.5, 1.0), v(0.0, 0.0, -1.0), 0.0, inf), Verdict::Tie);
         // From far away (100 above, a short direction): still reaches the square.
-        assert_eq!(o.span_verdict(v(0.3, 0.6, 100.0), v(0.0, 0.0, -1e-3), 0.0, inf), Verdict::Blocked);
+        assert_eq!(
+            o.span_verdict(v(0.3, 0.6, 100.0), v(0.0, 0.0, -1e-3), 0.0, inf),
+            Verdict::Blocked
+        );
         // A finite span is the segment it says: stopping 0.5 above the square.
         assert_eq!(o.span_verdict(v(0.3, 0.6, 1.0), v(0.0, 0.0, -1.0), 0.0, 0.5), Verdict::Visible);
     }
@@ -330,7 +371,11 @@ pub(crate) mod tests {
         // corner on the ray.
         let mut s = square();
         let n = s.positions.len() as u32;
-        s.positions.extend([glam::Vec3::new(0.3, 0.6, -1.0), glam::Vec3::new(1.3, 0.6, -1.0), glam::Vec3::new(1.3, 1.6, -1.0)]);
+        s.positions.extend([
+            glam::Vec3::new(0.3, 0.6, -1.0),
+            glam::Vec3::new(1.3, 0.6, -1.0),
+            glam::Vec3::new(1.3, 1.6, -1.0),
+        ]);
         s.normals.extend([glam::Vec3::Z; 3]);
         s.uvs.extend([glam::Vec2::ZERO; 3]);
         s.indices.push([n, n + 1, n + 2]);

@@ -85,12 +85,19 @@ pub const CLUSTER_LIGHTS_REL: f64 = 1e-5;
 /// 2.61 δ; placing it in space (c + t q_x + b q_y) rounds 3 times at magnitude ≤
 /// `centre_distance` (|c|) + R on either backend. Derived from this rounding model, not
 /// measured; round outlines keep the flat bound (a regular octagon gets 43 ε = 5.1e-6 < 1e-5).
-pub fn polygon_outline_bounds(area: f64, perimeter: f64, reach: f64, centre_distance: f64) -> (f64, f64) {
+pub fn polygon_outline_bounds(
+    area: f64,
+    perimeter: f64,
+    reach: f64,
+    centre_distance: f64,
+) -> (f64, f64) {
     let eps = f32::EPSILON as f64;
     let corner = reach / (std::f64::consts::PI / 8.0).cos();
     let delta = 16.0 * eps * corner;
-    let area_bound = (perimeter * delta + 24.0 * eps * corner * corner).max(CLUSTER_LIGHTS_REL * area);
-    let vertex_bound = (2.61 * delta + 6.0 * eps * (centre_distance + corner)).max(CLUSTER_LIGHTS_REL * area.sqrt());
+    let area_bound =
+        (perimeter * delta + 24.0 * eps * corner * corner).max(CLUSTER_LIGHTS_REL * area);
+    let vertex_bound = (2.61 * delta + 6.0 * eps * (centre_distance + corner))
+        .max(CLUSTER_LIGHTS_REL * area.sqrt());
     (area_bound, vertex_bound)
 }
 
@@ -107,7 +114,8 @@ pub const GATHER_RADIUS_REL: f64 = 1e-4;
 /// and the mean of (1 / t)² over the rays is at least (1 / R)², so 1e-4 E (1 / R)² is the
 /// smallest allowance the hits' own bound implies. Derived from the SPEC's shading-point row.
 pub fn gather_radius_bound(inv_radius: f64, extent: f64) -> f64 {
-    GATHER_RADIUS_REL * inv_radius.abs() + SHADING_POINTS_POSITION_REL * extent * inv_radius * inv_radius
+    GATHER_RADIUS_REL * inv_radius.abs()
+        + SHADING_POINTS_POSITION_REL * extent * inv_radius * inv_radius
 }
 
 /// `shading_points`: the share of samples on the same triangle (or both missing) whose emitted
@@ -201,17 +209,39 @@ pub struct Disagreement {
 }
 
 impl Disagreement {
-    fn new(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: Bound) -> Disagreement {
-        Disagreement { stage: stage.into(), case: String::new(), what: what.into(), measured, bound, worst: None }
+    fn new(
+        stage: impl Into<String>,
+        what: impl Into<String>,
+        measured: f64,
+        bound: Bound,
+    ) -> Disagreement {
+        Disagreement {
+            stage: stage.into(),
+            case: String::new(),
+            what: what.into(),
+            measured,
+            bound,
+            worst: None,
+        }
     }
 
     /// `measured` must be at most `bound`.
-    pub fn at_most(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: f64) -> Disagreement {
+    pub fn at_most(
+        stage: impl Into<String>,
+        what: impl Into<String>,
+        measured: f64,
+        bound: f64,
+    ) -> Disagreement {
         Disagreement::new(stage, what, measured, Bound::AtMost(bound))
     }
 
     /// `measured` must be at least `bound` (agreement shares).
-    pub fn at_least(stage: impl Into<String>, what: impl Into<String>, measured: f64, bound: f64) -> Disagreement {
+    pub fn at_least(
+        stage: impl Into<String>,
+        what: impl Into<String>,
+        measured: f64,
+        bound: f64,
+    ) -> Disagreement {
         Disagreement::new(stage, what, measured, Bound::AtLeast(bound))
     }
 
@@ -257,7 +287,8 @@ impl Disagreement {
 
     /// The bound as the report prints it (`<= 1e-4`, `>= 0.999`, or `-`).
     pub fn bound_text(&self) -> String {
-        let show = |b: f64| if b != 0.0 && b.abs() < 1e-3 { format!("{b:e}") } else { b.to_string() };
+        let show =
+            |b: f64| if b != 0.0 && b.abs() < 1e-3 { format!("{b:e}") } else { b.to_string() };
         match self.bound {
             Bound::AtMost(b) => format!("<= {}", show(b)),
             Bound::AtLeast(b) => format!(">= {}", show(b)),
@@ -306,14 +337,24 @@ mod tests {
         assert!(Disagreement::at_least("s", "x", 0.9995, VISIBILITY_SAME_BITS).holds());
         assert!(!Disagreement::at_least("s", "x", 0.99, VISIBILITY_SAME_BITS).holds());
         assert!(!Disagreement::at_most("s", "x", f64::NAN, SHADE_REL_MSE).holds(), "NaN must fail");
-        assert!(Disagreement::info("s", "x", f64::NAN).holds() && !Disagreement::info("s", "x", 1.0).judged());
-        assert!(std::panic::catch_unwind(|| Disagreement::at_most("s", "x", 1.0, 0.0).check()).is_err());
+        assert!(
+            Disagreement::info("s", "x", f64::NAN).holds()
+                && !Disagreement::info("s", "x", 1.0).judged()
+        );
+        assert!(
+            std::panic::catch_unwind(|| Disagreement::at_most("s", "x", 1.0, 0.0).check()).is_err()
+        );
     }
 
     #[test]
     fn the_printed_line_names_case_bound_verdict_and_worst_item() {
-        let d = Disagreement::at_most("shade", "relMSE(GPU, CPU)", 3.2e-2, SHADE_REL_MSE).with_case("both/weighted").with_worst(Some("pixel (3, 4)".into()));
+        let d = Disagreement::at_most("shade", "relMSE(GPU, CPU)", 3.2e-2, SHADE_REL_MSE)
+            .with_case("both/weighted")
+            .with_worst(Some("pixel (3, 4)".into()));
         assert_eq!(d.to_string(), "[shade (both/weighted)] relMSE(GPU, CPU): 3.200e-2 (bound <= 1e-4) FAILS; worst: pixel (3, 4)");
-        assert_eq!(Disagreement::at_most("rng", "draws that differ", 0.0, 0.0).to_string(), "[rng] draws that differ: 0 (bound <= 0) ok");
+        assert_eq!(
+            Disagreement::at_most("rng", "draws that differ", 0.0, 0.0).to_string(),
+            "[rng] draws that differ: 0 (bound <= 0) ok"
+        );
     }
 }

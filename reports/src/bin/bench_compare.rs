@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 #[derive(Parser)]
-#[command(about = "Compares the benchmarks of this criterion run with a saved baseline, beyond the measured noise")]
+#[command(
+    about = "Compares the benchmarks of this criterion run with a saved baseline, beyond the measured noise"
+)]
 struct Opts {
     /// Criterion's output folder.
     #[arg(long, default_value = "target/criterion")]
@@ -26,10 +28,16 @@ struct Opts {
 
 /// Median and the half-width of its 95 % interval, in nanoseconds.
 fn median(path: &Path) -> Result<(f64, f64)> {
-    let v: Value = serde_json::from_slice(&std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?)
-        .with_context(|| format!("{} is not criterion's JSON", path.display()))?;
+    let v: Value = serde_json::from_slice(
+        &std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?,
+    )
+    .with_context(|| format!("{} is not criterion's JSON", path.display()))?;
     let m = &v["median"];
-    let (p, lo, hi) = (m["point_estimate"].as_f64(), m["confidence_interval"]["lower_bound"].as_f64(), m["confidence_interval"]["upper_bound"].as_f64());
+    let (p, lo, hi) = (
+        m["point_estimate"].as_f64(),
+        m["confidence_interval"]["lower_bound"].as_f64(),
+        m["confidence_interval"]["upper_bound"].as_f64(),
+    );
     match (p, lo, hi) {
         (Some(p), Some(lo), Some(hi)) => Ok((p, (hi - lo) / 2.0)),
         _ => anyhow::bail!("{}: no median with an interval", path.display()),
@@ -52,7 +60,8 @@ fn benchmarks(dir: &Path, out: &mut Vec<PathBuf>) {
 
 fn modified_after(path: &Path, since: u64) -> bool {
     let t = std::fs::metadata(path).and_then(|m| m.modified()).ok();
-    t.and_then(|t| t.duration_since(SystemTime::UNIX_EPOCH).ok()).is_some_and(|d| d.as_secs() >= since)
+    t.and_then(|t| t.duration_since(SystemTime::UNIX_EPOCH).ok())
+        .is_some_and(|d| d.as_secs() >= since)
 }
 
 fn main() -> Result<()> {
@@ -84,9 +93,18 @@ fn main() -> Result<()> {
             same += 1;
             "within noise"
         };
-        println!("  {id:<40} {:>10.3} ms -> {:>10.3} ms  {:>+7.1} % (noise ±{:.1} %)  {verdict}", b / 1e6, n / 1e6, change * 100.0, noise * 100.0);
+        println!(
+            "  {id:<40} {:>10.3} ms -> {:>10.3} ms  {:>+7.1} % (noise ±{:.1} %)  {verdict}",
+            b / 1e6,
+            n / 1e6,
+            change * 100.0,
+            noise * 100.0
+        );
     }
-    println!("{} slower, {faster} faster, {same} within noise, {new} without a baseline", slower.len());
+    println!(
+        "{} slower, {faster} faster, {same} within noise, {new} without a baseline",
+        slower.len()
+    );
     if !slower.is_empty() {
         println!("regressions beyond the noise: {}", slower.join(", "));
     }

@@ -32,7 +32,12 @@ use std::path::Path;
 use std::process::Command;
 
 /// The outcomes a ledger row can hold, with the words the report uses.
-const OUTCOMES: [(&str, &str); 4] = [("caught", "caught"), ("missed", "survived"), ("timeout", "timed out"), ("unviable", "did not build")];
+const OUTCOMES: [(&str, &str); 4] = [
+    ("caught", "caught"),
+    ("missed", "survived"),
+    ("timeout", "timed out"),
+    ("unviable", "did not build"),
+];
 
 /// The file a mutant lives in: the text before its first colon (of a name) or space (of a key).
 fn file_of(mutant: &str) -> &str {
@@ -97,22 +102,39 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// of the mutated function (of the whole file for a mutant outside any function), the mutant's line
 /// relative to the function's first and its column, and what it does.
 fn key(m: &Listed, source: &str) -> Result<String> {
-    let what = m.name.splitn(4, ':').nth(3).map(str::trim_start).with_context(|| format!("{}: expected file:line:column: description", m.name))?;
+    let what = m
+        .name
+        .splitn(4, ':')
+        .nth(3)
+        .map(str::trim_start)
+        .with_context(|| format!("{}: expected file:line:column: description", m.name))?;
     let text: Vec<&str> = source.lines().collect();
-    let (first, last) = m.function.as_ref().map_or((1, text.len()), |f| (f.span.start.line, f.span.end.line));
-    let body = text
-        .get(first.saturating_sub(1)..last.min(text.len()))
-        .with_context(|| format!("{}: its function's lines {first}-{last} are not in {}", m.name, m.file))?;
-    let line = m.span.start.line.checked_sub(first).with_context(|| format!("{}: starts before its function", m.name))?;
-    Ok(format!("{} {:016x} +{line}:{}: {what}", m.file, fnv1a(body.join("\n").as_bytes()), m.span.start.column))
+    let (first, last) =
+        m.function.as_ref().map_or((1, text.len()), |f| (f.span.start.line, f.span.end.line));
+    let body = text.get(first.saturating_sub(1)..last.min(text.len())).with_context(|| {
+        format!("{}: its function's lines {first}-{last} are not in {}", m.name, m.file)
+    })?;
+    let line = m
+        .span
+        .start
+        .line
+        .checked_sub(first)
+        .with_context(|| format!("{}: starts before its function", m.name))?;
+    Ok(format!(
+        "{} {:016x} +{line}:{}: {what}",
+        m.file,
+        fnv1a(body.join("\n").as_bytes()),
+        m.span.start.column
+    ))
 }
 
 /// The selection (REPORT_DIR/all-mutants.json) in cargo-mutants' order, as (name, key) pairs keyed by
 /// the sources under the current directory.
 fn key_selection(dir: &Path) -> Result<Vec<(String, String)>> {
     let path = dir.join("all-mutants.json");
-    let listed: Vec<Listed> =
-        serde_json::from_str(&read(&path)?).with_context(|| format!("{}: not a `cargo mutants --list --json` listing", path.display()))?;
+    let listed: Vec<Listed> = serde_json::from_str(&read(&path)?).with_context(|| {
+        format!("{}: not a `cargo mutants --list --json` listing", path.display())
+    })?;
     let mut sources = HashMap::new();
     let mut out = Vec::with_capacity(listed.len());
     for m in &listed {
@@ -131,7 +153,9 @@ fn selection(dir: &Path) -> Result<(Vec<(String, String)>, String)> {
     let mut commit = String::new();
     let mut keyed = Vec::new();
     for l in lines(&text) {
-        let (a, b) = l.split_once('\t').with_context(|| format!("{}: expected name<TAB>key", path.display()))?;
+        let (a, b) = l
+            .split_once('\t')
+            .with_context(|| format!("{}: expected name<TAB>key", path.display()))?;
         if a == "commit" {
             commit = b.to_string();
         } else {
@@ -155,7 +179,9 @@ fn ledger(path: &Path) -> Result<BTreeMap<String, Row>> {
             continue;
         }
         let f: Vec<&str> = l.splitn(3, '\t').collect();
-        let [outcome, commit, key] = f[..] else { bail!("{}:{}: expected outcome<TAB>commit<TAB>key", path.display(), i + 1) };
+        let [outcome, commit, key] = f[..] else {
+            bail!("{}:{}: expected outcome<TAB>commit<TAB>key", path.display(), i + 1)
+        };
         if !OUTCOMES.iter().any(|(o, _)| *o == outcome) {
             bail!("{}:{}: unknown outcome {outcome:?}", path.display(), i + 1);
         }
@@ -165,12 +191,18 @@ fn ledger(path: &Path) -> Result<BTreeMap<String, Row>> {
 }
 
 /// The selected mutants the ledger has a row for, as (current name, row).
-fn valid<'a>(rows: &'a BTreeMap<String, Row>, keyed: &'a [(String, String)]) -> Vec<(&'a String, &'a Row)> {
+fn valid<'a>(
+    rows: &'a BTreeMap<String, Row>,
+    keyed: &'a [(String, String)],
+) -> Vec<(&'a String, &'a Row)> {
     keyed.iter().filter_map(|(name, key)| rows.get(key).map(|r| (name, r))).collect()
 }
 
 /// The ledger's rows whose files are outside the selection.
-fn unselected<'a>(rows: &'a BTreeMap<String, Row>, keyed: &[(String, String)]) -> Vec<(&'a String, &'a Row)> {
+fn unselected<'a>(
+    rows: &'a BTreeMap<String, Row>,
+    keyed: &[(String, String)],
+) -> Vec<(&'a String, &'a Row)> {
     let files: std::collections::HashSet<&str> = keyed.iter().map(|(_, k)| file_of(k)).collect();
     rows.iter().filter(|(k, _)| !files.contains(file_of(k))).collect()
 }
@@ -191,14 +223,18 @@ fn prepare(ledger_path: &Path, dir: &Path, retest: Option<&Path>) -> Result<()> 
     let reasons = retest.map(harmless).transpose()?;
     let key_of: HashMap<&str, &str> = keyed.iter().map(|(n, k)| (n.as_str(), k.as_str())).collect();
     let retested = |name: &str, r: &Row| {
-        let explained = |table: &Vec<(String, String)>| table.iter().any(|(p, _)| key_of.get(name).is_some_and(|k| describes(p, k)));
+        let explained = |table: &Vec<(String, String)>| {
+            table.iter().any(|(p, _)| key_of.get(name).is_some_and(|k| describes(p, k)))
+        };
         r.outcome == "missed" && reasons.as_ref().is_some_and(|t| !explained(t))
     };
-    let skip: Vec<&str> = keep.iter().filter(|(m, r)| !retested(m, r)).map(|(m, _)| m.as_str()).collect();
+    let skip: Vec<&str> =
+        keep.iter().filter(|(m, r)| !retested(m, r)).map(|(m, _)| m.as_str()).collect();
     let out = dir.join("mutants.out");
     for d in [out.clone(), dir.join("mutants.out.old")] {
         if d.exists() {
-            std::fs::remove_dir_all(&d).with_context(|| format!("{}: cannot remove", d.display()))?;
+            std::fs::remove_dir_all(&d)
+                .with_context(|| format!("{}: cannot remove", d.display()))?;
         }
     }
     std::fs::create_dir_all(&out).with_context(|| format!("{}: cannot create", out.display()))?;
@@ -218,7 +254,8 @@ fn prepare(ledger_path: &Path, dir: &Path, retest: Option<&Path>) -> Result<()> 
 /// Fails if cargo refused the arguments of any mutant's test run: the mutant would count as caught
 /// without a test having run (a doubled `--workspace` once did exactly that).
 fn check_logs(run: &Path) -> Result<()> {
-    const REFUSALS: [&str; 3] = ["error: the argument", "error: unexpected argument", "error: no test target named"];
+    const REFUSALS: [&str; 3] =
+        ["error: the argument", "error: unexpected argument", "error: no test target named"];
     let Ok(entries) = std::fs::read_dir(run.join("log")) else { return Ok(()) };
     for e in entries {
         let path = e?.path();
@@ -242,7 +279,8 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
             continue;
         };
         for m in lines(&text) {
-            let key = key_of.get(m).with_context(|| format!("{m}: not in the selection prepare saw"))?;
+            let key =
+                key_of.get(m).with_context(|| format!("{m}: not in the selection prepare saw"))?;
             rows.insert(key.to_string(), Row { outcome: outcome.into(), commit: commit.clone() });
             *added.entry(outcome).or_default() += 1;
         }
@@ -254,7 +292,9 @@ fn record(ledger_path: &Path, dir: &Path) -> Result<()> {
         "# make mutants' ledger (see reports/src/bin/mutants_report.rs): outcome, commit the run started on, and the\n\
          # mutant's key (file, hash of its function's text, line in that function:column: what it does). Do not edit.\n",
     );
-    for (k, r) in keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed)) {
+    for (k, r) in
+        keyed.iter().filter_map(|(_, k)| rows.get_key_value(k)).chain(unselected(&rows, &keyed))
+    {
         writeln!(text, "{}\t{}\t{k}", r.outcome, r.commit)?;
     }
     write(ledger_path, &text)?;
@@ -274,7 +314,9 @@ fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
         if l.trim().is_empty() || l.starts_with('#') {
             continue;
         }
-        let Some((pattern, why)) = l.split_once('\t') else { bail!("{}:{}: expected `pattern<TAB>reason`", path.display(), i + 1) };
+        let Some((pattern, why)) = l.split_once('\t') else {
+            bail!("{}:{}: expected `pattern<TAB>reason`", path.display(), i + 1)
+        };
         rows.push((pattern.trim().to_string(), why.trim().to_string()));
     }
     Ok(rows)
@@ -285,7 +327,8 @@ fn harmless(path: &Path) -> Result<Vec<(String, String)>> {
 /// ("crates/vplgi-cpu/src/cluster.rs") and not inside a longer name ("rsm_cluster.rs").
 fn unhashed(key: &str) -> String {
     let mut parts = key.splitn(3, ' ');
-    let (file, _hash, rest) = (parts.next().unwrap_or(""), parts.next(), parts.next().unwrap_or(""));
+    let (file, _hash, rest) =
+        (parts.next().unwrap_or(""), parts.next(), parts.next().unwrap_or(""));
     format!("/{file} {rest}")
 }
 
@@ -328,7 +371,12 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
     }
     let mut commits: Vec<&str> = Vec::new();
     for (m, r) in &done {
-        by_file.entry(file_of(m)).or_default().entry(r.outcome.as_str()).or_default().push(m.as_str());
+        by_file
+            .entry(file_of(m))
+            .or_default()
+            .entry(r.outcome.as_str())
+            .or_default()
+            .push(m.as_str());
         if !commits.contains(&r.commit.as_str()) {
             commits.push(&r.commit);
         }
@@ -354,7 +402,11 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
         "**{} of the {} selected mutants have an outcome{}.**\n",
         done.len(),
         selection.len(),
-        if done.len() < selection.len() { " so far (`make mutants` again tests the rest)" } else { "" }
+        if done.len() < selection.len() {
+            " so far (`make mutants` again tests the rest)"
+        } else {
+            ""
+        }
     )?;
     writeln!(md, "| file | selected | tested | caught | survived | timed out | did not build |\n|---|---:|---:|---:|---:|---:|---:|")?;
     for (file, o) in &by_file {
@@ -382,7 +434,8 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
     )?;
     let mut unexplained = 0;
     writeln!(md, "## Survivors\n")?;
-    for (outcome, what) in OUTCOMES.into_iter().filter(|(o, _)| matches!(*o, "missed" | "timeout")) {
+    for (outcome, what) in OUTCOMES.into_iter().filter(|(o, _)| matches!(*o, "missed" | "timeout"))
+    {
         for (file, o) in &by_file {
             for m in o.get(outcome).into_iter().flatten() {
                 let key = key_of[m];
@@ -420,7 +473,12 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
         count("unviable")
     );
     if !stale.is_empty() {
-        println!("make mutants: {} stale line(s) in {}, listed in {}", stale.len(), table.display(), out.display());
+        println!(
+            "make mutants: {} stale line(s) in {}, listed in {}",
+            stale.len(),
+            table.display(),
+            out.display()
+        );
     }
     Ok(())
 }
@@ -428,15 +486,21 @@ fn report(ledger_path: &Path, dir: &Path, table: &Path, out: &Path) -> Result<()
 /// The harmless-table patterns of selected files that describe no selected mutant still in need of
 /// a reason (survived, timed out, or not yet tested). Patterns of files outside the selection are
 /// left alone: a run narrowed with MUTANTS_FILES cannot judge them.
-fn stale<'a>(reasons: &'a [(String, String)], keyed: &[(String, String)], rows: &BTreeMap<String, Row>) -> Vec<&'a str> {
-    let needs_reason = |k: &String| rows.get(k).is_none_or(|r| matches!(r.outcome.as_str(), "missed" | "timeout"));
+fn stale<'a>(
+    reasons: &'a [(String, String)],
+    keyed: &[(String, String)],
+    rows: &BTreeMap<String, Row>,
+) -> Vec<&'a str> {
+    let needs_reason =
+        |k: &String| rows.get(k).is_none_or(|r| matches!(r.outcome.as_str(), "missed" | "timeout"));
     reasons
         .iter()
         .map(|(p, _)| p.as_str())
         .filter(|p| {
             // The pattern's file name and the space after it: a pattern of its own for the file.
             let file = p.split_inclusive(' ').next().unwrap_or(p);
-            keyed.iter().any(|(_, k)| describes(file, k)) && !keyed.iter().any(|(_, k)| needs_reason(k) && describes(p, k))
+            keyed.iter().any(|(_, k)| describes(file, k))
+                && !keyed.iter().any(|(_, k)| needs_reason(k) && describes(p, k))
         })
         .collect()
 }
@@ -465,7 +529,9 @@ mod tests {
         Listed {
             name: name.into(),
             file: "a.rs".into(),
-            function: Some(Function { span: Span { start: pos(fn_lines.0), end: pos(fn_lines.1) } }),
+            function: Some(Function {
+                span: Span { start: pos(fn_lines.0), end: pos(fn_lines.1) },
+            }),
             span: Span { start: pos(line), end: pos(line) },
         }
     }
@@ -477,22 +543,48 @@ mod tests {
         let before = "fn f() {\n    a + b\n}\nfn g() {\n    c\n}\n";
         let shifted = format!("// a new line\n{before}");
         let edited = before.replace("a + b", "a - b");
-        let g = |src: &str, first: usize| key(&listed(&format!("a.rs:{}:5: replace c in g", first + 1), (first, first + 2), first + 1), src);
-        let f = |src: &str, first: usize| key(&listed(&format!("a.rs:{}:5: replace + with - in f", first + 1), (first, first + 2), first + 1), src);
+        let g = |src: &str, first: usize| {
+            key(
+                &listed(
+                    &format!("a.rs:{}:5: replace c in g", first + 1),
+                    (first, first + 2),
+                    first + 1,
+                ),
+                src,
+            )
+        };
+        let f = |src: &str, first: usize| {
+            key(
+                &listed(
+                    &format!("a.rs:{}:5: replace + with - in f", first + 1),
+                    (first, first + 2),
+                    first + 1,
+                ),
+                src,
+            )
+        };
         assert_eq!(g(before, 4)?, g(&shifted, 5)?);
         assert_eq!(f(before, 1)?, f(&shifted, 2)?);
         assert_eq!(g(before, 4)?, g(&edited, 4)?);
         assert_ne!(f(before, 1)?, f(&edited, 1)?);
-        assert!(f(before, 1)?.starts_with("a.rs ") && f(before, 1)?.ends_with(" +1:5: replace + with - in f"), "{}", f(before, 1)?);
+        assert!(
+            f(before, 1)?.starts_with("a.rs ")
+                && f(before, 1)?.ends_with(" +1:5: replace + with - in f"),
+            "{}",
+            f(before, 1)?
+        );
         Ok(())
     }
 
     #[test]
     fn a_narrowed_run_keeps_the_rows_of_files_it_did_not_select() {
         let row = || Row { outcome: "caught".into(), commit: "c".into() };
-        let rows: BTreeMap<String, Row> =
-            [("a.rs 01 +1:1: replace x".to_string(), row()), ("a.rs 02 +1:1: replace y".to_string(), row()), ("b.rs 03 +1:1: replace z".to_string(), row())]
-                .into();
+        let rows: BTreeMap<String, Row> = [
+            ("a.rs 01 +1:1: replace x".to_string(), row()),
+            ("a.rs 02 +1:1: replace y".to_string(), row()),
+            ("b.rs 03 +1:1: replace z".to_string(), row()),
+        ]
+        .into();
         // a.rs's second function has changed (hash 04 now): its row lapses; b.rs (not selected) stays.
         let keyed = vec![
             ("a.rs:1:1: replace x".to_string(), "a.rs 01 +1:1: replace x".to_string()),
@@ -509,22 +601,52 @@ mod tests {
     /// mutant is gone, or now caught, is reported stale while one for an untested mutant is not.
     #[test]
     fn reasons_follow_the_function_and_go_stale_with_it() {
-        let key = |file: &str, hash: &str, what: &str| format!("crates/c/src/{file} {hash} +2:9: {what}");
-        assert!(describes("cluster.rs +2:9: replace < with <= in f", &key("cluster.rs", "01", "replace < with <= in f")));
-        assert!(!describes("cluster.rs +2:9: replace < with <= in f", &key("rsm_cluster.rs", "01", "replace < with <= in f")));
-        assert!(!describes("cluster.rs +2:9: replace < with <= in f", &key("cluster.rs", "01", "replace < with > in f")));
-        assert!(describes("cluster.rs +2:* in f", &key("cluster.rs", "01", "replace < with > in f")));
-        assert_eq!(pattern_of(&key("cluster.rs", "01", "replace / with * in f")), "cluster.rs +2:9: replace / with * in f");
-        assert!(!describes("cluster.rs +2:* in f", &key("cluster.rs", "01", "replace < with > in g")));
-        let reasons: Vec<(String, String)> =
-            ["cluster.rs +2:9: survives", "cluster.rs +2:9: caught now", "cluster.rs +2:9: untested", "cluster.rs +2:9: gone", "other.rs +1:1: x"]
-                .iter()
-                .map(|p| (p.to_string(), "why".to_string()))
-                .collect();
-        let keyed: Vec<(String, String)> =
-            ["survives", "caught now", "untested"].iter().map(|w| (format!("cluster.rs:9:9: {w}"), key("cluster.rs", "07", w))).collect();
+        let key =
+            |file: &str, hash: &str, what: &str| format!("crates/c/src/{file} {hash} +2:9: {what}");
+        assert!(describes(
+            "cluster.rs +2:9: replace < with <= in f",
+            &key("cluster.rs", "01", "replace < with <= in f")
+        ));
+        assert!(!describes(
+            "cluster.rs +2:9: replace < with <= in f",
+            &key("rsm_cluster.rs", "01", "replace < with <= in f")
+        ));
+        assert!(!describes(
+            "cluster.rs +2:9: replace < with <= in f",
+            &key("cluster.rs", "01", "replace < with > in f")
+        ));
+        assert!(describes(
+            "cluster.rs +2:* in f",
+            &key("cluster.rs", "01", "replace < with > in f")
+        ));
+        assert_eq!(
+            pattern_of(&key("cluster.rs", "01", "replace / with * in f")),
+            "cluster.rs +2:9: replace / with * in f"
+        );
+        assert!(!describes(
+            "cluster.rs +2:* in f",
+            &key("cluster.rs", "01", "replace < with > in g")
+        ));
+        let reasons: Vec<(String, String)> = [
+            "cluster.rs +2:9: survives",
+            "cluster.rs +2:9: caught now",
+            "cluster.rs +2:9: untested",
+            "cluster.rs +2:9: gone",
+            "other.rs +1:1: x",
+        ]
+        .iter()
+        .map(|p| (p.to_string(), "why".to_string()))
+        .collect();
+        let keyed: Vec<(String, String)> = ["survives", "caught now", "untested"]
+            .iter()
+            .map(|w| (format!("cluster.rs:9:9: {w}"), key("cluster.rs", "07", w)))
+            .collect();
         let row = |o: &str| Row { outcome: o.into(), commit: "c".into() };
-        let rows: BTreeMap<String, Row> = [(keyed[0].1.clone(), row("missed")), (keyed[1].1.clone(), row("caught"))].into();
-        assert_eq!(stale(&reasons, &keyed, &rows), ["cluster.rs +2:9: caught now", "cluster.rs +2:9: gone"]);
+        let rows: BTreeMap<String, Row> =
+            [(keyed[0].1.clone(), row("missed")), (keyed[1].1.clone(), row("caught"))].into();
+        assert_eq!(
+            stale(&reasons, &keyed, &rows),
+            ["cluster.rs +2:9: caught now", "cluster.rs +2:9: gone"]
+        );
     }
 }

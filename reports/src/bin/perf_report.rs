@@ -37,7 +37,9 @@ use vplgi_types::clustering::ClusterParams;
 use vplgi_types::FrameConfig;
 
 #[derive(Parser)]
-#[command(about = "Measures vplgi against faiss-cpu, raw Embree, its own GPU backend and its unclustered reference; writes a Markdown report")]
+#[command(
+    about = "Measures vplgi against faiss-cpu, raw Embree, its own GPU backend and its unclustered reference; writes a Markdown report"
+)]
 struct Opts {
     /// The report. Numbers go to perf/perf.json and pictures to perf/ beside it.
     #[arg(long, default_value = "docs/PERFORMANCE.md")]
@@ -72,10 +74,18 @@ fn shell(cmd: &str, args: &[&str]) -> String {
 
 fn machine() -> Value {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
-    let model = cpuinfo.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map_or("unknown".into(), |s| s.trim().to_string());
+    let model = cpuinfo
+        .lines()
+        .find(|l| l.starts_with("model name"))
+        .and_then(|l| l.split(':').nth(1))
+        .map_or("unknown".into(), |s| s.trim().to_string());
     let meminfo = std::fs::read_to_string("/proc/meminfo").unwrap_or_default();
-    let mem_kib: f64 =
-        meminfo.lines().find(|l| l.starts_with("MemTotal")).and_then(|l| l.split_whitespace().nth(1)).and_then(|v| v.parse().ok()).unwrap_or(0.0);
+    let mem_kib: f64 = meminfo
+        .lines()
+        .find(|l| l.starts_with("MemTotal"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.0);
     let dirty = !shell("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty();
     json!({
         "cpu": model,
@@ -88,7 +98,11 @@ fn machine() -> Value {
 
 /// Mean squared distance of each point to the centroid of its label.
 fn kmeans_mse(ps: &[Vec3], labels: &[u32], centroids: &[Vec3]) -> f64 {
-    ps.iter().zip(labels).map(|(p, &l)| (*p - centroids[l as usize]).length_squared() as f64).sum::<f64>() / ps.len() as f64
+    ps.iter()
+        .zip(labels)
+        .map(|(p, &l)| (*p - centroids[l as usize]).length_squared() as f64)
+        .sum::<f64>()
+        / ps.len() as f64
 }
 
 struct Kmeans {
@@ -98,15 +112,24 @@ struct Kmeans {
     runs: usize,
 }
 
-fn kmeans(opts: &Opts, km: &Kmeans, gpu: Option<&vplgi_gpu::GpuContext>, dir: &Path) -> Result<Value> {
+fn kmeans(
+    opts: &Opts,
+    km: &Kmeans,
+    gpu: Option<&vplgi_gpu::GpuContext>,
+    dir: &Path,
+) -> Result<Value> {
     let (ps, ns, plain) = vplgi_benches::kmeans_problem(km.n, km.k, km.iterations);
     let params = |gamma| ClusterParams { gamma, ..plain };
     let mut rows = Vec::new();
 
     let points_file = dir.join("kmeans-points.f32");
     let bytes: Vec<u8> = ps.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
-    std::fs::write(&points_file, bytes).with_context(|| format!("cannot write {}", points_file.display()))?;
-    eprintln!("k-means: faiss-cpu ({} points, K = {}, {} iterations, {} runs)", km.n, km.k, km.iterations, km.runs);
+    std::fs::write(&points_file, bytes)
+        .with_context(|| format!("cannot write {}", points_file.display()))?;
+    eprintln!(
+        "k-means: faiss-cpu ({} points, K = {}, {} iterations, {} runs)",
+        km.n, km.k, km.iterations, km.runs
+    );
     let out = Command::new(&opts.python)
         .arg(&opts.faiss_script)
         .arg(&points_file)
@@ -121,7 +144,10 @@ fn kmeans(opts: &Opts, km: &Kmeans, gpu: Option<&vplgi_gpu::GpuContext>, dir: &P
         if !opts.quick {
             bail!("the faiss side failed (make perf-report installs faiss-cpu):\n{err}");
         }
-        eprintln!("faiss not available ({}): skipped in --quick mode", err.lines().last().unwrap_or(""));
+        eprintln!(
+            "faiss not available ({}): skipped in --quick mode",
+            err.lines().last().unwrap_or("")
+        );
         None
     };
     if let Some(f) = &faiss {
@@ -139,14 +165,19 @@ fn kmeans(opts: &Opts, km: &Kmeans, gpu: Option<&vplgi_gpu::GpuContext>, dir: &P
             let labels: Vec<u32> = (0..km.n).map(|i| c.hard_label(i)).collect();
             mse = kmeans_mse(&ps, &labels, &c.positions);
         }
-        let what = if gamma == 1 { "every point in every iteration, as faiss" } else { "iterations on every 4th point, the pipeline's default" };
+        let what = if gamma == 1 {
+            "every point in every iteration, as faiss"
+        } else {
+            "iterations on every 4th point, the pipeline's default"
+        };
         rows.push(json!({"name": format!("vplgi `cluster`, CPU, gamma = {gamma}: {what}"), "seconds": median(times), "mse": mse}));
     }
 
     if let Some(ctx) = gpu {
         eprintln!("k-means: vplgi GPU, gamma = 1");
         let kernel = vplgi_gpu::cluster::ClusterKernel::new(&ctx.device)?;
-        let e: Vec<vplgi_gpu::visibility::Endpoint> = ps.iter().zip(&ns).map(|(&p, &n)| vplgi_gpu::visibility::Endpoint::new(p, n)).collect();
+        let e: Vec<vplgi_gpu::visibility::Endpoint> =
+            ps.iter().zip(&ns).map(|(&p, &n)| vplgi_gpu::visibility::Endpoint::new(p, n)).collect();
         let buf = vplgi_gpu::buffers::storage(&ctx.device, "points", &e);
         let mut times = Vec::new();
         let mut mse = 0.0;
@@ -155,14 +186,21 @@ fn kmeans(opts: &Opts, km: &Kmeans, gpu: Option<&vplgi_gpu::GpuContext>, dir: &P
             let c = kernel.cluster(&ctx.device, &ctx.queue, &buf, km.n as u32, &params(1))?;
             vplgi_gpu::buffers::sync(&ctx.device)?;
             times.push(secs(t0));
-            let labels: Vec<u32> = vplgi_gpu::buffers::read_back(&ctx.device, &ctx.queue, &c.labels, km.n)?;
-            let cents: Vec<vplgi_gpu::visibility::Endpoint> = vplgi_gpu::buffers::read_back(&ctx.device, &ctx.queue, &c.centroids, c.k as usize)?;
-            let cents: Vec<Vec3> = cents.iter().map(|e| Vec3::new(e.position[0], e.position[1], e.position[2])).collect();
+            let labels: Vec<u32> =
+                vplgi_gpu::buffers::read_back(&ctx.device, &ctx.queue, &c.labels, km.n)?;
+            let cents: Vec<vplgi_gpu::visibility::Endpoint> =
+                vplgi_gpu::buffers::read_back(&ctx.device, &ctx.queue, &c.centroids, c.k as usize)?;
+            let cents: Vec<Vec3> = cents
+                .iter()
+                .map(|e| Vec3::new(e.position[0], e.position[1], e.position[2]))
+                .collect();
             mse = kmeans_mse(&ps, &labels, &cents);
         }
         rows.push(json!({"name": format!("vplgi `cluster`, GPU ({}), gamma = 1", ctx.describe()), "seconds": median(times), "mse": mse}));
     }
-    Ok(json!({"points": km.n, "k": km.k, "iterations": km.iterations, "runs": km.runs, "rows": rows}))
+    Ok(
+        json!({"points": km.n, "k": km.k, "iterations": km.iterations, "runs": km.runs, "rows": rows}),
+    )
 }
 
 /// A bare loop of one of Embree's queries: its name, its packet width, and the loop.
@@ -172,10 +210,14 @@ type RawQuery<'a> = (&'static str, usize, Box<dyn Fn(&[(Vec3, Vec3)]) -> u64 + S
 /// a time, and `rtcOccludedN` over packets of N consecutive rays (one shading point toward N
 /// VPLs: Embree's coherent case). Each returns the number of visible rays.
 fn raw_queries<'a>(cs: &'a CpuScene) -> [RawQuery<'a>; 4] {
-    fn packets<const N: usize>(rays: &[(Vec3, Vec3)], query: impl Fn(&[Vec3; N], &[Vec3; N], usize) -> u16 + Sync) -> u64 {
+    fn packets<const N: usize>(
+        rays: &[(Vec3, Vec3)],
+        query: impl Fn(&[Vec3; N], &[Vec3; N], usize) -> u16 + Sync,
+    ) -> u64 {
         rays.par_chunks(N)
             .map(|c| {
-                let origins: [Vec3; N] = std::array::from_fn(|k| c.get(k).map_or(Vec3::ZERO, |r| r.0));
+                let origins: [Vec3; N] =
+                    std::array::from_fn(|k| c.get(k).map_or(Vec3::ZERO, |r| r.0));
                 let dirs: [Vec3; N] = std::array::from_fn(|k| c.get(k).map_or(Vec3::X, |r| r.1));
                 (c.len() as u32 - query(&origins, &dirs, c.len()).count_ones()) as u64
             })
@@ -183,18 +225,45 @@ fn raw_queries<'a>(cs: &'a CpuScene) -> [RawQuery<'a>; 4] {
     }
     let (near, far) = (vplgi_cpu::SEGMENT_TNEAR, vplgi_cpu::SEGMENT_TFAR);
     [
-        ("rtcOccluded1", 1, Box::new(move |rays| rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, near, far)).count() as u64)),
-        ("rtcOccluded4", 4, Box::new(move |rays| packets::<4>(rays, |o, d, n| cs.rt.occluded4(o, d, n, near, far)))),
-        ("rtcOccluded8", 8, Box::new(move |rays| packets::<8>(rays, |o, d, n| cs.rt.occluded8(o, d, n, near, far)))),
-        ("rtcOccluded16", 16, Box::new(move |rays| packets::<16>(rays, |o, d, n| cs.rt.occluded16(o, d, n, near, far)))),
+        (
+            "rtcOccluded1",
+            1,
+            Box::new(move |rays| {
+                rays.par_iter().filter(|(o, d)| !cs.rt.occluded(*o, *d, near, far)).count() as u64
+            }),
+        ),
+        (
+            "rtcOccluded4",
+            4,
+            Box::new(move |rays| packets::<4>(rays, |o, d, n| cs.rt.occluded4(o, d, n, near, far))),
+        ),
+        (
+            "rtcOccluded8",
+            8,
+            Box::new(move |rays| packets::<8>(rays, |o, d, n| cs.rt.occluded8(o, d, n, near, far))),
+        ),
+        (
+            "rtcOccluded16",
+            16,
+            Box::new(move |rays| {
+                packets::<16>(rays, |o, d, n| cs.rt.occluded16(o, d, n, near, far))
+            }),
+        ),
     ]
 }
 
 /// The stage against bare loops of Embree's one-ray and packet queries over the very same rays
 /// (facing pairs, both ends pushed off their surfaces), runs interleaved, medians of `runs`.
-fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize, runs: usize) -> Value {
+fn visibility_vs_embree(
+    cs: &CpuScene,
+    width: u32,
+    stride: usize,
+    n_cols: usize,
+    runs: usize,
+) -> Value {
     let sps = vplgi_cpu::shading_points::shading_points(cs, width, width, 1, 1);
-    let rows: Vec<Endpoint> = sps.iter().step_by(stride).filter(|s| !s.is_miss()).map(Endpoint::of).collect();
+    let rows: Vec<Endpoint> =
+        sps.iter().step_by(stride).filter(|s| !s.is_miss()).map(Endpoint::of).collect();
     let vpls = vplgi_cpu::trace_vpls::trace_vpls(cs, 1, n_cols as u32 * 10, 3, &NoProgress).vpls;
     let cols: Vec<Endpoint> = vpls.iter().take(n_cols).map(Endpoint::of_vpl).collect();
     let rays: Vec<(Vec3, Vec3)> = rows
@@ -231,7 +300,15 @@ fn visibility_vs_embree(cs: &CpuScene, width: u32, stride: usize, n_cols: usize,
             json!({"query": name, "width": width, "seconds": t, "mrays": rays.len() as f64 / t / 1e6, "percent": 100.0 * t / s})
         })
         .collect();
-    let fastest = raw.iter().min_by(|a, b| a["seconds"].as_f64().partial_cmp(&b["seconds"].as_f64()).unwrap_or(std::cmp::Ordering::Equal)).cloned();
+    let fastest = raw
+        .iter()
+        .min_by(|a, b| {
+            a["seconds"]
+                .as_f64()
+                .partial_cmp(&b["seconds"].as_f64())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .cloned();
     let one_ray = raw[0]["seconds"].as_f64().unwrap_or(f64::NAN);
     json!({"rows": rows.len(), "cols": cols.len(), "rays": rays.len(), "stage_s": s, "stage_mrays": rays.len() as f64 / s / 1e6,
            "stage_width": vplgi_cpu::visibility::PACKET, "raw": raw, "fastest": fastest,
@@ -249,7 +326,10 @@ fn work(stage: &str, s: &FrameStats) -> Option<(&'static str, f64)> {
         "cluster" => Some(("M points clustered/s", (s.shading_point_hits + s.vpls) as f64)),
         "visibility" => s.visibility_rays.map(|r| ("M shadow rays/s", r as f64)),
         // Every hit shading point against every light (VPL clusters, or VPLs unclustered).
-        "shade" => Some(("M light evaluations/s", s.shading_point_hits as f64 * s.vpl_clusters.max(1) as f64)),
+        "shade" => Some((
+            "M light evaluations/s",
+            s.shading_point_hits as f64 * s.vpl_clusters.max(1) as f64,
+        )),
         _ => None,
     }
 }
@@ -268,7 +348,12 @@ fn frame_pair(
     let mut last = None;
     let mut gpu_stats = None;
     for r in 0..runs {
-        eprintln!("frames: {name} {}x{}, CPU and GPU, run {} of {runs}", cfg.width, cfg.height, r + 1);
+        eprintln!(
+            "frames: {name} {}x{}, CPU and GPU, run {} of {runs}",
+            cfg.width,
+            cfg.height,
+            r + 1
+        );
         let f = vplgi_cpu::render(cs, cfg, &NoProgress)?;
         cpu_runs.push(f.timings.clone());
         last = Some(f);
@@ -285,10 +370,16 @@ fn frame_pair(
         .iter()
         .filter(|(_, c)| *c > 0.0)
         .map(|(stage, c)| {
-            let g = gpu_t.as_ref().and_then(|g| stage_list(g).into_iter().find(|(n, _)| n == stage).map(|x| x.1));
+            let g = gpu_t
+                .as_ref()
+                .and_then(|g| stage_list(g).into_iter().find(|(n, _)| n == stage).map(|x| x.1));
             // The GPU frame does not count its shadow rays: those of the CPU frame, whose rows and
             // columns it traces too (up to clustering ties), stand in.
-            let rate = |stats: &FrameStats, ms: f64| work(stage, stats).or_else(|| work(stage, &cpu_frame.stats)).map(|(_, n)| n / (ms / 1e3) / 1e6);
+            let rate = |stats: &FrameStats, ms: f64| {
+                work(stage, stats)
+                    .or_else(|| work(stage, &cpu_frame.stats))
+                    .map(|(_, n)| n / (ms / 1e3) / 1e6)
+            };
             json!({
                 "stage": stage, "cpu_ms": c, "gpu_ms": g, "ratio": g.map(|g| g / c),
                 "unit": work(stage, &cpu_frame.stats).map(|(u, _)| u),
@@ -309,7 +400,10 @@ fn frame_pair(
 /// The floor: brute-force nearest of 64 centroids for `n` points, the GPU kernel against its
 /// rayon twin (vplgi_reports::floor).
 fn floor(ctx: &vplgi_gpu::GpuContext, n: usize, runs: usize) -> Result<Value> {
-    eprintln!("floor: nearest of {} centroids for {n} points, CPU and GPU", vplgi_reports::floor::CENTROIDS);
+    eprintln!(
+        "floor: nearest of {} centroids for {n} points, CPU and GPU",
+        vplgi_reports::floor::CENTROIDS
+    );
     let mut rng = vplgi_types::Rng::new(2026, vplgi_types::Stream::Oracle, 1);
     let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
     let points: Vec<Vec3> = (0..n).map(|_| v()).collect();
@@ -338,7 +432,8 @@ fn main() -> Result<()> {
     if opts.chart_only {
         let history = history::read(&dir.join("history.json"))?;
         let chart = dir.join("history.svg");
-        std::fs::write(&chart, history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
+        std::fs::write(&chart, history::chart(&history))
+            .with_context(|| format!("cannot write {}", chart.display()))?;
         println!("wrote {} from {} runs", chart.display(), history.len());
         return Ok(());
     }
@@ -355,7 +450,11 @@ fn main() -> Result<()> {
     let mut report = json!({"machine": machine(), "adapter": adapter, "quick": opts.quick});
 
     // 1. k-means.
-    let km = if opts.quick { Kmeans { n: 20_000, k: 256, iterations: 3, runs: 1 } } else { Kmeans { n: 1_000_000, k: 8192, iterations: 10, runs: 3 } };
+    let km = if opts.quick {
+        Kmeans { n: 20_000, k: 256, iterations: 3, runs: 1 }
+    } else {
+        Kmeans { n: 1_000_000, k: 8192, iterations: 10, runs: 3 }
+    };
     report["kmeans"] = kmeans(&opts, &km, gpu.as_ref(), &dir)?;
 
     // 2. visibility against raw Embree.
@@ -363,34 +462,60 @@ fn main() -> Result<()> {
     let device = vplgi_embree::Device::new(None)?;
     let cs = CpuScene::new(&scene, &device)?;
     eprintln!("visibility against raw Embree");
-    report["visibility"] = if opts.quick { visibility_vs_embree(&cs, 64, 4, 200, 3) } else { visibility_vs_embree(&cs, 512, 32, 1000, 7) };
+    report["visibility"] = if opts.quick {
+        visibility_vs_embree(&cs, 64, 4, 200, 3)
+    } else {
+        visibility_vs_embree(&cs, 512, 32, 1000, 7)
+    };
 
     // 3. The floor of the GPU/CPU ratio: a kernel that maps perfectly to SIMT hardware.
     if let Some(g) = &gpu {
-        report["floor"] = floor(g, if opts.quick { 100_000 } else { 4_000_000 }, if opts.quick { 1 } else { 5 })?;
+        report["floor"] =
+            floor(g, if opts.quick { 100_000 } else { 4_000_000 }, if opts.quick { 1 } else { 5 })?;
     }
 
     // 4 and 5. Frames, CPU and GPU alternating: the paper-size Cornell box and the generated
     // conference room; then the Cornell box's unclustered reference.
-    let clustered =
-        if opts.quick { FrameConfig { width: 64, height: 64, vpls: 500, k_vpl: 50, k_sp: 200, ..FrameConfig::default() } } else { FrameConfig::default() };
+    let clustered = if opts.quick {
+        FrameConfig {
+            width: 64,
+            height: 64,
+            vpls: 500,
+            k_vpl: 50,
+            k_sp: 200,
+            ..FrameConfig::default()
+        }
+    } else {
+        FrameConfig::default()
+    };
     let reference = FrameConfig { cluster: vplgi_types::ClusterMode::None, ..clustered.clone() };
     let runs = if opts.quick { 1 } else { 3 };
     let kernels = gpu.as_ref().map(|g| vplgi_gpu::GpuKernels::new(&g.device)).transpose()?;
     let gpu_pair = gpu.as_ref().zip(kernels.as_ref());
     let (cornell, cpu_frame) = frame_pair("cornell-box", &scene, &cs, &clustered, runs, gpu_pair)?;
-    let conference_scene = vplgi_scene::generate::generate("conference", if opts.quick { 20_000 } else { 300_000 }).map_err(anyhow::Error::msg)?;
+    let conference_scene =
+        vplgi_scene::generate::generate("conference", if opts.quick { 20_000 } else { 300_000 })
+            .map_err(anyhow::Error::msg)?;
     let conference_cs = CpuScene::new(&conference_scene, &device)?;
     let (w, h) = if opts.quick { (64, 45) } else { (256, 180) };
     let conference_cfg = FrameConfig { width: w, height: h, ..clustered.clone() };
-    let (conference, _) = frame_pair("conference", &conference_scene, &conference_cs, &conference_cfg, runs, gpu_pair)?;
+    let (conference, _) = frame_pair(
+        "conference",
+        &conference_scene,
+        &conference_cs,
+        &conference_cfg,
+        runs,
+        gpu_pair,
+    )?;
     report["frames"] = json!([cornell, conference]);
     let cpu_pixels = cpu_frame.pixels;
     eprintln!("frames: the unclustered reference (CPU)");
     let t0 = Instant::now();
     let rf = vplgi_cpu::render(&cs, &reference, &NoProgress)?;
-    let cornell_cpu_ms =
-        report["frames"][0]["stages"].as_array().and_then(|ss| ss.iter().find(|s| s["stage"] == "total")).map_or(f64::NAN, |s| f(&s["cpu_ms"]));
+    let cornell_cpu_ms = report["frames"][0]["stages"]
+        .as_array()
+        .and_then(|ss| ss.iter().find(|s| s["stage"] == "total"))
+        .map_or(f64::NAN, |s| f(&s["cpu_ms"]));
     let ref_s = secs(t0);
     let (w, h) = (clustered.width, clustered.height);
     let (ref_img, test_img) = (image(w, h, rf.pixels), image(w, h, cpu_pixels));
@@ -405,13 +530,19 @@ fn main() -> Result<()> {
     report["wall_s"] = json!(secs(started));
 
     let json_path = dir.join("perf.json");
-    std::fs::write(&json_path, serde_json::to_string_pretty(&report)? + "\n").with_context(|| format!("cannot write {}", json_path.display()))?;
-    let history = vplgi_reports::history::append(&dir.join("history.json"), vplgi_reports::history::entry(&report))?;
+    std::fs::write(&json_path, serde_json::to_string_pretty(&report)? + "\n")
+        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    let history = vplgi_reports::history::append(
+        &dir.join("history.json"),
+        vplgi_reports::history::entry(&report),
+    )?;
     let chart = dir.join("history.svg");
-    std::fs::write(&chart, vplgi_reports::history::chart(&history)).with_context(|| format!("cannot write {}", chart.display()))?;
+    std::fs::write(&chart, vplgi_reports::history::chart(&history))
+        .with_context(|| format!("cannot write {}", chart.display()))?;
     report["history"] = json!(history);
     let md = markdown(&report, lavapipe, &opts, &dir)?;
-    std::fs::write(&opts.out, md).with_context(|| format!("cannot write {}", opts.out.display()))?;
+    std::fs::write(&opts.out, md)
+        .with_context(|| format!("cannot write {}", opts.out.display()))?;
     println!("wrote {} and {} in {:.0} s", opts.out.display(), json_path.display(), secs(started));
     Ok(())
 }
@@ -454,10 +585,20 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
     writeln!(s, "{} points (positions uniform in the unit cube, unit normals), K = {}, {} iterations, the normal test of Eq. 7 disabled: plain Euclidean k-means on positions. MSE is the mean squared distance of a point to its final centroid; median of {} runs.\n", k["points"], k["k"], k["iterations"], k["runs"])?;
     writeln!(s, "| implementation | time (s) | MSE | time / faiss time |\n|---|---:|---:|---:|")?;
     let rows = k["rows"].as_array().cloned().unwrap_or_default();
-    let faiss_s = rows.iter().find(|x| x["name"].as_str().unwrap_or("").starts_with("faiss")).map(|x| f(&x["seconds"]));
+    let faiss_s = rows
+        .iter()
+        .find(|x| x["name"].as_str().unwrap_or("").starts_with("faiss"))
+        .map(|x| f(&x["seconds"]));
     for row in &rows {
-        let ratio = faiss_s.map_or("–".to_string(), |fs| format!("{:.2}×", f(&row["seconds"]) / fs));
-        writeln!(s, "| {} | {:.2} | {:.3e} | {ratio} |", row["name"].as_str().unwrap_or("?"), f(&row["seconds"]), f(&row["mse"]))?;
+        let ratio =
+            faiss_s.map_or("–".to_string(), |fs| format!("{:.2}×", f(&row["seconds"]) / fs));
+        writeln!(
+            s,
+            "| {} | {:.2} | {:.3e} | {ratio} |",
+            row["name"].as_str().unwrap_or("?"),
+            f(&row["seconds"]),
+            f(&row["mse"])
+        )?;
     }
 
     let v = &r["visibility"];
@@ -467,8 +608,17 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
         "Cornell box: {} shading points x {} VPLs, {} shadow rays (facing pairs) traced by the `visibility` stage and by bare parallel loops of Embree's queries over the very same rays: `rtcOccluded1` one ray at a time, and `rtcOccludedN` over packets of N consecutive rays (one shading point toward N VPLs, Embree's coherent case); all find the same visible pairs. Runs interleaved, median of each.\n",
         v["rows"], v["cols"], v["rays"]
     )?;
-    writeln!(s, "| | time (ms) | Mrays/s | stage throughput, % of this loop's |\n|---|---:|---:|---:|")?;
-    writeln!(s, "| `visibility` stage (packets of {}) | {:.1} | {:.2} | – |", v["stage_width"], f(&v["stage_s"]) * 1e3, f(&v["stage_mrays"]))?;
+    writeln!(
+        s,
+        "| | time (ms) | Mrays/s | stage throughput, % of this loop's |\n|---|---:|---:|---:|"
+    )?;
+    writeln!(
+        s,
+        "| `visibility` stage (packets of {}) | {:.1} | {:.2} | – |",
+        v["stage_width"],
+        f(&v["stage_s"]) * 1e3,
+        f(&v["stage_mrays"])
+    )?;
     for q in v["raw"].as_array().into_iter().flatten() {
         writeln!(
             s,
@@ -555,10 +705,14 @@ fn markdown(r: &Value, lavapipe: bool, opts: &Opts, dir: &Path) -> Result<String
             .as_array()
             .into_iter()
             .flatten()
-            .filter_map(|fr| Some(format!("{}: {:.2}×", fr["name"].as_str()?, fr["ratios"]["total"].as_f64()?)))
+            .filter_map(|fr| {
+                Some(format!("{}: {:.2}×", fr["name"].as_str()?, fr["ratios"]["total"].as_f64()?))
+            })
             .collect();
         let quick = if e["quick"] == Value::Bool(true) { " (--quick)" } else { "" };
-        let num = |v: &Value, suffix: &str| v.as_f64().map_or("–".into(), |x| format!("{x:.2}{suffix}"));
+        let num = |v: &Value, suffix: &str| {
+            v.as_f64().map_or("–".into(), |x| format!("{x:.2}{suffix}"))
+        };
         writeln!(
             s,
             "| {}{quick} | {} | {} | {} | {} | {} |",

@@ -52,11 +52,15 @@ struct SceneSpec {
     paper: &'static str,
 }
 
-const CONFIGS: [(&str, u32, u32); 3] = [("light", 750, 1000), ("intermediate", 2000, 8000), ("high", 4000, 30000)];
+const CONFIGS: [(&str, u32, u32); 3] =
+    [("light", 750, 1000), ("intermediate", 2000, 8000), ("high", 4000, 30000)];
 
 /// A JSON file read as `T` (the typed `Report` of a `vplgi render`, or a plain `Value`).
 fn json_of<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    serde_json::from_slice(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?).with_context(|| format!("parsing {}", path.display()))
+    serde_json::from_slice(
+        &std::fs::read(path).with_context(|| format!("reading {}", path.display()))?,
+    )
+    .with_context(|| format!("parsing {}", path.display()))
 }
 
 /// A 256-pixel-wide PNG thumbnail of a PNG.
@@ -99,8 +103,14 @@ fn main() -> Result<()> {
             paper: "living room, 313 k triangles, 1024x720, 10,000 VPLs",
         },
     ];
-    let configs: Vec<(&str, u32, u32)> = if q { CONFIGS.iter().map(|&(n, v, s)| (n, v / 25, s / 25)).collect() } else { CONFIGS.to_vec() };
-    let work = o.work.clone().unwrap_or_else(|| PathBuf::from(if q { "target/results-quick" } else { "target/results" }));
+    let configs: Vec<(&str, u32, u32)> = if q {
+        CONFIGS.iter().map(|&(n, v, s)| (n, v / 25, s / 25)).collect()
+    } else {
+        CONFIGS.to_vec()
+    };
+    let work = o.work.clone().unwrap_or_else(|| {
+        PathBuf::from(if q { "target/results-quick" } else { "target/results" })
+    });
     let docs = o.out.parent().map_or_else(|| PathBuf::from("results"), |p| p.join("results"));
     std::fs::create_dir_all(&docs)?;
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
@@ -109,13 +119,31 @@ fn main() -> Result<()> {
         let glb = work.join("scenes").join(format!("{}-{}.glb", sc.name, sc.triangles));
         if !glb.exists() {
             eprintln!("generating {} ({} triangles)", sc.name, sc.triangles);
-            vplgi(&["scene", "generate", sc.name, "--triangles", &sc.triangles.to_string(), "--out", glb.to_str().unwrap_or_default()])?;
+            vplgi(&[
+                "scene",
+                "generate",
+                sc.name,
+                "--triangles",
+                &sc.triangles.to_string(),
+                "--out",
+                glb.to_str().unwrap_or_default(),
+            ])?;
         }
         let dir = work.join(sc.name);
         let (w, h, v) = (sc.width.to_string(), sc.height.to_string(), sc.vpls.to_string());
         let render = |out: &Path, extra: &[&str]| -> Result<Report> {
-            let mut args =
-                vec!["render", glb.to_str().unwrap_or_default(), "--width", &w, "--height", &h, "--vpls", &v, "--out", out.to_str().unwrap_or_default()];
+            let mut args = vec![
+                "render",
+                glb.to_str().unwrap_or_default(),
+                "--width",
+                &w,
+                "--height",
+                &h,
+                "--vpls",
+                &v,
+                "--out",
+                out.to_str().unwrap_or_default(),
+            ];
             args.extend_from_slice(extra);
             if !(o.reuse && out.join("report.json").exists()) {
                 vplgi(&args)?;
@@ -136,7 +164,19 @@ fn main() -> Result<()> {
                 }
                 eprintln!("{}: {config} on the {backend}", sc.name);
                 let out = dir.join(format!("{config}-{backend}"));
-                let r = render(&out, &["--cluster", "both", "--k-vpl", &k_vpl.to_string(), "--k-sp", &k_sp.to_string(), "--backend", backend])?;
+                let r = render(
+                    &out,
+                    &[
+                        "--cluster",
+                        "both",
+                        "--k-vpl",
+                        &k_vpl.to_string(),
+                        "--k-sp",
+                        &k_sp.to_string(),
+                        "--backend",
+                        backend,
+                    ],
+                )?;
                 vplgi(&[
                     "compare",
                     ref_dir.join("image.exr").to_str().unwrap_or_default(),
@@ -146,8 +186,14 @@ fn main() -> Result<()> {
                 ])?;
                 let c: Value = json_of(&out.join("compare.json"))?;
                 if backend == "cpu" {
-                    thumbnail(&out.join("image.png"), &docs.join(format!("{}-{config}.png", sc.name)))?;
-                    thumbnail(&out.join("error_map.png"), &docs.join(format!("{}-{config}-error.png", sc.name)))?;
+                    thumbnail(
+                        &out.join("image.png"),
+                        &docs.join(format!("{}-{config}.png", sc.name)),
+                    )?;
+                    thumbnail(
+                        &out.join("error_map.png"),
+                        &docs.join(format!("{}-{config}-error.png", sc.name)),
+                    )?;
                 }
                 frames.push(json!({"config": config, "backend": backend, "k_vpl": k_vpl, "k_sp": k_sp, "ms": r.timings_ms.total(), "rss_mib": r.peak_rss_mib, "mse": c["mse"], "flip": c["flip"], "adapter": r.adapter.as_ref().map(|a| a.name.clone())}));
             }
@@ -202,8 +248,14 @@ fn markdown(r: &Value) -> Result<String> {
             } else {
                 format!("{} ({} / {})", x["config"].as_str().unwrap_or("?"), x["k_vpl"], x["k_sp"])
             };
-            let metric = |k: &str, fmt: fn(f64) -> String| x.get(k).and_then(|v| v.as_f64()).map_or("–".to_string(), fmt);
-            let speed = if x["config"] == "reference" { "–".to_string() } else { format!("{:.1}×", ref_ms / f(&x["ms"])) };
+            let metric = |k: &str, fmt: fn(f64) -> String| {
+                x.get(k).and_then(|v| v.as_f64()).map_or("–".to_string(), fmt)
+            };
+            let speed = if x["config"] == "reference" {
+                "–".to_string()
+            } else {
+                format!("{:.1}×", ref_ms / f(&x["ms"]))
+            };
             writeln!(
                 s,
                 "| {name} | {} | {:.2} | {speed} | {:.0} | {} | {} |",

@@ -23,7 +23,9 @@ use std::process::Command;
 use vplgi_reports::{median, run};
 
 #[derive(Parser)]
-#[command(about = "Measures reflective-shadow-map clusters as points and disks against converged references; writes docs/RSM.md")]
+#[command(
+    about = "Measures reflective-shadow-map clusters as points and disks against converged references; writes docs/RSM.md"
+)]
 struct Opts {
     /// The report; numbers and pictures go to rsm/ beside it.
     #[arg(long, default_value = "docs/RSM.md")]
@@ -73,17 +75,52 @@ fn main() -> Result<()> {
     let q = o.quick;
     let cases = if q {
         [
-            SceneCase { name: "cornell-box", generated: None, width: 32, height: 32, rsm_size: 32, vpls: 1000, seeds: 2 },
-            SceneCase { name: "sunlit-living-room", generated: Some("sunlit-living-room"), width: 32, height: 24, rsm_size: 48, vpls: 2000, seeds: 2 },
+            SceneCase {
+                name: "cornell-box",
+                generated: None,
+                width: 32,
+                height: 32,
+                rsm_size: 32,
+                vpls: 1000,
+                seeds: 2,
+            },
+            SceneCase {
+                name: "sunlit-living-room",
+                generated: Some("sunlit-living-room"),
+                width: 32,
+                height: 24,
+                rsm_size: 48,
+                vpls: 2000,
+                seeds: 2,
+            },
         ]
     } else {
         [
-            SceneCase { name: "cornell-box", generated: None, width: 128, height: 128, rsm_size: 128, vpls: 10_000, seeds: 16 },
-            SceneCase { name: "sunlit-living-room", generated: Some("sunlit-living-room"), width: 192, height: 135, rsm_size: 256, vpls: 20_000, seeds: 8 },
+            SceneCase {
+                name: "cornell-box",
+                generated: None,
+                width: 128,
+                height: 128,
+                rsm_size: 128,
+                vpls: 10_000,
+                seeds: 16,
+            },
+            SceneCase {
+                name: "sunlit-living-room",
+                generated: Some("sunlit-living-room"),
+                width: 192,
+                height: 135,
+                rsm_size: 256,
+                vpls: 20_000,
+                seeds: 8,
+            },
         ]
     };
     let counts: &[u32] = if q { &[16, 64] } else { &[64, 256, 1024] };
-    let work = o.work.clone().unwrap_or_else(|| PathBuf::from(if q { "target/rsm-quick" } else { "target/rsm" }));
+    let work = o
+        .work
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(if q { "target/rsm-quick" } else { "target/rsm" }));
     let docs = o.out.parent().map_or_else(|| PathBuf::from("rsm"), |p| p.join("rsm"));
     std::fs::create_dir_all(&docs)?;
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
@@ -95,7 +132,15 @@ fn main() -> Result<()> {
                 let glb = work.join("scenes").join(format!("{g}.glb"));
                 if !glb.exists() {
                     eprintln!("generating {g}");
-                    vplgi(&["scene", "generate", g, "--triangles", if q { "4000" } else { "60000" }, "--out", s(&glb)])?;
+                    vplgi(&[
+                        "scene",
+                        "generate",
+                        g,
+                        "--triangles",
+                        if q { "4000" } else { "60000" },
+                        "--out",
+                        s(&glb),
+                    ])?;
                 }
                 s(&glb).to_string()
             }
@@ -107,32 +152,82 @@ fn main() -> Result<()> {
         if !reference.join("mean.exr").exists() {
             eprintln!("{}: the reference ({} seeds)", c.name, c.seeds);
             let (seeds, vpls) = (c.seeds.to_string(), c.vpls.to_string());
-            let mut args = vec!["reference", &scene, "--seeds", &seeds, "--vpls", &vpls, "--out", s(&reference)];
+            let mut args = vec![
+                "reference",
+                &scene,
+                "--seeds",
+                &seeds,
+                "--vpls",
+                &vpls,
+                "--out",
+                s(&reference),
+            ];
             args.extend(frame);
             vplgi(&args)?;
         }
         // One `render` of the scene's shadow-map VPLs (`--rsm-size` `size`, `k` clusters, plus
         // `extra`) compared with the reference: (compare.json, report.json).
-        let render_and_compare = |out: &Path, size: &str, k: u32, extra: &[&str]| -> Result<(Value, Value)> {
-            let k_vpl = k.max(1).to_string();
-            let mut args = vec!["render", &scene, "--vpl-source", "rsm", "--rsm-size", size, "--k-vpl", &k_vpl, "--out", s(out)];
-            args.extend(frame);
-            args.extend(extra);
-            vplgi(&args)?;
-            vplgi(&["compare", s(&reference.join("mean.exr")), s(&out.join("image.exr")), "--out", s(out)])?;
-            Ok((read_json(&out.join("compare.json"))?, read_json(&out.join("report.json"))?))
-        };
+        let render_and_compare =
+            |out: &Path, size: &str, k: u32, extra: &[&str]| -> Result<(Value, Value)> {
+                let k_vpl = k.max(1).to_string();
+                let mut args = vec![
+                    "render",
+                    &scene,
+                    "--vpl-source",
+                    "rsm",
+                    "--rsm-size",
+                    size,
+                    "--k-vpl",
+                    &k_vpl,
+                    "--out",
+                    s(out),
+                ];
+                args.extend(frame);
+                args.extend(extra);
+                vplgi(&args)?;
+                vplgi(&[
+                    "compare",
+                    s(&reference.join("mean.exr")),
+                    s(&out.join("image.exr")),
+                    "--out",
+                    s(out),
+                ])?;
+                Ok((read_json(&out.join("compare.json"))?, read_json(&out.join("report.json"))?))
+            };
         let mut frames = Vec::new();
-        let mut runs: Vec<(String, u32, Vec<&str>)> =
-            vec![("unclustered".into(), 0, vec!["--cluster", "none"]), (UNCLAMPED.into(), 0, vec!["--cluster", "none", "--g-clamp", "0"])];
+        let mut runs: Vec<(String, u32, Vec<&str>)> = vec![
+            ("unclustered".into(), 0, vec!["--cluster", "none"]),
+            (UNCLAMPED.into(), 0, vec!["--cluster", "none", "--g-clamp", "0"]),
+        ];
         for &k in counts {
             for shape in SHAPES {
-                runs.push((shape.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape]));
+                runs.push((
+                    shape.into(),
+                    k,
+                    vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape],
+                ));
             }
-            runs.push((HALTON.into(), k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", "disk-exact", "--rsm-seeding", "halton"]));
+            runs.push((
+                HALTON.into(),
+                k,
+                vec![
+                    "--cluster",
+                    "vpl",
+                    "--vpl-cluster",
+                    "rsm",
+                    "--light-shape",
+                    "disk-exact",
+                    "--rsm-seeding",
+                    "halton",
+                ],
+            ));
         }
         for (light, k, extra) in runs {
-            let label = if k == 0 { light.replace(", ", "-").replace(' ', "-") } else { format!("{}-{k}", light.replace(", Halton seeds", "-halton")) };
+            let label = if k == 0 {
+                light.replace(", ", "-").replace(' ', "-")
+            } else {
+                format!("{}-{k}", light.replace(", Halton seeds", "-halton"))
+            };
             eprintln!("{}: {label}", c.name);
             let out = dir.join(&label);
             let (cmp, report) = render_and_compare(&out, &size, k, &extra)?;
@@ -144,7 +239,10 @@ fn main() -> Result<()> {
             // Pictures: the reference, and every light shape at the middle count with its error map.
             if (k == counts[counts.len() / 2] && light != HALTON) || light == "unclustered" {
                 std::fs::copy(out.join("image.png"), docs.join(format!("{}-{label}.png", c.name)))?;
-                std::fs::copy(out.join("error_map.png"), docs.join(format!("{}-{label}-error.png", c.name)))?;
+                std::fs::copy(
+                    out.join("error_map.png"),
+                    docs.join(format!("{}-{label}-error.png", c.name)),
+                )?;
             }
         }
         // The Cornell box's energy again from a map of twice the side: the shadow map's own
@@ -153,15 +251,21 @@ fn main() -> Result<()> {
         let mut finer = Vec::new();
         let finer_size = (2 * c.rsm_size).to_string();
         if c.generated.is_none() {
-            let mut runs: Vec<(&str, u32, Vec<&str>)> = vec![(UNCLAMPED, 0, vec!["--cluster", "none", "--g-clamp", "0"])];
+            let mut runs: Vec<(&str, u32, Vec<&str>)> =
+                vec![(UNCLAMPED, 0, vec!["--cluster", "none", "--g-clamp", "0"])];
             for &k in counts {
                 for shape in SHAPES {
-                    runs.push((shape, k, vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape]));
+                    runs.push((
+                        shape,
+                        k,
+                        vec!["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", shape],
+                    ));
                 }
             }
             for (light, k, extra) in runs {
                 eprintln!("{}: {light} at {k} clusters, --rsm-size {finer_size}", c.name);
-                let out = dir.join(format!("finer-{}-{k}", light.replace(", ", "-").replace(' ', "-")));
+                let out =
+                    dir.join(format!("finer-{}-{k}", light.replace(", ", "-").replace(' ', "-")));
                 let (cmp, _) = render_and_compare(&out, &finer_size, k, &extra)?;
                 finer.push(json!({"light": light, "k": k, "rel_mse": cmp["rel_mse"], "mean_ratio": cmp["mean_ratio"]}));
             }
@@ -181,7 +285,9 @@ fn main() -> Result<()> {
     for (size, k, paper_ms) in TABLE_1 {
         let (size, k) = if q { (size / 4, k / 8) } else { (size, k) };
         let mut row = json!({"rsm_size": size, "k": k, "paper_ms": paper_ms});
-        for (backend, seeding) in [("cpu", "halton"), ("cpu", "importance"), ("gpu", "halton"), ("gpu", "importance")] {
+        for (backend, seeding) in
+            [("cpu", "halton"), ("cpu", "importance"), ("gpu", "halton"), ("gpu", "importance")]
+        {
             let mut ms = Vec::new();
             for r in 0..3 {
                 let out = work.join("timing").join(format!("{backend}-{seeding}-{size}-{k}-{r}"));
@@ -212,7 +318,11 @@ fn main() -> Result<()> {
                     s(&out),
                 ])?;
                 let report = read_json(&out.join("report.json"))?;
-                ms.push(report["timings_ms"]["cluster"].as_f64().context("no cluster timing in the report")?);
+                ms.push(
+                    report["timings_ms"]["cluster"]
+                        .as_f64()
+                        .context("no cluster timing in the report")?,
+                );
                 row["vpls"] = report["stats"]["vpls"].clone();
             }
             row[format!("{backend}_{seeding}_ms")] = json!(median(ms));
@@ -238,7 +348,8 @@ fn moving_sun(o: &Opts, work: &Path, q: bool) -> Result<Value> {
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
     let glb = work.join("scenes").join("sunlit-living-room.glb");
     let dir = work.join("sequence");
-    let (w, h, size, k, frames) = if q { ("32", "24", "48", "32", 3) } else { ("192", "135", "256", "256", SEQUENCE_FRAMES) };
+    let (w, h, size, k, frames) =
+        if q { ("32", "24", "48", "32", 3) } else { ("192", "135", "256", "256", SEQUENCE_FRAMES) };
     let (frames_s, degrees) = (frames.to_string(), SEQUENCE_DEGREES.to_string());
     let common = [
         "render",
@@ -266,11 +377,26 @@ fn moving_sun(o: &Opts, work: &Path, q: bool) -> Result<Value> {
     args.extend(["--cluster", "none", "--out", s(&reference)]);
     vplgi(&args)?;
     let mut rows = Vec::new();
-    for (label, temporal, iterations) in [("from scratch", "off", None), ("warm start", "on", None), ("warm start, 1 iteration per frame", "on", Some("1"))] {
+    for (label, temporal, iterations) in [
+        ("from scratch", "off", None),
+        ("warm start", "on", None),
+        ("warm start, 1 iteration per frame", "on", Some("1")),
+    ] {
         eprintln!("moving sun: {label}");
         let out = dir.join(label.replace([' ', ','], "-"));
         let mut args = common.to_vec();
-        args.extend(["--cluster", "vpl", "--vpl-cluster", "rsm", "--light-shape", "disk-exact", "--k-vpl", k, "--temporal", temporal]);
+        args.extend([
+            "--cluster",
+            "vpl",
+            "--vpl-cluster",
+            "rsm",
+            "--light-shape",
+            "disk-exact",
+            "--k-vpl",
+            k,
+            "--temporal",
+            temporal,
+        ]);
         args.extend(["--flicker-reference", s(&reference), "--out", s(&out)]);
         if let Some(i) = iterations {
             args.extend(["--iterations", i]);
@@ -278,13 +404,18 @@ fn moving_sun(o: &Opts, work: &Path, q: bool) -> Result<Value> {
         vplgi(&args)?;
         let seq = read_json(&out.join("sequence.json"))?;
         let f = seq["frames"].as_array().cloned().unwrap_or_default();
-        let mean = |key: &str| f.iter().skip(1).filter_map(|x| x[key].as_f64()).sum::<f64>() / (f.len().max(2) - 1) as f64;
+        let mean = |key: &str| {
+            f.iter().skip(1).filter_map(|x| x[key].as_f64()).sum::<f64>()
+                / (f.len().max(2) - 1) as f64
+        };
         rows.push(json!({
             "label": label, "flicker": seq["flicker"], "temporal_error": seq["temporal_error"], "converged_flicker": seq["converged_flicker"],
             "clusters": mean("vpl_clusters"), "kept": mean("vpl_kept"), "fresh": mean("vpl_fresh"), "frame_ms": mean("total_ms"),
         }));
     }
-    Ok(json!({"frames": frames, "degrees": SEQUENCE_DEGREES, "width": w, "height": h, "rsm_size": size, "k": k, "rows": rows}))
+    Ok(
+        json!({"frames": frames, "degrees": SEQUENCE_DEGREES, "width": w, "height": h, "rsm_size": size, "k": k, "rows": rows}),
+    )
 }
 
 fn s(p: &Path) -> &str {
@@ -292,7 +423,8 @@ fn s(p: &Path) -> &str {
 }
 
 fn read_json(p: &Path) -> Result<Value> {
-    serde_json::from_slice(&std::fs::read(p).with_context(|| format!("reading {}", p.display()))?).with_context(|| format!("parsing {}", p.display()))
+    serde_json::from_slice(&std::fs::read(p).with_context(|| format!("reading {}", p.display()))?)
+        .with_context(|| format!("parsing {}", p.display()))
 }
 
 /// The relative standard error of the reference image's mean, per channel, from its sidecar's
@@ -306,9 +438,20 @@ fn mean_standard_error(thirds_per_seed: &Value) -> Value {
                 .map(|thirds| {
                     let t: Vec<Vec<f64>> = thirds
                         .as_array()
-                        .map(|t| t.iter().map(|c| c.as_array().map(|c| c.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()).collect())
+                        .map(|t| {
+                            t.iter()
+                                .map(|c| {
+                                    c.as_array()
+                                        .map(|c| c.iter().filter_map(Value::as_f64).collect())
+                                        .unwrap_or_default()
+                                })
+                                .collect()
+                        })
                         .unwrap_or_default();
-                    [0, 1, 2].map(|c| t.iter().filter_map(|third| third.get(c)).sum::<f64>() / t.len().max(1) as f64)
+                    [0, 1, 2].map(|c| {
+                        t.iter().filter_map(|third| third.get(c)).sum::<f64>()
+                            / t.len().max(1) as f64
+                    })
                 })
                 .collect()
         })
@@ -326,17 +469,20 @@ fn mean_standard_error(thirds_per_seed: &Value) -> Value {
 
 /// The light kept, as "0.988 (0.987–0.990)": the mean of the channels' ratios and their range.
 fn kept(ratio: &Value) -> String {
-    let r: Vec<f64> = ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
+    let r: Vec<f64> =
+        ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
     if r.is_empty() {
         return "?".into();
     }
-    let (lo, hi) = r.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    let (lo, hi) =
+        r.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
     format!("{:.3} ({lo:.3}–{hi:.3})", r.iter().sum::<f64>() / r.len() as f64)
 }
 
 /// The mean of a frame's per-channel light kept (NaN if missing).
 fn kept_mean(ratio: &Value) -> f64 {
-    let r: Vec<f64> = ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
+    let r: Vec<f64> =
+        ratio.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default();
     if r.is_empty() {
         f64::NAN
     } else {
@@ -347,19 +493,35 @@ fn kept_mean(ratio: &Value) -> f64 {
 /// Per cluster count, each light shape's error in light kept (kept − 1, in %), and which of the
 /// shapes without a clamp miss the reference's energy by less than the clamped points do.
 fn energy_table(frames: &[Value]) -> String {
-    let of = |light: &str, k: u64| frames.iter().find(|x| x["light"] == light && x["k"].as_u64() == Some(k)).map(|x| kept_mean(&x["mean_ratio"]) - 1.0);
-    let mut counts: Vec<u64> = frames.iter().filter_map(|x| x["k"].as_u64()).filter(|&k| k > 0).collect();
+    let of = |light: &str, k: u64| {
+        frames
+            .iter()
+            .find(|x| x["light"] == light && x["k"].as_u64() == Some(k))
+            .map(|x| kept_mean(&x["mean_ratio"]) - 1.0)
+    };
+    let mut counts: Vec<u64> =
+        frames.iter().filter_map(|x| x["k"].as_u64()).filter(|&k| k > 0).collect();
     counts.dedup();
     let baseline = of(UNCLAMPED, 0).map_or("?".into(), |e| format!("{:+.2} %", 100.0 * e));
     let mut s = format!(
         "\nEnergy: light kept − 1 at each cluster count (the unclamped shadow-map VPLs themselves: {baseline}); an area shape *loses less* than the clamped points where its |kept − 1| is smaller.\n\n| `--k-vpl` | point | disk | disk-exact | polygon | area shapes closer to the reference than points |\n|---:|---:|---:|---:|---:|---|\n"
     );
     for k in counts {
-        let cell = |light: &str| of(light, k).map_or("?".into(), |e| format!("{:+.2} %", 100.0 * e));
+        let cell =
+            |light: &str| of(light, k).map_or("?".into(), |e| format!("{:+.2} %", 100.0 * e));
         let point = of("point", k).map_or(f64::NAN, f64::abs);
-        let closer: Vec<&str> = ["disk", "disk-exact", "polygon"].into_iter().filter(|l| of(l, k).is_some_and(|e| e.abs() < point)).collect();
+        let closer: Vec<&str> = ["disk", "disk-exact", "polygon"]
+            .into_iter()
+            .filter(|l| of(l, k).is_some_and(|e| e.abs() < point))
+            .collect();
         let closer = if closer.is_empty() { "none".to_string() } else { closer.join(", ") };
-        s.push_str(&format!("| {k} | {} | {} | {} | {} | {closer} |\n", cell("point"), cell("disk"), cell("disk-exact"), cell("polygon")));
+        s.push_str(&format!(
+            "| {k} | {} | {} | {} | {} | {closer} |\n",
+            cell("point"),
+            cell("disk"),
+            cell("disk-exact"),
+            cell("polygon")
+        ));
     }
     s
 }
@@ -393,7 +555,11 @@ fn markdown(r: &Value) -> Result<String> {
         writeln!(s, "| lights | clusters | relMSE | FLIP | light kept | shade (s) | frame (s) |\n|---|---:|---:|---:|---|---:|---:|")?;
         let frames = sc["frames"].as_array().cloned().unwrap_or_default();
         for x in &frames {
-            let clusters = if x["k"].as_u64() == Some(0) { format!("– ({} VPLs)", x["vpls"]) } else { x["clusters"].to_string() };
+            let clusters = if x["k"].as_u64() == Some(0) {
+                format!("– ({} VPLs)", x["vpls"])
+            } else {
+                x["clusters"].to_string()
+            };
             writeln!(
                 s,
                 "| `{}` | {clusters} | {:.2e} | {:.4} | {} | {:.2} | {:.2} |",
@@ -492,7 +658,10 @@ mod tests {
         let seed = |r: f64, g: f64, b: f64| json!([[r, g, b], [r, g, b], [r, g, b]]);
         let e = mean_standard_error(&json!([seed(1.0, 2.0, 0.5), seed(1.2, 2.0, 0.7)]));
         let e: Vec<f64> = e.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
-        assert!((e[0] - 0.1 / 1.1).abs() < 1e-12 && e[1] == 0.0 && (e[2] - 0.1 / 0.6).abs() < 1e-12, "{e:?}");
+        assert!(
+            (e[0] - 0.1 / 1.1).abs() < 1e-12 && e[1] == 0.0 && (e[2] - 0.1 / 0.6).abs() < 1e-12,
+            "{e:?}"
+        );
         assert_eq!(mean_standard_error(&json!([seed(1.0, 1.0, 1.0)])), json!(null));
     }
 

@@ -84,13 +84,21 @@ const VARIANTS: [(&str, bool); 2] = [("compensated", true), ("clamped", false)];
 fn run(cmd: &mut Command) -> Result<String> {
     let out = cmd.output().with_context(|| format!("running {cmd:?}"))?;
     if !out.status.success() {
-        bail!("{cmd:?} failed:\n{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        bail!(
+            "{cmd:?} failed:\n{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
 fn shell(cmd: &str, args: &[&str]) -> String {
-    Command::new(cmd).args(args).output().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()).unwrap_or_default()
+    Command::new(cmd)
+        .args(args)
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default()
 }
 
 /// One side of a comparison: the mean image, its per-pixel variance of one sample (seed or
@@ -102,7 +110,11 @@ struct Side {
 }
 
 fn side(dir: &Path, mean: &str, n: u32) -> Result<Side> {
-    Ok(Side { mean: vplgi_image::read_exr(&dir.join(mean))?, variance: vplgi_image::read_exr(&dir.join("variance.exr"))?, n: n as f64 })
+    Ok(Side {
+        mean: vplgi_image::read_exr(&dir.join(mean))?,
+        variance: vplgi_image::read_exr(&dir.join("variance.exr"))?,
+        n: n as f64,
+    })
 }
 
 /// Ratio vplgi / Mitsuba of the mean of channel `c` over rows `rows`, and the 2-sigma noise of
@@ -127,8 +139,15 @@ fn band_ratio(per_seed: &[f64], m: &Side, rows: std::ops::Range<u32>, c: usize) 
 
 /// Per seed of a run's reference.json, the mean of channel `c` over rows `rows` of an image `h`
 /// rows high: a third's mean as recorded, or the image's from its thirds weighted by their rows.
-fn seed_band_means(sidecar: &Value, rows: &std::ops::Range<u32>, h: u32, c: usize) -> Result<Vec<f64>> {
-    let seeds = sidecar["error"]["thirds_per_seed"].as_array().context("reference.json has no error.thirds_per_seed")?;
+fn seed_band_means(
+    sidecar: &Value,
+    rows: &std::ops::Range<u32>,
+    h: u32,
+    c: usize,
+) -> Result<Vec<f64>> {
+    let seeds = sidecar["error"]["thirds_per_seed"]
+        .as_array()
+        .context("reference.json has no error.thirds_per_seed")?;
     let third_rows = |t: u32| (t * h / 3)..((t + 1) * h / 3);
     seeds
         .iter()
@@ -136,7 +155,10 @@ fn seed_band_means(sidecar: &Value, rows: &std::ops::Range<u32>, h: u32, c: usiz
             let third = |t: u32| s[t as usize][c].as_f64().context("malformed thirds_per_seed");
             match (0..3).find(|&t| third_rows(t) == *rows) {
                 Some(t) => third(t),
-                None => Ok((0..3).map(|t| Ok(third(t)? * third_rows(t).len() as f64)).sum::<Result<f64>>()? / h as f64),
+                None => Ok((0..3)
+                    .map(|t| Ok(third(t)? * third_rows(t).len() as f64))
+                    .sum::<Result<f64>>()?
+                    / h as f64),
             }
         })
         .collect()
@@ -146,7 +168,10 @@ fn seed_band_means(sidecar: &Value, rows: &std::ops::Range<u32>, h: u32, c: usiz
 fn average(images: &[Image]) -> Image {
     let mut out = Image::new(images[0].width, images[0].height);
     for (i, p) in out.pixels.iter_mut().enumerate() {
-        *p = std::array::from_fn(|c| (images.iter().map(|img| img.pixels[i][c] as f64).sum::<f64>() / images.len() as f64) as f32);
+        *p = std::array::from_fn(|c| {
+            (images.iter().map(|img| img.pixels[i][c] as f64).sum::<f64>() / images.len() as f64)
+                as f32
+        });
     }
     out
 }
@@ -219,7 +244,11 @@ fn main() -> Result<()> {
     // The commit the run starts on (a long run may outlive it in a working tree).
     let commit = shell("git", &["rev-parse", "--short", "HEAD"]);
     let (w, h) = (o.width, (o.width as f64 * 0.7).round() as u32);
-    let scenes: Vec<&str> = if o.scenes.is_empty() { SCENES.to_vec() } else { o.scenes.iter().map(String::as_str).collect() };
+    let scenes: Vec<&str> = if o.scenes.is_empty() {
+        SCENES.to_vec()
+    } else {
+        o.scenes.iter().map(String::as_str).collect()
+    };
     if o.runs < 2 || o.seeds < 2 {
         bail!("--runs and --seeds must be at least 2 (the noise estimates need two of each)");
     }
@@ -232,14 +261,23 @@ fn main() -> Result<()> {
     let mut rows = Vec::new();
     for name in &scenes {
         let dir = o.work.join(name);
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot create {}", dir.display()))?;
         let scene_arg = if *name == "cornell-box" {
             "cornell-box".to_string()
         } else {
             let glb = o.work.join("scenes").join(format!("{name}-{}.glb", o.triangles));
             if !glb.exists() {
                 eprintln!("{name}: generating ({} triangles)", o.triangles);
-                vplgi(&["scene", "generate", name, "--triangles", &o.triangles.to_string(), "--out", &glb.to_string_lossy()])?;
+                vplgi(&[
+                    "scene",
+                    "generate",
+                    name,
+                    "--triangles",
+                    &o.triangles.to_string(),
+                    "--out",
+                    &glb.to_string_lossy(),
+                ])?;
             }
             glb.to_string_lossy().into_owned()
         };
@@ -275,14 +313,20 @@ fn main() -> Result<()> {
             "--passes",
             &MITSUBA_PASSES.to_string(),
         ]))?;
-        let mitsuba_run: Value = serde_json::from_str(mitsuba_out.lines().last().unwrap_or_default()).context("reading Mitsuba's timing line")?;
+        let mitsuba_run: Value =
+            serde_json::from_str(mitsuba_out.lines().last().unwrap_or_default())
+                .context("reading Mitsuba's timing line")?;
         let m = side(&dir.join("mitsuba-render"), "mean.exr", MITSUBA_PASSES)?;
         vplgi_image::write_png(&docs.join(format!("{name}-mitsuba.png")), &m.mean, 1.0)?;
         let mut variants = Vec::new();
         for (variant, compensated) in VARIANTS {
-            eprintln!("{name}: vplgi reference ({variant}), {} runs of {} seeds x {} spp, {} VPLs", o.runs, o.seeds, o.spp, o.vpls);
+            eprintln!(
+                "{name}: vplgi reference ({variant}), {} runs of {} seeds x {} spp, {} VPLs",
+                o.runs, o.seeds, o.spp, o.vpls
+            );
             let start = Instant::now();
-            let (seeds, spp, vpls, bounces) = (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
+            let (seeds, spp, vpls, bounces) =
+                (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
             let (mut means, mut variances, mut sidecars) = (Vec::new(), Vec::new(), Vec::new());
             for run in 0..o.runs {
                 let run_dir = dir.join(format!("vplgi-{variant}")).join(format!("run-{run}"));
@@ -311,12 +355,18 @@ fn main() -> Result<()> {
                 ])?;
                 means.push(vplgi_image::read_exr(&run_dir.join("mean.exr"))?);
                 let sidecar = run_dir.join("reference.json");
-                sidecars
-                    .push(serde_json::from_str::<Value>(&std::fs::read_to_string(&sidecar).with_context(|| format!("{}: cannot read", sidecar.display()))?)?);
+                sidecars.push(serde_json::from_str::<Value>(
+                    &std::fs::read_to_string(&sidecar)
+                        .with_context(|| format!("{}: cannot read", sidecar.display()))?,
+                )?);
                 variances.push(vplgi_image::read_exr(&run_dir.join("variance.exr"))?);
             }
             let vplgi_seconds = start.elapsed().as_secs_f64();
-            let v = Side { mean: average(&means), variance: average(&variances), n: (o.runs * o.seeds) as f64 };
+            let v = Side {
+                mean: average(&means),
+                variance: average(&variances),
+                n: (o.runs * o.seeds) as f64,
+            };
             let cmp = vplgi_image::compare(&m.mean, &v.mean)?;
             let bands: Vec<Value> = [("image", 0..h), ("top third", 0..h / 3), ("middle third", h / 3..2 * h / 3), ("bottom third", 2 * h / 3..h)]
                 .into_iter()
@@ -334,7 +384,12 @@ fn main() -> Result<()> {
                 vplgi_image::write_png(&docs.join(format!("{name}-vplgi.png")), &v.mean, 1.0)?;
                 vplgi_image::write_error_map(&docs.join(format!("{name}-flip.png")), &cmp)?;
             }
-            vplgi_image::write_rgb8_png(&docs.join(format!("{name}-ratio-{variant}.png")), w, h, &ratio_map(&v.mean, &m.mean))?;
+            vplgi_image::write_rgb8_png(
+                &docs.join(format!("{name}-ratio-{variant}.png")),
+                w,
+                h,
+                &ratio_map(&v.mean, &m.mean),
+            )?;
             variants.push(json!({
                 "variant": variant,
                 "bands": bands,
@@ -447,17 +502,38 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     for sc in &scenes {
         let vs = sc["variants"].as_array().cloned().unwrap_or_default();
-        let t = |variant: &str| vs.iter().find(|v| v["variant"] == variant).map_or(f64::NAN, |v| f(&v["seconds_to_equal_error"]));
+        let t = |variant: &str| {
+            vs.iter()
+                .find(|v| v["variant"] == variant)
+                .map_or(f64::NAN, |v| f(&v["seconds_to_equal_error"]))
+        };
         let m = f(&sc["mitsuba_seconds_to_equal_error"]);
-        writeln!(s, "| {} | {:.0} | {:.0} | {:.0} | {:.2} |", sc["scene"].as_str().unwrap_or("?"), m, t("compensated"), t("clamped"), t("compensated") / m)?;
+        writeln!(
+            s,
+            "| {} | {:.0} | {:.0} | {:.0} | {:.2} |",
+            sc["scene"].as_str().unwrap_or("?"),
+            m,
+            t("compensated"),
+            t("clamped"),
+            t("compensated") / m
+        )?;
     }
     for sc in &scenes {
         let n = sc["scene"].as_str().unwrap_or("?");
         writeln!(s, "\n## {n}\n\nvplgi's mean over Mitsuba's (+- 2 sigma of noise):\n\n| vplgi | band | R | G | B |\n|---|---|---:|---:|---:|")?;
         for v in sc["variants"].as_array().cloned().unwrap_or_default() {
             for b in v["bands"].as_array().cloned().unwrap_or_default() {
-                let cell = |c: usize| format!("{:.4} +- {:.4}", f(&b["ratio"][c]), f(&b["two_sigma"][c]));
-                writeln!(s, "| {} | {} | {} | {} | {} |", v["variant"].as_str().unwrap_or("?"), b["band"].as_str().unwrap_or("?"), cell(0), cell(1), cell(2))?;
+                let cell =
+                    |c: usize| format!("{:.4} +- {:.4}", f(&b["ratio"][c]), f(&b["two_sigma"][c]));
+                writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} |",
+                    v["variant"].as_str().unwrap_or("?"),
+                    b["band"].as_str().unwrap_or("?"),
+                    cell(0),
+                    cell(1),
+                    cell(2)
+                )?;
             }
         }
         writeln!(s, "\n| vplgi (compensated) | Mitsuba | FLIP error (compensated) | darker / brighter: compensated | darker / brighter: clamped |\n|---|---|---|---|---|")?;

@@ -20,7 +20,9 @@ use std::process::Command;
 use vplgi_reports::run;
 
 #[derive(Parser)]
-#[command(about = "Compares the shading-point variants at equal time on the generated scenes; writes docs/VARIANTS.md")]
+#[command(
+    about = "Compares the shading-point variants at equal time on the generated scenes; writes docs/VARIANTS.md"
+)]
 struct Opts {
     /// The report; charts and numbers go to variants/ beside it.
     #[arg(long, default_value = "docs/VARIANTS.md")]
@@ -53,8 +55,14 @@ fn main() -> Result<()> {
     let q = o.quick;
     // (scene, width, height, VPLs): 256 pixels wide, the paper's aspect ratios.
     let scenes = [("cornell-fine", 256, 256), ("conference", 256, 180), ("living-room", 256, 180)];
-    let (scale, vpls, triangles, counts, runs) = if q { (4, "300", "20000", "100,400", "1") } else { (1, "2000", "300000", "1000,2000,4000,8000", "2") };
-    let work = o.work.clone().unwrap_or_else(|| PathBuf::from(if q { "target/variants-quick" } else { "target/variants" }));
+    let (scale, vpls, triangles, counts, runs) = if q {
+        (4, "300", "20000", "100,400", "1")
+    } else {
+        (1, "2000", "300000", "1000,2000,4000,8000", "2")
+    };
+    let work = o.work.clone().unwrap_or_else(|| {
+        PathBuf::from(if q { "target/variants-quick" } else { "target/variants" })
+    });
     let docs = o.out.parent().map_or_else(|| PathBuf::from("variants"), |p| p.join("variants"));
     std::fs::create_dir_all(&docs)?;
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
@@ -63,7 +71,15 @@ fn main() -> Result<()> {
         let glb = work.join("scenes").join(format!("{name}-{triangles}.glb"));
         if !glb.exists() {
             eprintln!("generating {name}");
-            vplgi(&["scene", "generate", name, "--triangles", triangles, "--out", glb.to_str().unwrap_or_default()])?;
+            vplgi(&[
+                "scene",
+                "generate",
+                name,
+                "--triangles",
+                triangles,
+                "--out",
+                glb.to_str().unwrap_or_default(),
+            ])?;
         }
         eprintln!("{name}: sweeping the variants");
         let dir = work.join(name);
@@ -90,9 +106,12 @@ fn main() -> Result<()> {
         ])?;
         for metric in ["flip", "mse"] {
             let chart = format!("variants-{metric}.svg");
-            std::fs::copy(dir.join(&chart), docs.join(format!("{name}-{chart}"))).with_context(|| format!("copying {chart}"))?;
+            std::fs::copy(dir.join(&chart), docs.join(format!("{name}-{chart}")))
+                .with_context(|| format!("copying {chart}"))?;
         }
-        let sweep: Value = serde_json::from_slice(&std::fs::read(dir.join("sweep.json")).context("reading sweep.json")?)?;
+        let sweep: Value = serde_json::from_slice(
+            &std::fs::read(dir.join("sweep.json")).context("reading sweep.json")?,
+        )?;
         let frames: Vec<Value> = sweep["configs"]
             .as_array()
             .cloned()
@@ -114,12 +133,31 @@ fn main() -> Result<()> {
 /// One `vplgi sweep --figure flicker` along a 5-key `--camera-walk` of `name` at `--lighting
 /// indirect`: each of [`PIPELINES`] with --temporal off and on at each count, judged against the
 /// unclustered sequence of the same walk. Its chart goes to `docs`.
-fn flicker(o: &Opts, work: &std::path::Path, docs: &std::path::Path, name: &str, (w, h): (&str, &str), vpls: &str, q: bool) -> Result<Value> {
-    let (triangles, frames, counts) = if q { ("20000", "3", "100") } else { ("300000", "17", "1000,4000") };
+fn flicker(
+    o: &Opts,
+    work: &std::path::Path,
+    docs: &std::path::Path,
+    name: &str,
+    (w, h): (&str, &str),
+    vpls: &str,
+    q: bool,
+) -> Result<Value> {
+    let (triangles, frames, counts) =
+        if q { ("20000", "3", "100") } else { ("300000", "17", "1000,4000") };
     let glb = work.join("scenes").join(format!("{name}-{triangles}-walk.glb"));
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
     if !glb.exists() {
-        vplgi(&["scene", "generate", name, "--triangles", triangles, "--camera-walk", "5", "--out", glb.to_str().unwrap_or_default()])?;
+        vplgi(&[
+            "scene",
+            "generate",
+            name,
+            "--triangles",
+            triangles,
+            "--camera-walk",
+            "5",
+            "--out",
+            glb.to_str().unwrap_or_default(),
+        ])?;
     }
     eprintln!("{name}: flicker along the walk");
     let dir = work.join(name).join("flicker");
@@ -145,9 +183,14 @@ fn flicker(o: &Opts, work: &std::path::Path, docs: &std::path::Path, name: &str,
         "--out",
         dir.to_str().unwrap_or_default(),
     ])?;
-    std::fs::copy(dir.join("flicker.svg"), docs.join(format!("{name}-flicker.svg"))).context("copying flicker.svg")?;
-    let sweep: Value = serde_json::from_slice(&std::fs::read(dir.join("sweep.json")).context("reading the flicker sweep.json")?)?;
-    Ok(json!({"frames": frames, "converged_flicker": sweep["converged_flicker"], "sequences": sweep["sequences"]}))
+    std::fs::copy(dir.join("flicker.svg"), docs.join(format!("{name}-flicker.svg")))
+        .context("copying flicker.svg")?;
+    let sweep: Value = serde_json::from_slice(
+        &std::fs::read(dir.join("sweep.json")).context("reading the flicker sweep.json")?,
+    )?;
+    Ok(
+        json!({"frames": frames, "converged_flicker": sweep["converged_flicker"], "sequences": sweep["sequences"]}),
+    )
 }
 
 /// The lowest FLIP among `frames` of `variant` no slower than `budget` ms (with the slack), and
@@ -155,7 +198,9 @@ fn flicker(o: &Opts, work: &std::path::Path, docs: &std::path::Path, name: &str,
 fn best_within(frames: &[Value], variant: &str, budget: f64) -> Option<(f64, u64)> {
     frames
         .iter()
-        .filter(|x| x["variant"] == variant && x["ms"].as_f64().is_some_and(|t| t <= budget * TIME_SLACK))
+        .filter(|x| {
+            x["variant"] == variant && x["ms"].as_f64().is_some_and(|t| t <= budget * TIME_SLACK)
+        })
         .filter_map(|x| Some((x["flip"].as_f64()?, x["k_sp"].as_u64()?)))
         .min_by(|a, b| a.0.total_cmp(&b.0))
 }
@@ -165,7 +210,11 @@ fn markdown(r: &Value) -> Result<String> {
     let variants: Vec<&str> = VARIANTS.split(',').collect();
     let mut s = String::new();
     writeln!(s, "# Shading-point variants at equal time\n")?;
-    writeln!(s, "{} Numbers: [variants/variants.json](variants/variants.json).\n", vplgi_reports::generated_by("variants", r, "comparison"))?;
+    writeln!(
+        s,
+        "{} Numbers: [variants/variants.json](variants/variants.json).\n",
+        vplgi_reports::generated_by("variants", r, "comparison")
+    )?;
     writeln!(
         s,
         "The core paper clusters shading points with Eq. 7, evenly spread seeds and the member nearest the centroid, and shades every pixel from every light through its F clusters' visibility (`eq7+nearest+stride+fuzzy`). Wang et al. 2009 seed by a screen-space quadtree (`adaptive`), cluster by their Eq. 2 (`ward`), take the member of smallest error (`min-error`), and interpolate irradiance computed at those members only (`interpolate`). Each scene is one `vplgi sweep --figure variants` on the CPU (this machine's 2 cores) with `--cluster sp`: every VPL is its own light, so the variants differ in shading points only. Error is FLIP against the unclustered reference of the same VPLs; time is the frame's total, the median of the runs.\n"
@@ -181,14 +230,25 @@ fn markdown(r: &Value) -> Result<String> {
             sc["vpls"].as_str().unwrap_or("?")
         )?;
         let frames = sc["frames"].as_array().cloned().unwrap_or_default();
-        let budgets: Vec<(f64, u64)> = frames.iter().filter(|x| x["variant"] == variants[0]).map(|x| (f(&x["ms"]), x["k_sp"].as_u64().unwrap_or(0))).collect();
+        let budgets: Vec<(f64, u64)> = frames
+            .iter()
+            .filter(|x| x["variant"] == variants[0])
+            .map(|x| (f(&x["ms"]), x["k_sp"].as_u64().unwrap_or(0)))
+            .collect();
         write!(s, "| variant |")?;
         for (t, k) in &budgets {
             write!(s, " ≤ {:.2} s (core paper at K = {k}) |", t / 1e3)?;
         }
         writeln!(s, "\n|---|{}", "---:|".repeat(budgets.len()))?;
-        let best: Vec<Option<f64>> =
-            budgets.iter().map(|(t, _)| variants.iter().filter_map(|v| best_within(&frames, v, *t).map(|b| b.0)).min_by(f64::total_cmp)).collect();
+        let best: Vec<Option<f64>> = budgets
+            .iter()
+            .map(|(t, _)| {
+                variants
+                    .iter()
+                    .filter_map(|v| best_within(&frames, v, *t).map(|b| b.0))
+                    .min_by(f64::total_cmp)
+            })
+            .collect();
         for v in &variants {
             write!(s, "| `{v}` |")?;
             for ((t, _), top) in budgets.iter().zip(&best) {

@@ -50,10 +50,22 @@ fn seeding_at_its_largest_spp_matches_the_cpu() {
         return;
     };
     let (width, height) = (8, 8);
-    let spp = vplgi_shared::seeding::max_spp(vplgi_shared::seeding::Quadtree::new(width, height).levels);
-    let cfg = FrameConfig { width, height, spp, k_sp: 1_500, seeding: vplgi_types::Seeding::Adaptive, ..FrameConfig::verify() };
+    let spp =
+        vplgi_shared::seeding::max_spp(vplgi_shared::seeding::Quadtree::new(width, height).levels);
+    let cfg = FrameConfig {
+        width,
+        height,
+        spp,
+        k_sp: 1_500,
+        seeding: vplgi_types::Seeding::Adaptive,
+        ..FrameConfig::verify()
+    };
     let scene = vplgi_scene::cornell::cornell_box();
-    let check = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::cluster::compare_seeding(t, &CpuFrame::new(t.cpu, &cfg), &cfg)).expect("GPU").1;
+    let check = vplgi_tests::with_twins(gpu, &scene, |t| {
+        vplgi_verify::cluster::compare_seeding(t, &CpuFrame::new(t.cpu, &cfg), &cfg)
+    })
+    .expect("GPU")
+    .1;
     println!("{spp} spp: {check}");
     check.check();
 }

@@ -14,9 +14,15 @@ pub(super) fn check_position_accessors(root: &gltf::json::Root) -> Result<(), St
     use gltf::json::validation::Checked;
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
-            if let Some(index) = primitive.attributes.get(&Checked::Valid(gltf::json::mesh::Semantic::Positions)) {
+            if let Some(index) =
+                primitive.attributes.get(&Checked::Valid(gltf::json::mesh::Semantic::Positions))
+            {
                 if index.value() >= root.accessors.len() {
-                    return Err(format!("mesh {m}, primitive {p}: POSITION names accessor {} but the file has {}", index.value(), root.accessors.len()));
+                    return Err(format!(
+                        "mesh {m}, primitive {p}: POSITION names accessor {} but the file has {}",
+                        index.value(),
+                        root.accessors.len()
+                    ));
                 }
             }
         }
@@ -25,7 +31,10 @@ pub(super) fn check_position_accessors(root: &gltf::json::Root) -> Result<(), St
 }
 
 /// Every buffer view must lie inside its buffer: the `gltf` crate slices without checking.
-pub(super) fn check_views(document: &gltf::Document, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+pub(super) fn check_views(
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), String> {
     for view in document.views() {
         let len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
         let end = view.offset().checked_add(view.length());
@@ -45,11 +54,16 @@ pub(super) fn check_views(document: &gltf::Document, buffers: &[gltf::buffer::Da
 /// Checks that reading `accessor` as elements of the allowed kinds cannot fail or panic inside
 /// the `gltf` crate: the element kind matches, the count is sane, the stride covers an element
 /// and the last element ends inside the buffer view (sparse parts likewise).
-pub(super) fn check_accessor(accessor: &gltf::Accessor, kinds: &[(Dimensions, DataType)]) -> Result<(), String> {
+pub(super) fn check_accessor(
+    accessor: &gltf::Accessor,
+    kinds: &[(Dimensions, DataType)],
+) -> Result<(), String> {
     let what = format!("accessor {}", accessor.index());
     let (dims, ty) = (accessor.dimensions(), accessor.data_type());
     if !kinds.contains(&(dims, ty)) {
-        return Err(format!("{what} has an unsupported element type {dims:?} of {ty:?} for its use"));
+        return Err(format!(
+            "{what} has an unsupported element type {dims:?} of {ty:?} for its use"
+        ));
     }
     let count = accessor.count();
     if count == 0 || count > MAX_ACCESSOR_COUNT {
@@ -72,14 +86,28 @@ pub(super) fn check_accessor(accessor: &gltf::Accessor, kinds: &[(Dimensions, Da
     Ok(())
 }
 
-fn check_range(what: &str, view: &gltf::buffer::View, offset: usize, count: usize, size: usize) -> Result<(), String> {
+fn check_range(
+    what: &str,
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    size: usize,
+) -> Result<(), String> {
     let stride = view.stride().unwrap_or(size);
     if stride < size {
-        return Err(format!("{what}: byte stride {stride} is smaller than its {size}-byte elements"));
+        return Err(format!(
+            "{what}: byte stride {stride} is smaller than its {size}-byte elements"
+        ));
     }
-    let end = stride.checked_mul(count - 1).and_then(|n| n.checked_add(size)).and_then(|n| n.checked_add(offset));
+    let end = stride
+        .checked_mul(count - 1)
+        .and_then(|n| n.checked_add(size))
+        .and_then(|n| n.checked_add(offset));
     if end.is_none_or(|end| end > view.length()) {
-        return Err(format!("{what}: {count} elements run past the end of buffer view {}", view.index()));
+        return Err(format!(
+            "{what}: {count} elements run past the end of buffer view {}",
+            view.index()
+        ));
     }
     Ok(())
 }
@@ -94,10 +122,16 @@ pub(super) const ROTATION_KINDS: &[(Dimensions, DataType)] = &[
     (Dimensions::Vec4, DataType::I16),
     (Dimensions::Vec4, DataType::U16),
 ];
-pub(super) const UV_KINDS: &[(Dimensions, DataType)] =
-    &[(Dimensions::Vec2, DataType::F32), (Dimensions::Vec2, DataType::U8), (Dimensions::Vec2, DataType::U16)];
-pub(super) const INDEX_KINDS: &[(Dimensions, DataType)] =
-    &[(Dimensions::Scalar, DataType::U8), (Dimensions::Scalar, DataType::U16), (Dimensions::Scalar, DataType::U32)];
+pub(super) const UV_KINDS: &[(Dimensions, DataType)] = &[
+    (Dimensions::Vec2, DataType::F32),
+    (Dimensions::Vec2, DataType::U8),
+    (Dimensions::Vec2, DataType::U16),
+];
+pub(super) const INDEX_KINDS: &[(Dimensions, DataType)] = &[
+    (Dimensions::Scalar, DataType::U8),
+    (Dimensions::Scalar, DataType::U16),
+    (Dimensions::Scalar, DataType::U32),
+];
 
 /// Data URIs can be megabytes long: messages show their start only.
 pub(super) fn short_uri(uri: &str) -> String {
@@ -135,5 +169,7 @@ pub(super) fn check_uri(uri: &str) -> Result<(), String> {
             }
         }
     }
-    String::from_utf8(decoded).map(|_| ()).map_err(|_| "the URI's percent escapes do not decode to UTF-8".into())
+    String::from_utf8(decoded)
+        .map(|_| ())
+        .map_err(|_| "the URI's percent escapes do not decode to UTF-8".into())
 }

@@ -32,7 +32,13 @@ pub(super) struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
-    pub(super) fn new(path: &'a Path, base: &'a Path, document: &'a gltf::Document, buffers: &'a [gltf::buffer::Data], name: String) -> Loader<'a> {
+    pub(super) fn new(
+        path: &'a Path,
+        base: &'a Path,
+        document: &'a gltf::Document,
+        buffers: &'a [gltf::buffer::Data],
+        name: String,
+    ) -> Loader<'a> {
         Loader {
             path,
             base,
@@ -63,27 +69,38 @@ impl<'a> Loader<'a> {
     /// transforms (world = parent * local).
     pub(super) fn traverse(&mut self) -> Result<(), SceneError> {
         let document = self.document;
-        let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-            Some(scene) => scene.nodes().collect(),
-            None => {
-                // No scene at all: take every node that is nobody's child.
-                let children: HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>()).collect();
-                document.nodes().filter(|n| !children.contains(&n.index())).collect()
-            }
-        };
+        let roots: Vec<gltf::Node> =
+            match document.default_scene().or_else(|| document.scenes().next()) {
+                Some(scene) => scene.nodes().collect(),
+                None => {
+                    // No scene at all: take every node that is nobody's child.
+                    let children: HashSet<usize> = document
+                        .nodes()
+                        .flat_map(|n| n.children().map(|c| c.index()).collect::<Vec<_>>())
+                        .collect();
+                    document.nodes().filter(|n| !children.contains(&n.index())).collect()
+                }
+            };
         let mut visited = vec![false; document.nodes().len()];
-        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
+        let mut stack: Vec<(gltf::Node, Mat4)> =
+            roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             // glTF node graphs must be trees; a node reached twice would mean a cycle (endless
             // recursion) or a shared child.
             if std::mem::replace(&mut visited[node.index()], true) {
-                self.warn(format!("node {} is reached more than once (not a tree); later visits ignored", node.index()));
+                self.warn(format!(
+                    "node {} is reached more than once (not a tree); later visits ignored",
+                    node.index()
+                ));
                 continue;
             }
             let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
             if let Some(mesh) = node.mesh() {
                 if node.skin().is_some() {
-                    self.warn("skinned meshes are drawn in their bind pose with the node transform".into());
+                    self.warn(
+                        "skinned meshes are drawn in their bind pose with the node transform"
+                            .into(),
+                    );
                 }
                 self.add_mesh(&mesh, &world)?;
             }
@@ -105,7 +122,10 @@ impl<'a> Loader<'a> {
         let linear = Mat3::from_mat4(*world);
         let det = linear.determinant();
         if det == 0.0 || !det.is_finite() {
-            self.warn(format!("mesh {} sits under a degenerate (zero-scale) transform; skipped", mesh.index()));
+            self.warn(format!(
+                "mesh {} sits under a degenerate (zero-scale) transform; skipped",
+                mesh.index()
+            ));
             return Ok(());
         }
         let normal_matrix = linear.inverse().transpose();
@@ -115,27 +135,49 @@ impl<'a> Loader<'a> {
         for primitive in mesh.primitives() {
             let mode = primitive.mode();
             if mode != Mode::Triangles {
-                self.warn(format!("primitives of mode {mode:?} are not rendered (only triangle lists are)"));
-                self.skipped.push(format!("mesh {} primitive {} ({mode:?})", mesh.index(), primitive.index()));
+                self.warn(format!(
+                    "primitives of mode {mode:?} are not rendered (only triangle lists are)"
+                ));
+                self.skipped.push(format!(
+                    "mesh {} primitive {} ({mode:?})",
+                    mesh.index(),
+                    primitive.index()
+                ));
                 continue;
             }
             let material = self.material_id(&primitive.material())?;
-            self.add_primitive(&primitive, world, &normal_matrix, flip, material)
-                .map_err(|m| self.error(format!("mesh {} primitive {}: {m}", mesh.index(), primitive.index())))?;
+            self.add_primitive(&primitive, world, &normal_matrix, flip, material).map_err(|m| {
+                self.error(format!("mesh {} primitive {}: {m}", mesh.index(), primitive.index()))
+            })?;
         }
         Ok(())
     }
 
-    fn add_primitive(&mut self, primitive: &gltf::Primitive, world: &Mat4, normal_matrix: &Mat3, flip: bool, material: u32) -> Result<(), String> {
+    fn add_primitive(
+        &mut self,
+        primitive: &gltf::Primitive,
+        world: &Mat4,
+        normal_matrix: &Mat3,
+        flip: bool,
+        material: u32,
+    ) -> Result<(), String> {
         let buffers = self.buffers;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
 
-        let position_accessor = primitive.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
+        let position_accessor =
+            primitive.get(&gltf::Semantic::Positions).ok_or("no POSITION attribute")?;
         check_accessor(&position_accessor, VEC3_F32).map_err(|m| format!("POSITION: {m}"))?;
-        let positions: Vec<Vec3> = reader.read_positions().ok_or("POSITION data is unreadable")?.map(|p| world.transform_point3(Vec3::from(p))).collect();
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or("POSITION data is unreadable")?
+            .map(|p| world.transform_point3(Vec3::from(p)))
+            .collect();
         let n = positions.len();
         if n != position_accessor.count() {
-            return Err(format!("POSITION has {n} readable elements, expected {}", position_accessor.count()));
+            return Err(format!(
+                "POSITION has {n} readable elements, expected {}",
+                position_accessor.count()
+            ));
         }
 
         let normals: Option<Vec<Vec3>> = match primitive.get(&gltf::Semantic::Normals) {
@@ -158,7 +200,12 @@ impl<'a> Loader<'a> {
         let uvs: Vec<Vec2> = match primitive.get(&gltf::Semantic::TexCoords(0)) {
             Some(accessor) => {
                 check_accessor(&accessor, UV_KINDS).map_err(|m| format!("TEXCOORD_0: {m}"))?;
-                let uvs: Vec<Vec2> = reader.read_tex_coords(0).ok_or("TEXCOORD_0 data is unreadable")?.into_f32().map(Vec2::from).collect();
+                let uvs: Vec<Vec2> = reader
+                    .read_tex_coords(0)
+                    .ok_or("TEXCOORD_0 data is unreadable")?
+                    .into_f32()
+                    .map(Vec2::from)
+                    .collect();
                 if uvs.len() != n {
                     return Err(format!("{} texture coordinates for {n} positions", uvs.len()));
                 }
@@ -170,7 +217,8 @@ impl<'a> Loader<'a> {
         let corners: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
                 check_accessor(&accessor, INDEX_KINDS).map_err(|m| format!("indices: {m}"))?;
-                let indices: Vec<u32> = reader.read_indices().ok_or("index data is unreadable")?.into_u32().collect();
+                let indices: Vec<u32> =
+                    reader.read_indices().ok_or("index data is unreadable")?.into_u32().collect();
                 if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
                     return Err(format!("index {bad} is out of range for {n} vertices"));
                 }
@@ -180,7 +228,10 @@ impl<'a> Loader<'a> {
         };
         let chunks = corners.chunks_exact(3);
         if !chunks.remainder().is_empty() {
-            self.warn(format!("a triangle list has {} indices, not a multiple of 3; the rest is ignored", corners.len()));
+            self.warn(format!(
+                "a triangle list has {} indices, not a multiple of 3; the rest is ignored",
+                corners.len()
+            ));
         }
         let triangles = chunks.map(|t| if flip { [t[0], t[2], t[1]] } else { [t[0], t[1], t[2]] });
 
@@ -248,10 +299,16 @@ impl<'a> Loader<'a> {
         let base_color_texture = match pbr.base_color_texture() {
             Some(info) => {
                 if info.texture_transform().is_some() {
-                    self.warn("KHR_texture_transform is ignored (textures are sampled untransformed)".into());
+                    self.warn(
+                        "KHR_texture_transform is ignored (textures are sampled untransformed)"
+                            .into(),
+                    );
                 }
                 if info.tex_coord() != 0 {
-                    self.warn(format!("texture coordinate set {} is not read; TEXCOORD_0 is used", info.tex_coord()));
+                    self.warn(format!(
+                        "texture coordinate set {} is not read; TEXCOORD_0 is used",
+                        info.tex_coord()
+                    ));
                 }
                 Some(self.texture_id(&info.texture().source())?)
             }
@@ -293,8 +350,8 @@ impl<'a> Loader<'a> {
             }
             gltf::image::Source::View { .. } => format!("image {}", image.index()),
         };
-        let data =
-            gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers).map_err(|e| self.error(format!("cannot decode {what}: {e}")))?;
+        let data = gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers)
+            .map_err(|e| self.error(format!("cannot decode {what}: {e}")))?;
         let texture = linear_texture(&data).map_err(|m| self.error(format!("{what}: {m}")))?;
         self.scene.textures.push(texture);
         let id = (self.scene.textures.len() - 1) as u32;
@@ -313,21 +370,35 @@ impl<'a> Loader<'a> {
             Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 // Spots shine along the node's -Z; scale must not bend or shrink the direction.
                 let Some(direction) = world.transform_vector3(-Vec3::Z).try_normalize() else {
-                    self.warn(format!("spot light {} has a degenerate orientation; skipped", light.index()));
+                    self.warn(format!(
+                        "spot light {} has a degenerate orientation; skipped",
+                        light.index()
+                    ));
                     return;
                 };
                 let cos_outer = outer_cone_angle.cos();
                 // glTF requires inner < outer; clamp so a sloppy file still gives a valid cone.
                 let cos_inner = inner_cone_angle.cos().max(cos_outer);
-                self.scene.lights.push(PunctualLight::Spot { position, direction, intensity, cos_inner, cos_outer });
+                self.scene.lights.push(PunctualLight::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                });
             }
             Kind::Directional => {
                 // Directional lights shine along the node's -Z too.
                 let Some(direction) = world.transform_vector3(-Vec3::Z).try_normalize() else {
-                    self.warn(format!("directional light {} has a degenerate orientation; skipped", light.index()));
+                    self.warn(format!(
+                        "directional light {} has a degenerate orientation; skipped",
+                        light.index()
+                    ));
                     return;
                 };
-                self.scene.lights.push(PunctualLight::Directional { direction, irradiance: intensity });
+                self.scene
+                    .lights
+                    .push(PunctualLight::Directional { direction, irradiance: intensity });
             }
         }
     }
@@ -343,7 +414,10 @@ impl<'a> Loader<'a> {
                 true
             }
             Some(None) => {
-                self.warn(format!("camera {} has a degenerate transform or field of view; ignored", camera.index()));
+                self.warn(format!(
+                    "camera {} has a degenerate transform or field of view; ignored",
+                    camera.index()
+                ));
                 false
             }
             None => false,
@@ -355,9 +429,13 @@ impl<'a> Loader<'a> {
         // check that it is the one present.
         use gltf::json::{camera::Type, validation::Checked};
         let json = self.document.as_json().cameras.get(camera.index());
-        let perspective = json.filter(|c| c.type_ == Checked::Valid(Type::Perspective)).and_then(|c| c.perspective.as_ref());
+        let perspective = json
+            .filter(|c| c.type_ == Checked::Valid(Type::Perspective))
+            .and_then(|c| c.perspective.as_ref());
         if perspective.is_none() {
-            self.warn("orthographic cameras are not supported; looking for a perspective one".into());
+            self.warn(
+                "orthographic cameras are not supported; looking for a perspective one".into(),
+            );
         }
         perspective.map(|p| p.yfov)
     }
@@ -380,12 +458,17 @@ impl<'a> Loader<'a> {
                 if channel.target().node().index() != index {
                     continue;
                 }
-                let at = format!("animation {} channel {c} (camera node {index})", animation.index());
+                let at =
+                    format!("animation {} channel {c} (camera node {index})", animation.index());
                 use gltf::animation::{Interpolation, Property};
                 let step = match channel.sampler().interpolation() {
                     Interpolation::Linear => false,
                     Interpolation::Step => true,
-                    Interpolation::CubicSpline => return Err(self.error(format!("{at}: cubic-spline keyframes are not supported (use LINEAR or STEP)"))),
+                    Interpolation::CubicSpline => {
+                        return Err(self.error(format!(
+                            "{at}: cubic-spline keyframes are not supported (use LINEAR or STEP)"
+                        )))
+                    }
                 };
                 let property = channel.target().property();
                 if property == Property::Scale {
@@ -394,18 +477,28 @@ impl<'a> Loader<'a> {
                 if property == Property::MorphTargetWeights {
                     continue;
                 }
-                check_accessor(&channel.sampler().input(), SCALAR_F32).map_err(|m| self.error(format!("{at}: key times: {m}")))?;
+                check_accessor(&channel.sampler().input(), SCALAR_F32)
+                    .map_err(|m| self.error(format!("{at}: key times: {m}")))?;
                 let kinds = if property == Property::Rotation { ROTATION_KINDS } else { VEC3_F32 };
-                check_accessor(&channel.sampler().output(), kinds).map_err(|m| self.error(format!("{at}: key values: {m}")))?;
+                check_accessor(&channel.sampler().output(), kinds)
+                    .map_err(|m| self.error(format!("{at}: key values: {m}")))?;
                 let reader = channel.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
-                let times: Vec<f32> = reader.read_inputs().ok_or_else(|| self.error(format!("{at}: key times are unreadable")))?.collect();
+                let times: Vec<f32> = reader
+                    .read_inputs()
+                    .ok_or_else(|| self.error(format!("{at}: key times are unreadable")))?
+                    .collect();
                 use gltf::animation::util::ReadOutputs;
                 let bad = |m: String| self.error(format!("{at}: {m}"));
                 let replaced = match reader.read_outputs() {
-                    Some(ReadOutputs::Translations(v)) => translation.replace(Track::new(times, v.map(Vec3::from).collect(), step).map_err(bad)?).is_some(),
-                    Some(ReadOutputs::Rotations(v)) => {
-                        rotation.replace(Track::new(times, v.into_f32().map(Quat::from_array).collect(), step).map_err(bad)?).is_some()
-                    }
+                    Some(ReadOutputs::Translations(v)) => translation
+                        .replace(Track::new(times, v.map(Vec3::from).collect(), step).map_err(bad)?)
+                        .is_some(),
+                    Some(ReadOutputs::Rotations(v)) => rotation
+                        .replace(
+                            Track::new(times, v.into_f32().map(Quat::from_array).collect(), step)
+                                .map_err(bad)?,
+                        )
+                        .is_some(),
                     _ => return Err(self.error(format!("{at}: key values are unreadable"))),
                 };
                 if replaced {
@@ -426,14 +519,20 @@ impl<'a> Loader<'a> {
         // Every frame must be seeable: check the keys themselves.
         let (t0, t1) = path.span();
         if path.at(t0).is_none() || path.at(t1).is_none() {
-            return Err(self.error(format!("camera node {index}: the animated transform is degenerate")));
+            return Err(
+                self.error(format!("camera node {index}: the animated transform is degenerate"))
+            );
         }
         Ok(Some(path))
     }
 
     pub(super) fn finish(mut self) -> Result<Scene, SceneError> {
         if self.scene.indices.is_empty() {
-            let why = if self.skipped.is_empty() { String::new() } else { format!(" (skipped: {})", self.skipped.join(", ")) };
+            let why = if self.skipped.is_empty() {
+                String::new()
+            } else {
+                format!(" (skipped: {})", self.skipped.join(", "))
+            };
             return Err(self.error(format!("no triangles: the scene has nothing renderable{why}")));
         }
         self.scene.camera_path = self.read_camera_path()?;

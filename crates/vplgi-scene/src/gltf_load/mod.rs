@@ -28,11 +28,13 @@ use std::path::Path;
 
 /// Extensions that may be listed in `extensionsRequired`. `KHR_texture_transform` is accepted
 /// although its transform is ignored (with a warning): the textures still mostly look right.
-const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
+const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// Loads a `.gltf` or `.glb` file into a world-space triangle soup.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path)
+        .map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
     load_slice(path, &bytes)
 }
 
@@ -42,11 +44,17 @@ pub fn load_slice(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
     // The checks below cover every malformed input known to upset the `gltf` crate; this is
     // the last line of defence for what they miss, so that a bad file still cannot take the
     // whole renderer down.
-    let result = quietly(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, bytes))));
+    let result = quietly(|| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(path, bytes)))
+    });
     let scene = match result {
         Ok(scene) => scene?,
         Err(payload) => {
-            let why = payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_default();
+            let why = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
             return Err(invalid(path, format!("malformed glTF data ({why})")));
         }
     };
@@ -89,18 +97,27 @@ fn unsupported(path: &Path, message: impl Into<String>) -> SceneError {
 fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
     // Parse without validation first so that an unknown required extension is reported as
     // such, rather than as the crate's terse "extensionsRequired[0]: unsupported".
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| invalid(path, format!("not a readable glTF file: {e}")))?;
-    let unknown: Vec<&str> = document.extensions_required().filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e)).collect();
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| invalid(path, format!("not a readable glTF file: {e}")))?;
+    let unknown: Vec<&str> = document
+        .extensions_required()
+        .filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e))
+        .collect();
     if !unknown.is_empty() {
         return Err(unsupported(
             path,
-            format!("the file requires the glTF extension(s) {} (supported: {})", unknown.join(", "), SUPPORTED_REQUIRED_EXTENSIONS.join(", ")),
+            format!(
+                "the file requires the glTF extension(s) {} (supported: {})",
+                unknown.join(", "),
+                SUPPORTED_REQUIRED_EXTENSIONS.join(", ")
+            ),
         ));
     }
     let root = document.into_json();
-    check_position_accessors(&root).map_err(|m| invalid(path, format!("not a valid glTF 2.0 document: {m}")))?;
-    let document = gltf::Document::from_json(root).map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
+    check_position_accessors(&root)
+        .map_err(|m| invalid(path, format!("not a valid glTF 2.0 document: {m}")))?;
+    let document = gltf::Document::from_json(root)
+        .map_err(|e| invalid(path, format!("not a valid glTF 2.0 document: {e}")))?;
 
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, &document, base, blob)?;
@@ -114,7 +131,12 @@ fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene, SceneError> {
 
 /// Reads every buffer, naming the failing one (a missing `.bin` beside the file is the usual
 /// cause).
-fn load_buffers(path: &Path, document: &gltf::Document, base: &Path, mut blob: Option<Vec<u8>>) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+fn load_buffers(
+    path: &Path,
+    document: &gltf::Document,
+    base: &Path,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let what = match buffer.source() {
@@ -128,10 +150,13 @@ fn load_buffers(path: &Path, document: &gltf::Document, base: &Path, mut blob: O
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             check_uri(uri).map_err(|m| invalid(path, format!("{what}: {m}")))?;
         }
-        let data =
-            gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(|e| invalid(path, format!("cannot load {what}: {e}")))?;
+        let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob)
+            .map_err(|e| invalid(path, format!("cannot load {what}: {e}")))?;
         if data.len() < buffer.length() {
-            return Err(invalid(path, format!("{what} has {} bytes but declares {}", data.len(), buffer.length())));
+            return Err(invalid(
+                path,
+                format!("{what} has {} bytes but declares {}", data.len(), buffer.length()),
+            ));
         }
         buffers.push(data);
     }

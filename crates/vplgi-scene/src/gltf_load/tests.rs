@@ -34,17 +34,25 @@ impl Doc {
         self.bin.resize(self.bin.len().next_multiple_of(4), 0);
         let offset = self.bin.len();
         self.bin.extend_from_slice(bytes);
-        self.push("bufferViews", json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len() }))
+        self.push(
+            "bufferViews",
+            json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len() }),
+        )
     }
 
     fn accessor(&mut self, bytes: &[u8], component: u32, ty: &str, count: usize) -> usize {
         let view = self.view(bytes);
-        self.push("accessors", json!({ "bufferView": view, "componentType": component, "type": ty, "count": count }))
+        self.push(
+            "accessors",
+            json!({ "bufferView": view, "componentType": component, "type": ty, "count": count }),
+        )
     }
 
     fn positions(&mut self, p: &[[f32; 3]]) -> usize {
         let a = self.vec3(p);
-        let bound = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> { (0..3).map(|k| p.iter().map(|v| v[k]).fold(init, f)).collect() };
+        let bound = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> {
+            (0..3).map(|k| p.iter().map(|v| v[k]).fold(init, f)).collect()
+        };
         self.json["accessors"][a]["min"] = json!(bound(f32::min, f32::INFINITY));
         self.json["accessors"][a]["max"] = json!(bound(f32::max, f32::NEG_INFINITY));
         a
@@ -106,11 +114,19 @@ impl Doc {
     /// A `.gltf` with the buffer in a `.bin` file beside it.
     fn write_with_bin(&self, dir: &Path, name: &str) -> PathBuf {
         write(dir, &format!("{name}.bin"), &self.bin);
-        write(dir, &format!("{name}.gltf"), self.finished(Some(format!("{name}.bin"))).to_string().as_bytes())
+        write(
+            dir,
+            &format!("{name}.gltf"),
+            self.finished(Some(format!("{name}.bin"))).to_string().as_bytes(),
+        )
     }
 
     fn write_glb(&self, dir: &Path, name: &str) -> PathBuf {
-        write(dir, &format!("{name}.glb"), &glb(self.finished(None).to_string().as_bytes(), &self.bin))
+        write(
+            dir,
+            &format!("{name}.glb"),
+            &glb(self.finished(None).to_string().as_bytes(), &self.bin),
+        )
     }
 }
 
@@ -202,7 +218,10 @@ fn reads_u8_u16_and_u32_indices() {
     assert_eq!(s.positions.len(), 12);
     assert_eq!(s.triangle(0), [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)]);
     assert_eq!(s.triangle(3), [Vec3::Z, Vec3::new(1.0, 1.0, 1.0), Vec3::new(0.0, 1.0, 1.0)]);
-    assert_eq!(s.triangle(4), [Vec3::new(0.0, 0.0, 2.0), Vec3::new(1.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)]);
+    assert_eq!(
+        s.triangle(4),
+        [Vec3::new(0.0, 0.0, 2.0), Vec3::new(1.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)]
+    );
     for t in 0..5 {
         assert_eq!(s.geometric_normal(t), Vec3::Z);
         assert_eq!(s.shading_normal(t, 0.3, 0.3), Vec3::Z);
@@ -267,8 +286,12 @@ fn node_transforms_compose_down_the_hierarchy() {
     let mesh = doc.mesh(vec![prim]);
     let h = std::f32::consts::FRAC_1_SQRT_2;
     // Child: a quarter turn about z, then up by 1. Parent: scale 2, then right by 1.
-    let child = doc.node(json!({ "mesh": mesh, "translation": [0.0, 1.0, 0.0], "rotation": [0.0, 0.0, h, h] }));
-    let parent = doc.node(json!({ "children": [child], "translation": [1.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0] }));
+    let child = doc.node(
+        json!({ "mesh": mesh, "translation": [0.0, 1.0, 0.0], "rotation": [0.0, 0.0, h, h] }),
+    );
+    let parent = doc.node(
+        json!({ "children": [child], "translation": [1.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0] }),
+    );
     doc.scene(&[parent]);
     let dir = tempfile::tempdir().unwrap();
     let s = load_ok(&doc.write_embedded(dir.path(), "hierarchy"));
@@ -321,7 +344,11 @@ fn mirroring_keeps_fronts_consistent() {
     let expected = [Vec3::Z, -Vec3::X, Vec3::Z, Vec3::Z, -Vec3::X, Vec3::Z];
     for (t, &e) in expected.iter().enumerate() {
         assert!(close(s.geometric_normal(t), e), "triangle {t}: {}", s.geometric_normal(t));
-        assert!(close(s.shading_normal(t, 0.3, 0.3), e), "triangle {t}: {}", s.shading_normal(t, 0.3, 0.3));
+        assert!(
+            close(s.shading_normal(t, 0.3, 0.3), e),
+            "triangle {t}: {}",
+            s.shading_normal(t, 0.3, 0.3)
+        );
     }
     // The mirrored +x triangle now sits at x = -0.5.
     assert!(s.triangle(1).iter().all(|p| (p.x + 0.5).abs() < 1e-6));
@@ -378,7 +405,8 @@ fn point_spot_and_directional_lights_follow_their_nodes() {
     let spot = doc.node(json!({ "extensions": light(1), "translation": [0.0, 2.0, 0.0], "rotation": [-h, 0.0, 0.0, h] }));
     // The same quarter turn points the sun straight down.
     let sun = doc.node(json!({ "extensions": light(2), "rotation": [-h, 0.0, 0.0, h] }));
-    let parent = doc.node(json!({ "children": [point, spot, sun], "translation": [0.0, 1.0, 0.0] }));
+    let parent =
+        doc.node(json!({ "children": [point, spot, sun], "translation": [0.0, 1.0, 0.0] }));
     doc.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(parent));
     let dir = tempfile::tempdir().unwrap();
     let s = load_ok(&doc.write_embedded(dir.path(), "lights"));
@@ -417,7 +445,8 @@ fn a_directional_light_needs_geometry_to_bound() {
     s.lights.push(PunctualLight::Directional { direction: -Vec3::Y, irradiance: Vec3::ONE });
     let e = s.validate().unwrap_err();
     assert!(e.contains("directional light 0") && e.contains("without geometry"), "{e}");
-    s.lights[0] = PunctualLight::Directional { direction: Vec3::new(0.0, -2.0, 0.0), irradiance: Vec3::ONE };
+    s.lights[0] =
+        PunctualLight::Directional { direction: Vec3::new(0.0, -2.0, 0.0), irradiance: Vec3::ONE };
     assert!(s.validate().unwrap_err().contains("no direction"));
 }
 
@@ -425,12 +454,19 @@ fn a_directional_light_needs_geometry_to_bound() {
 fn reads_the_first_perspective_camera_in_world_space() {
     let mut doc = quad_doc();
     doc.push("cameras", json!({ "type": "orthographic", "orthographic": { "xmag": 1.0, "ymag": 1.0, "zfar": 10.0, "znear": 0.1 } }));
-    doc.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }));
-    doc.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 1.2, "znear": 0.1 } }));
+    doc.push(
+        "cameras",
+        json!({ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }),
+    );
+    doc.push(
+        "cameras",
+        json!({ "type": "perspective", "perspective": { "yfov": 1.2, "znear": 0.1 } }),
+    );
     let h = std::f32::consts::FRAC_1_SQRT_2;
     let ortho = doc.node(json!({ "camera": 0 }));
     // A quarter turn about +y: the camera's -z looks along -x.
-    let camera = doc.node(json!({ "camera": 1, "translation": [0.0, 0.0, 5.0], "rotation": [0.0, h, 0.0, h] }));
+    let camera = doc
+        .node(json!({ "camera": 1, "translation": [0.0, 0.0, 5.0], "rotation": [0.0, h, 0.0, h] }));
     let parent = doc.node(json!({ "children": [ortho, camera], "translation": [0.0, 1.0, 0.0] }));
     let later = doc.node(json!({ "camera": 2 }));
     doc.json["scenes"][0]["nodes"].as_array_mut().unwrap().extend([json!(parent), json!(later)]);
@@ -447,7 +483,10 @@ fn reads_the_first_perspective_camera_in_world_space() {
 /// z = 5 to z = 3 over seconds 1 to 3 and whose rotation turns a quarter about +y over 0 to 2.
 fn animated_camera_doc(interpolation: &str) -> Doc {
     let mut doc = quad_doc();
-    doc.push("cameras", json!({ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }));
+    doc.push(
+        "cameras",
+        json!({ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }),
+    );
     let camera = doc.node(json!({ "camera": 0, "translation": [0.0, 0.0, 5.0] }));
     let parent = doc.node(json!({ "children": [camera], "translation": [0.0, 1.0, 0.0] }));
     doc.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(parent));
@@ -459,7 +498,8 @@ fn animated_camera_doc(interpolation: &str) -> Doc {
     doc.json["accessors"][r_times]["min"] = json!([0.0]);
     doc.json["accessors"][r_times]["max"] = json!([2.0]);
     let h = std::f32::consts::FRAC_1_SQRT_2;
-    let r_values = doc.accessor(&f32_bytes(&[0.0, 0.0, 0.0, 1.0, 0.0, h, 0.0, h]), FLOAT, "VEC4", 2);
+    let r_values =
+        doc.accessor(&f32_bytes(&[0.0, 0.0, 0.0, 1.0, 0.0, h, 0.0, h]), FLOAT, "VEC4", 2);
     doc.push(
         "animations",
         json!({
@@ -491,9 +531,18 @@ fn reads_the_camera_animation() {
     assert!(cams.iter().all(|c| c.position.y == 1.0 && c.yfov == 0.8));
     // Halfway through the quarter turn (t = 1): an eighth turn, looking between -z and -x.
     let eighth = Vec3::new(-1.0, 0.0, -1.0).normalize();
-    assert!(close(cams[0].forward, -Vec3::Z) && close(cams[1].forward, eighth) && close(cams[2].forward, -Vec3::X), "{cams:?}");
-    let stepped = load_ok(&animated_camera_doc("STEP").write_glb(dir.path(), "steps")).camera_path.unwrap();
-    assert!(close(stepped.frames(4).unwrap()[1].forward, -Vec3::Z), "STEP holds the first key until the second");
+    assert!(
+        close(cams[0].forward, -Vec3::Z)
+            && close(cams[1].forward, eighth)
+            && close(cams[2].forward, -Vec3::X),
+        "{cams:?}"
+    );
+    let stepped =
+        load_ok(&animated_camera_doc("STEP").write_glb(dir.path(), "steps")).camera_path.unwrap();
+    assert!(
+        close(stepped.frames(4).unwrap()[1].forward, -Vec3::Z),
+        "STEP holds the first key until the second"
+    );
     assert!(load_ok(&quad_doc().write_glb(dir.path(), "still")).camera_path.is_none());
 }
 
@@ -514,8 +563,18 @@ fn bad_camera_animations_are_errors() {
             }),
             "2 key times but 3 values",
         ),
-        (write("cubic", &|d| d.json["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")), "cubic-spline"),
-        (write("scaled", &|d| d.json["animations"][0]["channels"][0]["target"]["path"] = json!("scale")), "animated camera scale"),
+        (
+            write("cubic", &|d| {
+                d.json["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE")
+            }),
+            "cubic-spline",
+        ),
+        (
+            write("scaled", &|d| {
+                d.json["animations"][0]["channels"][0]["target"]["path"] = json!("scale")
+            }),
+            "animated camera scale",
+        ),
         (
             write("backwards", &|d| {
                 let times = d.accessor(&f32_bytes(&[3.0, 1.0]), FLOAT, "SCALAR", 2);
@@ -526,7 +585,12 @@ fn bad_camera_animations_are_errors() {
     ];
     for (path, expected) in cases {
         let err = load(&path).map(|_| ()).expect_err(expected).to_string();
-        assert!(err.contains(expected) && err.contains(&path.display().to_string()) && err.contains("animation 0 channel"), "{err}");
+        assert!(
+            err.contains(expected)
+                && err.contains(&path.display().to_string())
+                && err.contains("animation 0 channel"),
+            "{err}"
+        );
     }
 }
 
@@ -543,7 +607,9 @@ fn textured_doc(image: Value) -> Doc {
     let p = doc.positions(&QUAD);
     let uv = doc.vec2(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
     let i = doc.indices(&QUAD_INDICES, U8);
-    let mesh = doc.mesh(vec![json!({ "attributes": { "POSITION": p, "TEXCOORD_0": uv }, "indices": i, "material": 0 })]);
+    let mesh = doc.mesh(vec![
+        json!({ "attributes": { "POSITION": p, "TEXCOORD_0": uv }, "indices": i, "material": 0 }),
+    ]);
     let node = doc.node(json!({ "mesh": mesh }));
     doc.scene(&[node]);
     doc.push("images", image);
@@ -560,7 +626,10 @@ fn check_texture(s: &Scene) {
     assert_eq!(s.textures.len(), 1);
     let t = &s.textures[0];
     assert_eq!((t.width, t.height), (2, 2));
-    assert_eq!(t.texels, vec![Vec3::X, Vec3::new(0.0, green, 0.0), Vec3::new(0.0, 0.0, blue), Vec3::ONE]);
+    assert_eq!(
+        t.texels,
+        vec![Vec3::X, Vec3::new(0.0, green, 0.0), Vec3::new(0.0, 0.0, blue), Vec3::ONE]
+    );
     // Texel centres of the top row, (0.25, 0.25) and (0.75, 0.25), through triangle 0's
     // uvs (0,0), (1,0), (1,1): the factor multiplies the decoded texel.
     assert!(close(s.albedo(0, 0.0, 0.25), Vec3::new(0.5, 0.0, 0.0)));
@@ -591,7 +660,8 @@ fn texture_transform_is_tolerated() {
     let mut doc = textured_doc(json!({ "uri": "tex.png" }));
     doc.use_extension("KHR_texture_transform");
     doc.json["extensionsRequired"] = json!(["KHR_texture_transform"]);
-    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = json!({ "KHR_texture_transform": { "scale": [2.0, 2.0] } });
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] =
+        json!({ "KHR_texture_transform": { "scale": [2.0, 2.0] } });
     check_texture(&load_ok(&doc.write_embedded(dir.path(), "transformed")));
 }
 
@@ -605,15 +675,29 @@ fn decodes_every_pixel_format() {
         (data(Format::R8G8, vec![255, 7]), Vec3::ONE),
         (data(Format::R8G8B8A8, vec![0, 255, 128, 0]), Vec3::new(0.0, 1.0, half)),
         (data(Format::R16, 65535u16.to_ne_bytes().to_vec()), Vec3::ONE),
-        (data(Format::R16G16B16, [0u16, 65535, 0].iter().flat_map(|v| v.to_ne_bytes()).collect()), Vec3::Y),
-        (data(Format::R32G32B32FLOAT, [0.25f32, 2.0, 0.0].iter().flat_map(|v| v.to_ne_bytes()).collect()), Vec3::new(0.25, 2.0, 0.0)),
+        (
+            data(
+                Format::R16G16B16,
+                [0u16, 65535, 0].iter().flat_map(|v| v.to_ne_bytes()).collect(),
+            ),
+            Vec3::Y,
+        ),
+        (
+            data(
+                Format::R32G32B32FLOAT,
+                [0.25f32, 2.0, 0.0].iter().flat_map(|v| v.to_ne_bytes()).collect(),
+            ),
+            Vec3::new(0.25, 2.0, 0.0),
+        ),
     ];
     for (d, expected) in cases {
         let t = linear_texture(&d).unwrap();
         assert!(close(t.texels[0], expected), "{:?}: {}", d.format, t.texels[0]);
     }
     assert!(linear_texture(&data(Format::R8G8B8, vec![1, 2])).is_err());
-    assert!(linear_texture(&Data { format: Format::R8, width: 0, height: 0, pixels: vec![] }).is_err());
+    assert!(
+        linear_texture(&Data { format: Format::R8, width: 0, height: 0, pixels: vec![] }).is_err()
+    );
     // The EOTF is continuous at its knee and exact at both ends.
     assert!((srgb_to_linear(0.04045) - 0.04045 / 12.92).abs() < 1e-6);
     assert_eq!((srgb_to_linear(0.0), srgb_to_linear(1.0)), (0.0, 1.0));
@@ -633,7 +717,8 @@ fn skips_non_triangle_primitives() {
 /// Writes the quad document, buffer embedded, after `edit` changed its JSON.
 fn edited(dir: &Path, name: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
     let doc = quad_doc();
-    let mut json = doc.finished(Some(format!("data:application/octet-stream;base64,{}", base64(&doc.bin))));
+    let mut json =
+        doc.finished(Some(format!("data:application/octet-stream;base64,{}", base64(&doc.bin))));
     edit(&mut json);
     write(dir, &format!("{name}.gltf"), json.to_string().as_bytes())
 }
@@ -658,23 +743,63 @@ fn broken_files_are_errors_naming_the_file() {
         (write(d, "nobin.glb", &glb_without_bin), "cannot load buffer 0"),
         (write(d, "nothing.gltf", br#"{"asset":{"version":"2.0"}}"#), "no triangles"),
         (points.write_embedded(d, "points"), "no triangles"),
-        (edited(d, "badbuffer", |j| j["bufferViews"][0]["buffer"] = json!(7)), "not a valid glTF 2.0"),
-        (edited(d, "badaccessor", |j| j["meshes"][0]["primitives"][0]["indices"] = json!(99)), "not a valid glTF 2.0"),
-        (edited(d, "hugeposition", |j| j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(1u64 << 31)), "POSITION names accessor 2147483648"),
-        (edited(d, "viewpastend", |j| j["bufferViews"][1]["byteLength"] = json!(4096)), "lies outside buffer 0"),
-        (edited(d, "accessorpastend", |j| j["accessors"][0]["count"] = json!(400)), "run past the end"),
-        (edited(d, "zerocount", |j| j["accessors"][2]["count"] = json!(0)), "invalid element count"),
-        (edited(d, "smallstride", |j| j["bufferViews"][0]["byteStride"] = json!(4)), "smaller than"),
-        (edited(d, "floatindices", |j| j["accessors"][2]["componentType"] = json!(FLOAT)), "unsupported element type"),
+        (
+            edited(d, "badbuffer", |j| j["bufferViews"][0]["buffer"] = json!(7)),
+            "not a valid glTF 2.0",
+        ),
+        (
+            edited(d, "badaccessor", |j| j["meshes"][0]["primitives"][0]["indices"] = json!(99)),
+            "not a valid glTF 2.0",
+        ),
+        (
+            edited(d, "hugeposition", |j| {
+                j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(1u64 << 31)
+            }),
+            "POSITION names accessor 2147483648",
+        ),
+        (
+            edited(d, "viewpastend", |j| j["bufferViews"][1]["byteLength"] = json!(4096)),
+            "lies outside buffer 0",
+        ),
+        (
+            edited(d, "accessorpastend", |j| j["accessors"][0]["count"] = json!(400)),
+            "run past the end",
+        ),
+        (
+            edited(d, "zerocount", |j| j["accessors"][2]["count"] = json!(0)),
+            "invalid element count",
+        ),
+        (
+            edited(d, "smallstride", |j| j["bufferViews"][0]["byteStride"] = json!(4)),
+            "smaller than",
+        ),
+        (
+            edited(d, "floatindices", |j| j["accessors"][2]["componentType"] = json!(FLOAT)),
+            "unsupported element type",
+        ),
         (edited(d, "u8normals", |j| j["accessors"][1]["componentType"] = json!(U8)), "NORMAL"),
         (edited(d, "missingbin", |j| j["buffers"][0]["uri"] = json!("nowhere.bin")), "nowhere.bin"),
-        (edited(d, "badbase64", |j| j["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@@")), "cannot load buffer 0"),
-        (edited(d, "shortbuffer", |j| j["buffers"][0]["byteLength"] = json!(100_000)), "declares 100000"),
+        (
+            edited(d, "badbase64", |j| {
+                j["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@@")
+            }),
+            "cannot load buffer 0",
+        ),
+        (
+            edited(d, "shortbuffer", |j| j["buffers"][0]["byteLength"] = json!(100_000)),
+            "declares 100000",
+        ),
         (edited(d, "percent", |j| j["buffers"][0]["uri"] = json!("%FF%FE.bin")), "percent escapes"),
-        (edited(d, "required", |j| j["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])), "KHR_draco_mesh_compression"),
+        (
+            edited(d, "required", |j| {
+                j["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])
+            }),
+            "KHR_draco_mesh_compression",
+        ),
         (
             edited(d, "spotless", |j| {
-                j["extensions"] = json!({ "KHR_lights_punctual": { "lights": [{ "type": "spot" }] } });
+                j["extensions"] =
+                    json!({ "KHR_lights_punctual": { "lights": [{ "type": "spot" }] } });
                 j["nodes"][0]["extensions"] = json!({ "KHR_lights_punctual": { "light": 0 } });
             }),
             "not a valid glTF 2.0",
@@ -683,7 +808,8 @@ fn broken_files_are_errors_naming_the_file() {
             edited(d, "badimage", |j| {
                 j["images"] = json!([{ "uri": "data:image/png;base64,AAAA" }]);
                 j["textures"] = json!([{ "source": 0 }]);
-                j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+                j["materials"] =
+                    json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
                 j["meshes"][0]["primitives"][0]["material"] = json!(0);
             }),
             "cannot decode image 0",
@@ -692,7 +818,8 @@ fn broken_files_are_errors_naming_the_file() {
             edited(d, "imagepercent", |j| {
                 j["images"] = json!([{ "uri": "%C3%28.png" }]);
                 j["textures"] = json!([{ "source": 0 }]);
-                j["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+                j["materials"] =
+                    json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
                 j["meshes"][0]["primitives"][0]["material"] = json!(0);
             }),
             "percent escapes",
@@ -706,7 +833,9 @@ fn broken_files_are_errors_naming_the_file() {
     doc.scene(&[node]);
     let out_of_range = doc.write_glb(d, "outofrange");
 
-    for (path, expected) in cases.iter().map(|(p, e)| (p.clone(), *e)).chain([(out_of_range, "out of range")]) {
+    for (path, expected) in
+        cases.iter().map(|(p, e)| (p.clone(), *e)).chain([(out_of_range, "out of range")])
+    {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         let message = match load(&path) {
             Ok(_) => panic!("{name} loaded"),

@@ -26,7 +26,11 @@ pub(super) fn linear_texture(data: &gltf::image::Data) -> Result<Texture, String
     }
     let pixel_bytes = channels * bytes_per_channel;
     if w.checked_mul(h).and_then(|n| n.checked_mul(pixel_bytes)) != Some(data.pixels.len()) {
-        return Err(format!("{} bytes of pixels for a {w}x{h} {:?} image", data.pixels.len(), data.format));
+        return Err(format!(
+            "{} bytes of pixels for a {w}x{h} {:?} image",
+            data.pixels.len(),
+            data.format
+        ));
     }
     // Decoding 8-bit data through a table is exact and avoids millions of powf calls.
     let table = crate::srgb8_table();
