@@ -11,6 +11,7 @@
 //! frame driver ([`vplgi_frame::render`]) chains them.
 
 pub mod backend;
+pub mod bsdf;
 pub mod buffers;
 pub mod bvh;
 pub mod context;

@@ -20,6 +20,7 @@ const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
 const CLUSTER_COMMON: &str = include_str!("../../../shaders/common/cluster.wgsl");
 const METRIC: &str = include_str!("../../../shaders/common/metric.wgsl");
 const SCENE: &str = include_str!("../../../shaders/common/scene.wgsl");
+const BSDF: &str = include_str!("../../../shaders/common/bsdf.wgsl");
 
 /// Shared WGSL files by name.
 pub const COMMON: &[(&str, &str)] = &[
@@ -32,6 +33,7 @@ pub const COMMON: &[(&str, &str)] = &[
     ("common/metric.wgsl", METRIC),
     ("common/cluster.wgsl", CLUSTER_COMMON),
     ("common/scene.wgsl", SCENE),
+    ("common/bsdf.wgsl", BSDF),
 ];
 
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
@@ -180,6 +182,12 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("REPRESENTATIVE_NEAREST", REPRESENTATIVE_NEAREST),
         ("REPRESENTATIVE_MIN_ERROR", REPRESENTATIVE_MIN_ERROR),
         ("EXACT_DISK", vplgi_types::pod::EXACT_DISK),
+        ("BSDF_DIFFUSE", vplgi_types::pod::BSDF_DIFFUSE),
+        ("BSDF_MIRROR", vplgi_types::pod::BSDF_MIRROR),
+        ("BSDF_ROUGH_CONDUCTOR", vplgi_types::pod::BSDF_ROUGH_CONDUCTOR),
+        ("BSDF_DIELECTRIC", vplgi_types::pod::BSDF_DIELECTRIC),
+        ("BSDF_THIN_DIELECTRIC", vplgi_types::pod::BSDF_THIN_DIELECTRIC),
+        ("BSDF_BLEND", vplgi_types::pod::BSDF_BLEND),
         ("EXACT_POLYGON", vplgi_types::pod::EXACT_POLYGON),
         ("POLYGON_SIDES", vplgi_shared::polygon::SIDES as u32),
         ("REDUCE_ITEMS", REDUCE_ITEMS),

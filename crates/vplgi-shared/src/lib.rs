@@ -2,6 +2,8 @@
 //! host (or transcribed to WGSL operation for operation), each a module named for what it
 //! computes:
 //!
+//! * [`bsdf`]: surface scattering as Mitsuba 3 defines it (diffuse, mirror, GGX conductor,
+//!   glass, thin glass, and glTF's metallic blend): eval, sample and pdf.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
 //! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map, and Eq. 1 of Prutkin
@@ -12,6 +14,7 @@
 //!
 //! The records they read and write are `vplgi-types`'.
 
+pub mod bsdf;
 pub mod disk;
 pub mod polygon;
 pub mod rsm;

@@ -34,5 +34,5 @@ pub use config::{
     ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 pub use params::{BiasParams, CameraParams, SeedParams, ShadeParams, TraceParams};
-pub use pod::{Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
+pub use pod::{BsdfRecord, Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -181,3 +181,28 @@ mod tests {
         assert_eq!(offset_of!(ShadingPoint, emitted), 48);
     }
 }
+
+/// [`BsdfRecord::kind`] codes (`vplgi_shared::bsdf::Bsdf`'s variants).
+pub const BSDF_DIFFUSE: u32 = 0;
+pub const BSDF_MIRROR: u32 = 1;
+pub const BSDF_ROUGH_CONDUCTOR: u32 = 2;
+pub const BSDF_DIELECTRIC: u32 = 3;
+pub const BSDF_THIN_DIELECTRIC: u32 = 4;
+pub const BSDF_BLEND: u32 = 5;
+
+/// One surface's BSDF as the GPU reads it (`vplgi_shared::bsdf::Bsdf::record`), the same bytes as
+/// `BsdfRecord` in `common/bsdf.wgsl`. Fields a kind does not use are 0.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BsdfRecord {
+    /// Diffuse and conductor reflectance (a blend's base colour).
+    pub reflectance: [f32; 3],
+    pub kind: u32,
+    /// GGX roughness α (glTF's roughness squared).
+    pub alpha: f32,
+    /// Relative index of refraction, interior over exterior.
+    pub eta: f32,
+    /// A blend's share of the conductor.
+    pub metallic: f32,
+    pub pad: u32,
+}

@@ -10,6 +10,7 @@
 //! One module per stage, named like the stage, holds the comparison both `vplgi verify` and the
 //! property tests in `tests/` run: the measurement is written once.
 
+pub mod bsdf;
 pub mod frame;
 pub mod inputs;
 pub mod report;
@@ -62,26 +63,29 @@ pub enum VerifyError {
 
 macro_rules! verify_stages {
     ($($(#[$doc:meta])* $name:ident $Trait:ident [$($part:ident $Part:ident),*],)*) => {
-        /// What `verify` compares, in pipeline order: the RNG, every stage of the table (each
+        /// What `verify` compares, in pipeline order: the RNG and the BSDFs, every stage of the table (each
         /// chained: on the CPU's outputs of the stages before it), and the whole frame.
         #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
         #[serde(rename_all = "snake_case")]
         pub enum VerifyStage {
             /// The counter-based RNG streams.
             Rng,
+            /// The BSDFs' eval, pdf and sampling.
+            Bsdf,
             $($(#[$doc])* $Trait,)*
             /// The whole frame, each backend chaining its own stages.
             Frame,
         }
 
         impl VerifyStage {
-            pub const ALL: [VerifyStage; [VerifyStage::Rng, $(VerifyStage::$Trait,)* VerifyStage::Frame].len()] =
-                [VerifyStage::Rng, $(VerifyStage::$Trait,)* VerifyStage::Frame];
+            pub const ALL: [VerifyStage; [VerifyStage::Rng, VerifyStage::Bsdf, $(VerifyStage::$Trait,)* VerifyStage::Frame].len()] =
+                [VerifyStage::Rng, VerifyStage::Bsdf, $(VerifyStage::$Trait,)* VerifyStage::Frame];
 
             /// The stage's name: the CPU module's, the GPU kernel's and the `.wgsl` file's.
             pub fn name(self) -> &'static str {
                 match self {
                     VerifyStage::Rng => "rng",
+                    VerifyStage::Bsdf => "bsdf",
                     $(VerifyStage::$Trait => stringify!($name),)*
                     VerifyStage::Frame => "frame",
                 }
@@ -91,6 +95,7 @@ macro_rules! verify_stages {
             fn verify(self, twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
                 match self {
                     VerifyStage::Rng => rng::verify(twins, plan),
+                    VerifyStage::Bsdf => bsdf::verify(twins, plan),
                     $(VerifyStage::$Trait => $name::verify(twins, plan),)*
                     VerifyStage::Frame => frame::verify(twins, plan),
                 }

@@ -7,6 +7,16 @@ use serde::Serialize;
 
 /// RNG: bit-identical streams.
 pub const RNG_DIFFERING_DRAWS: u64 = 0;
+/// BSDFs (`vplgi_shared::bsdf` and `common/bsdf.wgsl`) on the same queries: eval, pdf, sampled
+/// directions, weights and densities within this, relative. The VPL row's bound: a VPL's flux is
+/// a product of sample weights.
+pub const BSDF_REL: f64 = 1e-4;
+/// BSDF sampling: at least this share of samples leave by the same lobe with direction, weight
+/// and density within [`BSDF_REL`]; the others diverge, as the VPL row lets 0.1 % of paths do:
+/// a reflect-or-refract choice whose number lies within rounding of the Fresnel reflectance goes
+/// either way, and a direction near the surface's plane, or from the rim of the visible-normal
+/// disk, is ill-conditioned (its cosine is a small difference of nearly equal numbers).
+pub const BSDF_AGREEING_SAMPLES: f64 = 0.999;
 /// VPL tracing: positions, normals and fluxes within this, relative.
 pub const TRACE_VPLS_REL: f64 = 1e-4;
 /// VPL tracing: at most this share of paths may diverge at grazing hits.
