@@ -129,6 +129,7 @@ fn material(s: &mut Scene, albedo: Vec3, emission: Vec3) -> u32 {
         base_color: albedo,
         base_color_texture: None,
         emission,
+        ..Material::default()
     });
     s.materials.len() as u32 - 1
 }

@@ -189,6 +189,7 @@ fn textures_match_the_cpu_and_are_paged() {
         base_color: Vec3::ONE,
         base_color_texture: Some(1),
         emission: Vec3::ZERO,
+        ..Material::default()
     });
     scene.material_ids[1] = 1;
     scene.validate().unwrap();

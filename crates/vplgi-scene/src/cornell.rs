@@ -141,6 +141,7 @@ fn add_material(s: &mut Scene, name: &str, base_color: Vec3, emission: Vec3) -> 
         base_color,
         base_color_texture: None,
         emission,
+        surface: crate::Surface::Diffuse,
     });
     (s.materials.len() - 1) as u32
 }

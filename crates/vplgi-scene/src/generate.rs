@@ -199,6 +199,7 @@ impl Builder {
             base_color,
             base_color_texture: None,
             emission,
+            surface: crate::Surface::Diffuse,
         });
         (self.s.materials.len() - 1) as u32
     }

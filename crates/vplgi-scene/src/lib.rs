@@ -20,6 +20,7 @@ pub use vplgi_types::camera::{Camera, CameraPath, Track};
 
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
+pub use vplgi_shared::bsdf::Surface;
 
 /// A scene ready to render. All geometry is in world space (node transforms applied).
 #[derive(Clone, Debug, Default)]
@@ -55,6 +56,9 @@ pub struct Material {
     /// Emitted radiance, linear RGB (glTF `emissiveFactor` times `KHR_materials_emissive_strength`).
     /// Emission leaves the front side of the triangle only.
     pub emission: Vec3,
+    /// What it scatters like (glTF's metallic-roughness and transmission); its colour is the
+    /// base colour.
+    pub surface: Surface,
 }
 
 impl Default for Material {
@@ -64,6 +68,7 @@ impl Default for Material {
             base_color: Vec3::splat(0.8),
             base_color_texture: None,
             emission: Vec3::ZERO,
+            surface: Surface::Diffuse,
         }
     }
 }
@@ -279,6 +284,13 @@ impl Scene {
             v3(m.base_color, &mut eat);
             v3(m.emission, &mut eat);
             eat(m.base_color_texture.unwrap_or(u32::MAX));
+            // Diffuse surfaces add nothing, so the hashes recorded before surfaces existed hold.
+            if m.surface != Surface::Diffuse {
+                let r = m.surface.with_colour(Vec3::ZERO).record();
+                [r.kind, r.alpha.to_bits(), r.eta.to_bits(), r.metallic.to_bits()]
+                    .into_iter()
+                    .for_each(&mut eat);
+            }
         }
         for t in &self.textures {
             eat(t.width);

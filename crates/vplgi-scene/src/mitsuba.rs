@@ -6,6 +6,9 @@
 //! What is written, and why it renders the same light transport as vplgi:
 //! * Materials are `diffuse` inside `twosided`: vplgi's Lambertian surfaces reflect on both
 //!   sides (hits face their normals towards the ray), Mitsuba's `diffuse` alone only on the front.
+//!   Other surfaces are written as the table of `vplgi_shared::bsdf` says (`conductor`,
+//!   `roughconductor`, `blendbsdf` twosided with `material="none"`; `dielectric` and
+//!   `thindielectric` as they are).
 //! * Emission becomes an `area` emitter on the material's mesh. Both emit from the front side
 //!   only, the side the winding's normal points to.
 //! * Vertex normals are written, so both renderers shade with the interpolated normal.
@@ -19,6 +22,7 @@
 //! Width, height, samples per pixel and `max_depth` are XML defaults (`$width`, ...), so a run can
 //! override them (`mitsuba -D spp=1024 scene.xml`, or `mi.load_file(path, spp=1024)`).
 
+use crate::Surface;
 use crate::{PunctualLight, Scene};
 use glam::Vec3;
 use std::fmt::Write as _;
@@ -168,8 +172,9 @@ pub fn export(scene: &Scene, defaults: RenderDefaults) -> MitsubaScene {
         let _ = writeln!(
             xml,
             "  <!-- material {m}: {} -->\n  <shape type=\"ply\">\n    <string name=\"filename\" value=\"{mesh}\"/>\n    \
-             <bsdf type=\"twosided\">\n      <bsdf type=\"diffuse\">\n        {reflectance}\n      </bsdf>\n    </bsdf>",
-            comment(&mat.name)
+             {}",
+            comment(&mat.name),
+            bsdf_xml(mat.surface, &reflectance)
         );
         if mat.emission.max_element() > 0.0 {
             let _ = writeln!(xml, "    <emitter type=\"area\">\n      <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>", rgb(mat.emission));
@@ -219,6 +224,41 @@ pub fn export(scene: &Scene, defaults: RenderDefaults) -> MitsubaScene {
     let _ = writeln!(xml, "</scene>");
     files.insert(0, ("scene.xml".into(), xml.into_bytes()));
     MitsubaScene { files, warnings }
+}
+
+/// The Mitsuba 3 BSDF of `surface` whose colour is `reflectance` (an `rgb` or `texture` element
+/// named `reflectance`), by the table of `vplgi_shared::bsdf`: conductors with
+/// `material="none"` (no Fresnel term), glass not twosided (its inside differs from its outside).
+fn bsdf_xml(surface: Surface, reflectance: &str) -> String {
+    let specular = reflectance.replacen("name=\"reflectance\"", "name=\"specular_reflectance\"", 1);
+    let rough = |alpha: f32| {
+        format!(
+            "<bsdf type=\"roughconductor\">\n        <string name=\"distribution\" value=\"ggx\"/>\n        \
+             <float name=\"alpha\" value=\"{alpha:?}\"/>\n        <string name=\"material\" value=\"none\"/>\n        \
+             {specular}\n      </bsdf>"
+        )
+    };
+    let diffuse = format!("<bsdf type=\"diffuse\">\n        {reflectance}\n      </bsdf>");
+    let twosided = |inner: String| format!("<bsdf type=\"twosided\">\n      {inner}\n    </bsdf>");
+    let glass = |kind: &str, eta: f32| {
+        format!(
+            "<bsdf type=\"{kind}\">\n      <float name=\"int_ior\" value=\"{eta:?}\"/>\n      \
+             <float name=\"ext_ior\" value=\"1.0\"/>\n    </bsdf>"
+        )
+    };
+    match surface {
+        Surface::Diffuse => twosided(diffuse),
+        Surface::Mirror => twosided(format!(
+            "<bsdf type=\"conductor\">\n        <string name=\"material\" value=\"none\"/>\n        {specular}\n      </bsdf>"
+        )),
+        Surface::RoughConductor { alpha } => twosided(rough(alpha)),
+        Surface::Dielectric { eta } => glass("dielectric", eta),
+        Surface::ThinDielectric { eta } => glass("thindielectric", eta),
+        Surface::Blend { metallic, alpha } => twosided(format!(
+            "<bsdf type=\"blendbsdf\">\n      <float name=\"weight\" value=\"{metallic:?}\"/>\n      {diffuse}\n      {}\n    </bsdf>",
+            rough(alpha)
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -452,6 +492,57 @@ mod tests {
         );
     }
 
+    /// Each surface is written as the Mitsuba BSDF of the table in `vplgi_shared::bsdf`, with its
+    /// parameters: conductors without Fresnel (`material="none"`) and twosided, glass not.
+    #[test]
+    fn surfaces_are_written_as_mitsuba_bsdfs() {
+        let mut scene = cornell::cornell_box();
+        let surfaces = [
+            (Surface::Mirror, "twosided/conductor"),
+            (Surface::RoughConductor { alpha: 0.25 }, "twosided/roughconductor"),
+            (Surface::Dielectric { eta: 1.33 }, "dielectric"),
+            (Surface::ThinDielectric { eta: 1.5 }, "thindielectric"),
+            (Surface::Blend { metallic: 0.3, alpha: 0.09 }, "twosided/blendbsdf"),
+        ];
+        for (m, (surface, _)) in scene.materials.iter_mut().zip(&surfaces) {
+            m.surface = *surface;
+        }
+        let exported = export(&scene, DEFAULTS);
+        let (doc, _) = read_back(&exported.files);
+        let shapes: Vec<roxmltree::Node> =
+            doc.root_element().children().filter(|n| n.has_tag_name("shape")).collect();
+        for (shape, (surface, path)) in shapes.iter().zip(&surfaces) {
+            let outer = shape.children().find(|n| n.has_tag_name("bsdf")).unwrap();
+            let kinds: Vec<&str> = std::iter::successors(Some(outer), |n| {
+                n.children().find(|c| c.has_tag_name("bsdf"))
+            })
+            .map(|n| n.attribute("type").unwrap())
+            .take(2)
+            .collect();
+            assert_eq!(kinds.join("/"), path.to_string(), "{surface:?}");
+            let float = |name: &str| -> Option<f32> {
+                outer
+                    .descendants()
+                    .find(|n| n.has_tag_name("float") && n.attribute("name") == Some(name))
+                    .map(|n| n.attribute("value").unwrap().parse().unwrap())
+            };
+            let none = outer.descendants().any(|n| n.attribute("value") == Some("none"));
+            match *surface {
+                Surface::RoughConductor { alpha } => {
+                    assert_eq!((float("alpha"), none), (Some(alpha), true))
+                }
+                Surface::Mirror => assert!(none),
+                Surface::Dielectric { eta } | Surface::ThinDielectric { eta } => {
+                    assert_eq!((float("int_ior"), float("ext_ior")), (Some(eta), Some(1.0)))
+                }
+                Surface::Blend { metallic, alpha } => {
+                    assert_eq!((float("weight"), float("alpha")), (Some(metallic), Some(alpha)))
+                }
+                Surface::Diffuse => unreachable!(),
+            }
+        }
+    }
+
     #[test]
     fn punctual_lights_and_textures_read_back() {
         let mut scene = cornell::plane_with_point_light(1.0, 1.5, 0.5, 10.0);
@@ -476,6 +567,7 @@ mod tests {
             base_color: Vec3::new(0.5, 1.0, 1.0),
             base_color_texture: Some(0),
             emission: Vec3::ZERO,
+            ..Material::default()
         });
         let last = scene.material_ids.len() - 1;
         scene.material_ids[last] = scene.materials.len() as u32 - 1;

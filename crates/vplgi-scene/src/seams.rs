@@ -87,6 +87,7 @@ pub fn seam_room(placement: Placement, triangles: usize) -> SeamRoom {
             base_color,
             base_color_texture: None,
             emission,
+            surface: crate::Surface::Diffuse,
         });
     }
     let (white, red, green, light) = (0, 1, 2, 3);

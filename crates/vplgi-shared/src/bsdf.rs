@@ -46,6 +46,56 @@ pub enum Bsdf {
     Blend { metallic: f32, base: Vec3, alpha: f32 },
 }
 
+/// What a material is made of, apart from its colour: its glTF base colour (times its texture,
+/// at a hit) is the reflectance of the [`Bsdf`] it becomes there.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Surface {
+    #[default]
+    Diffuse,
+    Mirror,
+    RoughConductor {
+        alpha: f32,
+    },
+    Dielectric {
+        eta: f32,
+    },
+    ThinDielectric {
+        eta: f32,
+    },
+    Blend {
+        metallic: f32,
+        alpha: f32,
+    },
+}
+
+impl Surface {
+    /// The BSDF of this surface where its colour is `base`.
+    pub fn with_colour(self, base: Vec3) -> Bsdf {
+        match self {
+            Surface::Diffuse => Bsdf::Diffuse { reflectance: base },
+            Surface::Mirror => Bsdf::Mirror { reflectance: base },
+            Surface::RoughConductor { alpha } => Bsdf::RoughConductor { reflectance: base, alpha },
+            Surface::Dielectric { eta } => Bsdf::Dielectric { eta },
+            Surface::ThinDielectric { eta } => Bsdf::ThinDielectric { eta },
+            Surface::Blend { metallic, alpha } => Bsdf::Blend { metallic, base, alpha },
+        }
+    }
+
+    /// What it is, in words: "a mirror", "glass (index 1.5)".
+    pub fn describe(&self) -> String {
+        match *self {
+            Surface::Diffuse => "diffuse".into(),
+            Surface::Mirror => "a mirror".into(),
+            Surface::RoughConductor { alpha } => format!("a rough metal (GGX alpha {alpha})"),
+            Surface::Dielectric { eta } => format!("glass (index {eta})"),
+            Surface::ThinDielectric { eta } => format!("a thin pane (index {eta})"),
+            Surface::Blend { metallic, alpha } => {
+                format!("{metallic} metal (GGX alpha {alpha}) on diffuse")
+            }
+        }
+    }
+}
+
 /// Whether a sampled weight carries radiance (camera paths: a refracted ray's radiance scales by
 /// the squared ratio of indices) or importance and power (light paths, photons: it does not).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -212,6 +262,23 @@ fn rough_sample(reflectance: Vec3, alpha: f32, wi: Vec3, u: Vec2) -> Option<Samp
 }
 
 impl Bsdf {
+    /// Every kind, in `colour`: the rough ones at three roughnesses, glass entering a denser
+    /// medium and leaving one, a blend of 0.4 metal. What the tests and `vplgi verify` cover.
+    pub fn every_kind(colour: Vec3) -> Vec<Bsdf> {
+        let mut m = vec![
+            Bsdf::Diffuse { reflectance: colour },
+            Bsdf::Mirror { reflectance: colour },
+            Bsdf::Dielectric { eta: 1.5 },
+            Bsdf::Dielectric { eta: 1.0 / 1.33 },
+            Bsdf::ThinDielectric { eta: 1.5 },
+        ];
+        for alpha in [0.1f32, 0.3, 0.6] {
+            m.push(Bsdf::RoughConductor { reflectance: colour, alpha });
+            m.push(Bsdf::Blend { metallic: 0.4, base: colour, alpha });
+        }
+        m
+    }
+
     /// The record the GPU twin (`shaders/common/bsdf.wgsl`) reads.
     pub fn record(&self) -> BsdfRecord {
         let r = |kind, reflectance: Vec3| BsdfRecord {
@@ -339,21 +406,8 @@ mod tests {
         vplgi_types::sampling::uniform_sphere(r.next_f32(), r.next_f32())
     }
 
-    /// The models under test: every kind, white, at three roughnesses where there is one.
     fn models() -> Vec<Bsdf> {
-        let white = Vec3::ONE;
-        let mut m = vec![
-            Bsdf::Diffuse { reflectance: white },
-            Bsdf::Mirror { reflectance: white },
-            Bsdf::Dielectric { eta: 1.5 },
-            Bsdf::Dielectric { eta: 1.0 / 1.33 },
-            Bsdf::ThinDielectric { eta: 1.5 },
-        ];
-        for alpha in [0.1f32, 0.3, 0.6] {
-            m.push(Bsdf::RoughConductor { reflectance: white, alpha });
-            m.push(Bsdf::Blend { metallic: 0.4, base: white, alpha });
-        }
-        m
+        Bsdf::every_kind(Vec3::ONE)
     }
 
     /// Fresnel's equations for unpolarised light, from Snell's law in f64: an evaluation

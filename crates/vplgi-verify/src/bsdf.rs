@@ -10,24 +10,6 @@ use vplgi_gpu::bsdf::{bsdf_queries, BsdfAnswer, BsdfQuery};
 use vplgi_shared::bsdf::{Bsdf, Transport};
 use vplgi_types::{sampling, Rng, Stream};
 
-/// Every kind of BSDF, at three roughnesses where there is one and two indices of refraction
-/// (entering glass, leaving water), in coloured reflectances.
-pub fn models() -> Vec<Bsdf> {
-    let c = Vec3::new(0.9, 0.6, 0.3);
-    let mut m = vec![
-        Bsdf::Diffuse { reflectance: c },
-        Bsdf::Mirror { reflectance: c },
-        Bsdf::Dielectric { eta: 1.5 },
-        Bsdf::Dielectric { eta: 1.0 / 1.33 },
-        Bsdf::ThinDielectric { eta: 1.5 },
-    ];
-    for alpha in [0.1f32, 0.3, 0.6] {
-        m.push(Bsdf::RoughConductor { reflectance: c, alpha });
-        m.push(Bsdf::Blend { metallic: 0.4, base: c, alpha });
-    }
-    m
-}
-
 /// |a - b| relative to the larger magnitude (absolute below 1e-6).
 fn rel(a: f32, b: f32) -> f64 {
     ((a - b).abs() / a.abs().max(b.abs()).max(1e-6)) as f64
@@ -142,7 +124,8 @@ fn describe(b: &Bsdf, q: &BsdfQuery, wo: &Vec3, g: &BsdfAnswer) -> String {
 
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Bsdf);
-    r.checks = compare(twins.device(), twins.queue(), &models(), 4096, plan.config.seed)?;
+    let models = Bsdf::every_kind(Vec3::new(0.9, 0.6, 0.3));
+    r.checks = compare(twins.device(), twins.queue(), &models, 4096, plan.config.seed)?;
     r.notes.push(
         "Every BSDF kind on random directions of the whole sphere, both sides of the surface; \
          samples for radiance (refraction scales by the squared index ratio)."

@@ -3,7 +3,9 @@
 use super::checks::{check_accessor, INDEX_KINDS, ROTATION_KINDS, SCALAR_F32, UV_KINDS, VEC3_F32};
 use super::checks::{check_uri, short_uri};
 use super::invalid;
+use super::material::{surface, Factors};
 use super::texture::linear_texture;
+use crate::Surface;
 use crate::{Camera, CameraPath, Material, PunctualLight, Scene, SceneError, Track};
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use gltf::mesh::Mode;
@@ -319,11 +321,36 @@ impl<'a> Loader<'a> {
         }
         let [r, g, b, _alpha] = pbr.base_color_factor();
         let strength = material.emissive_strength().unwrap_or(1.0);
+        let name = material.name().map_or_else(|| format!("material{index}"), str::to_string);
+        if pbr.metallic_roughness_texture().is_some() {
+            self.warn(format!(
+                "material '{name}': its metallic-roughness texture is ignored (the factors are used alone)"
+            ));
+        }
+        let factors = Factors {
+            metallic: pbr.metallic_factor(),
+            roughness: pbr.roughness_factor(),
+            transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
+            ior: material.ior().unwrap_or(1.5),
+            thickness: material.volume().map(|v| v.thickness_factor()),
+        };
+        let (surface, warnings) =
+            surface(&factors).map_err(|e| self.error(format!("material '{name}': {e}")))?;
+        for w in warnings {
+            self.warn(format!("material '{name}': {w}"));
+        }
+        if surface != Surface::Diffuse {
+            self.warn(format!(
+                "material '{name}' is {}: vplgi shades every surface as diffuse so far, so it renders as its base colour",
+                surface.describe()
+            ));
+        }
         let converted = Material {
-            name: material.name().map_or_else(|| format!("material{index}"), str::to_string),
+            name,
             base_color: Vec3::new(r, g, b),
             base_color_texture,
             emission: Vec3::from(material.emissive_factor()) * strength,
+            surface,
         };
         let id = self.push_material(converted);
         if let Some(slot) = self.material_ids.get_mut(index) {

@@ -3,20 +3,24 @@
 //!
 //! What is read: the default (else the first) scene's node tree with its transforms; triangle
 //! list primitives; base colour factor and texture (sRGB decoded to linear); emissive factor times
-//! `KHR_materials_emissive_strength`; `KHR_lights_punctual` point and spot lights; the first
-//! perspective camera. Anything else that would change the picture is skipped with a warning
-//! on stderr, printed once per kind and file.
+//! `KHR_materials_emissive_strength`; the surface a material scatters like, from its metallic and
+//! roughness factors, `KHR_materials_transmission`, `_ior` and `_volume` ([`material`]: the table
+//! of `vplgi_shared::bsdf`); `KHR_lights_punctual` point and spot lights; the first perspective
+//! camera. Anything else that would change the picture is skipped with a warning on stderr,
+//! printed once per kind and file; so is every surface that is not diffuse, because the frame
+//! shades every surface as diffuse until specular paths exist.
 //!
 //! A broken file must give a [`SceneError`] naming it, never a crash. The `gltf` crate trusts
 //! accessor and buffer-view ranges and types once its JSON validation passed, and asserts or
 //! panics on inconsistent ones, so everything it would slice or unwrap is checked here first.
 //!
 //! By concern: this module reads the file and its buffers; [`checks`] validates what the `gltf`
-//! crate would otherwise trust; [`loader`] flattens the node tree into the scene; [`texture`]
-//! decodes images.
+//! crate would otherwise trust; [`loader`] flattens the node tree into the scene; [`material`]
+//! maps a material's factors to its surface; [`texture`] decodes images.
 
 mod checks;
 mod loader;
+mod material;
 #[cfg(test)]
 mod tests;
 mod texture;
@@ -28,8 +32,14 @@ use std::path::Path;
 
 /// Extensions that may be listed in `extensionsRequired`. `KHR_texture_transform` is accepted
 /// although its transform is ignored (with a warning): the textures still mostly look right.
-const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
+const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_texture_transform",
+];
 
 /// Loads a `.gltf` or `.glb` file into a world-space triangle soup.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {

@@ -870,3 +870,69 @@ fn tolerates_odd_but_harmless_input() {
     assert_eq!(s.triangle_count(), 2);
     assert_eq!(s.camera, Camera::framing(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)));
 }
+
+/// glTF's metallic-roughness and transmission become the surfaces of the BSDF table: a mirror,
+/// solid glass with its index, a thin pane, a rough metal; a material without a
+/// `pbrMetallicRoughness` block is a rough metal (glTF's defaults are metallic 1, roughness 1).
+/// An invalid factor is an error naming the file and the material. A surface is part of the
+/// scene's hash (the committed references' hashes, all diffuse, are checked by the regression
+/// tests).
+#[test]
+fn materials_become_surfaces() {
+    use crate::Surface;
+    let mut doc = quad_doc();
+    for e in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"] {
+        doc.use_extension(e);
+    }
+    let pbr = |metallic: f32, roughness: f32| json!({ "baseColorFactor": [0.9, 0.8, 0.7, 1.0], "metallicFactor": metallic, "roughnessFactor": roughness });
+    let materials = [
+        json!({ "name": "mirror", "pbrMetallicRoughness": pbr(1.0, 0.0) }),
+        json!({ "name": "glass", "pbrMetallicRoughness": pbr(0.0, 0.0), "extensions": {
+            "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+            "KHR_materials_ior": { "ior": 1.33 },
+            "KHR_materials_volume": { "thicknessFactor": 0.5 } } }),
+        json!({ "name": "pane", "pbrMetallicRoughness": pbr(0.0, 0.0), "extensions": {
+            "KHR_materials_transmission": { "transmissionFactor": 1.0 } } }),
+        json!({ "name": "steel", "pbrMetallicRoughness": pbr(1.0, 0.5) }),
+        json!({ "name": "plain" }),
+        json!({ "name": "paint", "pbrMetallicRoughness": pbr(0.0, 0.9) }),
+    ];
+    let first = doc.json["meshes"][0]["primitives"][0].clone();
+    let mut prims = Vec::new();
+    for m in materials {
+        let mut p = first.clone();
+        p["material"] = json!(doc.push("materials", m));
+        prims.push(p);
+    }
+    doc.json["meshes"][0]["primitives"] = json!(prims);
+    let dir = tempfile::tempdir().unwrap();
+    let s = load_ok(&doc.write_glb(dir.path(), "surfaces"));
+    let surfaces: Vec<Surface> = s.materials.iter().map(|m| m.surface).collect();
+    assert_eq!(
+        surfaces,
+        [
+            Surface::Mirror,
+            Surface::Dielectric { eta: 1.33 },
+            Surface::ThinDielectric { eta: 1.5 },
+            Surface::RoughConductor { alpha: 0.25 },
+            Surface::RoughConductor { alpha: 1.0 },
+            Surface::Diffuse,
+        ]
+    );
+    let mut diffuse = s.clone();
+    diffuse.materials.iter_mut().for_each(|m| m.surface = Surface::Diffuse);
+    assert_ne!(s.content_hash(), diffuse.content_hash());
+
+    doc.json["materials"][1]["extensions"]["KHR_materials_ior"]["ior"] = json!(-1.0);
+    let err = load(&doc.write_glb(dir.path(), "bad-ior")).unwrap_err().to_string();
+    assert!(
+        err.contains("bad-ior.glb")
+            && err.contains("'glass'")
+            && err.contains("index of refraction"),
+        "{err}"
+    );
+    doc.json["materials"][1]["extensions"]["KHR_materials_ior"]["ior"] = json!(1.5);
+    doc.json["materials"][3]["pbrMetallicRoughness"]["roughnessFactor"] = json!(1.5);
+    let err = load(&doc.write_glb(dir.path(), "bad-roughness")).unwrap_err().to_string();
+    assert!(err.contains("'steel'") && err.contains("roughnessFactor 1.5"), "{err}");
+}
