@@ -1,7 +1,7 @@
 //! The built-in procedural scenes: the Cornell box (the default scene) and a lit plane for
 //! analytic tests. Both are deterministic: the same call always yields the same scene.
 
-use crate::{Camera, Material, PunctualLight, Scene};
+use crate::{Camera, Material, PunctualLight, Scene, Surface};
 use glam::{Vec2, Vec3};
 
 /// Centre of the short box's footprint on the floor, its half extents and its rotation about y.
@@ -31,7 +31,72 @@ struct BoxSpec {
 /// The classic Cornell box in a 2 x 2 x 2 room: x in [-1, 1], y in [0, 2], z in [-1, 1], open
 /// towards +z where the camera is. Every triangle's front faces into the room or out of its box.
 pub fn cornell_box() -> Scene {
-    let mut s = Scene { name: "cornell-box".into(), ..Scene::default() };
+    cornell_room("cornell-box", |s, white| {
+        add_box(s, &SHORT_BOX, white);
+        add_box(s, &TALL_BOX, white);
+    })
+}
+
+/// The Cornell box with a mirror back wall, and a mirror sphere where the short box stood; the
+/// sphere takes what `triangles` leaves (at least 8 rings).
+pub fn cornell_mirror(triangles: usize) -> Scene {
+    cornell_room("cornell-mirror", |s, white| {
+        let mirror = add_surface(s, "mirror", Vec3::splat(0.9), Surface::Mirror);
+        s.material_ids[BACK_WALL].fill(mirror);
+        let rings = sphere_rings(triangles.saturating_sub(22));
+        add_sphere(s, SHORT_BOX.center + Vec3::new(0.0, 0.3, 0.0), 0.3, mirror, rings);
+        add_box(s, &TALL_BOX, white);
+    })
+}
+
+/// The Cornell box with a closed glass cube where the short box stood and a glass sphere in
+/// front of the tall box, both of index 1.5 and a hair above the floor (a glass face on the
+/// floor would coincide with it). The sphere takes what `triangles` leaves.
+pub fn cornell_glass(triangles: usize) -> Scene {
+    cornell_room("cornell-glass", |s, white| {
+        let glass = add_surface(s, "glass", Vec3::ONE, Surface::Dielectric { eta: 1.5 });
+        let lifted = BoxSpec { center: SHORT_BOX.center + Vec3::new(0.0, LIFT, 0.0), ..SHORT_BOX };
+        add_box(s, &lifted, glass);
+        add_bottom(s, &lifted, glass);
+        add_box(s, &TALL_BOX, white);
+        let rings = sphere_rings(triangles.saturating_sub(34));
+        add_sphere(s, SPHERE_CENTRE + Vec3::new(0.0, LIFT, 0.0), SPHERE_RADIUS, glass, rings);
+    })
+}
+
+/// The Cornell box with rough metals of roughness 0.6 (the short box, copper), 0.3 (the tall box,
+/// steel) and 0.1 (a gold sphere in front of it, taking what `triangles` leaves).
+pub fn cornell_glossy(triangles: usize) -> Scene {
+    cornell_room("cornell-glossy", |s, _| {
+        let metal = |r: f32| Surface::RoughConductor { alpha: r * r };
+        let copper =
+            add_surface(s, "copper, roughness 0.6", Vec3::new(0.95, 0.64, 0.54), metal(0.6));
+        let steel = add_surface(s, "steel, roughness 0.3", Vec3::splat(0.9), metal(0.3));
+        let gold = add_surface(s, "gold, roughness 0.1", Vec3::new(1.0, 0.78, 0.34), metal(0.1));
+        add_box(s, &SHORT_BOX, copper);
+        add_box(s, &TALL_BOX, steel);
+        add_sphere(
+            s,
+            SPHERE_CENTRE,
+            SPHERE_RADIUS,
+            gold,
+            sphere_rings(triangles.saturating_sub(32)),
+        );
+    })
+}
+
+/// The triangles of the back wall (the third quad of [`cornell_room`]).
+const BACK_WALL: std::ops::Range<usize> = 4..6;
+/// How far the glass objects float above the floor.
+const LIFT: f32 = 1e-3;
+/// A sphere in front of the tall box, clear of both boxes.
+const SPHERE_CENTRE: Vec3 = Vec3::new(-0.45, 0.25, 0.45);
+const SPHERE_RADIUS: f32 = 0.25;
+
+/// The room of [`cornell_box`] (walls, then `objects`, then the ceiling light, so the box's
+/// triangles keep their order), its materials white, red, green and light first.
+fn cornell_room(name: &str, objects: impl FnOnce(&mut Scene, u32)) -> Scene {
+    let mut s = Scene { name: name.into(), ..Scene::default() };
     let white = add_material(&mut s, "white", Vec3::splat(0.73), Vec3::ZERO);
     let red = add_material(&mut s, "red", Vec3::new(0.63, 0.065, 0.05), Vec3::ZERO);
     let green = add_material(&mut s, "green", Vec3::new(0.14, 0.45, 0.09), Vec3::ZERO);
@@ -75,8 +140,7 @@ pub fn cornell_box() -> Scene {
         green,
     );
 
-    add_box(&mut s, &SHORT_BOX, white);
-    add_box(&mut s, &TALL_BOX, white);
+    objects(&mut s, white);
 
     let h = LIGHT_HALF;
     add_quad(
@@ -135,6 +199,52 @@ pub fn plane_with_point_light(half_size: f32, height: f32, albedo: f32, intensit
     s
 }
 
+/// A material of colour `base_color` that scatters like `surface`; its index.
+fn add_surface(s: &mut Scene, name: &str, base_color: Vec3, surface: Surface) -> u32 {
+    let m = add_material(s, name, base_color, Vec3::ZERO);
+    s.materials[m as usize].surface = surface;
+    m
+}
+
+/// The rings of a sphere of about `triangles` triangles (4 R (R - 1) of them), at least 8.
+fn sphere_rings(triangles: usize) -> u32 {
+    ((0.25 + triangles as f64 / 4.0).sqrt() + 0.5).round().max(8.0) as u32
+}
+
+/// A sphere of `rings` rings of 2 `rings` quads (the poles' rings triangles), shared vertices,
+/// normals pointing out: a closed mesh.
+fn add_sphere(s: &mut Scene, centre: Vec3, radius: f32, material: u32, rings: u32) {
+    let (ring_count, segments) = (rings, 2 * rings);
+    let base = s.positions.len() as u32;
+    let mut vertex = |n: Vec3| {
+        s.positions.push(centre + radius * n);
+        s.normals.push(n);
+        s.uvs.push(Vec2::ZERO);
+    };
+    vertex(Vec3::Y);
+    for ring in 1..ring_count {
+        let theta = std::f32::consts::PI * ring as f32 / ring_count as f32;
+        for seg in 0..segments {
+            let phi = 2.0 * std::f32::consts::PI * seg as f32 / segments as f32;
+            vertex(Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()));
+        }
+    }
+    vertex(-Vec3::Y);
+    let at = |ring: u32, seg: u32| base + 1 + (ring - 1) * segments + seg % segments;
+    let south = base + 1 + (ring_count - 1) * segments;
+    for seg in 0..segments {
+        s.indices.push([base, at(1, seg), at(1, seg + 1)]);
+        s.indices.push([south, at(ring_count - 1, seg + 1), at(ring_count - 1, seg)]);
+        for ring in 1..ring_count - 1 {
+            let (a, b) = (at(ring, seg), at(ring, seg + 1));
+            let (c, d) = (at(ring + 1, seg), at(ring + 1, seg + 1));
+            s.indices.push([a, c, d]);
+            s.indices.push([a, d, b]);
+        }
+    }
+    s.material_ids.resize(s.indices.len(), material);
+}
+
 fn add_material(s: &mut Scene, name: &str, base_color: Vec3, emission: Vec3) -> u32 {
     s.materials.push(Material {
         name: name.into(),
@@ -168,14 +278,7 @@ fn add_quad(s: &mut Scene, mut c: [Vec3; 4], facing: Vec3, material: u32) {
 /// Adds the box's four sides and top, fronts facing outwards. The bottom is left out: it rests
 /// on the floor, where it could never be seen and would only coincide with the floor.
 fn add_box(s: &mut Scene, b: &BoxSpec, material: u32) {
-    let (sin, cos) = b.angle_deg.to_radians().sin_cos();
-    // Local axes of the box, rotated about y.
-    let ax = Vec3::new(cos, 0.0, -sin) * b.half.x;
-    let az = Vec3::new(sin, 0.0, cos) * b.half.z;
-    let up = Vec3::Y * (2.0 * b.half.y);
-    let at =
-        |i: f32, k: f32, top: bool| b.center + ax * i + az * k + if top { up } else { Vec3::ZERO };
-    let centre = b.center + 0.5 * up;
+    let (at, centre) = box_corners(b);
     let mut face = |corners: [Vec3; 4]| {
         let mid = 0.25 * corners.iter().copied().sum::<Vec3>();
         add_quad(s, corners, mid - centre, material);
@@ -189,6 +292,27 @@ fn add_box(s: &mut Scene, b: &BoxSpec, material: u32) {
     ] {
         face([at(i0, k0, false), at(i1, k1, false), at(i1, k1, true), at(i0, k0, true)]);
     }
+}
+
+/// The box's bottom face, facing down: with [`add_box`], a closed box (glass must be one).
+fn add_bottom(s: &mut Scene, b: &BoxSpec, material: u32) {
+    let (at, _) = box_corners(b);
+    let corners =
+        [at(-1.0, -1.0, false), at(1.0, -1.0, false), at(1.0, 1.0, false), at(-1.0, 1.0, false)];
+    add_quad(s, corners, -Vec3::Y, material);
+}
+
+/// The box's corner at (±1, ±1) of its rotated footprint, on its bottom or top, and its centre.
+fn box_corners(b: &BoxSpec) -> (impl Fn(f32, f32, bool) -> Vec3 + '_, Vec3) {
+    let (sin, cos) = b.angle_deg.to_radians().sin_cos();
+    // Local axes of the box, rotated about y.
+    let ax = Vec3::new(cos, 0.0, -sin) * b.half.x;
+    let az = Vec3::new(sin, 0.0, cos) * b.half.z;
+    let up = Vec3::Y * (2.0 * b.half.y);
+    let at = move |i: f32, k: f32, top: bool| {
+        b.center + ax * i + az * k + if top { up } else { Vec3::ZERO }
+    };
+    (at, b.center + 0.5 * up)
 }
 
 #[cfg(test)]
@@ -344,5 +468,63 @@ mod tests {
         let d = c.ray_direction(0.0, 0.0, 64, 64);
         let hit = c.position + d * (c.position.y / -d.y);
         assert!(hit.x < -2.0 && hit.z < -2.0, "corner ray lands at {hit}");
+    }
+
+    /// The specular Cornell boxes hold the surfaces they are named for; glass comes in closed
+    /// meshes (every directed edge of its triangles matched by its reverse, once: a consistent
+    /// outward winding), and the spheres' vertex normals point out of them.
+    #[test]
+    fn specular_cornell_boxes_hold_their_surfaces_in_closed_meshes() {
+        let surfaces = |s: &Scene| s.materials.iter().map(|m| m.surface).collect::<Vec<_>>();
+        let mirror = cornell_mirror(2_230);
+        assert_eq!(mirror.triangle_count(), 2_230);
+        assert!(surfaces(&mirror).contains(&Surface::Mirror));
+        assert!(mirror.material_ids[BACK_WALL]
+            .iter()
+            .all(|&m| mirror.materials[m as usize].surface == Surface::Mirror));
+        let glossy = cornell_glossy(2_240);
+        let alphas: Vec<f32> = surfaces(&glossy)
+            .into_iter()
+            .filter_map(
+                |s| if let Surface::RoughConductor { alpha } = s { Some(alpha) } else { None },
+            )
+            .collect();
+        assert_eq!(alphas, [0.36, 0.09, 0.010000001]);
+        let glass = cornell_glass(2_242);
+        assert_eq!(glass.triangle_count(), 2_242);
+        let glass_id =
+            surfaces(&glass).iter().position(|s| *s == Surface::Dielectric { eta: 1.5 }).unwrap()
+                as u32;
+        let mut edges = std::collections::HashMap::new();
+        for (t, _) in glass.indices.iter().zip(&glass.material_ids).filter(|(_, &m)| m == glass_id)
+        {
+            for k in 0..3 {
+                let key = |a: u32| glass.positions[a as usize].to_array().map(f32::to_bits);
+                *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_insert(0) += 1;
+            }
+        }
+        assert!(
+            edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1)),
+            "an open or inconsistent glass mesh"
+        );
+        for (s, centre, radius) in [
+            (&mirror, SHORT_BOX.center + Vec3::new(0.0, 0.3, 0.0), 0.3),
+            (&glass, SPHERE_CENTRE + Vec3::new(0.0, LIFT, 0.0), SPHERE_RADIUS),
+            (&glossy, SPHERE_CENTRE, SPHERE_RADIUS),
+        ] {
+            let on_sphere: Vec<(Vec3, Vec3)> = s
+                .positions
+                .iter()
+                .zip(&s.normals)
+                .filter(|(p, _)| ((**p - centre).length() - radius).abs() < 1e-4)
+                .map(|(p, n)| (*p, *n))
+                .collect();
+            assert_eq!(on_sphere.len(), 2 + 23 * 48, "{}", s.name);
+            assert!(
+                on_sphere.iter().all(|(p, n)| n.dot(*p - centre) > 0.99 * radius),
+                "{}",
+                s.name
+            );
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! (`KHR_materials_emissive_strength` above 1), `KHR_lights_punctual` lights and the camera.
 //! Textures are not written (the generators make none): such a scene is refused.
 
-use crate::{PunctualLight, Scene};
+use crate::{PunctualLight, Scene, Surface};
 use glam::{Mat3, Quat, Vec3};
 use serde_json::{json, Value};
 
@@ -74,16 +74,38 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         .iter()
         .map(|m| {
             let strength = m.emission.max_element();
+            // The surface as glTF says it (the loader's table read backwards): metallic and
+            // roughness (α = roughness²), and glass as full transmission with its index, solid
+            // glass with a volume.
+            let (metallic, roughness, glass) = match m.surface {
+                Surface::Diffuse => (0.0, 1.0, None),
+                Surface::Mirror => (1.0, 0.0, None),
+                Surface::RoughConductor { alpha } => (1.0, alpha.sqrt(), None),
+                Surface::Blend { metallic, alpha } => (metallic, alpha.sqrt(), None),
+                Surface::Dielectric { eta } => (0.0, 0.0, Some((eta, true))),
+                Surface::ThinDielectric { eta } => (0.0, 0.0, Some((eta, false))),
+            };
             let mut v = json!({
                 "name": m.name,
-                "pbrMetallicRoughness": {"baseColorFactor": [m.base_color.x, m.base_color.y, m.base_color.z, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+                "pbrMetallicRoughness": {"baseColorFactor": [m.base_color.x, m.base_color.y, m.base_color.z, 1.0], "metallicFactor": metallic, "roughnessFactor": roughness},
             });
+            let mut extensions = serde_json::Map::new();
             if strength > 0.0 {
                 let (factor, s) = if strength > 1.0 { (m.emission / strength, strength) } else { (m.emission, 1.0) };
                 v["emissiveFactor"] = json!(factor.to_array());
                 if s > 1.0 {
-                    v["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": s}});
+                    extensions.insert("KHR_materials_emissive_strength".into(), json!({"emissiveStrength": s}));
                 }
+            }
+            if let Some((eta, solid)) = glass {
+                extensions.insert("KHR_materials_transmission".into(), json!({"transmissionFactor": 1.0}));
+                extensions.insert("KHR_materials_ior".into(), json!({"ior": eta}));
+                if solid {
+                    extensions.insert("KHR_materials_volume".into(), json!({"thicknessFactor": 1.0}));
+                }
+            }
+            if !extensions.is_empty() {
+                v["extensions"] = Value::Object(extensions);
             }
             v
         })
@@ -174,6 +196,18 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         lights.push(light_json(intensity, extra));
     }
     let mut used = vec!["KHR_materials_emissive_strength"];
+    for (ext, any) in [
+        ("KHR_materials_transmission", scene.materials.iter().any(|m| m.surface.is_glass())),
+        ("KHR_materials_ior", scene.materials.iter().any(|m| m.surface.is_glass())),
+        (
+            "KHR_materials_volume",
+            scene.materials.iter().any(|m| matches!(m.surface, Surface::Dielectric { .. })),
+        ),
+    ] {
+        if any {
+            used.push(ext);
+        }
+    }
     let mut doc = json!({
         "asset": {"version": "2.0", "generator": concat!("vplgi ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,

@@ -81,6 +81,11 @@ impl Surface {
         }
     }
 
+    /// Whether light passes through it (solid or thin glass).
+    pub fn is_glass(&self) -> bool {
+        matches!(self, Surface::Dielectric { .. } | Surface::ThinDielectric { .. })
+    }
+
     /// What it is, in words: "a mirror", "glass (index 1.5)".
     pub fn describe(&self) -> String {
         match *self {
