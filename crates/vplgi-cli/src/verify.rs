@@ -108,6 +108,8 @@ pub fn run(args: VerifyArgs) -> Result<()> {
     write(&args.out, &report)?;
     let page = args.out.join("verify.html");
     let failures: Vec<_> = report.failures().collect();
+    // The summary last, so a terminal shows it without scrolling.
+    let summary = vplgi_verify::report::summary_text(&report);
     if failures.is_empty() {
         let judged = report.stages.iter().flat_map(|s| &s.checks).filter(|c| c.judged()).count();
         println!(
@@ -115,12 +117,14 @@ pub fn run(args: VerifyArgs) -> Result<()> {
             report.seconds,
             page.display()
         );
+        println!("\n{}", summary.trim_end());
         return Ok(());
     }
     eprintln!("\nverify: FAIL. Report: {} (and verify.md, verify.json)", page.display());
     for f in &failures {
         eprintln!("  {f}");
     }
+    println!("\n{}", summary.trim_end());
     let first = failures[0];
     bail!(
         "{} check(s) outside the SPEC's tolerances; first: stage {}{}: {} = {} (bound {})",

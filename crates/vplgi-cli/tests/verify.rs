@@ -91,7 +91,19 @@ fn verify_passes_and_its_page_loads_in_a_browser() {
     println!("console: {console:#?}");
     for s in stages {
         assert!(dom.contains(&format!("<section id=\"{s}\">")), "the page does not show stage {s}");
+        assert!(
+            dom.contains(&format!("<a href=\"#{s}\">{s}</a>")),
+            "the summary does not list stage {s}"
+        );
     }
+    // The summary comes first on the page, and last in the text output.
+    let summary = dom.find("id=\"summary\"").expect("a summary table");
+    assert!(
+        summary < dom.find("<section id=").expect("stage sections"),
+        "the summary is not first"
+    );
+    let last = stdout.trim_end().lines().last().unwrap_or_default();
+    assert!(last.starts_with("frame "), "the text output does not end with the summary: {last}");
     let errors: Vec<&String> = console.iter().filter(|l| !l.contains("probe: ")).collect();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
     assert!(

@@ -206,6 +206,12 @@ impl StageResult {
     pub fn failures(&self) -> impl Iterator<Item = &Disagreement> {
         self.checks.iter().filter(|c| !c.holds())
     }
+
+    /// The largest share of its bound any judged check used ([`Disagreement::used`]); None when
+    /// nothing was judged.
+    pub fn worst_used(&self) -> Option<f64> {
+        self.checks.iter().filter_map(Disagreement::used).reduce(f64::max)
+    }
 }
 
 /// What to verify: the frame, its modes and stages.

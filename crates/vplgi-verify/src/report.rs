@@ -105,6 +105,39 @@ fn config_line(r: &VerifyReport) -> String {
     )
 }
 
+/// The stages, failing first, each in pipeline order: the summary's rows.
+pub fn summary(r: &VerifyReport) -> Vec<&StageResult> {
+    let mut rows: Vec<&StageResult> = r.stages.iter().collect();
+    rows.sort_by_key(|st| st.passed());
+    rows
+}
+
+/// A summary row's share of the bound, as printed: `0.37`, `12`, `-`.
+fn used_text(st: &StageResult) -> String {
+    match st.worst_used() {
+        None => "-".into(),
+        Some(u) if u.is_infinite() => "inf".into(),
+        Some(u) if u >= 10.0 => format!("{u:.0}"),
+        Some(u) => format!("{u:.2}"),
+    }
+}
+
+/// The summary as plain text, one line per stage (what `vplgi verify` prints last).
+pub fn summary_text(r: &VerifyReport) -> String {
+    let mut s =
+        format!("{:<16} {:<7} {:>11} {:>8}\n", "stage", "verdict", "worst/bound", "seconds");
+    for st in summary(r) {
+        s += &format!(
+            "{:<16} {:<7} {:>11} {:>8.1}\n",
+            st.stage.name(),
+            verdict(st.passed()),
+            used_text(st),
+            st.seconds
+        );
+    }
+    s
+}
+
 /// The report as Markdown.
 pub fn markdown(r: &VerifyReport) -> String {
     let mut s = format!("# vplgi verify: {}\n\n", verdict(r.passed));
@@ -121,6 +154,16 @@ pub fn markdown(r: &VerifyReport) -> String {
             sh.name,
             sh.path.display(),
             if sh.differs { " (differs from the built-in copy)" } else { "" }
+        );
+    }
+    s += "\n| stage | verdict | worst measured / bound | time |\n|---|---|---|---|\n";
+    for st in summary(r) {
+        let name = st.stage.name();
+        s += &format!(
+            "| [{name}](#{name}) | {} | {} | {:.1} s |\n",
+            verdict(st.passed()),
+            used_text(st),
+            st.seconds
         );
     }
     for st in &r.stages {
@@ -186,7 +229,7 @@ pub fn html(r: &VerifyReport) -> String {
          td,th{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}td.n{font-family:monospace;text-align:right}\
          .ok{color:#070}.FAILS{color:#b00;font-weight:bold}.info{color:#666}.PASS{color:#070}.FAIL{color:#b00}\
          figure{display:inline-block;margin:.5em}figure img{image-rendering:pixelated;width:256px;border:1px solid #ccc}\
-         .worst{font-family:monospace;font-size:.85em}</style></head><body>\n",
+         .worst{font-family:monospace;font-size:.85em}tr.failing{background:#fdd}</style></head><body>\n",
     );
     s += &format!("<h1>vplgi verify: <span class=\"{0}\">{0}</span></h1>\n<ul>", verdict(r.passed));
     s += &format!(
@@ -205,7 +248,17 @@ pub fn html(r: &VerifyReport) -> String {
             if sh.differs { " (differs from the built-in copy)" } else { "" }
         );
     }
-    s += "</ul>\n";
+    s += "</ul>\n<h2>Summary</h2>\n<p>Failing stages first. The worst share of a bound is the judged check closest to its bound: measured / bound for an upper bound, the disagreeing share over the allowed one for a lower bound; above 1 fails.</p>\n<table id=\"summary\"><tr><th>stage</th><th>verdict</th><th>worst measured / bound</th><th>time</th></tr>\n";
+    for st in summary(r) {
+        let (name, v) = (st.stage.name(), verdict(st.passed()));
+        s += &format!(
+            "<tr class=\"{}\"><td><a href=\"#{name}\">{name}</a></td><td class=\"{v}\">{v}</td><td class=\"n\">{}</td><td class=\"n\">{:.1} s</td></tr>\n",
+            if st.passed() { "" } else { "failing" },
+            used_text(st),
+            st.seconds
+        );
+    }
+    s += "</table>\n";
     for st in &r.stages {
         let v = verdict(st.passed());
         s += &format!(
@@ -216,7 +269,8 @@ pub fn html(r: &VerifyReport) -> String {
         s += "<table><tr><th>SPEC row</th><th>case</th><th>measured</th><th>value</th><th>bound</th><th>verdict</th><th>worst item</th></tr>\n";
         for c in &st.checks {
             s += &format!(
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"{}\">{}</td><td class=\"worst\">{}</td></tr>\n",
+                "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"{}\">{}</td><td class=\"worst\">{}</td></tr>\n",
+                if c.holds() { "" } else { "failing" },
                 esc(&c.stage),
                 esc(&c.case),
                 esc(&c.what),

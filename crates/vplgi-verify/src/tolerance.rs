@@ -306,6 +306,27 @@ impl Disagreement {
         }
     }
 
+    /// How much of its bound the check used, 1 at the bound, above 1 failing: measured / bound
+    /// for an upper bound, and for a lower bound on a share the disagreeing share over the
+    /// allowed one, (1 - measured) / (1 - bound). None for information.
+    pub fn used(&self) -> Option<f64> {
+        let ratio = |num: f64, den: f64| {
+            if den > 0.0 {
+                num.max(0.0) / den
+            } else if num <= 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
+        };
+        match self.bound {
+            Bound::AtMost(b) => Some(ratio(self.measured, b)),
+            Bound::AtLeast(b) if b <= 1.0 => Some(ratio(1.0 - self.measured, 1.0 - b)),
+            Bound::AtLeast(b) => Some(ratio(b - self.measured, b)),
+            Bound::Info => None,
+        }
+    }
+
     /// `ok`, `FAILS`, or `info`.
     pub fn verdict(&self) -> &'static str {
         match (self.judged(), self.holds()) {
@@ -339,6 +360,26 @@ impl std::fmt::Display for Disagreement {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The share of a bound a check used: 1 at the bound, above it failing, for both kinds of
+    /// bound, zero bounds included; none for information.
+    #[test]
+    fn used_is_the_measured_share_of_the_bound() {
+        let used = |d: Disagreement| d.used().unwrap();
+        assert_eq!(used(Disagreement::at_most("s", "w", 0.5e-4, 1e-4)), 0.5);
+        assert_eq!(used(Disagreement::at_most("s", "w", 2e-4, 1e-4)), 2.0);
+        assert_eq!(used(Disagreement::at_most("s", "w", 0.0, 0.0)), 0.0);
+        assert!(used(Disagreement::at_most("s", "w", 1.0, 0.0)).is_infinite());
+        assert!((used(Disagreement::at_least("s", "w", 0.9995, 0.999)) - 0.5).abs() < 1e-9);
+        assert!((used(Disagreement::at_least("s", "w", 0.99, 0.999)) - 10.0).abs() < 1e-6);
+        assert_eq!(used(Disagreement::at_least("s", "w", 1.0, 0.999)), 0.0);
+        assert_eq!(Disagreement::info("s", "w", 3.0).used(), None);
+        for d in
+            [Disagreement::at_most("s", "w", 3.0, 2.0), Disagreement::at_least("s", "w", 0.5, 0.9)]
+        {
+            assert_eq!(d.holds(), d.used().unwrap() <= 1.0);
+        }
+    }
 
     #[test]
     fn bounds_hold_and_fail_on_the_right_side() {
