@@ -17,12 +17,11 @@ pub struct VerifyArgs {
     scene: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameArgs,
-    /// Stages to verify, comma-separated [default: all]: rng, trace_vpls, rsm_vpls (the
-    /// reflective shadow maps of --rsm-size, whatever --vpl-source is), shading_points,
-    /// cluster, visibility, shade, bias_points (the clamp's bias compensation), frame. The shade
-    /// and frame stages run in every mode (--cluster x --fuzzy) unless --cluster or --fuzzy picks
+    /// Stages to verify, comma-separated [default: all]. rsm_vpls verifies the reflective shadow
+    /// maps of --rsm-size whatever --vpl-source is; bias_points is the clamp's bias compensation;
+    /// shade and frame run in every mode (--cluster x --fuzzy) unless --cluster or --fuzzy picks
     /// one.
-    #[arg(long, value_delimiter = ',', value_parser = parse_stage, value_name = "LIST")]
+    #[arg(long, value_delimiter = ',', value_parser = StageParser, value_name = "LIST")]
     stages: Vec<VerifyStage>,
     /// Read the WGSL from DIR instead of the compiled-in copies: every file DIR holds under the
     /// names of shaders/ (shade.wgsl, common/rng.wgsl, ...) replaces the built-in one, so an
@@ -34,11 +33,35 @@ pub struct VerifyArgs {
     out: PathBuf,
 }
 
-fn parse_stage(s: &str) -> Result<VerifyStage, String> {
-    VerifyStage::from_name(s.trim()).ok_or_else(|| {
-        let names: Vec<&str> = VerifyStage::ALL.iter().map(|s| s.name()).collect();
-        format!("unknown stage '{s}' (stages: {})", names.join(", "))
-    })
+/// Reads a stage by name; its possible values, which `--help` lists, are the stages of
+/// `VerifyStage::ALL`.
+#[derive(Clone)]
+struct StageParser;
+
+impl clap::builder::TypedValueParser for StageParser {
+    type Value = VerifyStage;
+
+    fn parse_ref(
+        &self,
+        _cmd: &clap::Command,
+        _arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<VerifyStage, clap::Error> {
+        let s = value.to_string_lossy();
+        VerifyStage::from_name(s.trim()).ok_or_else(|| {
+            let names: Vec<&str> = VerifyStage::ALL.iter().map(|s| s.name()).collect();
+            clap::Error::raw(
+                clap::error::ErrorKind::InvalidValue,
+                format!("unknown stage '{s}' (stages: {})\n", names.join(", ")),
+            )
+        })
+    }
+
+    fn possible_values(
+        &self,
+    ) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
+        Some(Box::new(VerifyStage::ALL.iter().map(|s| clap::builder::PossibleValue::new(s.name()))))
+    }
 }
 
 /// Prints each stage's measurements as it finishes.
