@@ -845,7 +845,7 @@ impl vplgi_frame::Counted for Clustering {
 }
 
 /// The points' positions and normals, as the clustering reads them.
-fn positions_and_normals(points: &[Endpoint]) -> (Vec<Vec3>, Vec<Vec3>) {
+pub(crate) fn positions_and_normals(points: &[Endpoint]) -> (Vec<Vec3>, Vec<Vec3>) {
     (points.iter().map(Endpoint::p).collect(), points.iter().map(Endpoint::n).collect())
 }
 

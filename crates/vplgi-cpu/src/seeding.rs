@@ -10,7 +10,6 @@ use vplgi_types::clustering::{ward_error, FixedPoint};
 use vplgi_shared::seeding::{capped_shares, quantize_error, ranks, Quadtree, SeedParams, CHILDREN};
 use vplgi_types::MISS;
 use crate::backend::CpuHits;
-use crate::visibility::Endpoint;
 use crate::CpuScene;
 use vplgi_frame::FrameError;
 use vplgi_types::CameraParams;
@@ -202,8 +201,7 @@ pub fn seeding(hits: &ImageHits, params: &SeedParams) -> Vec<u32> {
 
 impl vplgi_frame::stages::Seeding for CpuScene<'_> {
     fn seeding(&self, hits: &CpuHits, camera: &CameraParams, params: &SeedParams) -> Result<Vec<u32>, FrameError> {
-        let pos: Vec<Vec3> = hits.points.iter().map(Endpoint::p).collect();
-        let nor: Vec<Vec3> = hits.points.iter().map(Endpoint::n).collect();
+        let (pos, nor) = crate::cluster::positions_and_normals(&hits.points);
         // Hits are in sample order: pixel p's are those of samples p spp .. (p + 1) spp.
         let pixels = camera.width as usize * camera.height as usize;
         let pixel_first: Vec<u32> = (0..=pixels).map(|p| hits.samples.partition_point(|&s| (s as usize) < p * camera.spp as usize) as u32).collect();

@@ -196,9 +196,10 @@ pub fn glb(scene: &Scene) -> Result<Vec<u8>, String> {
         lights.push(light_json(intensity, extra));
     }
     let mut used = vec!["KHR_materials_emissive_strength"];
+    let glass = scene.materials.iter().any(|m| m.surface.is_glass());
     for (ext, any) in [
-        ("KHR_materials_transmission", scene.materials.iter().any(|m| m.surface.is_glass())),
-        ("KHR_materials_ior", scene.materials.iter().any(|m| m.surface.is_glass())),
+        ("KHR_materials_transmission", glass),
+        ("KHR_materials_ior", glass),
         (
             "KHR_materials_volume",
             scene.materials.iter().any(|m| matches!(m.surface, Surface::Dielectric { .. })),

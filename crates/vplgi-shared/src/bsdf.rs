@@ -189,20 +189,13 @@ fn reflect(wi: Vec3) -> Vec3 {
     Vec3::new(-wi.x, -wi.y, wi.z)
 }
 
-/// The twosided wrapper: a one-sided lobe seen from below is evaluated mirrored.
-fn upper(wi: Vec3, wo: Vec3) -> (Vec3, Vec3) {
-    if wi.z < 0.0 {
-        (Vec3::new(wi.x, wi.y, -wi.z), Vec3::new(wo.x, wo.y, -wo.z))
+/// The twosided wrapper: a one-sided lobe seen from below (`wi.z < 0`) is evaluated mirrored
+/// through the surface's plane, `wi` and `wo` alike.
+fn mirrored(v: Vec3, below: bool) -> Vec3 {
+    if below {
+        Vec3::new(v.x, v.y, -v.z)
     } else {
-        (wi, wo)
-    }
-}
-
-fn below(wi: Vec3, wo: Vec3) -> Vec3 {
-    if wi.z < 0.0 {
-        Vec3::new(wo.x, wo.y, -wo.z)
-    } else {
-        wo
+        v
     }
 }
 
@@ -315,7 +308,8 @@ impl Bsdf {
 
     /// The BSDF times |cos θ_o|; 0 for the delta lobes.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        let (wi, wo) = upper(wi, wo);
+        let below = wi.z < 0.0;
+        let (wi, wo) = (mirrored(wi, below), mirrored(wo, below));
         match *self {
             Bsdf::Diffuse { reflectance } => diffuse_eval(reflectance, wi, wo),
             Bsdf::RoughConductor { reflectance, alpha } => rough_eval(reflectance, alpha, wi, wo),
@@ -331,7 +325,8 @@ impl Bsdf {
 
     /// The solid-angle density of [`Self::sample`] drawing `wo`; 0 for the delta lobes.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let (wi, wo) = upper(wi, wo);
+        let below = wi.z < 0.0;
+        let (wi, wo) = (mirrored(wi, below), mirrored(wo, below));
         match *self {
             Bsdf::Diffuse { .. } => diffuse_pdf(wi, wo),
             Bsdf::RoughConductor { alpha, .. } => rough_pdf(alpha, wi, wo),
@@ -346,8 +341,9 @@ impl Bsdf {
     /// None where the surface sends nothing (`wi` in its plane, or a microfacet reflection below
     /// the surface).
     pub fn sample(&self, wi: Vec3, u1: f32, u: Vec2, transport: Transport) -> Option<Sample> {
-        let flip = |s: Sample| Sample { wo: below(wi, s.wo), ..s };
-        let up = upper(wi, wi).0;
+        let below = wi.z < 0.0;
+        let flip = |s: Sample| Sample { wo: mirrored(s.wo, below), ..s };
+        let up = mirrored(wi, below);
         match *self {
             Bsdf::Diffuse { reflectance } => diffuse_sample(reflectance, up, u).map(flip),
             Bsdf::RoughConductor { reflectance, alpha } => {
