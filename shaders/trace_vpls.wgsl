@@ -1,11 +1,12 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/bsdf.wgsl common/lights.wgsl common/scene.wgsl
 // Stage 1, trace_vpls (vplgi-cpu/src/trace_vpls.rs), in three kernels:
 //   trace:   one thread per light particle; its VPLs go to `bounces` fixed slots, with a count;
 //   (scan.wgsl turns the counts into exclusive offsets and the batch total);
 //   compact: copies the VPLs of the batch behind those already kept, up to the requested
 //            count, and records how many particles were used when the count is reached.
 // Particle i uses only point i of the frame's scrambled Sobol' set (its emission) and the stream
-// (seed, STREAM_LIGHT_PATH, i) (its bounces), so batching does not matter.
+// (seed, STREAM_LIGHT_PATH, i) (its bounces), so batching does not matter. Mirrors and glass hold
+// no VPL: the particle reflects or refracts there, at most specular_depth times in a row.
 // Fluxes are divided by the particle count by `normalize` once it is known.
 
 struct Params {
@@ -16,7 +17,7 @@ struct Params {
     wanted: u32,       // VPLs requested in total
     kept: u32,         // VPLs kept before this batch
     eps: f32,
-    pad: u32,
+    specular_depth: u32,  // mirrors and glass passed between two VPLs
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -103,14 +104,38 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         }
         origin = origin + surface_normal * params.eps;
         let inf = bitcast<f32>(0x7f800000u);
-        for (var bounce = 1u; bounce <= params.bounces; bounce = bounce + 1u) {
+        var specular = 0u;   // in a row
+        var passed = 0u;     // in all
+        var bounce = 1u;
+        while (bounce <= params.bounces) {
             let hit = bvh_trace(origin, dir, 0.0, inf, false);
             if (hit.triangle == NO_HIT) {
                 break;
             }
             let s = surface_at(hit, dir);
+            if (specular < params.specular_depth && bsdf_is_specular(s.bsdf)) {
+                // Power: no η² on refraction (radiance = false).
+                var n = s.ns;
+                if (!s.facing) {
+                    n = -s.ns;
+                }
+                let tb = orthonormal_basis(n);
+                let wi = -dir;
+                let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
+                let b = bsdf_sample(s.bsdf, local, rng_next_f32(&rng), vec2<f32>(0.0), false);
+                if (b.valid == 0u) {
+                    break;
+                }
+                power = power * b.weight;
+                specular = specular + 1u;
+                passed = passed + 1u;
+                dir = tb[0] * b.wo.x + tb[1] * b.wo.y + n * b.wo.z;
+                origin = offset_toward(s.position, s.ng, s.position + dir, params.eps);
+                continue;
+            }
+            specular = 0u;
             let flux = power * s.albedo;
-            slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, flux, 0u);
+            slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, flux, passed);
             n = n + 1u;
             if (bounce == params.bounces) {
                 break;
@@ -127,6 +152,7 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
                 break;
             }
             origin = s.position + s.ng * params.eps;
+            bounce = bounce + 1u;
         }
     }
     counts[local] = n;

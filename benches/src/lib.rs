@@ -139,12 +139,9 @@ pub struct Inputs {
 impl Inputs {
     pub fn new(cfg: &FrameConfig) -> Inputs {
         let cs = cpu_scene();
-        let vpls =
-            vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress)
-                .vpls;
-        let sps = vplgi_cpu::shading_points::shading_points(
-            &cs, cfg.width, cfg.height, cfg.spp, cfg.seed,
-        );
+        let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, &cfg.trace_params(), &NoProgress).vpls;
+        let sps =
+            vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
         let hits: Vec<usize> = (0..sps.len()).filter(|&i| sps[i].triangle != MISS).collect();
         let mut row_of = vec![MISS; sps.len()];
         for (r, &i) in hits.iter().enumerate() {

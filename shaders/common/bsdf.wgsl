@@ -1,15 +1,7 @@
 // Surface scattering as Mitsuba 3 defines it: the twin of vplgi-shared/src/bsdf.rs, operation for
 // operation. Local shading frame (normal +z); eval is the BSDF times |cos θ_o|; a sample's weight
-// is eval / pdf of the lobe it came from. Needs common/sampling.wgsl.
-
-struct BsdfRecord {
-    reflectance: vec3<f32>,
-    kind: u32,
-    alpha: f32,
-    eta: f32,
-    metallic: f32,
-    pad: u32,
-}
+// is eval / pdf of the lobe it came from. Needs common/types.wgsl (BsdfRecord) and
+// common/sampling.wgsl.
 
 struct BsdfSample {
     wo: vec3<f32>,
@@ -247,4 +239,9 @@ fn bsdf_sample(b: BsdfRecord, wi: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bo
         default: {}
     }
     return s;
+}
+
+// Every lobe a delta (Bsdf::is_specular): seen only along mirror and refraction directions.
+fn bsdf_is_specular(b: BsdfRecord) -> bool {
+    return b.kind == BSDF_MIRROR || b.kind == BSDF_DIELECTRIC || b.kind == BSDF_THIN_DIELECTRIC;
 }

@@ -21,6 +21,8 @@ struct Surface {
     ns: vec3<f32>,        // shading normal in ng's hemisphere
     albedo: vec3<f32>,
     emitted: vec3<f32>,   // emission towards the ray's origin (front side only)
+    bsdf: BsdfRecord,     // its reflectance is albedo
+    facing: bool,         // the ray hit the front side (where the geometric normal points)
 }
 
 override TEXEL_PAGE: u32 = 4294967295u;
@@ -107,5 +109,8 @@ fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
     if (facing) {
         s.emitted = m.emission.xyz;
     }
+    s.bsdf = m.bsdf;
+    s.bsdf.reflectance = s.albedo;
+    s.facing = facing;
     return s;
 }

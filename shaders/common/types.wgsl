@@ -7,7 +7,7 @@ struct ShadingPoint {
     normal: vec3<f32>,
     triangle: u32,
     albedo: vec3<f32>,
-    pad0: u32,
+    specular: u32,       // mirrors and glass passed on the way (shading_points.wgsl)
     emitted: vec3<f32>,
     pad1: u32,
 }
@@ -18,7 +18,7 @@ struct Vpl {
     normal: vec3<f32>,
     bounce: u32,
     flux: vec3<f32>,
-    pad: u32,
+    specular: u32,   // mirrors and glass passed since the light (trace_vpls)
 }
 
 // A VPL, or a VPL cluster at its representative with its members' summed flux, as a light.
@@ -69,9 +69,20 @@ struct SceneTri {
     uv2: vec4<f32>,  // uv of vertex 2 (xy)
 }
 
+// One surface's BSDF (vplgi_types::BsdfRecord; common/bsdf.wgsl evaluates it).
+struct BsdfRecord {
+    reflectance: vec3<f32>,
+    kind: u32,
+    alpha: f32,
+    eta: f32,
+    metallic: f32,
+    pad: u32,
+}
+
 struct Material {
     base_color: vec4<f32>, // w = bitcast<f32>(texture index), MISS when untextured
     emission: vec4<f32>,
+    bsdf: BsdfRecord,      // reflectance 0: the hit's colour goes there (surface_at)
 }
 
 // Where a texture's texels start in the texel array, and its size.

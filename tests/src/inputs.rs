@@ -5,8 +5,8 @@ use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use vplgi_cpu::CpuScene;
 use vplgi_scene::cornell::cornell_box;
-use vplgi_scene::{Camera, Material, PunctualLight, Scene};
-use vplgi_types::{Rng, Stream};
+use vplgi_scene::{Camera, Material, PunctualLight, Scene, Surface};
+use vplgi_types::{CameraParams, Rng, Stream};
 
 /// The Cornell box with a coloured spot light added (cones of 25.8 and 45.6 degrees, aimed
 /// off the vertical): a scene with every light kind but the point light.
@@ -68,7 +68,10 @@ pub fn cornell_points(width: u32, height: u32, seed: u32) -> (Vec<Vec3>, Vec<Vec
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).expect("Embree device");
     let cs = CpuScene::new(&scene, &device).expect("Embree scene");
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, width, height, 1, seed);
+    let sps = vplgi_cpu::shading_points::shading_points(
+        &cs,
+        &CameraParams::new(cs.scene.camera, width, height, 1, seed),
+    );
     sps.iter()
         .filter(|s| !s.is_miss())
         .map(|s| (Vec3::from(s.position), Vec3::from(s.normal)))
@@ -344,6 +347,72 @@ pub fn room() -> impl Strategy<Value = Scene> {
         s.camera = camera(eye, centre - Vec3::Z * size.z * 0.2, 1.0);
         s
     })
+}
+
+/// A closed glass slab (index 1.5) x, y in [-1, 1], z in [-`SLAB_HALF`, `SLAB_HALF`], in front
+/// of a diffuse wall of albedo 0.5 at z = -1, seen by the default camera at (0, 0, 5) looking
+/// down -z: a ray through the slab's front and back faces leaves parallel to itself, shifted
+/// by Snell's law.
+pub fn glass_slab_before_wall() -> Scene {
+    let mut s = Scene { name: "glass slab before a wall".into(), ..Scene::default() };
+    let wall = material(&mut s, Vec3::splat(0.5), Vec3::ZERO);
+    grid_quad(
+        &mut s,
+        Vec3::new(-3.0, -3.0, -1.0),
+        (Vec3::X * 6.0, Vec3::Y * 6.0),
+        1,
+        Vec3::Z,
+        wall,
+    );
+    let glass = material(&mut s, Vec3::ONE, Vec3::ZERO);
+    s.materials[glass as usize].surface = Surface::Dielectric { eta: 1.5 };
+    closed_box(&mut s, Vec3::ZERO, Vec3::new(1.0, 1.0, SLAB_HALF), glass);
+    s.validate().expect("a valid scene");
+    s
+}
+
+/// Half the thickness of [`glass_slab_before_wall`]'s slab.
+pub const SLAB_HALF: f32 = 0.3;
+
+/// A point light of intensity `intensity` at height `light` between a mirror floor (y = 0,
+/// reflectance 0.9) and a diffuse ceiling (y = `ceiling`, albedo 0.5, facing down), both 20
+/// wide: the ceiling is lit by the light and by its mirror image at y = -`light`.
+pub fn point_light_between_mirror_and_ceiling(light: f32, ceiling: f32, intensity: f32) -> Scene {
+    let mut s =
+        Scene { name: "point light between a mirror and a ceiling".into(), ..Scene::default() };
+    let mirror = material(&mut s, Vec3::splat(0.9), Vec3::ZERO);
+    s.materials[mirror as usize].surface = Surface::Mirror;
+    let ceiling_material = material(&mut s, Vec3::splat(0.5), Vec3::ZERO);
+    let (corner, u, v) = (Vec3::new(-10.0, 0.0, -10.0), Vec3::X * 20.0, Vec3::Z * 20.0);
+    grid_quad(&mut s, corner, (u, v), 1, Vec3::Y, mirror);
+    grid_quad(&mut s, corner + Vec3::Y * ceiling, (u, v), 1, -Vec3::Y, ceiling_material);
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::Y * light,
+        intensity: Vec3::splat(intensity),
+    });
+    s.validate().expect("a valid scene");
+    s
+}
+
+/// `scene` with every third material a mirror and every third glass (index 1.5), starting at the
+/// second: random scenes with specular chains, glass in open meshes included.
+pub fn with_mirrors_and_glass(mut scene: Scene) -> Scene {
+    for (i, m) in scene.materials.iter_mut().enumerate() {
+        m.surface = match i % 3 {
+            1 => Surface::Mirror,
+            2 => Surface::Dielectric { eta: 1.5 },
+            _ => Surface::Diffuse,
+        };
+    }
+    scene.name = format!("{} with mirrors and glass", scene.name);
+    scene
+}
+
+/// A box of centre `c` and half extents `half`, all six faces facing out.
+fn closed_box(s: &mut Scene, c: Vec3, half: Vec3, material: u32) {
+    let (hx, hy, hz) = (Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z);
+    open_box(s, c, half, 1, material);
+    grid_quad(s, c - hx - hy - hz, (2.0 * hx, 2.0 * hz), 1, -Vec3::Y, material);
 }
 
 /// A random scene: a triangle soup or a room.

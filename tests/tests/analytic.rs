@@ -6,7 +6,7 @@ use vplgi_cpu::shade::{indirect, LightArrays, VisibilitySource, VplLight};
 use vplgi_cpu::visibility::BitMatrix;
 use vplgi_cpu::{CpuScene, NoProgress};
 use vplgi_scene::cornell::plane_with_point_light;
-use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint};
+use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint, TraceParams};
 
 /// A point light of intensity I at height h over a Lambertian plane of albedo ρ: the radiance at
 /// horizontal distance r is ρ/π · I h / (h² + r²)^{3/2}. With no VPLs the image is exactly that
@@ -24,8 +24,7 @@ fn point_light_over_a_plane_matches_the_closed_form() {
         cluster: ClusterMode::None,
         ..FrameConfig::reference()
     };
-    let sps =
-        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
     let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
     let mut checked = 0;
     let mut worst = 0.0f32;
@@ -101,7 +100,7 @@ fn vpl_flux_from_a_point_light_matches_the_solid_angle() {
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
     let n = 40_000;
-    let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, 7, n, 1, &NoProgress);
+    let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, &TraceParams::new(7, n, 1), &NoProgress);
     assert_eq!(set.vpls.len(), n as usize);
     let total: f64 = set.vpls.iter().map(|v| v.flux[0] as f64).sum();
     let omega = 4.0 * ((a * a) as f64 / (h as f64 * ((2.0 * a * a + h * h) as f64).sqrt())).atan();
@@ -140,8 +139,7 @@ fn sun_over_a_plane_matches_the_closed_form_on_both_backends() {
         cluster: ClusterMode::None,
         ..FrameConfig::reference()
     };
-    let sps =
-        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
     let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
     let gpu =
         vplgi_tests::gpu("sun_over_a_plane_matches_the_closed_form_on_both_backends").map(|ctx| {
@@ -223,7 +221,7 @@ fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     let expected = e * plane_rho * plane_lit + e * box_rho * (top + wall_x + wall_z);
     let sun = vplgi_scene::lights::SunFrame::of(&scene);
     let n = 60_000;
-    let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, 9, n, 1, &NoProgress);
+    let set = vplgi_cpu::trace_vpls::trace_vpls(&cs, &TraceParams::new(9, n, 1), &NoProgress);
     let total = set.vpls.iter().fold(glam::DVec3::ZERO, |a, v| a + Vec3::from(v.flux).as_dvec3());
     let p = (4.0 * -d.y) / (std::f64::consts::PI * (sun.radius as f64).powi(2));
     let sigma = ((1.0 - p) / (n as f64 * p)).sqrt();
@@ -301,7 +299,7 @@ fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
     }
     let camera = cfg.camera_params(scene.camera);
     let cpu_sps =
-        vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+        vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
     let gpu_sps = ctx.as_ref().map(|ctx| {
         let gs = vplgi_gpu::scene::GpuScene::new(&ctx.device, &scene).unwrap();
         let kernel = vplgi_gpu::shading_points::ShadingPointsKernel::new(&ctx.device).unwrap();

@@ -7,7 +7,7 @@ use vplgi_cpu::CpuScene;
 use vplgi_frame::{render, Backend};
 use vplgi_gpu::GpuBackend;
 use vplgi_scene::cornell::cornell_box;
-use vplgi_types::{ClusterMode, FrameConfig};
+use vplgi_types::{CameraParams, ClusterMode, FrameConfig};
 
 /// A large clamp (d_min = half the diagonal) so that it removes a good share of the light.
 const G_CLAMP: f32 = 0.5;
@@ -112,7 +112,10 @@ fn bias_points_match_the_cpu() {
     let scene = cornell_box();
     let (w, h, spp) = (64, 64, 2);
     vplgi_tests::with_twins(gpu, &scene, |t| {
-        let mut parents = vplgi_cpu::shading_points::shading_points(t.cpu, w, h, spp, 5);
+        let mut parents = vplgi_cpu::shading_points::shading_points(
+            t.cpu,
+            &CameraParams::new(t.cpu.scene.camera, w, h, spp, 5),
+        );
         for level in 1..=2 {
             let params = config(5).bias_params(t.cpu.extent, level);
             let kept = vplgi_cpu::bias_points::bias_points(t.cpu, &parents, 0, &params);
@@ -160,7 +163,7 @@ proptest::proptest! {
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
             let cfg = FrameConfig { width, height, spp: 1, seed, g_clamp_rel: g_clamp, ..FrameConfig::reference() };
-            let parents = vplgi_cpu::shading_points::shading_points(t.cpu, width, height, 1, seed);
+            let parents = vplgi_cpu::shading_points::shading_points(t.cpu, &CameraParams::new(t.cpu.scene.camera, width, height, 1, seed));
             vplgi_verify::bias_points::compare(t, &parents, (width, 1), &cfg.bias_params(t.cpu.extent, 1))
         })
         .expect("GPU");

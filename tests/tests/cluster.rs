@@ -377,7 +377,7 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
             } else {
                 ([0.5, i - 0.5, j], [-1.0, 0.0, 0.0])
             };
-            vplgi_types::Vpl { position, path: t, normal, bounce: 1, flux: [1e-3; 3], _pad: 0 }
+            vplgi_types::Vpl { position, path: t, normal, bounce: 1, flux: [1e-3; 3], specular: 0 }
         })
         .collect();
     let map = RsmLight { size: n, ..point(Vec3::ZERO, Vec3::ONE) };
@@ -406,7 +406,7 @@ fn rsm_row(positions: &[[f32; 3]], flux: &[[f32; 3]], k: u32) -> vplgi_cpu::clus
             normal: [0.0, 1.0, 0.0],
             bounce: 1,
             flux: flux[t],
-            _pad: 0,
+            specular: 0,
         })
         .collect();
     let map =

@@ -73,9 +73,8 @@ fn whole_frames_match_the_cpu_in_every_mode() {
             );
         }
         // Pixels whose primary rays agree on the triangle in both backends.
-        let c_sp = vplgi_cpu::shading_points::shading_points(
-            &cs, cfg.width, cfg.height, cfg.spp, cfg.seed,
-        );
+        let c_sp =
+            vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
         let g_sp =
             spk.run(&ctx.device, &ctx.queue, &gs, &cfg.camera_params(scene.camera), None).unwrap();
         let same: Vec<bool> =

@@ -7,7 +7,7 @@ use vplgi_gpu::scene::GpuScene;
 use vplgi_gpu::visibility::words_per_row;
 use vplgi_scene::cornell::cornell_box;
 use vplgi_tests::tolerance::{Disagreement, SHADE_REL_MSE};
-use vplgi_types::{LightShape, ShadeParams};
+use vplgi_types::{CameraParams, LightShape, ShadeParams, TraceParams};
 
 /// Shading given identical inputs — the CPU's shading points, VPL lights, visibility matrix and
 /// fuzzy clusters — in both visibility modes: relMSE(GPU, CPU) ≤ 1e-4 (SPEC).
@@ -28,13 +28,21 @@ fn shade_matches_the_cpu_on_identical_inputs() {
     let gs = GpuScene::new(&ctx.device, &scene).unwrap();
     let kernel = ShadeKernel::new(&ctx.device).unwrap();
     let (w, h, spp, seed, direct) = (40u32, 36u32, 2u32, 5u32, 3u32);
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, w, h, spp, seed);
+    let sps = vplgi_cpu::shading_points::shading_points(
+        &cs,
+        &CameraParams::new(cs.scene.camera, w, h, spp, seed),
+    );
     let hits: Vec<u32> = (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
     let mut row_of = vec![MISS; sps.len()];
     for (r, &i) in hits.iter().enumerate() {
         row_of[i as usize] = r as u32;
     }
-    let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, seed, 400, 3, &vplgi_cpu::NoProgress).vpls;
+    let vpls = vplgi_cpu::trace_vpls::trace_vpls(
+        &cs,
+        &TraceParams::new(seed, 400, 3),
+        &vplgi_cpu::NoProgress,
+    )
+    .vpls;
     let g_max = 1.0 / (0.05 * cs.extent).powi(2);
     // The CPU's and the GPU's lights are the same records.
     let to_gpu_lights = |ls: &vplgi_cpu::shade::VplLights| -> Vec<VplLight> { ls.lights.clone() };
@@ -319,7 +327,7 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
                 normal: [0.0, 1.0, 0.0],
                 bounce: 1,
                 flux: [1e-4, 2e-4 * x, 3e-5],
-                _pad: 0,
+                specular: 0,
             }
         })
         .collect();

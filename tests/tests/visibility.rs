@@ -8,7 +8,7 @@ use vplgi_gpu::scene::GpuScene;
 use vplgi_gpu::visibility::{words_per_row, Endpoint, VisibilityKernel};
 use vplgi_scene::cornell::cornell_box;
 use vplgi_tests::tolerance::{Disagreement, VISIBILITY_SAME_BITS};
-use vplgi_types::{Rng, Stream};
+use vplgi_types::{CameraParams, Rng, Stream, TraceParams};
 
 /// obvhs' own CPU traversal, the third opinion on visibility.
 fn obvhs_visible(
@@ -39,10 +39,18 @@ fn visibility_agrees_three_ways() {
     let scene = cornell_box();
     let device = vplgi_embree::Device::new(None).unwrap();
     let cs = CpuScene::new(&scene, &device).unwrap();
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, 48, 48, 1, 1);
+    let sps = vplgi_cpu::shading_points::shading_points(
+        &cs,
+        &CameraParams::new(cs.scene.camera, 48, 48, 1, 1),
+    );
     let rows: Vec<vplgi_cpu::visibility::Endpoint> =
         sps.iter().filter(|s| !s.is_miss()).map(vplgi_cpu::visibility::Endpoint::of).collect();
-    let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, 3, 300, 3, &vplgi_cpu::NoProgress).vpls;
+    let vpls = vplgi_cpu::trace_vpls::trace_vpls(
+        &cs,
+        &TraceParams::new(3, 300, 3),
+        &vplgi_cpu::NoProgress,
+    )
+    .vpls;
     let cols: Vec<vplgi_cpu::visibility::Endpoint> = vpls.iter().map(Endpoint::of_vpl).collect();
     let (embree, rays) =
         vplgi_cpu::visibility::visibility(&cs, &rows, &cols, &vplgi_cpu::NoProgress);

@@ -15,7 +15,7 @@ fn bias_points(c: &mut Criterion) {
     let kernel = gpu.as_ref().map(|g| BiasPointsKernel::new(&g.ctx.device).expect("bias_points pipeline"));
     for size in sizes() {
         let cfg = &size.cfg;
-        let parents = vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+        let parents = vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
         let params = cfg.bias_params(cs.extent, 1);
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| b.iter(|| vplgi_cpu::bias_points::bias_points(&cs, &parents, 0, &params)));
         if let (Some(g), Some(k)) = (&gpu, &kernel) {

@@ -70,7 +70,7 @@ fn cluster_stage(c: &mut Criterion) {
     // built and warped, as the paper's Table 1 times it.
     let cs = vplgi_benches::cpu_scene();
     let view = vplgi_types::FrameConfig::default();
-    let sps = vplgi_cpu::shading_points::shading_points(&cs, view.width, view.height, view.spp, view.seed);
+    let sps = vplgi_cpu::shading_points::shading_points(&cs, &view.camera_params(cs.scene.camera));
     let gbuffer: Vec<vplgi_types::Endpoint> = vplgi_shared::rsm_importance::pixel_samples(view.width, view.height, view.spp)
         .into_iter()
         .map(|s| &sps[s as usize])

@@ -13,7 +13,7 @@ fn shading_points(c: &mut Criterion) {
     for size in sizes() {
         let cfg = &size.cfg;
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
-            b.iter(|| vplgi_cpu::shading_points::shading_points(&cs, cfg.width, cfg.height, cfg.spp, cfg.seed))
+            b.iter(|| vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera)))
         });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let n = cfg.width as u64 * cfg.height as u64 * cfg.spp as u64;

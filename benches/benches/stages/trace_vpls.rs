@@ -14,7 +14,7 @@ fn trace_vpls(c: &mut Criterion) {
     for size in sizes() {
         let cfg = &size.cfg;
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
-            b.iter(|| vplgi_cpu::trace_vpls::trace_vpls(&cs, cfg.seed, cfg.vpls, cfg.bounces, &NoProgress))
+            b.iter(|| vplgi_cpu::trace_vpls::trace_vpls(&cs, &cfg.trace_params(), &NoProgress))
         });
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let run = || {

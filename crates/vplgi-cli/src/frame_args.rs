@@ -64,6 +64,13 @@ pub struct FrameArgs {
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spp: Option<u32>,
+    /// Mirrors and glass a camera ray follows, reflecting or refracting (chosen by Fresnel), to
+    /// the first surface that is neither: that surface becomes the sample's shading point, seen
+    /// through the chain's colour. After N of them the next surface is taken whatever it is
+    /// (0: the first hit, a mirror shaded as if matte).
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub specular_depth: Option<u32>,
     /// Seed of every random decision; the same seed gives a bit-identical image.
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]

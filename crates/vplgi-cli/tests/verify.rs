@@ -176,7 +176,7 @@ fn one_percent_more_emission_fails_at_one_and_three_spp() {
     )
     .expect("shading_points.wgsl");
     for (from, to) in [
-        ("sp.emitted = surf.emitted;", "sp.emitted = 1.01 * surf.emitted;"),
+        ("sp.emitted = path.emitted;", "sp.emitted = 1.01 * path.emitted;"),
         (
             "return sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
             "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);",

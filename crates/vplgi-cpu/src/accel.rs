@@ -5,6 +5,7 @@ use crate::lights::LightSampler;
 use glam::Vec3;
 use vplgi_embree::{Device, EmbreeError};
 use vplgi_scene::Scene;
+use vplgi_shared::bsdf::{Bsdf, Surface};
 
 /// A scene prepared for the CPU stages.
 pub struct CpuScene<'a> {
@@ -43,6 +44,17 @@ pub struct SurfaceHit {
     pub emitted: Vec3,
     pub triangle: u32,
     pub t: f32,
+    /// What the surface scatters like; its colour is `albedo`.
+    pub surface: Surface,
+    /// Whether the ray hit the triangle's front side (where its geometric normal points).
+    pub facing: bool,
+}
+
+impl SurfaceHit {
+    /// The BSDF here.
+    pub fn bsdf(&self) -> Bsdf {
+        self.surface.with_colour(self.albedo)
+    }
 }
 
 impl<'a> CpuScene<'a> {
@@ -81,6 +93,8 @@ impl<'a> CpuScene<'a> {
             emitted,
             triangle: hit.triangle,
             t: hit.t,
+            surface: self.scene.surface(t),
+            facing,
         })
     }
 

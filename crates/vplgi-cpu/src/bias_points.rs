@@ -72,7 +72,7 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
         normal: hit.ns.to_array(),
         triangle: hit.triangle,
         albedo: (hit.albedo * Vec3::from(sp.albedo) * w).to_array(),
-        _pad0: 0,
+        specular: 0,
         emitted: [0.0; 3],
         _pad1: 0,
     }

@@ -19,7 +19,7 @@ pub fn texel_vpl(cs: &CpuScene, maps: &[RsmLight], t: u32) -> Option<Vpl> {
     let ray = rsm::texel_ray(&maps[rsm::map_of(maps, t)], t)?;
     let hit = cs.trace(ray.origin + ray.surface_normal * cs.eps, ray.dir)?;
     let flux = ray.power * hit.albedo;
-    Some(Vpl { position: hit.position.to_array(), path: t, normal: hit.ns.to_array(), bounce: 1, flux: flux.to_array(), _pad: 0 })
+    Some(Vpl { position: hit.position.to_array(), path: t, normal: hit.ns.to_array(), bounce: 1, flux: flux.to_array(), specular: 0 })
 }
 
 /// The VPLs of the maps of every light of the scene for a budget of about `size²` texels.

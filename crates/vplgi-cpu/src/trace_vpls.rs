@@ -1,5 +1,7 @@
-//! Stage 1, `trace_vpls`: light particles leave the lights and leave a VPL at every diffuse
-//! surface they hit, up to `bounces` surfaces (SPEC, "VPL tracing").
+//! Stage 1, `trace_vpls`: light particles leave the lights and leave a VPL at every
+//! non-specular surface they hit, up to `bounces` surfaces (SPEC, "VPL tracing"). At mirrors and
+//! glass they reflect or refract and go on, carrying the chain's weight: a VPL cannot stand for a
+//! surface that scatters only along a delta direction.
 //!
 //! Particle `i` emits from point i of the frame's scrambled Sobol' set and bounces with the
 //! random stream (seed, `Stream::LightPath`, i), and uses nothing else, so its path does not
@@ -10,7 +12,8 @@
 //! of the light leaving surfaces after 1..=`bounces` reflections.
 
 use crate::CpuScene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use vplgi_shared::bsdf::Transport;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
 use vplgi_types::{sampling, Rng, Stream, Vpl};
@@ -33,13 +36,15 @@ pub fn emission_scramble(seed: u32) -> [u32; 5] {
     std::array::from_fn(|_| rng.next_u32())
 }
 
-/// Traces light particle `index`, returning its VPLs with flux not yet divided by the particle
-/// count. Its emission (light choice, point, direction) is point `index` of a Sobol' set shared
+/// Traces light particle `index` through `bounces` non-specular surfaces and at most
+/// `specular_depth` mirrors and glass between two of them, returning its VPLs with flux not yet
+/// divided by the particle count. Its emission (light choice, point, direction) is point `index` of a Sobol' set shared
 /// by the frame's particles and shifted by `scramble` ([`emission_scramble`]): the particles
 /// cover the lights' emission evenly instead of at random, so the VPLs, and the light they
 /// stand for, vary less from seed to seed. Each particle's emission is still uniformly
 /// distributed (the shift is random), so the estimate stays unbiased.
-pub fn trace_particle(cs: &CpuScene, seed: u32, scramble: [u32; 5], index: u32, bounces: u32) -> Vec<Vpl> {
+pub fn trace_particle(cs: &CpuScene, p: &TraceParams, scramble: [u32; 5], index: u32) -> Vec<Vpl> {
+    let TraceParams { seed, bounces, specular_depth, .. } = *p;
     let mut rng = Rng::new(seed, Stream::LightPath, index);
     // Direction in dimensions 1-2 (the best stratified pair), then light choice and point.
     let s = sampling::scrambled_sobol5(index, scramble);
@@ -49,12 +54,33 @@ pub fn trace_particle(cs: &CpuScene, seed: u32, scramble: [u32; 5], index: u32, 
     };
     let mut vpls = Vec::new();
     let (mut origin, mut dir, mut power) = (emission.origin + emission.surface_normal * cs.eps, emission.dir, emission.power);
-    for bounce in 1..=bounces {
+    // Specular vertices in a row, and in all.
+    let (mut specular, mut passed) = (0, 0);
+    let mut bounce = 1;
+    while bounce <= bounces {
         let Some(hit) = cs.trace(origin, dir) else {
             break;
         };
+        let bsdf = hit.bsdf();
+        if specular < specular_depth && bsdf.is_specular() {
+            // Power, not radiance: a refraction's weight carries no η² (Veach's adjoint BSDF).
+            let n = if hit.facing { hit.ns } else { -hit.ns };
+            let (t, b) = sampling::orthonormal_basis(n);
+            let wi = -dir;
+            let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
+            let Some(s) = bsdf.sample(local, rng.next_f32(), Vec2::ZERO, Transport::Importance) else {
+                break;
+            };
+            power *= s.weight;
+            specular += 1;
+            passed += 1;
+            dir = t * s.wo.x + b * s.wo.y + n * s.wo.z;
+            origin = cs.offset_toward(hit.position, hit.ng, hit.position + dir);
+            continue;
+        }
+        specular = 0;
         let flux = power * hit.albedo;
-        vpls.push(Vpl { position: hit.position.to_array(), path: index, normal: hit.ns.to_array(), bounce, flux: flux.to_array(), _pad: 0 });
+        vpls.push(Vpl { position: hit.position.to_array(), path: index, normal: hit.ns.to_array(), bounce, flux: flux.to_array(), specular: passed });
         if bounce == bounces {
             break;
         }
@@ -71,13 +97,15 @@ pub fn trace_particle(cs: &CpuScene, seed: u32, scramble: [u32; 5], index: u32, 
             break;
         }
         origin = hit.position + hit.ng * cs.eps;
+        bounce += 1;
     }
     vpls
 }
 
 /// Traces light particles until exactly `count` VPLs exist (or until a particle budget of
 /// `64 * count + 65536` is spent, for scenes whose light mostly escapes).
-pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: &dyn Progress) -> VplSet {
+pub fn trace_vpls(cs: &CpuScene, p: &TraceParams, progress: &dyn Progress) -> VplSet {
+    let TraceParams { seed, count, bounces, .. } = *p;
     let mut set = VplSet::default();
     if count == 0 || bounces == 0 || !cs.lights.has_lights() {
         return set;
@@ -89,7 +117,7 @@ pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: 
     let mut batch = count.clamp(1024, 1 << 16);
     'outer: while next < budget {
         let end = next.saturating_add(batch).min(budget);
-        let paths: Vec<Vec<Vpl>> = (next..end).into_par_iter().map(|i| trace_particle(cs, seed, scramble, i, bounces)).collect();
+        let paths: Vec<Vec<Vpl>> = (next..end).into_par_iter().map(|i| trace_particle(cs, p, scramble, i)).collect();
         for (offset, path) in paths.into_iter().enumerate() {
             set.particles = next + offset as u32 + 1;
             for v in path {
@@ -115,7 +143,7 @@ pub fn trace_vpls(cs: &CpuScene, seed: u32, count: u32, bounces: u32, progress: 
 
 impl vplgi_frame::stages::TraceVpls for CpuScene<'_> {
     fn trace_vpls(&self, p: &TraceParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, u32), FrameError> {
-        let set = trace_vpls(self, p.seed, p.count, p.bounces, progress);
+        let set = trace_vpls(self, p, progress);
         Ok((set.vpls, set.particles))
     }
 }

@@ -162,6 +162,7 @@ impl GpuScene {
                     f32::from_bits(m.base_color_texture.unwrap_or(MISS)),
                 ],
                 emission: [m.emission.x, m.emission.y, m.emission.z, 0.0],
+                bsdf: m.surface.with_colour(glam::Vec3::ZERO).record(),
             })
             .collect();
         let sampler = vplgi_scene::lights::LightSampler::new(scene);

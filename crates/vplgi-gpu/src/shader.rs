@@ -165,6 +165,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_SCRAMBLE", Stream::Scramble as u32),
         ("STREAM_SEEDING", Stream::Seeding as u32),
         ("STREAM_GATHER", Stream::Gather as u32),
+        ("STREAM_SPECULAR", Stream::Specular as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("BVH_LINK_LEAF", crate::bvh::LINK_LEAF),
@@ -673,12 +674,12 @@ mod tests {
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
         let table = crate::layout_rows! {
-            [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, emitted }
-            [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux }
+            [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, specular, emitted }
+            [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux, specular }
             [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
             [VplLight] "shade.wgsl" "VplLight" { position, normal, flux }
             [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
-            [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission }
+            [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission, bsdf }
             [TextureInfo] "shading_points.wgsl" "TextureInfo" { offset, width, height, format }
             [BvhTri] "visibility.wgsl" "BvhTri" { v0, v1, v2 }
             [Emitter] "shade.wgsl" "Emitter" { v0, e1, e2, normal, radiance }

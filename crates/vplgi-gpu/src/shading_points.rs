@@ -23,7 +23,8 @@ pub(crate) struct Params {
     pub(crate) seed: u32,
     pub(crate) first: u32,
     pub(crate) count: u32,
-    pub(crate) pad: [u32; 2],
+    pub(crate) specular_depth: u32,
+    pub(crate) eps: f32,
 }
 
 /// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
@@ -47,7 +48,7 @@ impl ShadingPointsKernel {
         camera: &CameraParams,
         samples: std::ops::Range<u32>,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let CameraParams { camera: cam, width, height, spp, seed } = *camera;
+        let CameraParams { camera: cam, width, height, spp, seed, specular_depth } = *camera;
         let (first, count) = (samples.start, samples.end - samples.start);
         let right = cam.forward.cross(cam.up).normalize();
         let v4 = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
@@ -62,7 +63,8 @@ impl ShadingPointsKernel {
             seed,
             first,
             count,
-            pad: [0; 2],
+            specular_depth,
+            eps: scene.eps,
         };
         validated(device, "shading_points", || {
             let p = kernel_params(device, "shading_points params", &params);
@@ -111,7 +113,7 @@ mod layout_tests {
     #[test]
     fn records_match_their_wgsl_layouts() {
         crate::shader::layout::check(crate::layout_rows! {
-            [super::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count }
+            [super::Params] "shading_points.wgsl" "Params" { cam_pos, cam_forward, cam_up, cam_right, width, height, spp, seed, first, count, specular_depth, eps }
         });
     }
 }

@@ -374,6 +374,16 @@ impl Scene {
         self.materials[self.material_ids[t] as usize].emission
     }
 
+    /// What triangle `t` scatters like.
+    pub fn surface(&self, t: usize) -> Surface {
+        self.materials[self.material_ids[t] as usize].surface
+    }
+
+    /// Whether some triangle is a mirror or glass: a camera ray may then follow a specular chain.
+    pub fn has_specular(&self) -> bool {
+        self.materials.iter().any(|m| m.surface.with_colour(Vec3::ONE).is_specular())
+    }
+
     /// Checks internal consistency (index ranges, array lengths, finite values). Loaders call
     /// this so that a broken file is reported instead of crashing a stage.
     pub fn validate(&self) -> Result<(), String> {

@@ -230,7 +230,7 @@ mod tests {
             normal: normal.to_array(),
             bounce: 1,
             flux: [flux; 3],
-            _pad: 0,
+            specular: 0,
         }
     }
 

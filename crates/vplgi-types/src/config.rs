@@ -327,6 +327,14 @@ pub struct FrameConfig {
     /// existed read as off.
     #[serde(default)]
     pub temporal: Temporal,
+    /// Mirrors and glass a camera ray follows to the surface that becomes its shading point.
+    /// Files written before the option existed read as 6.
+    #[serde(default = "default_specular_depth")]
+    pub specular_depth: u32,
+}
+
+fn default_specular_depth() -> u32 {
+    crate::params::DEFAULT_SPECULAR_DEPTH
 }
 
 fn default_gather_rays() -> u32 {
@@ -343,6 +351,9 @@ fn default_alpha() -> f32 {
 fn default_rsm_size() -> u32 {
     128
 }
+
+/// Largest `specular_depth`: a bound on the rays one camera sample may trace.
+pub const MAX_SPECULAR_DEPTH: u32 = 32;
 
 /// Largest `rsm_size`: 4096² texels hold 16 M VPL slots (768 MiB).
 pub const MAX_RSM_SIZE: u32 = 4096;
@@ -384,6 +395,7 @@ impl FrameConfig {
             gather_rays: default_gather_rays(),
             lighting: Lighting::All,
             temporal: Temporal::Off,
+            specular_depth: default_specular_depth(),
         }
     }
 
@@ -477,7 +489,12 @@ impl FrameConfig {
 
     /// The parameters of `trace_vpls`.
     pub fn trace_params(&self) -> crate::TraceParams {
-        crate::TraceParams { seed: self.seed, count: self.vpls, bounces: self.bounces }
+        crate::TraceParams {
+            seed: self.seed,
+            count: self.vpls,
+            bounces: self.bounces,
+            specular_depth: self.specular_depth,
+        }
     }
 
     /// The RSM-space clustering of the VPLs (`VplClustering::Rsm`) in a scene of diagonal
@@ -499,6 +516,7 @@ impl FrameConfig {
             height: self.height,
             spp: self.spp,
             seed: self.seed,
+            specular_depth: self.specular_depth,
         }
     }
 
@@ -534,6 +552,12 @@ impl FrameConfig {
 
     /// Checks ranges; the message names the offending parameter.
     pub fn validate(&self) -> Result<(), String> {
+        if self.specular_depth > MAX_SPECULAR_DEPTH {
+            return Err(format!(
+                "specular-depth must be at most {MAX_SPECULAR_DEPTH} (got {})",
+                self.specular_depth
+            ));
+        }
         let positive = [
             ("width", self.width),
             ("height", self.height),
@@ -716,6 +740,7 @@ mod tests {
             "gather_rays",
             "lighting",
             "temporal",
+            "specular_depth",
         ];
         for key in later {
             assert!(json.as_object_mut().unwrap().remove(key).is_some(), "no field {key}");
@@ -724,6 +749,7 @@ mod tests {
         // RSM seeding predates its importance map: old files keep the Halton seeds they had.
         assert_eq!(old, FrameConfig { rsm_seeding: RsmSeeding::Halton, ..FrameConfig::default() });
         assert_eq!((old.rsm_size, old.alpha, old.gather_rays), (128, 0.3, 16));
+        assert_eq!(old.specular_depth, 6);
     }
 
     #[test]

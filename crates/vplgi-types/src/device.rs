@@ -41,6 +41,8 @@ pub struct SceneTri {
 pub struct GpuMaterial {
     pub base_color: [f32; 4],
     pub emission: [f32; 4],
+    /// The material's BSDF with reflectance 0: a hit puts its own colour there.
+    pub bsdf: crate::BsdfRecord,
 }
 
 /// `TextureInfo` in `types.wgsl`: where a texture's texels start in the texel words, and how

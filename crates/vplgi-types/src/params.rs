@@ -8,8 +8,18 @@ pub struct TraceParams {
     pub seed: u32,
     /// VPLs to create.
     pub count: u32,
-    /// VPLs are deposited at the first `bounces` surfaces a particle hits.
+    /// VPLs are deposited at the first `bounces` non-specular surfaces a particle hits.
     pub bounces: u32,
+    /// Mirrors and glass a particle passes between two of those before the surface it meets
+    /// is taken whatever it is (0: every surface holds a VPL).
+    pub specular_depth: u32,
+}
+
+impl TraceParams {
+    /// `count` VPLs over `bounces` bounces, chains to the default depth.
+    pub fn new(seed: u32, count: u32, bounces: u32) -> Self {
+        TraceParams { seed, count, bounces, specular_depth: DEFAULT_SPECULAR_DEPTH }
+    }
 }
 
 /// `shading_points`: the camera samples of a `width` x `height` image, `spp` per pixel.
@@ -21,6 +31,21 @@ pub struct CameraParams {
     pub height: u32,
     pub spp: u32,
     pub seed: u32,
+    /// Mirrors and glass a camera ray passes before the surface it stops at is its shading
+    /// point, whatever that surface is (0: the first hit).
+    pub specular_depth: u32,
+}
+
+/// Specular vertices a camera ray follows unless told otherwise (`--specular-depth`): the core
+/// paper follows specular paths without a stated bound; six pass a ray through two glass
+/// objects (four interfaces) and two mirrors.
+pub const DEFAULT_SPECULAR_DEPTH: u32 = 6;
+
+impl CameraParams {
+    /// `width` x `height` pixels of `camera`, `spp` samples each, chains to the default depth.
+    pub fn new(camera: crate::Camera, width: u32, height: u32, spp: u32, seed: u32) -> Self {
+        CameraParams { camera, width, height, spp, seed, specular_depth: DEFAULT_SPECULAR_DEPTH }
+    }
 }
 
 /// Jittered camera samples (`spp` > 1) estimate the emission their pixel sees from

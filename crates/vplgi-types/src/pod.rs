@@ -25,7 +25,8 @@ pub struct Vpl {
     /// 1 for a VPL at the first surface a particle hit, 2 for the next one, ...
     pub bounce: u32,
     pub flux: [f32; 3],
-    pub _pad: u32,
+    /// Mirrors and glass the particle passed on its way here, since it left the light.
+    pub specular: u32,
 }
 
 /// The surface seen through one camera sample.
@@ -41,11 +42,15 @@ pub struct ShadingPoint {
     pub normal: [f32; 3],
     /// Index of the triangle that was hit, or [`MISS`].
     pub triangle: u32,
-    /// Diffuse albedo (base colour, texture applied), linear RGB.
+    /// Diffuse albedo (base colour, texture applied), linear RGB, times the throughput of the
+    /// specular chain the camera ray followed to reach it.
     pub albedo: [f32; 3],
-    pub _pad0: u32,
-    /// Radiance emitted towards the camera (non-zero on area lights): what the sample's own ray
-    /// sees for a pixel-centre sample, the pixel's mean estimated from stratified rays
+    /// Mirrors and glass the camera ray passed before reaching this point (at most
+    /// `--specular-depth`).
+    pub specular: u32,
+    /// Radiance emitted towards the camera (non-zero on area lights, and on what mirrors and
+    /// glass show of them): what the sample's own ray sees for a pixel-centre sample, the
+    /// pixel's mean estimated from stratified rays
     /// ([`EMISSION_STRATA`](crate::params::EMISSION_STRATA)) for a jittered one, miss or hit.
     pub emitted: [f32; 3],
     pub _pad1: u32,

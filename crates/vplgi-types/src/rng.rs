@@ -36,6 +36,8 @@ pub enum Stream {
     /// The directions of the gather rays that measure a sample point's harmonic mean distance
     /// (`--shade interpolate`).
     Gather = 9,
+    /// Reflect or refract at glass along a camera ray's specular chain (`shading_points`).
+    Specular = 10,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.

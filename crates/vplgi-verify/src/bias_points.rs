@@ -63,13 +63,12 @@ pub fn compare(twins: &Twins, parents: &[ShadingPoint], (width, spp): (u32, u32)
             }
         }
     }
-    let n = d.samples.max(1) as f64;
     let case = format!("{} parents, {} kept on the CPU, seed {}", count(parents.len()), count(kept), params.seed);
     Ok(vec![
         Disagreement::at_least(
             "bias_points",
             "share of compensation points on the same surface point",
-            (d.same + d.ties) as f64 / n,
+            d.same_surface_share(),
             SHADING_POINTS_SAME_SURFACE,
         )
         .with_case(&case)
@@ -96,7 +95,7 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::BiasPoints);
     let camera = cfg.camera_params(twins.scene.camera);
-    let mut parents = vplgi_cpu::shading_points::shading_points(twins.cpu, camera.width, camera.height, camera.spp, camera.seed);
+    let mut parents = vplgi_cpu::shading_points::shading_points(twins.cpu, &camera);
     for level in 1..=cfg.bounces.min(2) {
         let params = cfg.bias_params(twins.cpu.extent, level);
         r.checks.extend(compare(twins, &parents, (camera.width, camera.spp), &params)?);

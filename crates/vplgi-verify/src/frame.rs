@@ -68,10 +68,10 @@ fn compare(
     };
     let (c_agree, g_agree) = (pick(&cpu.pixels), pick(&gpu.pixels));
     let whole = rel_mse(&cpu.pixels, &gpu.pixels);
-    let same_surface = (hits.same + hits.ties) as f64 / hits.samples.max(1) as f64;
+    let same_surface = hits.same_surface_share();
     let mut checks = vec![Disagreement::at_least(
         "frame",
-        "share of primary hits on the same surface point",
+        "share of primary hits on the same surface point (of those seeing no mirror or glass)",
         same_surface,
         SHADING_POINTS_SAME_SURFACE,
     )

@@ -26,24 +26,17 @@ pub struct CpuFrame {
 impl CpuFrame {
     pub fn new(cs: &CpuScene, cfg: &FrameConfig) -> CpuFrame {
         let sps =
-            vplgi_cpu::shading_points::shading_points(cs, cfg.width, cfg.height, cfg.spp, cfg.seed);
+            vplgi_cpu::shading_points::shading_points(cs, &cfg.camera_params(cs.scene.camera));
         let hits: Vec<u32> =
             (0..sps.len() as u32).filter(|&i| !sps[i as usize].is_miss()).collect();
         let mut row_of = vec![MISS; sps.len()];
         for (r, &i) in hits.iter().enumerate() {
             row_of[i as usize] = r as u32;
         }
-        let p = cfg.trace_params();
         let vpls = match cfg.vpl_source {
             VplSource::Paths => {
-                vplgi_cpu::trace_vpls::trace_vpls(
-                    cs,
-                    p.seed,
-                    p.count,
-                    p.bounces,
-                    &vplgi_cpu::NoProgress,
-                )
-                .vpls
+                vplgi_cpu::trace_vpls::trace_vpls(cs, &cfg.trace_params(), &vplgi_cpu::NoProgress)
+                    .vpls
             }
             VplSource::Rsm => {
                 vplgi_cpu::rsm_vpls::rsm_vpls(cs, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls

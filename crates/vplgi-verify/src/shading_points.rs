@@ -2,19 +2,21 @@
 //! triangle; positions within 1e-4 of the scene extent).
 
 use crate::tolerance::{
-    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SHADING_POINTS_EMISSION_SUMS,
-    SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE, SHADING_POINTS_UNREACHABLE_EMISSION,
+    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SPECULAR_CHAINS_DIVERGED,
+    SHADING_POINTS_EMISSION_SUMS, LONG_SPECULAR_CHAINS_DIVERGED, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
+    SHADING_POINTS_UNREACHABLE_EMISSION,
 };
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
 use vplgi_scene::Scene;
 use vplgi_types::{CameraParams, ShadingPoint};
 
-/// How two backends' shading points of the same samples differ.
+/// How two backends' shading points of the same samples differ. Samples whose camera ray passed
+/// a mirror or glass on either backend are counted apart ([`Chains`]).
 #[derive(Clone, Debug, Default)]
 pub struct HitDifferences {
     pub samples: usize,
-    /// Same triangle (or both missed).
+    /// Of the unchained samples: the same triangle (or both missed).
     pub same: usize,
     /// Another triangle at the same point (within 1e-5 of the extent): a ray through an edge two
     /// triangles share may legitimately return either.
@@ -23,7 +25,8 @@ pub struct HitDifferences {
     pub other: usize,
     /// The first sample that differs beyond a tie, described.
     pub first_other: Option<String>,
-    /// Largest position difference over the extent among samples on the same triangle, and where.
+    /// Largest position difference over the extent among unchained samples on the same
+    /// triangle, and where.
     pub max_position: f32,
     pub max_position_at: Option<String>,
     /// The same, each difference times the cosine between the camera ray and the surface normal,
@@ -33,19 +36,59 @@ pub struct HitDifferences {
     /// same as the raw one wherever rays meet surfaces at a sensible angle.
     pub max_position_conditioned: f32,
     pub max_position_conditioned_at: Option<String>,
-    /// Of the `same` samples, those whose emitted radiance agrees (within 1e-6, relative above 1).
-    /// Misses count too: at spp > 1 a sample's emission is its pixel's, from 4 x 4 extra rays, so
-    /// a sample that misses may carry some, and one of those rays through a shared edge may see
-    /// the emitter on one backend only (a step of 1/16).
+    /// Of the samples on the same triangle (chained or not), those whose emitted radiance agrees
+    /// (within 1e-6, relative above 1). Misses count too: at spp > 1 a sample's emission is its
+    /// pixel's, from 4 x 4 extra rays, so a sample that misses may carry some, and one of those
+    /// rays through a shared edge may see the emitter on one backend only (a step of 1/16).
     pub same_emission: usize,
+    /// The samples on the same triangle, chained or not (what `same_emission` is a share of).
+    pub same_any: usize,
     /// Largest emitted-radiance difference among the `same` samples that disagree, and where.
     pub max_emitted: f32,
     pub max_emitted_at: Option<String>,
+    /// Samples through one specular vertex (the most either backend passed).
+    pub one: Chains,
+    /// Samples through two or more.
+    pub longer: Chains,
+}
+
+impl HitDifferences {
+    /// The share of unchained samples on the same surface point (the same triangle or an edge
+    /// tie): what [`SHADING_POINTS_SAME_SURFACE`] bounds. 1 when every sample passed a mirror
+    /// or glass: the chain rows judge them all.
+    pub fn same_surface_share(&self) -> f64 {
+        match self.same + self.ties + self.other {
+            0 => 1.0,
+            n => (self.same + self.ties) as f64 / n as f64,
+        }
+    }
+}
+
+/// Samples that followed specular chains of one length class.
+#[derive(Clone, Debug, Default)]
+pub struct Chains {
+    pub samples: usize,
+    /// Ending on another surface (beyond an edge tie).
+    pub diverged: usize,
+    /// Of those, the samples whose backends passed different numbers of specular vertices: a
+    /// reflect-or-refract choice or a total internal reflection that went the other way.
+    pub other_length: usize,
+    pub first_diverged: Option<String>,
+    /// Largest position difference over the extent among samples on the same triangle (a curved
+    /// mirror magnifies a direction's rounding, so this is reported, not judged), and where.
+    pub max_position: f32,
+    pub max_position_at: Option<String>,
 }
 
 fn describe(i: usize, width: u32, spp: u32, c: &ShadingPoint, g: &ShadingPoint) -> String {
     let px = i as u32 / spp;
-    let show = |s: &ShadingPoint| if s.is_miss() { "a miss".to_string() } else { format!("triangle {} at {}", s.triangle, v3(s.position)) };
+    let show = |s: &ShadingPoint| {
+        let seen = if s.is_miss() { "a miss".to_string() } else { format!("triangle {} at {}", s.triangle, v3(s.position)) };
+        match s.specular {
+            0 => seen,
+            n => format!("{seen} through {n} specular"),
+        }
+    };
     format!("sample {i} (pixel {}, {}): CPU {}, GPU {}", px % width, px / width, show(c), show(g))
 }
 
@@ -54,8 +97,10 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
     let mut d = HitDifferences { samples: cpu.len(), ..Default::default() };
     for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
         let apart = (Vec3::from(c.position) - Vec3::from(g.position)).length() / extent;
-        if c.triangle == g.triangle {
-            d.same += 1;
+        let same = c.triangle == g.triangle;
+        let tie = !same && !c.is_miss() && !g.is_miss() && apart <= 1e-5;
+        if same {
+            d.same_any += 1;
             let emitted = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
             if emitted <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0) {
                 d.same_emission += 1;
@@ -63,6 +108,26 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
                 d.max_emitted = emitted;
                 d.max_emitted_at = Some(format!("{}: emitted CPU {}, GPU {}", describe(i, width, spp, c, g), v3(c.emitted), v3(g.emitted)));
             }
+        }
+        let chain = match c.specular.max(g.specular) {
+            0 => None,
+            1 => Some(&mut d.one),
+            _ => Some(&mut d.longer),
+        };
+        if let Some(chain) = chain {
+            chain.samples += 1;
+            if same && !c.is_miss() && apart > chain.max_position {
+                chain.max_position = apart;
+                chain.max_position_at = Some(describe(i, width, spp, c, g));
+            } else if !same && !tie {
+                chain.diverged += 1;
+                chain.other_length += (c.specular != g.specular) as usize;
+                chain.first_diverged.get_or_insert_with(|| describe(i, width, spp, c, g));
+            }
+            continue;
+        }
+        if same {
+            d.same += 1;
             if c.is_miss() {
                 continue;
             }
@@ -75,7 +140,7 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
                 d.max_position_conditioned = apart * cos;
                 d.max_position_conditioned_at = Some(format!("{} (cosine of incidence {cos:.2e})", describe(i, width, spp, c, g)));
             }
-        } else if !c.is_miss() && !g.is_miss() && apart <= 1e-5 {
+        } else if tie {
             d.ties += 1;
         } else {
             d.other += 1;
@@ -140,6 +205,11 @@ fn add_sums(values: &[DVec3], left: u32, acc: DVec3, out: &mut Vec<DVec3>) {
 /// emissions to enumerate, how many it has (reported, not judged).
 fn unreachable_emission(scene: &Scene, camera: &CameraParams, cpu: &[ShadingPoint], gpu: &[ShadingPoint]) -> Disagreement {
     let rays = shading_points_emission_rays(camera.spp);
+    if rays > 1 && scene.has_specular() && camera.specular_depth > 0 {
+        let what = "samples whose emitted radiance is no mean of the scene's emission values: not judged, as the pixel's rays may see emitters \
+                    through mirrors and glass, scaled by their chains";
+        return Disagreement::info("shading_points", what, 0.0);
+    }
     let sums = match EmissionSums::new(scene, rays) {
         Ok(sums) => sums,
         Err(values) => {
@@ -149,11 +219,12 @@ fn unreachable_emission(scene: &Scene, camera: &CameraParams, cpu: &[ShadingPoin
         }
     };
     let what = if rays == 1 {
-        "samples whose emitted radiance is none of the scene's emission values (or 0)".to_string()
+        "samples whose emitted radiance is none of the scene's emission values (or 0), of those seeing no mirror or glass".to_string()
     } else {
         format!("samples whose emitted radiance is no mean of {rays} of the scene's emission values (or 0)")
     };
-    let mut off = gpu.iter().enumerate().filter(|(_, g)| !sums.reaches(g.emitted));
+    // A chained sample sees emission scaled by its chain: only the others are judged.
+    let mut off = gpu.iter().enumerate().filter(|(_, g)| g.specular == 0 && !sums.reaches(g.emitted));
     let first = off.next().map(|(i, g)| {
         let px = i as u32 / camera.spp;
         let cpu = cpu.get(i).map_or("none".to_string(), |c| v3(c.emitted));
@@ -165,7 +236,7 @@ fn unreachable_emission(scene: &Scene, camera: &CameraParams, cpu: &[ShadingPoin
 
 /// The shading points of `camera` on both backends.
 pub fn both(twins: &Twins, camera: &CameraParams) -> Result<(Vec<ShadingPoint>, Vec<ShadingPoint>), VerifyError> {
-    let cpu = vplgi_cpu::shading_points::shading_points(twins.cpu, camera.width, camera.height, camera.spp, camera.seed);
+    let cpu = vplgi_cpu::shading_points::shading_points(twins.cpu, camera);
     let gpu = twins.gpu.kernels().shading_points.run(twins.device(), twins.queue(), twins.gpu.scene(), camera, None)?;
     Ok((cpu, gpu))
 }
@@ -174,17 +245,21 @@ pub fn both(twins: &Twins, camera: &CameraParams) -> Result<(Vec<ShadingPoint>, 
 pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu) = both(twins, camera)?;
     let d = hit_differences(&cpu, &gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp));
-    let n = d.samples.max(1) as f64;
     let case = format!("{}x{}, {} spp", camera.width, camera.height, camera.spp);
     let mut albedo = 0.0f32;
     for (c, g) in cpu.iter().zip(&gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
         albedo = albedo.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
     }
     let reachable = unreachable_emission(twins.scene, camera, &cpu, &gpu).with_case(&case);
-    Ok(vec![
-        Disagreement::at_least("shading_points", "share of samples on the same surface point", (d.same + d.ties) as f64 / n, SHADING_POINTS_SAME_SURFACE)
-            .with_case(&case)
-            .with_worst(d.first_other.clone()),
+    let mut rows = vec![
+        Disagreement::at_least(
+            "shading_points",
+            "share of samples on the same surface point (of those seeing no mirror or glass)",
+            d.same_surface_share(),
+            SHADING_POINTS_SAME_SURFACE,
+        )
+        .with_case(&case)
+        .with_worst(d.first_other.clone()),
         Disagreement::at_most(
             "shading_points",
             "position difference / scene extent, times the cosine of incidence",
@@ -203,7 +278,7 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
         Disagreement::at_least(
             "shading_points",
             "share of samples on the same triangle (or both missing) with the same emitted radiance",
-            d.same_emission as f64 / d.same.max(1) as f64,
+            d.same_emission as f64 / d.same_any.max(1) as f64,
             shading_points_same_emission_share(camera.spp),
         )
         .with_case(&case)
@@ -212,7 +287,25 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
         // The share above lets 1.6 % of samples differ at spp > 1, more than the emitters' share
         // of the image: this row judges every sample's emission, so 1 % more fails at any spp.
         reachable,
-    ])
+    ];
+    for (chains, label, bound) in [(&d.one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (&d.longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
+        if chains.samples == 0 {
+            continue;
+        }
+        rows.push(crate::tolerance::share_of_diverged("shading_points", &format!("samples through {label} ending on another surface"), (chains.diverged, chains.samples), bound)
+            .with_case(&case)
+            .with_worst(chains.first_diverged.clone()));
+        rows.push(
+            Disagreement::info("shading_points", format!("of those through {label}: chains of another length (a Fresnel choice or total internal reflection)"), chains.other_length as f64)
+                .with_case(&case),
+        );
+        rows.push(
+            Disagreement::info("shading_points", format!("position difference / scene extent through {label}, on the same triangle"), chains.max_position as f64)
+                .with_case(&case)
+                .with_worst(chains.max_position_at.clone()),
+        );
+    }
+    Ok(rows)
 }
 
 /// The frame's camera samples.

@@ -25,6 +25,41 @@ pub const TRACE_VPLS_DIVERGED_PATHS: f64 = 1e-3;
 pub const SHADING_POINTS_SAME_SURFACE: f64 = 0.999;
 /// Shading points: positions within this share of the scene extent.
 pub const SHADING_POINTS_POSITION_REL: f64 = 1e-4;
+/// Specular chains (SPEC): of the shading points reached through one mirror or glass surface,
+/// at most this share may end on another surface; likewise the light paths (`trace_vpls`) whose
+/// VPLs passed one. A chain diverges where the Fresnel number lies within
+/// rounding of the reflectance, at total internal reflection's edge, or where a direction's
+/// rounding carries it past an edge beyond the mirror; the rows above judge unchained samples.
+pub const SPECULAR_CHAINS_DIVERGED: f64 = 1e-3;
+/// The same for chains of two or more vertices, whose directions' rounding compounds.
+pub const LONG_SPECULAR_CHAINS_DIVERGED: f64 = 5e-3;
+
+/// The row of a specular-chain bound: the share of `items` of which `diverged` diverge, judged
+/// against `bound` when there are at least 1 / `bound` of them. With fewer, one divergence alone
+/// would breach the bound, so the share is reported, not judged.
+pub fn share_of_diverged(
+    stage: &str,
+    what: &str,
+    (diverged, items): (usize, usize),
+    bound: f64,
+) -> Disagreement {
+    let share = diverged as f64 / items.max(1) as f64;
+    if (items as f64) * bound >= 1.0 {
+        Disagreement::at_most(
+            stage,
+            format!("share of the {} {what}", crate::count(items)),
+            share,
+            bound,
+        )
+    } else {
+        let what = format!(
+            "share of the {} {what} (too few to judge against {bound}: one would be {:.1e})",
+            crate::count(items),
+            1.0 / items.max(1) as f64
+        );
+        Disagreement::info(stage, what, share)
+    }
+}
 /// Bias-compensation points (`bias_points`): the same surfaces as shading points (the bound
 /// above), and weights (albedo x parent albedo x clamped share 1 - g_max / G, each at most 1)
 /// within this absolute difference of the weight the CPU's arithmetic gives at the GPU's point.

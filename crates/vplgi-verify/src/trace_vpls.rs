@@ -1,7 +1,9 @@
 //! `trace_vpls`: the GPU's VPLs against the CPU's (SPEC: same count; positions, normals and
 //! fluxes within 1e-4 relative; at most 0.1 % of paths diverge, counted).
 
-use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use crate::tolerance::{
+    Disagreement, SPECULAR_CHAINS_DIVERGED, LONG_SPECULAR_CHAINS_DIVERGED, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL,
+};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::{BTreeMap, BTreeSet};
@@ -62,13 +64,15 @@ pub(crate) fn on_two_triangles(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) ->
 /// would make every path differ by that ratio.
 pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>, VerifyError> {
     let cs = twins.cpu;
-    let cpu = vplgi_cpu::trace_vpls::trace_vpls(cs, params.seed, params.count, params.bounces, &vplgi_cpu::NoProgress);
+    let cpu = vplgi_cpu::trace_vpls::trace_vpls(cs, params, &vplgi_cpu::NoProgress);
     let g = twins.gpu.kernels().trace_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), params)?;
     let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
     let (cp, gp) = (by_path(&cpu.vpls), by_path(&gpu));
     let paths: BTreeSet<u32> = cp.keys().chain(gp.keys()).copied().collect();
     let last = paths.iter().next_back().copied();
-    let (mut diverged, mut ties, mut worst_diff, mut worst) = (0usize, 0usize, 0.0f32, None);
+    // By the most mirrors and glass a path's VPLs passed on either side: none, one, more.
+    let mut classes: [Diverged; 3] = Default::default();
+    let mut ties = 0usize;
     // VPLs that the paths which parted have on one side and not the other.
     let mut parted_vpls = 0usize;
     let mut max_agreeing = 0.0f32;
@@ -110,15 +114,18 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
         if tie || path_diff > TRACE_VPLS_REL as f32 {
             parted_vpls += a.len().abs_diff(b.len());
         }
+        let chain = a.iter().chain(b).map(|v| v.specular).max().unwrap_or(0).min(2) as usize;
+        let class = &mut classes[chain];
+        class.paths += 1;
         if tie {
             ties += 1;
         } else if path_diff > TRACE_VPLS_REL as f32 {
-            diverged += 1;
-            if path_diff > worst_diff || worst.is_none() {
-                worst_diff = path_diff;
+            class.diverged += 1;
+            if path_diff > class.worst_diff || class.worst.is_none() {
+                class.worst_diff = path_diff;
                 let i = at.unwrap_or(0);
                 let show = |v: Option<&Vpl>| v.map_or("none".to_string(), |v| format!("bounce {} at {} flux {}", v.bounce, v3(v.position), v3(v.flux)));
-                worst = Some(format!("path {p}, VPL {i}: CPU {}, GPU {}", show(a.get(i)), show(b.get(i))));
+                class.worst = Some(format!("path {p}, VPL {i}: CPU {}, GPU {}", show(a.get(i)), show(b.get(i))));
             }
         } else {
             max_agreeing = max_agreeing.max(path_diff);
@@ -126,8 +133,8 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
     }
     let count_diff = cpu.vpls.len().abs_diff(gpu.len());
     let case = format!("{} VPLs, {} bounces, seed {}", count(params.count as usize), params.bounces, params.seed);
-    let n_paths = paths.len().max(1) as f64;
-    Ok(vec![
+    let [direct, one, longer] = classes;
+    let mut rows = vec![
         // Both backends make exactly the VPLs asked for, unless the particle budget runs out first
         // (a scene whose light mostly escapes): then each has the VPLs its particles made, and
         // the counts may differ by what the paths that parted hold, and by nothing else.
@@ -137,9 +144,14 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
                 (count_diff > 0)
                     .then(|| format!("CPU {} VPLs, GPU {} from {} particles; {parted_vpls} on paths that parted", cpu.vpls.len(), gpu.len(), g.particles)),
             ),
-        Disagreement::at_most("trace_vpls", "share of light paths that diverge", diverged as f64 / n_paths, TRACE_VPLS_DIVERGED_PATHS)
-            .with_case(&case)
-            .with_worst(worst),
+        Disagreement::at_most(
+            "trace_vpls",
+            "share of light paths that diverge (of those passing no mirror or glass)",
+            direct.diverged as f64 / direct.paths.max(1) as f64,
+            TRACE_VPLS_DIVERGED_PATHS,
+        )
+        .with_case(&case)
+        .with_worst(direct.worst),
         Disagreement::info(
             "trace_vpls",
             "paths that part at a tie (the same point where two triangles meet; or a VPL on an edge on one side only)",
@@ -149,7 +161,23 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
         Disagreement::info("trace_vpls", "largest relative difference on agreeing paths", max_agreeing as f64).with_case(&case),
         Disagreement::info("trace_vpls", "light particles traced, |CPU - GPU| (moves with diverging paths)", (cpu.particles as f64 - g.particles as f64).abs())
             .with_case(&case),
-    ])
+    ];
+    for (class, label, bound) in [(one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
+        if class.paths > 0 {
+            let what = format!("light paths through {label} that diverge");
+            rows.push(crate::tolerance::share_of_diverged("trace_vpls", &what, (class.diverged, class.paths), bound).with_case(&case).with_worst(class.worst));
+        }
+    }
+    Ok(rows)
+}
+
+/// The light paths of one class and those among them that diverge, the worst described.
+#[derive(Default)]
+struct Diverged {
+    paths: usize,
+    diverged: usize,
+    worst_diff: f32,
+    worst: Option<String>,
 }
 
 /// The frame's VPLs.

@@ -34,7 +34,7 @@ use vplgi_frame::{Stage, StageTimings};
 use vplgi_reports::{history, median};
 use vplgi_scene::Scene;
 use vplgi_types::clustering::ClusterParams;
-use vplgi_types::FrameConfig;
+use vplgi_types::{CameraParams, FrameConfig, TraceParams};
 
 #[derive(Parser)]
 #[command(
@@ -261,10 +261,18 @@ fn visibility_vs_embree(
     n_cols: usize,
     runs: usize,
 ) -> Value {
-    let sps = vplgi_cpu::shading_points::shading_points(cs, width, width, 1, 1);
+    let sps = vplgi_cpu::shading_points::shading_points(
+        cs,
+        &CameraParams::new(cs.scene.camera, width, width, 1, 1),
+    );
     let rows: Vec<Endpoint> =
         sps.iter().step_by(stride).filter(|s| !s.is_miss()).map(Endpoint::of).collect();
-    let vpls = vplgi_cpu::trace_vpls::trace_vpls(cs, 1, n_cols as u32 * 10, 3, &NoProgress).vpls;
+    let vpls = vplgi_cpu::trace_vpls::trace_vpls(
+        cs,
+        &TraceParams::new(1, n_cols as u32 * 10, 3),
+        &NoProgress,
+    )
+    .vpls;
     let cols: Vec<Endpoint> = vpls.iter().take(n_cols).map(Endpoint::of_vpl).collect();
     let rays: Vec<(Vec3, Vec3)> = rows
         .iter()

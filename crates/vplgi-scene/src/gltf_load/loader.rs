@@ -339,9 +339,15 @@ impl<'a> Loader<'a> {
         for w in warnings {
             self.warn(format!("material '{name}': {w}"));
         }
-        if surface != Surface::Diffuse {
+        if surface.with_colour(Vec3::ONE).is_specular() {
             self.warn(format!(
-                "material '{name}' is {}: vplgi shades every surface as diffuse so far, so it renders as its base colour",
+                "material '{name}' is {}: camera rays and light particles reflect and refract at it, but light that reaches a diffuse surface \
+                 through it (caustics, and direct light through glass) is missing until photon maps exist",
+                surface.describe()
+            ));
+        } else if surface != Surface::Diffuse {
+            self.warn(format!(
+                "material '{name}' is {}: vplgi does not shade glossy reflection yet, so it renders as diffuse in its base colour",
                 surface.describe()
             ));
         }
