@@ -1,4 +1,4 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/scene.wgsl common/sampling.wgsl common/bsdf.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/scene.wgsl common/sampling.wgsl common/bsdf.wgsl common/specular.wgsl
 // Stage 2, shading_points: one primary ray per camera sample (vplgi-cpu/src/shading_points.rs).
 // Sample i belongs to pixel i / spp; with spp = 1 it goes through the pixel centre, otherwise it
 // is jittered with the stream (seed, STREAM_CAMERA, i), and its emission is the pixel's,
@@ -65,21 +65,13 @@ fn camera_path(origin_in: vec3<f32>, dir_in: vec3<f32>, chain: ptr<function, Rng
             path.triangle = hit.triangle;
             break;
         }
-        // +z is the side the normal points to: glass's outside.
-        var n = surf.ns;
-        if (!surf.facing) {
-            n = -surf.ns;
-        }
-        let tb = orthonormal_basis(n);
-        let wi = -dir;
-        let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
-        let s = bsdf_sample(surf.bsdf, local, rng_next_f32(chain), vec2<f32>(0.0), true);
+        let s = scatter_specular(surf, dir, rng_next_f32(chain), true);
         if (s.valid == 0u) {
             break;
         }
         path.throughput = path.throughput * s.weight;
         path.specular = path.specular + 1u;
-        dir = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
+        dir = s.wo;
         origin = offset_toward(surf.position, surf.ng, surf.position + dir, params.eps);
     }
     return path;

@@ -1,4 +1,4 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/bsdf.wgsl common/lights.wgsl common/scene.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/bsdf.wgsl common/specular.wgsl common/lights.wgsl common/scene.wgsl
 // Stage 1, trace_vpls (vplgi-cpu/src/trace_vpls.rs), in three kernels:
 //   trace:   one thread per light particle; its VPLs go to `bounces` fixed slots, with a count;
 //   (scan.wgsl turns the counts into exclusive offsets and the batch total);
@@ -115,21 +115,14 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             let s = surface_at(hit, dir);
             if (specular < params.specular_depth && bsdf_is_specular(s.bsdf)) {
                 // Power: no η² on refraction (radiance = false).
-                var n = s.ns;
-                if (!s.facing) {
-                    n = -s.ns;
-                }
-                let tb = orthonormal_basis(n);
-                let wi = -dir;
-                let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
-                let b = bsdf_sample(s.bsdf, local, rng_next_f32(&rng), vec2<f32>(0.0), false);
+                let b = scatter_specular(s, dir, rng_next_f32(&rng), false);
                 if (b.valid == 0u) {
                     break;
                 }
                 power = power * b.weight;
                 specular = specular + 1u;
                 passed = passed + 1u;
-                dir = tb[0] * b.wo.x + tb[1] * b.wo.y + n * b.wo.z;
+                dir = b.wo;
                 origin = offset_toward(s.position, s.ng, s.position + dir, params.eps);
                 continue;
             }

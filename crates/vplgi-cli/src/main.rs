@@ -55,10 +55,11 @@ enum Command {
     Merge(reference::MergeArgs),
     /// Differential test of the GPU twin: every stage on both backends, each GPU stage fed the
     /// CPU's outputs of the stages before it, measured against the SPEC's tolerance table; then
-    /// the whole frame. Writes DIR/verify.html (tables, CPU and GPU images and error maps),
-    /// DIR/verify.md and DIR/verify.json; exits non-zero, naming the stage, the worst item and
-    /// its values, when a tolerance is broken. --shaders DIR verifies edited WGSL without
-    /// rebuilding.
+    /// the whole frame. Writes DIR/verify.html (a summary, failing stages first with a map of
+    /// where each fails; then tables, CPU and GPU images and error maps, and for every stage
+    /// whose items disagree beyond a tie a map of where, coloured by kind), DIR/verify.md and
+    /// DIR/verify.json; exits non-zero, naming the stage, the worst item and its values, when a
+    /// tolerance is broken. --shaders DIR verifies edited WGSL without rebuilding.
     Verify(verify::VerifyArgs),
 }
 

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
-use vplgi_verify::report::{write, write_images, VerifyReport};
+use vplgi_verify::report::{write, write_images, write_maps, VerifyReport};
 use vplgi_verify::{Listener, Mode, Plan, StageResult, Twins, VerifyStage};
 
 #[derive(Args)]
@@ -117,6 +117,7 @@ pub fn run(args: VerifyArgs) -> Result<()> {
     }
 
     let images = write_images(&args.out, &results)?;
+    let maps = write_maps(&args.out, &results)?;
     let report = VerifyReport {
         scene: source,
         adapter: ctx.describe(),
@@ -126,6 +127,7 @@ pub fn run(args: VerifyArgs) -> Result<()> {
         passed: results.iter().all(StageResult::passed),
         stages: results,
         images,
+        maps,
         seconds: clock.elapsed().as_secs_f64(),
     };
     write(&args.out, &report)?;
@@ -146,6 +148,11 @@ pub fn run(args: VerifyArgs) -> Result<()> {
     eprintln!("\nverify: FAIL. Report: {} (and verify.md, verify.json)", page.display());
     for f in &failures {
         eprintln!("  {f}");
+    }
+    let failing: Vec<&str> =
+        report.stages.iter().filter(|s| !s.passed()).map(|s| s.stage.name()).collect();
+    for m in report.maps.iter().filter(|m| failing.contains(&m.stage.as_str())) {
+        eprintln!("  where {} disagrees: {}", m.case, args.out.join(&m.file).display());
     }
     println!("\n{}", summary.trim_end());
     let first = failures[0];

@@ -32,7 +32,8 @@ fn load_in_chromium(page: &Path) -> (Vec<String>, String) {
     let html = std::fs::read_to_string(page).expect("read the page");
     let script = "<script>window.addEventListener('load', () => { for (const i of document.images) { if (!i.complete || i.naturalWidth === 0) \
                   console.error('image not loaded: ' + i.getAttribute('src')); } console.log('probe: ' + document.querySelectorAll('section').length + ' sections, ' \
-                  + document.images.length + ' images'); });</script>";
+                  + document.images.length + ' images'); for (const i of document.querySelectorAll('#failing-maps img')) { console.log('failing map ' \
+                  + i.getAttribute('src') + ' top ' + Math.round(i.getBoundingClientRect().top) + ' of ' + window.innerHeight); } });</script>";
     std::fs::write(&probe, html.replace("</body>", &format!("{script}</body>")))
         .expect("write the probe page");
     let o = Command::new("chromium")
@@ -243,4 +244,89 @@ fn bad_shaders_and_stages_are_refused_by_name() {
         !o.status.success() && err.contains("unknown stage 'bogus'") && err.contains("trace_vpls"),
         "{err}"
     );
+}
+
+/// The shading-points kernel made to miss the rays of the pixels on the image's diagonal (a
+/// seam), given with --shaders: verify fails on shading_points, says where its map is, and
+/// verify.html, loaded in a real browser, shows that map under the summary, within the first
+/// screen, with the missed pixels counted in its legend.
+#[test]
+fn a_failing_stage_shows_where_on_the_first_screen() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let shaders = dir.path().join("shaders");
+    std::fs::create_dir(&shaders).expect("mkdir");
+    let original = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl"),
+    )
+    .expect("shading_points.wgsl");
+    let hit = "if (path.triangle != NO_HIT) {";
+    assert!(original.contains(hit), "shading_points.wgsl changed: update this test's edit");
+    let seam = "if (path.triangle != NO_HIT && pixel % (params.width + 1u) != 0u) {";
+    std::fs::write(shaders.join("shading_points.wgsl"), original.replace(hit, seam))
+        .expect("write");
+    let out = dir.path().join("out");
+    let mut args = SMALL.to_vec();
+    args.extend(["--stages", "shading_points", "--shaders", shaders.to_str().expect("utf-8")]);
+    let Some(o) = verify(&out, &args) else { return };
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    println!("{stderr}");
+    assert!(!o.status.success(), "a kernel missing a seam passed verify");
+    let map = "images/shading_points-40x32-1spp-map.png";
+    assert!(
+        stderr.contains(&format!(
+            "where shading_points-40x32-1spp disagrees: {}",
+            out.join(map).display()
+        )),
+        "{stderr}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("verify.json")).expect("verify.json"))
+            .expect("JSON");
+    let maps = report["maps"].as_array().expect("maps");
+    let legend = maps.iter().find(|m| m["file"] == map).expect("the stage's map")["legend"]
+        .as_array()
+        .expect("legend")
+        .clone();
+    let missed = legend.iter().find(|k| k["kind"] == "Miss").expect("misses")["pixels"]
+        .as_u64()
+        .expect("a count");
+    // Of the diagonal's 32 pixels, those that see the room on the CPU (the corners see out of
+    // its open front); nothing else disagrees beyond a tie.
+    assert!((20..=32).contains(&missed), "{legend:?}");
+    for kind in ["Beyond", "Other"] {
+        assert_eq!(legend.iter().find(|k| k["kind"] == kind).expect("a kind")["pixels"], 0);
+    }
+    // And the red pixels are on the diagonal, every one.
+    let png = image::open(out.join(map)).expect("the map decodes").to_rgb8();
+    let red: Vec<(u32, u32)> = png
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0 == [255, 30, 30])
+        .map(|(x, y, _)| (x, y))
+        .collect();
+    assert_eq!(red.len() as u64, missed);
+    assert!(red.iter().all(|(x, y)| x == y), "red off the diagonal: {red:?}");
+
+    let (console, dom) = load_in_chromium(&out.join("verify.html"));
+    println!("console: {console:#?}");
+    let errors: Vec<&String> = console.iter().filter(|l| l.contains("not loaded")).collect();
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    let first_section = dom.find("<section id=").expect("stage sections");
+    let shown = dom.find("id=\"failing-maps\"").expect("maps under the summary");
+    let named = dom
+        .find("<tr class=\"failing\"><td><a href=\"#shading_points\">shading_points</a>")
+        .expect("the summary names the failing stage");
+    assert!(named < shown, "the failing stage is not named above its map");
+    assert!(shown < first_section, "the failing stage's map is not above the stages");
+    assert!(dom[..first_section].contains(&format!("<a href=\"{map}\">")), "the map is not a link");
+    let top = console
+        .iter()
+        .find_map(|l| {
+            let rest = l.split(&format!("failing map {map} top ")).nth(1)?;
+            let mut words = rest.split_whitespace();
+            let top: i64 = words.next()?.parse().ok()?;
+            let height: i64 = words.nth(1)?.trim_end_matches(['"', ',']).parse().ok()?;
+            Some((top, height))
+        })
+        .expect("the probe saw the failing map");
+    assert!(top.0 < top.1, "the map is below the first screen: top {} of {}", top.0, top.1);
 }

@@ -2,10 +2,11 @@
 //! few scale-dependent constants (ray offsets, geometry-term clamp).
 
 use crate::lights::LightSampler;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use vplgi_embree::{Device, EmbreeError};
 use vplgi_scene::Scene;
-use vplgi_shared::bsdf::{Bsdf, Surface};
+use vplgi_shared::bsdf::{Bsdf, Surface, Transport};
+use vplgi_types::sampling::orthonormal_basis;
 
 /// A scene prepared for the CPU stages.
 pub struct CpuScene<'a> {
@@ -54,6 +55,24 @@ impl SurfaceHit {
     /// The BSDF here.
     pub fn bsdf(&self) -> Bsdf {
         self.surface.with_colour(self.albedo)
+    }
+
+    /// Where a ray that arrived along `dir` leaves this mirror or glass, and with what weight:
+    /// the BSDF's sample with `u1` choosing reflection or refraction by Fresnel. None where the
+    /// surface sends nothing. The local frame's +z is the side the normal points to, glass's
+    /// outside, whose Fresnel term tells entering from leaving by the sign of cos θ_i.
+    pub fn scatter_specular(
+        &self,
+        dir: Vec3,
+        u1: f32,
+        transport: Transport,
+    ) -> Option<(Vec3, Vec3)> {
+        let n = if self.facing { self.ns } else { -self.ns };
+        let (t, b) = orthonormal_basis(n);
+        let wi = -dir;
+        let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
+        let s = self.bsdf().sample(local, u1, Vec2::ZERO, transport)?;
+        Some((t * s.wo.x + b * s.wo.y + n * s.wo.z, s.weight))
     }
 }
 

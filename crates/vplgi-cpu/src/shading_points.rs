@@ -7,11 +7,10 @@
 //! surface that is neither, so clustering, visibility and shading never see a specular surface.
 
 use crate::{CpuScene, SurfaceHit};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_shared::bsdf::Transport;
 use vplgi_types::params::EMISSION_STRATA;
-use vplgi_types::sampling::orthonormal_basis;
 use vplgi_types::{Camera, CameraParams, Rng, ShadingPoint, Stream, MISS};
 
 pub fn shading_points(cs: &CpuScene, camera: &CameraParams) -> Vec<ShadingPoint> {
@@ -44,23 +43,16 @@ pub fn camera_path(cs: &CpuScene, origin: Vec3, dir: Vec3, depth: u32, rng: &mut
     let (mut origin, mut dir) = (origin, dir);
     while let Some(hit) = cs.trace(origin, dir) {
         path.emitted += path.throughput * hit.emitted;
-        let bsdf = hit.bsdf();
-        if path.specular == depth || !bsdf.is_specular() {
+        if path.specular == depth || !hit.bsdf().is_specular() {
             path.hit = Some(hit);
             return path;
         }
-        // The local frame's +z is the side the normal points to: the outside for glass, whose
-        // Fresnel term tells entering from leaving by the sign of cos θ_i.
-        let n = if hit.facing { hit.ns } else { -hit.ns };
-        let (t, b) = orthonormal_basis(n);
-        let wi = -dir;
-        let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
-        let Some(s) = bsdf.sample(local, rng.next_f32(), Vec2::ZERO, Transport::Radiance) else {
+        let Some((out, weight)) = hit.scatter_specular(dir, rng.next_f32(), Transport::Radiance) else {
             return path;
         };
-        path.throughput *= s.weight;
+        path.throughput *= weight;
         path.specular += 1;
-        dir = t * s.wo.x + b * s.wo.y + n * s.wo.z;
+        dir = out;
         origin = cs.offset_toward(hit.position, hit.ng, hit.position + dir);
     }
     path

@@ -12,7 +12,7 @@
 //! of the light leaving surfaces after 1..=`bounces` reflections.
 
 use crate::CpuScene;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use vplgi_shared::bsdf::Transport;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
@@ -61,20 +61,15 @@ pub fn trace_particle(cs: &CpuScene, p: &TraceParams, scramble: [u32; 5], index:
         let Some(hit) = cs.trace(origin, dir) else {
             break;
         };
-        let bsdf = hit.bsdf();
-        if specular < specular_depth && bsdf.is_specular() {
+        if specular < specular_depth && hit.bsdf().is_specular() {
             // Power, not radiance: a refraction's weight carries no η² (Veach's adjoint BSDF).
-            let n = if hit.facing { hit.ns } else { -hit.ns };
-            let (t, b) = sampling::orthonormal_basis(n);
-            let wi = -dir;
-            let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
-            let Some(s) = bsdf.sample(local, rng.next_f32(), Vec2::ZERO, Transport::Importance) else {
+            let Some((out, weight)) = hit.scatter_specular(dir, rng.next_f32(), Transport::Importance) else {
                 break;
             };
-            power *= s.weight;
+            power *= weight;
             specular += 1;
             passed += 1;
-            dir = t * s.wo.x + b * s.wo.y + n * s.wo.z;
+            dir = out;
             origin = cs.offset_toward(hit.position, hit.ng, hit.position + dir);
             continue;
         }

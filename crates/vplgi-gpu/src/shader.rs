@@ -11,31 +11,6 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-const RNG: &str = include_str!("../../../shaders/common/rng.wgsl");
-const BVH: &str = include_str!("../../../shaders/common/bvh.wgsl");
-const TYPES: &str = include_str!("../../../shaders/common/types.wgsl");
-const LIGHTS: &str = include_str!("../../../shaders/common/lights.wgsl");
-const SAMPLING: &str = include_str!("../../../shaders/common/sampling.wgsl");
-const SURFACE: &str = include_str!("../../../shaders/common/surface.wgsl");
-const CLUSTER_COMMON: &str = include_str!("../../../shaders/common/cluster.wgsl");
-const METRIC: &str = include_str!("../../../shaders/common/metric.wgsl");
-const SCENE: &str = include_str!("../../../shaders/common/scene.wgsl");
-const BSDF: &str = include_str!("../../../shaders/common/bsdf.wgsl");
-
-/// Shared WGSL files by name.
-pub const COMMON: &[(&str, &str)] = &[
-    ("common/types.wgsl", TYPES),
-    ("common/rng.wgsl", RNG),
-    ("common/bvh.wgsl", BVH),
-    ("common/lights.wgsl", LIGHTS),
-    ("common/sampling.wgsl", SAMPLING),
-    ("common/surface.wgsl", SURFACE),
-    ("common/metric.wgsl", METRIC),
-    ("common/cluster.wgsl", CLUSTER_COMMON),
-    ("common/scene.wgsl", SCENE),
-    ("common/bsdf.wgsl", BSDF),
-];
-
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 
 /// Sources read from a directory, by the names of [`COMMON`] and [`STAGES`]; set once per process.

@@ -2,6 +2,7 @@
 //! (SPEC: the shading-point bound on surfaces, ties on shared edges counted as agreement;
 //! weights within `BIAS_POINTS_WEIGHT_ABS` of what the CPU's arithmetic gives at the GPU's point).
 
+use crate::map::DisagreementMap;
 use crate::shading_points::hit_differences;
 use crate::tolerance::{Disagreement, BIAS_POINTS_WEIGHT_ABS, SHADING_POINTS_SAME_SURFACE};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
@@ -23,7 +24,21 @@ pub fn both(twins: &Twins, parents: &[ShadingPoint], params: &BiasParams) -> Res
 /// Compares one level's compensation points of `parents` (of an image `width` wide with `spp`
 /// samples per pixel, for naming items).
 pub fn compare(twins: &Twins, parents: &[ShadingPoint], (width, spp): (u32, u32), params: &BiasParams) -> Result<Vec<Disagreement>, VerifyError> {
+    compare_mapped(twins, parents, (width, spp), params, None)
+}
+
+/// [`compare`], marking each compensation point's pixel in `map` by how it compares.
+fn compare_mapped(
+    twins: &Twins,
+    parents: &[ShadingPoint],
+    (width, spp): (u32, u32),
+    params: &BiasParams,
+    map: Option<&mut DisagreementMap>,
+) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu) = both(twins, parents, params)?;
+    if let Some(map) = map {
+        map.mark_points(&cpu, &gpu, &crate::shading_points::judge(twins));
+    }
     let d = hit_differences(&cpu, &gpu, twins.cpu.extent, twins.scene.camera.position, (width, spp));
     let kept = cpu.iter().filter(|p| !p.is_miss()).count();
     let (mut weight, mut worst, mut raw, mut raw_at, mut other) = (0.0f64, None, 0.0f32, None, 0usize);
@@ -98,7 +113,9 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let mut parents = vplgi_cpu::shading_points::shading_points(twins.cpu, &camera);
     for level in 1..=cfg.bounces.min(2) {
         let params = cfg.bias_params(twins.cpu.extent, level);
-        r.checks.extend(compare(twins, &parents, (camera.width, camera.spp), &params)?);
+        let mut map = DisagreementMap::new(format!("bias_points-level{level}"), camera.width, camera.height);
+        r.checks.extend(compare_mapped(twins, &parents, (camera.width, camera.spp), &params, Some(&mut map))?);
+        r.maps.push(map);
         parents = vplgi_cpu::bias_points::bias_points(twins.cpu, &parents, 0, &params);
     }
     r.notes.push(format!(

@@ -7,6 +7,7 @@ use crate::tolerance::{
     Disagreement, ASSIGN_SAME_LABELS, FUZZY_SAME_SETS, FUZZY_WEIGHTS_ABS, RSM_IMPORTANCE_REL, RSM_UPDATE_REL, SEEDING_DIFFERING_SEEDS,
     TEMPORAL_DIFFERING_THRESHOLDS, TEMPORAL_SAME_ADMISSION, UPDATE_DIFFERING_CENTROIDS,
 };
+use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use vplgi_cpu::cluster::{bounds, cluster, cluster_from, update, ClusterParams, Grid};
@@ -49,6 +50,20 @@ pub fn compare_assign(
     centroids: (&[Vec3], &[Vec3]),
     rule: AssignRule,
 ) -> Result<Vec<Disagreement>, VerifyError> {
+    compare_assign_mapped(device, queue, kernel, (ps, ns), centroids, rule, &mut Vec::new())
+}
+
+/// [`compare_assign`], adding to `parted` each point whose nearest label differs (another
+/// cluster) or whose set of F labels does (beyond).
+fn compare_assign_mapped(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    kernel: &ClusterKernel,
+    (ps, ns): (&[Vec3], &[Vec3]),
+    centroids: (&[Vec3], &[Vec3]),
+    rule: AssignRule,
+    parted: &mut Placed,
+) -> Result<Vec<Disagreement>, VerifyError> {
     let (m, k, f) = (ps.len(), centroids.0.len(), rule.f as usize);
     let grid = Grid::for_data(bounds(ps), ps, k).fill(centroids.0, centroids.1);
     let (cl, cw) = cpu_assign(&grid, (ps, ns), rule);
@@ -67,6 +82,7 @@ pub fn compare_assign(
         if c[0] == g[0] {
             hard_same += 1;
         } else {
+            parted.push((ps[i], ItemKind::Other));
             worst_label.get_or_insert_with(|| {
                 format!(
                     "point {i} at {}: CPU cluster {} at distance {:.7e}, GPU cluster {} at distance {:.7e}",
@@ -88,6 +104,9 @@ pub fn compare_assign(
                 }
             }
         } else {
+            if c[0] == g[0] {
+                parted.push((ps[i], ItemKind::Beyond));
+            }
             worst_set.get_or_insert_with(|| format!("point {i}: CPU clusters {c:?}, GPU {g:?}"));
         }
         if g[0] != MISS {
@@ -291,9 +310,13 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
         let centroids = (&c.positions[..], &c.normals[..]);
         let rule = AssignRule { metric: params.metric, f: params.f, fuzzy: params.fuzzy };
         let fuzzy_case = if params.f > 1 { format!("{case}, F = {} {:?}", params.f, params.fuzzy) } else { case.clone() };
-        for d in compare_assign(device, queue, kernel, (&ps, &ns), centroids, rule)? {
+        let mut parted = Vec::new();
+        for d in compare_assign_mapped(device, queue, kernel, (&ps, &ns), centroids, rule, &mut parted)? {
             r.checks.push(d.with_case(&fuzzy_case));
         }
+        // The points whose labels differ, seen from the camera.
+        let map_case = format!("cluster-{}", name.replace(' ', "-"));
+        r.maps.push(DisagreementMap::projected(map_case, &twins.scene.camera, (cfg.width, cfg.height), &parted));
         let grid = Grid::for_data(bounds(&ps), &ps, c.k()).fill(&c.positions, &c.normals);
         let hard = vplgi_cpu::cluster::assign(&grid, &ps, &ns, params.metric, None);
         r.checks.push(compare_update(device, queue, kernel, (&ps, &ns), centroids, &hard)?.with_case(&case));

@@ -3,6 +3,7 @@
 //! where it can (a clustering from inputs that differ by rounding may take another trajectory:
 //! measured on the generated rooms, relMSE 2e-4 to 2e-3 in `--cluster vpl`).
 
+use crate::map::{DisagreementMap, ItemKind};
 use crate::shade::{rel_mse, worst_pixel};
 use crate::shading_points::{hit_differences, HitDifferences};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE, SHADING_POINTS_SAME_SURFACE};
@@ -52,7 +53,7 @@ fn compare(
     twins: &Twins,
     cfg: &FrameConfig,
     shared: &Shared,
-) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair), VerifyError> {
+) -> Result<(Vec<Disagreement>, Vec<String>, ImagePair, DisagreementMap), VerifyError> {
     let cpu = vplgi_frame::render(twins.cpu, cfg, &vplgi_frame::NoProgress)?;
     let gpu = vplgi_frame::render(twins.gpu, cfg, &vplgi_frame::NoProgress)?;
     let Shared { c_sp, g_sp, hits, vpl_rounding } = shared;
@@ -126,14 +127,26 @@ fn compare(
         })
         .with_case(&case),
     );
+    // Primary hits as the shading-points map shows them, and where the image is judged (the
+    // unclustered mode), pixels beyond the image's bound on their own.
+    let name = format!("frame-{}", case.replace('/', "-"));
+    let mut map = DisagreementMap::new(name.clone(), cfg.width, cfg.height);
+    map.mark_points(c_sp, g_sp, &crate::shading_points::judge(twins));
+    if mode.cluster == ClusterMode::None {
+        for i in (0..cpu.pixels.len().min(gpu.pixels.len())).filter(|&i| agree[i]) {
+            if crate::shade::pixel_beyond(&cpu.pixels, &gpu.pixels, i) {
+                map.mark(i, ItemKind::Beyond);
+            }
+        }
+    }
     let pair = ImagePair {
-        case: format!("frame-{}", case.replace('/', "-")),
+        case: name,
         width: cfg.width,
         height: cfg.height,
         cpu: cpu.pixels,
         gpu: gpu.pixels,
     };
-    Ok((checks, notes, pair))
+    Ok((checks, notes, pair, map))
 }
 
 /// The frame of every mode in `modes`.
@@ -142,10 +155,11 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Frame);
     let shared = Shared::new(twins, cfg, modes)?;
     for mode in modes {
-        let (checks, notes, pair) = compare(twins, &mode.apply(cfg), &shared)?;
+        let (checks, notes, pair, map) = compare(twins, &mode.apply(cfg), &shared)?;
         r.checks.extend(checks);
         r.notes.extend(notes);
         r.images.push(pair);
+        r.maps.push(map);
     }
     Ok(r)
 }

@@ -69,9 +69,10 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
         clustered.push(Mode::of(&cfg));
     }
     for mode in clustered {
-        let (checks, pair) = compare_on(twins, &mode.apply(&cfg), &frame)?;
+        let (checks, pair, map) = compare_on(twins, &mode.apply(&cfg), &frame)?;
         r.checks.extend(checks);
         r.images.push(pair);
+        r.maps.push(map);
     }
     r.notes.push(
         "the GPU sums the lights at the CPU's sample points (each its own visibility row) and interpolates them with the CPU's 1/R and clusters: \

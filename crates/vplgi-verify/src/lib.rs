@@ -13,6 +13,7 @@
 pub mod bsdf;
 pub mod frame;
 pub mod inputs;
+pub mod map;
 pub mod report;
 pub mod rng;
 pub mod segment;
@@ -195,6 +196,9 @@ pub struct StageResult {
     pub seconds: f64,
     #[serde(skip)]
     pub images: Vec<ImagePair>,
+    /// Where the items of an image-space stage disagree, one map per case.
+    #[serde(skip)]
+    pub maps: Vec<map::DisagreementMap>,
 }
 
 impl StageResult {
@@ -257,7 +261,14 @@ pub fn run(
 
 /// A new result of `stage` with nothing measured yet.
 fn result(stage: VerifyStage) -> StageResult {
-    StageResult { stage, checks: Vec::new(), notes: Vec::new(), seconds: 0.0, images: Vec::new() }
+    StageResult {
+        stage,
+        checks: Vec::new(),
+        notes: Vec::new(),
+        seconds: 0.0,
+        images: Vec::new(),
+        maps: Vec::new(),
+    }
 }
 
 /// `v` with thousands separated: 16,384.

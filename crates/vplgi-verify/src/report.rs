@@ -1,7 +1,9 @@
 //! The report of a verification: `verify.json` (every measurement), `verify.md` (tables) and a
-//! static `verify.html` (tables, and for image stages the CPU image, the GPU image and their FLIP
-//! error map side by side), with the images in `images/`.
+//! static `verify.html` (tables; for image stages the CPU image, the GPU image and their FLIP
+//! error map side by side; for stages whose items disagree, a map of where), with the images in
+//! `images/`. A failing stage's maps are shown again under the summary, on the first screen.
 
+use crate::map::ItemKind;
 use crate::{ImagePair, StageResult};
 use serde::Serialize;
 use std::io::Write;
@@ -20,6 +22,8 @@ pub struct VerifyReport {
     pub shaders: Vec<vplgi_gpu::shader::ReplacedSource>,
     pub stages: Vec<StageResult>,
     pub images: Vec<ImageFiles>,
+    /// The disagreement maps drawn (those with some item beyond a tie).
+    pub maps: Vec<MapFiles>,
     pub passed: bool,
     pub seconds: f64,
 }
@@ -34,6 +38,60 @@ pub struct ImageFiles {
     /// The FLIP error map, absent when an image holds a non-finite pixel.
     pub error_map: Option<String>,
     pub flip: Option<f64>,
+}
+
+/// One disagreement map's file, relative to the report's directory, and its legend.
+#[derive(Clone, Debug, Serialize)]
+pub struct MapFiles {
+    pub stage: String,
+    pub case: String,
+    pub file: String,
+    /// Pixels of each kind but agreement, with what the kind means and its colour.
+    pub legend: Vec<MapKey>,
+}
+
+/// One kind of a map's legend.
+#[derive(Clone, Debug, Serialize)]
+pub struct MapKey {
+    pub kind: ItemKind,
+    pub meaning: &'static str,
+    /// `#rrggbb`.
+    pub colour: String,
+    pub pixels: usize,
+}
+
+/// Writes each stage's disagreement maps that show a disagreement beyond a tie into
+/// `dir/images` and returns their files.
+pub fn write_maps(dir: &Path, stages: &[StageResult]) -> Result<Vec<MapFiles>, ImageError> {
+    std::fs::create_dir_all(dir.join("images"))
+        .map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
+    let mut files = Vec::new();
+    for s in stages {
+        for map in s.maps.iter().filter(|m| m.shows_disagreement()) {
+            let file = format!("images/{}-map.png", map.case);
+            vplgi_image::write_rgb8_png(&dir.join(&file), map.width, map.height, &map.rgb8())?;
+            let counts = map.counts();
+            let legend = ItemKind::ALL[1..]
+                .iter()
+                .map(|&kind| {
+                    let [r, g, b] = kind.colour();
+                    MapKey {
+                        kind,
+                        meaning: kind.meaning(),
+                        colour: format!("#{r:02x}{g:02x}{b:02x}"),
+                        pixels: counts[kind as usize],
+                    }
+                })
+                .collect();
+            files.push(MapFiles {
+                stage: s.stage.name().into(),
+                case: map.case.clone(),
+                file,
+                legend,
+            });
+        }
+    }
+    Ok(files)
 }
 
 impl VerifyReport {
@@ -212,6 +270,9 @@ pub fn markdown(r: &VerifyReport) -> String {
                 });
             s += &format!("\n{}: ![CPU]({}) ![GPU]({}) {err}\n", im.case, im.cpu, im.gpu);
         }
+        for m in r.maps.iter().filter(|m| m.stage == st.stage.name()) {
+            s += &format!("\nWhere {} disagrees: ![map]({}) {}\n", m.case, m.file, legend_text(m));
+        }
     }
     s
 }
@@ -221,6 +282,46 @@ fn esc(t: &str) -> String {
     t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// A map's legend in words: `12 pixels: a miss on one backend only; ...`.
+fn legend_text(m: &MapFiles) -> String {
+    let kinds: Vec<String> = m
+        .legend
+        .iter()
+        .filter(|k| k.pixels > 0)
+        .map(|k| format!("{} pixels: {}", k.pixels, k.meaning))
+        .collect();
+    kinds.join("; ")
+}
+
+/// An image that opens full size when clicked.
+fn linked_figure(src: &str, alt: &str, caption: &str, class: &str) -> String {
+    format!(
+        "<figure><a href=\"{0}\"><img class=\"{class}\" src=\"{0}\" alt=\"{1}\"></a><figcaption>{2}</figcaption></figure>",
+        esc(src),
+        esc(alt),
+        caption
+    )
+}
+
+/// A disagreement map with its legend, the counts beside the colours.
+fn map_figure(m: &MapFiles) -> String {
+    let mut legend = String::new();
+    for k in m.legend.iter().filter(|k| k.pixels > 0) {
+        legend += &format!(
+            "<br><span class=\"swatch\" style=\"background:{}\"></span> {} px: {}",
+            k.colour,
+            k.pixels,
+            esc(k.meaning)
+        );
+    }
+    format!(
+        "<figure class=\"map\"><figcaption>where <b>{0}</b> disagrees</figcaption><a href=\"{1}\"><img class=\"map\" src=\"{1}\" alt=\"where {0} disagrees\"></a><figcaption>{2}</figcaption></figure>",
+        esc(&m.case),
+        esc(&m.file),
+        legend.trim_start_matches("<br>")
+    )
+}
+
 /// The report as one static HTML page (no scripts).
 pub fn html(r: &VerifyReport) -> String {
     let mut s = String::from(
@@ -228,8 +329,9 @@ pub fn html(r: &VerifyReport) -> String {
          body{font-family:sans-serif;margin:2em;max-width:90em}table{border-collapse:collapse;margin:1em 0}\
          td,th{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}td.n{font-family:monospace;text-align:right}\
          .ok{color:#070}.FAILS{color:#b00;font-weight:bold}.info{color:#666}.PASS{color:#070}.FAIL{color:#b00}\
-         figure{display:inline-block;margin:.5em}figure img{image-rendering:pixelated;width:256px;border:1px solid #ccc}\
-         .worst{font-family:monospace;font-size:.85em}tr.failing{background:#fdd}</style></head><body>\n",
+         figure{display:inline-block;margin:.5em;vertical-align:top}figure img{image-rendering:pixelated;width:256px;border:1px solid #ccc}\
+         .worst{font-family:monospace;font-size:.85em}tr.failing{background:#fdd}\
+         .swatch{display:inline-block;width:.8em;height:.8em;border:1px solid #999}figcaption{max-width:256px;font-size:.85em}</style></head><body>\n",
     );
     s += &format!("<h1>vplgi verify: <span class=\"{0}\">{0}</span></h1>\n<ul>", verdict(r.passed));
     s += &format!(
@@ -259,6 +361,20 @@ pub fn html(r: &VerifyReport) -> String {
         );
     }
     s += "</table>\n";
+    // Where the failing stages fail, before anything else: each one's first map (its section
+    // has them all).
+    let failing: Vec<&MapFiles> = summary(r)
+        .into_iter()
+        .filter(|st| !st.passed())
+        .filter_map(|st| r.maps.iter().find(|m| m.stage == st.stage.name()))
+        .collect();
+    if !failing.is_empty() {
+        s += "<div id=\"failing-maps\">";
+        for m in failing {
+            s += &map_figure(m);
+        }
+        s += "</div>\n";
+    }
     for st in &r.stages {
         let v = verdict(st.passed());
         s += &format!(
@@ -282,24 +398,27 @@ pub fn html(r: &VerifyReport) -> String {
             );
         }
         s += "</table>\n";
+        for m in r.maps.iter().filter(|m| m.stage == st.stage.name()) {
+            s += &map_figure(m);
+        }
         for n in &st.notes {
             s += &format!("<p>{}</p>\n", esc(n));
         }
         for im in r.images.iter().filter(|i| i.stage == st.stage.name()) {
             s += &format!("<div class=\"pair\"><h3>{}</h3>", esc(&im.case));
-            s += &format!(
-                "<figure><img src=\"{}\" alt=\"CPU image\"><figcaption>CPU</figcaption></figure>",
-                esc(&im.cpu)
-            );
-            s += &format!(
-                "<figure><img src=\"{}\" alt=\"GPU image\"><figcaption>GPU</figcaption></figure>",
-                esc(&im.gpu)
-            );
+            s += &linked_figure(&im.cpu, "CPU image", "CPU", "image");
+            s += &linked_figure(&im.gpu, "GPU image", "GPU", "image");
             match (&im.error_map, im.flip) {
                 (Some(e), Some(f)) => {
-                    s += &format!("<figure><img src=\"{}\" alt=\"FLIP error map\"><figcaption>FLIP error map (mean {f:.2e})</figcaption></figure>", esc(e))
+                    s += &linked_figure(
+                        e,
+                        "FLIP error map",
+                        &format!("FLIP error map (mean {f:.2e})"),
+                        "image",
+                    )
                 }
-                _ => s += "<figure><figcaption>no error map: a pixel is not finite</figcaption></figure>",
+                _ => s +=
+                    "<figure><figcaption>no error map: a pixel is not finite</figcaption></figure>",
             }
             s += "</div>\n";
         }
@@ -307,4 +426,64 @@ pub fn html(r: &VerifyReport) -> String {
     }
     s += "</body></html>\n";
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::DisagreementMap;
+    use crate::tolerance::Disagreement;
+    use crate::VerifyStage;
+
+    fn stage(stage: VerifyStage, measured: f64, map: DisagreementMap) -> StageResult {
+        let mut r = crate::result(stage);
+        r.checks.push(Disagreement::at_most(stage.name(), "a row", measured, 1.0));
+        r.maps.push(map);
+        r
+    }
+
+    /// A map is drawn where something disagrees beyond a tie, with its legend; a failing stage's
+    /// map is shown under the summary, before the stages, and every image is a link.
+    #[test]
+    fn a_failing_stage_leads_with_its_map() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let mut seam = DisagreementMap::new("seam", 4, 4);
+        for i in 0..4 {
+            seam.mark(i * 5, ItemKind::Miss);
+        }
+        let mut ties = DisagreementMap::new("ties", 4, 4);
+        ties.mark(3, ItemKind::Tie);
+        let stages =
+            vec![stage(VerifyStage::Rng, 0.0, ties), stage(VerifyStage::ShadingPoints, 2.0, seam)];
+        let maps = write_maps(dir.path(), &stages).expect("maps written");
+        assert_eq!(maps.len(), 1, "a map of ties alone is not drawn");
+        assert_eq!(
+            (maps[0].stage.as_str(), maps[0].file.as_str()),
+            ("shading_points", "images/seam-map.png")
+        );
+        assert!(dir.path().join("images/seam-map.png").exists());
+        let miss = maps[0].legend.iter().find(|k| k.kind == ItemKind::Miss).expect("misses");
+        assert_eq!((miss.pixels, miss.colour.as_str()), (4, "#ff1e1e"));
+        let report = VerifyReport {
+            scene: "test".into(),
+            adapter: "none".into(),
+            config: vplgi_types::FrameConfig::default(),
+            modes: Vec::new(),
+            shaders: Vec::new(),
+            stages,
+            images: Vec::new(),
+            maps,
+            passed: false,
+            seconds: 0.0,
+        };
+        let page = html(&report);
+        let (shown, first) = (
+            page.find("id=\"failing-maps\"").expect("maps under the summary"),
+            page.find("<section").expect("sections"),
+        );
+        assert!(page.find("id=\"summary\"").expect("summary") < shown && shown < first);
+        assert!(page[shown..first].contains("<a href=\"images/seam-map.png\"><img class=\"map\""));
+        assert!(page.contains("4 px: a miss on one backend only"));
+        assert!(markdown(&report).contains("![map](images/seam-map.png)"));
+    }
 }

@@ -5,6 +5,7 @@
 
 use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
 use crate::trace_vpls::{difference, on_an_edge, on_two_triangles};
+use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::BTreeMap;
@@ -22,6 +23,12 @@ pub fn both(twins: &Twins, size: u32) -> Result<(Vec<Vpl>, Vec<Vpl>, u32), Verif
 
 /// Compares the texels of the maps of budget `size`.
 pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyError> {
+    compare_mapped(twins, size, &mut Vec::new())
+}
+
+/// [`compare`], adding to `parted` where each texel's VPLs that differ lie (the CPU's, or the
+/// GPU's where the CPU has none), as a tie or not.
+fn compare_mapped(twins: &Twins, size: u32, parted: &mut Placed) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu, texels) = both(twins, size)?;
     let extent = twins.cpu.extent;
     let (c, g): (BTreeMap<u32, Vpl>, BTreeMap<u32, Vpl>) = (cpu.iter().map(|v| (v.path, *v)).collect(), gpu.iter().map(|v| (v.path, *v)).collect());
@@ -48,6 +55,9 @@ pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyErro
             (Some(x), None) | (None, Some(x)) => on_an_edge(twins.scene, Vec3::from(x.position), eps),
             (None, None) => false,
         };
+        if let Some(v) = a.or(b) {
+            parted.push((Vec3::from(v.position), if tie { ItemKind::Tie } else { ItemKind::Other }));
+        }
         if tie {
             ties += 1;
             continue;
@@ -79,7 +89,10 @@ pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyErro
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::RsmVpls);
-    r.checks = compare(twins, cfg.rsm_size)?;
+    let mut parted = Vec::new();
+    r.checks = compare_mapped(twins, cfg.rsm_size, &mut parted)?;
+    // The texels whose VPLs differ, seen from the camera.
+    r.maps.push(DisagreementMap::projected("rsm_vpls", &twins.scene.camera, (cfg.width, cfg.height), &parted));
     r.notes.push(
         "VPLs are matched by texel; a texel agrees when both backends have a VPL within 1e-4 (position relative to the scene extent, normal, flux relative \
          to its largest channel) or neither has one. A texel whose VPLs lie at the same point where two triangles meet (a shared edge or a crossing: another triangle there), \

@@ -5,6 +5,7 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::{TieOracle, Verdict};
 use crate::tolerance::{polygon_outline_bounds, Disagreement, CLUSTER_LIGHTS_REL, SHADE_REL_MSE};
+use crate::map::{DisagreementMap, ItemKind};
 use crate::{result, ImagePair, Mode, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
 use vplgi_cpu::interpolate::IrradianceSamples;
@@ -261,7 +262,13 @@ fn outline_distance(a: &[DVec3], b: &[DVec3]) -> f64 {
 
 /// Compares the two images of one mode.
 pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
-    compare_on(twins, cfg, &CpuFrame::new(twins.cpu, cfg))
+    let (checks, pair, _) = compare_on(twins, cfg, &CpuFrame::new(twins.cpu, cfg))?;
+    Ok((checks, pair))
+}
+
+/// Whether pixel `i`'s own relMSE exceeds the image's bound: a pixel the map shows as beyond.
+pub(crate) fn pixel_beyond(cpu: &[[f32; 3]], gpu: &[[f32; 3]], i: usize) -> bool {
+    rel_mse(&cpu[i..=i], &gpu[i..=i]) > SHADE_REL_MSE
 }
 
 /// [`compare`] on the CPU's stages 1 and 2 already made (they do not depend on the mode).
@@ -271,8 +278,9 @@ pub fn compare(twins: &Twins, cfg: &FrameConfig) -> Result<(Vec<Disagreement>, I
 /// decides (a [`Verdict::Tie`], as the visibility rows set aside) may rightly differ by the whole
 /// light. The SPEC's bound is judged on the other pixels; every pixel's relMSE, the pixels set
 /// aside and the failing pixels left unexamined (beyond [`MAX_TIE_PIXELS`], judged with the
-/// image) are reported beside it.
-pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair), VerifyError> {
+/// image) are reported beside it. The map shows the pixels set aside as ties and those beyond
+/// the image's bound on their own.
+pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<(Vec<Disagreement>, ImagePair, DisagreementMap), VerifyError> {
     let clusters = CpuClusters::new(twins.cpu, frame, cfg);
     let (cpu, gpu) = shade_both(twins, cfg, frame, &clusters)?;
     let oracle = TieOracle::new(twins.scene);
@@ -311,8 +319,13 @@ pub fn compare_on(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<
         Disagreement::info("shade / final image", "largest relative pixel difference, apart from those", max_rel as f64).with_case(&case),
     ];
     checks.extend(compare_lights(twins, cfg, frame, &clusters)?);
-    let pair = ImagePair { case: format!("shade-{}", case.replace('/', "-")), width: cfg.width, height: cfg.height, cpu, gpu };
-    Ok((checks, pair))
+    let name = format!("shade-{}", case.replace('/', "-"));
+    let mut map = DisagreementMap::new(name.clone(), cfg.width, cfg.height);
+    for i in 0..cpu.len().min(gpu.len()) {
+        map.mark(i, if !kept(i) { ItemKind::Tie } else if pixel_beyond(&cpu, &gpu, i) { ItemKind::Beyond } else { ItemKind::Agree });
+    }
+    let pair = ImagePair { case: name, width: cfg.width, height: cfg.height, cpu, gpu };
+    Ok((checks, pair, map))
 }
 
 /// At most this many pixels are judged for direct-light ties (each judges its shadow rays against
@@ -373,9 +386,10 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Shade);
     let frame = CpuFrame::new(twins.cpu, cfg);
     for mode in modes {
-        let (checks, pair) = compare_on(twins, &mode.apply(cfg), &frame)?;
+        let (checks, pair, map) = compare_on(twins, &mode.apply(cfg), &frame)?;
         r.checks.extend(checks);
         r.images.push(pair);
+        r.maps.push(map);
     }
     r.notes.push(
         "the GPU's shade kernel reads the CPU's shading points, lights (VPLs or VPL clusters), shading-point clusters and visibility matrix: \

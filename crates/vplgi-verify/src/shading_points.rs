@@ -6,6 +6,7 @@ use crate::tolerance::{
     SHADING_POINTS_EMISSION_SUMS, LONG_SPECULAR_CHAINS_DIVERGED, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
     SHADING_POINTS_UNREACHABLE_EMISSION,
 };
+use crate::map::{DisagreementMap, PointJudge};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
 use vplgi_scene::Scene;
@@ -244,13 +245,23 @@ pub fn both(twins: &Twins, camera: &CameraParams) -> Result<(Vec<ShadingPoint>, 
 /// Shades nothing: traces `camera`'s samples on both backends and compares them.
 pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu) = both(twins, camera)?;
-    let d = hit_differences(&cpu, &gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp));
+    Ok(compare_points(twins, camera, &cpu, &gpu))
+}
+
+/// How the maps judge a pair of shading points, as the rows below do.
+pub fn judge(twins: &Twins) -> PointJudge {
+    PointJudge { extent: twins.cpu.extent, eye: twins.scene.camera.position, position_bound: SHADING_POINTS_POSITION_REL }
+}
+
+/// Compares both backends' shading points of `camera`'s samples.
+fn compare_points(twins: &Twins, camera: &CameraParams, cpu: &[ShadingPoint], gpu: &[ShadingPoint]) -> Vec<Disagreement> {
+    let d = hit_differences(cpu, gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp));
     let case = format!("{}x{}, {} spp", camera.width, camera.height, camera.spp);
     let mut albedo = 0.0f32;
-    for (c, g) in cpu.iter().zip(&gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
+    for (c, g) in cpu.iter().zip(gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
         albedo = albedo.max((Vec3::from(c.albedo) - Vec3::from(g.albedo)).abs().max_element());
     }
-    let reachable = unreachable_emission(twins.scene, camera, &cpu, &gpu).with_case(&case);
+    let reachable = unreachable_emission(twins.scene, camera, cpu, gpu).with_case(&case);
     let mut rows = vec![
         Disagreement::at_least(
             "shading_points",
@@ -305,14 +316,19 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
                 .with_worst(chains.max_position_at.clone()),
         );
     }
-    Ok(rows)
+    rows
 }
 
 /// The frame's camera samples.
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::ShadingPoints);
-    r.checks = compare(twins, &cfg.camera_params(twins.scene.camera))?;
+    let camera = cfg.camera_params(twins.scene.camera);
+    let (cpu, gpu) = both(twins, &camera)?;
+    r.checks = compare_points(twins, &camera, &cpu, &gpu);
+    let mut map = DisagreementMap::new(format!("shading_points-{}x{}-{}spp", camera.width, camera.height, camera.spp), camera.width, camera.height);
+    map.mark_points(&cpu, &gpu, &judge(twins));
+    r.maps.push(map);
     r.notes.push(format!(
         "{} samples; a ray through an edge shared by two triangles may return either (same point, another triangle): counted as agreement, and reported. \
          Positions are judged with each difference times the cosine between the camera ray and the surface: a ray grazing a surface slides along it by \

@@ -4,6 +4,7 @@
 use crate::tolerance::{
     Disagreement, SPECULAR_CHAINS_DIVERGED, LONG_SPECULAR_CHAINS_DIVERGED, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL,
 };
+use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::{BTreeMap, BTreeSet};
@@ -63,6 +64,13 @@ pub(crate) fn on_two_triangles(scene: &vplgi_scene::Scene, p: Vec3, eps: f32) ->
 /// changes how many particles it takes to make the VPLs, so dividing by each side's own count
 /// would make every path differ by that ratio.
 pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>, VerifyError> {
+    Ok(compare_paths(twins, params)?.0)
+}
+
+/// [`compare`], and where the paths that part first do so: the first differing VPL (the CPU's,
+/// or the GPU's where the CPU has none), as a tie or another path.
+fn compare_paths(twins: &Twins, params: &TraceParams) -> Result<(Vec<Disagreement>, Placed), VerifyError> {
+    let mut parted = Vec::new();
     let cs = twins.cpu;
     let cpu = vplgi_cpu::trace_vpls::trace_vpls(cs, params, &vplgi_cpu::NoProgress);
     let g = twins.gpu.kernels().trace_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), params)?;
@@ -117,6 +125,11 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
         let chain = a.iter().chain(b).map(|v| v.specular).max().unwrap_or(0).min(2) as usize;
         let class = &mut classes[chain];
         class.paths += 1;
+        if let Some(v) = first_off.and_then(|i| a.get(i).or(b.get(i))) {
+            if tie || path_diff > TRACE_VPLS_REL as f32 {
+                parted.push((Vec3::from(v.position), if tie { ItemKind::Tie } else { ItemKind::Other }));
+            }
+        }
         if tie {
             ties += 1;
         } else if path_diff > TRACE_VPLS_REL as f32 {
@@ -168,7 +181,7 @@ pub fn compare(twins: &Twins, params: &TraceParams) -> Result<Vec<Disagreement>,
             rows.push(crate::tolerance::share_of_diverged("trace_vpls", &what, (class.diverged, class.paths), bound).with_case(&case).with_worst(class.worst));
         }
     }
-    Ok(rows)
+    Ok((rows, parted))
 }
 
 /// The light paths of one class and those among them that diverge, the worst described.
@@ -184,7 +197,10 @@ struct Diverged {
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::TraceVpls);
-    r.checks = compare(twins, &cfg.trace_params())?;
+    let (checks, parted) = compare_paths(twins, &cfg.trace_params())?;
+    r.checks = checks;
+    // Where the paths that part do so, seen from the camera.
+    r.maps.push(DisagreementMap::projected("trace_vpls", &twins.scene.camera, (cfg.width, cfg.height), &parted));
     r.notes.push(
         "VPLs are matched by light path; a path agrees when every VPL is within 1e-4 (position relative to the scene extent, normal, flux per particle relative \
          to its largest channel) at the same bounce. A path whose first differing VPL is at the same point where two triangles meet (an edge they share or a line where one passes \

@@ -4,6 +4,7 @@
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::{TieOracle, Verdict};
 use crate::tolerance::{Disagreement, VISIBILITY_SAME_BITS};
+use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{Vec3, Vec3A};
 use vplgi_cpu::CpuScene;
@@ -68,6 +69,18 @@ pub const MAX_TIE_CHECKS: usize = 20_000;
 /// The second can only be higher; it tells a kernel author whether the misses are ties or
 /// errors, and is what inputs built to graze (endpoints on edges) are judged by.
 pub fn compare(twins: &Twins, obvhs: &ObvhsScene, rows: &[Endpoint], cols: &[Endpoint]) -> Result<Vec<Disagreement>, VerifyError> {
+    compare_mapped(twins, obvhs, rows, cols, &mut Vec::new())
+}
+
+/// [`compare`], adding to `parted` the row point of each pair whose Embree and GPU bits differ,
+/// as a rounding tie or not.
+fn compare_mapped(
+    twins: &Twins,
+    obvhs: &ObvhsScene,
+    rows: &[Endpoint],
+    cols: &[Endpoint],
+    parted: &mut Placed,
+) -> Result<Vec<Disagreement>, VerifyError> {
     let cs = twins.cpu;
     let (embree, _) = vplgi_cpu::visibility::visibility(cs, rows, cols, &vplgi_cpu::NoProgress);
     let words = twins.gpu.kernels().visibility.run(twins.device(), twins.queue(), twins.gpu.scene(), rows, cols, None)?;
@@ -94,6 +107,9 @@ pub fn compare(twins: &Twins, obvhs: &ObvhsScene, rows: &[Endpoint], cols: &[End
             });
             ties += (verdict == Some(Verdict::Tie)) as u64;
             unexamined += verdict.is_none() as u64;
+            if e != g {
+                parted.push((a.p(), if verdict == Some(Verdict::Tie) { ItemKind::Tie } else { ItemKind::Other }));
+            }
             for (k, (x, y)) in [(e, o), (e, g), (o, g)].into_iter().enumerate() {
                 if x != y {
                     differ[k] += 1;
@@ -167,9 +183,12 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let rows = sample_rows(&clusters.rows, max_rows);
     let case = format!("{} rows x {} columns", count(rows.len()), count(clusters.cols.len()));
     let obvhs = ObvhsScene::new(twins.scene);
-    for d in compare(twins, &obvhs, &rows, &clusters.cols)? {
+    let mut parted = Vec::new();
+    for d in compare_mapped(twins, &obvhs, &rows, &clusters.cols, &mut parted)? {
         r.checks.push(d.with_case(&case));
     }
+    // The rows whose bits differ, seen from the camera.
+    r.maps.push(DisagreementMap::projected("visibility", &twins.scene.camera, (cfg.width, cfg.height), &parted));
     let what = if cfg.cluster.clusters_sps() { "shading-point cluster representatives" } else { "hits" };
     let cols = if cfg.cluster.clusters_vpls() { "VPL cluster lights" } else { "VPLs" };
     if rows.len() < clusters.rows.len() {
