@@ -317,6 +317,20 @@ fn box_corners(b: &BoxSpec) -> (impl Fn(f32, f32, bool) -> Vec3 + '_, Vec3) {
 
 #[cfg(test)]
 mod tests {
+    /// The glass of `cornell-glass` is closed, as solid glass must be: every edge of its cube
+    /// and sphere borders exactly two of its triangles. One face fewer opens four edges.
+    #[test]
+    fn the_glass_is_closed() {
+        let mut s = super::cornell_glass(2_000);
+        let glass = s.materials.iter().position(|m| m.surface.is_glass()).expect("glass") as u32;
+        assert_eq!(s.open_edges(glass), Vec::<[glam::Vec3; 2]>::new());
+        let first = s.material_ids.iter().position(|m| *m == glass).expect("a glass triangle");
+        // The cube's first face is two triangles: drop both.
+        s.material_ids[first] = 0;
+        s.material_ids[first + 1] = 0;
+        assert_eq!(s.open_edges(glass).len(), 4);
+    }
+
     use super::*;
 
     fn centroid(t: [Vec3; 3]) -> Vec3 {

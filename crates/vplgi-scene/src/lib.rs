@@ -379,6 +379,30 @@ impl Scene {
         self.materials[self.material_ids[t] as usize].surface
     }
 
+    /// The edges of material `material`'s triangles that do not border exactly two of them,
+    /// corners compared by position, each as its two corners. Solid glass must have none: a ray
+    /// could enter through such a mesh and never leave it.
+    pub fn open_edges(&self, material: u32) -> Vec<[Vec3; 2]> {
+        // A corner by its coordinates' bits; an edge by its two corners, in order.
+        type Corner = [u32; 3];
+        let key = |v: Vec3| -> Corner { v.to_array().map(f32::to_bits) };
+        let mut borders: std::collections::HashMap<(Corner, Corner), (u32, [Vec3; 2])> =
+            std::collections::HashMap::new();
+        for (t, _) in self.material_ids.iter().enumerate().filter(|(_, m)| **m == material) {
+            let [a, b, c] = self.triangle(t);
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                let edge = if key(p) <= key(q) { (key(p), key(q)) } else { (key(q), key(p)) };
+                borders.entry(edge).or_insert((0, [p, q])).0 += 1;
+            }
+        }
+        let mut open: Vec<_> =
+            borders.into_values().filter(|(n, _)| *n != 2).map(|(_, e)| e).collect();
+        open.sort_by(|x, y| {
+            x[0].to_array().partial_cmp(&y[0].to_array()).unwrap_or(std::cmp::Ordering::Equal)
+        });
+        open
+    }
+
     /// Whether some triangle is a mirror or glass: a camera ray may then follow a specular chain.
     pub fn has_specular(&self) -> bool {
         self.materials.iter().any(|m| m.surface.with_colour(Vec3::ONE).is_specular())

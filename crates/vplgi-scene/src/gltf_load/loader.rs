@@ -341,7 +341,7 @@ impl<'a> Loader<'a> {
         }
         if surface.with_colour(Vec3::ONE).is_specular() {
             self.warn(format!(
-                "material '{name}' is {}: camera rays and light particles reflect and refract at it, but light that reaches a diffuse surface \
+                "material '{name}' is {}: camera rays and light particles go on from it, reflected or refracted, but light that reaches a diffuse surface \
                  through it (caustics, and direct light through glass) is missing until photon maps exist",
                 surface.describe()
             ));
@@ -567,6 +567,20 @@ impl<'a> Loader<'a> {
                 format!(" (skipped: {})", self.skipped.join(", "))
             };
             return Err(self.error(format!("no triangles: the scene has nothing renderable{why}")));
+        }
+        for m in 0..self.scene.materials.len() {
+            if !matches!(self.scene.materials[m].surface, Surface::Dielectric { .. }) {
+                continue;
+            }
+            let open = self.scene.open_edges(m as u32);
+            if let Some([p, q]) = open.first() {
+                let name = self.scene.materials[m].name.clone();
+                self.warn(format!(
+                    "material '{name}' is solid glass (it has KHR_materials_volume) but its mesh is open: {} edges border one triangle or \
+                     more than two, one from {p} to {q}; a ray may enter it and never leave. Close the mesh, or drop the volume to make it a thin pane",
+                    open.len()
+                ));
+            }
         }
         self.scene.camera_path = self.read_camera_path()?;
         self.scene.camera = match self.camera {
