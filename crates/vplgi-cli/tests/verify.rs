@@ -1,7 +1,7 @@
 //! `vplgi verify` as a kernel author runs it: a passing run and its report in a real browser, a
 //! shader broken on purpose through `--shaders`, and bad arguments.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn vplgi(args: &[&str]) -> Output {
@@ -23,6 +23,24 @@ fn verify(out: &Path, extra: &[&str]) -> Option<Output> {
         return None;
     }
     Some(o)
+}
+
+/// A `shaders/` folder in `dir` holding the built-in `file` with each `(from, to)` of `edits`
+/// applied: what a kernel author gives `--shaders`. Each `from` must be in the file, so a changed
+/// shader fails here rather than leaving the test's kernel unbroken.
+fn edited_shaders(dir: &Path, file: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let shaders = dir.join("shaders");
+    std::fs::create_dir(&shaders).expect("mkdir");
+    let mut text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders").join(file),
+    )
+    .expect("a built-in shader");
+    for (from, to) in edits {
+        assert!(text.contains(from), "{file} changed: update this test's edit of {from}");
+        text = text.replace(from, to);
+    }
+    std::fs::write(shaders.join(file), text).expect("write");
+    shaders
 }
 
 /// Loads `page` in headless chromium with a script appended that reports, on the console, every
@@ -130,16 +148,8 @@ fn the_browser_probe_reports_a_missing_image() {
 #[test]
 fn a_broken_shader_fails_naming_the_stage() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let shaders = dir.path().join("shaders");
-    std::fs::create_dir(&shaders).expect("mkdir");
-    let original = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shade.wgsl"),
-    )
-    .expect("shade.wgsl");
     let clamp = "let capped = select(min(g, g_max), g, r2 > 0.0);";
-    assert!(original.contains(clamp), "shade.wgsl changed: update this test's edit");
-    std::fs::write(shaders.join("shade.wgsl"), original.replace(clamp, "let capped = g;"))
-        .expect("write");
+    let shaders = edited_shaders(dir.path(), "shade.wgsl", &[(clamp, "let capped = g;")]);
     let out = dir.path().join("out");
     let Some(o) = verify(
         &out,
@@ -170,26 +180,17 @@ fn a_broken_shader_fails_naming_the_stage() {
 #[test]
 fn one_percent_more_emission_fails_at_one_and_three_spp() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let shaders = dir.path().join("shaders");
-    std::fs::create_dir(&shaders).expect("mkdir");
-    let mut broken = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl"),
-    )
-    .expect("shading_points.wgsl");
-    for (from, to) in [
-        ("sp.emitted = path.emitted;", "sp.emitted = 1.01 * path.emitted;"),
-        (
-            "return sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
-            "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
-        ),
-    ] {
-        assert!(
-            broken.contains(from),
-            "shading_points.wgsl changed: update this test's edit of {from}"
-        );
-        broken = broken.replace(from, to);
-    }
-    std::fs::write(shaders.join("shading_points.wgsl"), broken).expect("write");
+    let shaders = edited_shaders(
+        dir.path(),
+        "shading_points.wgsl",
+        &[
+            ("sp.emitted = path.emitted;", "sp.emitted = 1.01 * path.emitted;"),
+            (
+                "return sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
+                "return 1.01 * sum / f32(EMISSION_STRATA * EMISSION_STRATA);",
+            ),
+        ],
+    );
     for spp in ["1", "3"] {
         let out = dir.path().join(format!("out-{spp}"));
         let mut args = SMALL.to_vec();
@@ -253,17 +254,9 @@ fn bad_shaders_and_stages_are_refused_by_name() {
 #[test]
 fn a_failing_stage_shows_where_on_the_first_screen() {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let shaders = dir.path().join("shaders");
-    std::fs::create_dir(&shaders).expect("mkdir");
-    let original = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/shading_points.wgsl"),
-    )
-    .expect("shading_points.wgsl");
     let hit = "if (path.triangle != NO_HIT) {";
-    assert!(original.contains(hit), "shading_points.wgsl changed: update this test's edit");
     let seam = "if (path.triangle != NO_HIT && pixel % (params.width + 1u) != 0u) {";
-    std::fs::write(shaders.join("shading_points.wgsl"), original.replace(hit, seam))
-        .expect("write");
+    let shaders = edited_shaders(dir.path(), "shading_points.wgsl", &[(hit, seam)]);
     let out = dir.path().join("out");
     let mut args = SMALL.to_vec();
     args.extend(["--stages", "shading_points", "--shaders", shaders.to_str().expect("utf-8")]);

@@ -11,7 +11,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use vplgi_shared::bsdf::Transport;
 use vplgi_types::params::EMISSION_STRATA;
-use vplgi_types::{Camera, CameraParams, Rng, ShadingPoint, Stream, MISS};
+use vplgi_types::{CameraParams, Rng, ShadingPoint, Stream, MISS};
 
 pub fn shading_points(cs: &CpuScene, camera: &CameraParams) -> Vec<ShadingPoint> {
     shading_points_of(cs, camera, 0..camera.width * camera.height * camera.spp)
@@ -78,10 +78,7 @@ pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops
             // A miss carries its pixel's emission too: the pixel may see an emitter's edge
             // against the background, and dropping it there would bias the pixel dark.
             let emitted = match jitter.as_mut() {
-                Some(rng) => {
-                    let view = (&camera, (width, height), specular_depth);
-                    pixel_emission(cs, view, (x, y), rng, &mut chain)
-                }
+                Some(rng) => pixel_emission(cs, params, (x, y), rng, &mut chain),
                 None => path.emitted,
             };
             match path.hit {
@@ -111,13 +108,8 @@ pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops
 /// jittered in each cell of an `EMISSION_STRATA`² grid over the pixel, an unbiased estimate of
 /// the pixel's mean with far less variance than one ray where an emitter's edge crosses it. The
 /// rays are jittered from `rng` and follow their specular chains with `chain`.
-fn pixel_emission(
-    cs: &CpuScene,
-    (camera, (width, height), depth): (&Camera, (u32, u32), u32),
-    (x, y): (f32, f32),
-    rng: &mut Rng,
-    chain: &mut Rng,
-) -> Vec3 {
+fn pixel_emission(cs: &CpuScene, params: &CameraParams, (x, y): (f32, f32), rng: &mut Rng, chain: &mut Rng) -> Vec3 {
+    let CameraParams { camera, width, height, specular_depth, .. } = *params;
     let n = EMISSION_STRATA;
     let cell = 1.0 / n as f32;
     let mut sum = Vec3::ZERO;
@@ -126,7 +118,7 @@ fn pixel_emission(
             let sx = x + (i as f32 + rng.next_f32()) * cell;
             let sy = y + (j as f32 + rng.next_f32()) * cell;
             let dir = camera.ray_direction(sx, sy, width, height);
-            sum += camera_path(cs, camera.position, dir, depth, chain).emitted;
+            sum += camera_path(cs, camera.position, dir, specular_depth, chain).emitted;
         }
     }
     sum / (n * n) as f32

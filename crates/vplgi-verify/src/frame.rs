@@ -127,11 +127,10 @@ fn compare(
         })
         .with_case(&case),
     );
-    // Primary hits as the shading-points map shows them, and where the image is judged (the
-    // unclustered mode), pixels beyond the image's bound on their own.
+    // Where the image is judged (the unclustered mode), pixels beyond its bound on their own;
+    // the primary hits, which every mode shares, have their own map (`verify`).
     let name = format!("frame-{}", case.replace('/', "-"));
     let mut map = DisagreementMap::new(name.clone(), cfg.width, cfg.height);
-    map.mark_points(c_sp, g_sp, &crate::shading_points::judge(twins));
     if mode.cluster == ClusterMode::None {
         for i in (0..cpu.pixels.len().min(gpu.pixels.len())).filter(|&i| agree[i]) {
             if crate::shade::pixel_beyond(&cpu.pixels, &gpu.pixels, i) {
@@ -154,6 +153,9 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let (cfg, modes) = (&plan.config, &plan.modes[..]);
     let mut r = result(VerifyStage::Frame);
     let shared = Shared::new(twins, cfg, modes)?;
+    let mut hits = DisagreementMap::new("frame-primary-hits", cfg.width, cfg.height);
+    hits.mark_points(&shared.c_sp, &shared.g_sp, &crate::shading_points::judge(twins));
+    r.maps.push(hits);
     for mode in modes {
         let (checks, notes, pair, map) = compare(twins, &mode.apply(cfg), &shared)?;
         r.checks.extend(checks);

@@ -3,6 +3,7 @@
 //! compensation points, or the VPLs that project onto it). A pattern (a seam, a silhouette, an
 //! emitter) is what a kernel author needs to see, and one number cannot show it.
 
+use crate::shading_points::PointPair;
 use glam::Vec3;
 use serde::Serialize;
 use vplgi_types::{Camera, ShadingPoint};
@@ -101,7 +102,7 @@ impl DisagreementMap {
     }
 
     /// Marks each pair of items of image-space points (`cpu[i]` against `gpu[i]`, their pixel
-    /// the CPU's `pixel` field) by its kind: [`kind_of_points`].
+    /// the CPU's `pixel` field) by its kind: [`PointJudge::kind`].
     pub fn mark_points(&mut self, cpu: &[ShadingPoint], gpu: &[ShadingPoint], judge: &PointJudge) {
         for (c, g) in cpu.iter().zip(gpu) {
             self.mark(c.pixel as usize, judge.kind(c, g));
@@ -148,19 +149,16 @@ impl PointJudge {
     /// triangle with other emission, or positions apart beyond the bound where no mirror or
     /// glass came between (beyond); or agreement.
     pub fn kind(&self, c: &ShadingPoint, g: &ShadingPoint) -> ItemKind {
-        let apart = (Vec3::from(c.position) - Vec3::from(g.position)).length() / self.extent;
+        let pair = PointPair::of(c, g, self.extent, self.eye);
         if c.is_miss() != g.is_miss() {
             return ItemKind::Miss;
         }
-        if c.triangle != g.triangle {
-            return if apart <= 1e-5 { ItemKind::Tie } else { ItemKind::Other };
+        if !pair.same {
+            return if pair.tie { ItemKind::Tie } else { ItemKind::Other };
         }
-        let emitted = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
-        let emission_off = emitted > 1e-6 * Vec3::from(c.emitted).max_element().max(1.0);
-        let cos =
-            Vec3::from(c.normal).dot((Vec3::from(c.position) - self.eye).normalize_or_zero()).abs();
         let direct = c.specular == 0 && g.specular == 0 && !c.is_miss();
-        if emission_off || (direct && (apart * cos) as f64 > self.position_bound) {
+        if !pair.emission_agrees || (direct && (pair.apart * pair.cos) as f64 > self.position_bound)
+        {
             ItemKind::Beyond
         } else {
             ItemKind::Agree

@@ -63,8 +63,7 @@ pub struct MapKey {
 /// Writes each stage's disagreement maps that show a disagreement beyond a tie into
 /// `dir/images` and returns their files.
 pub fn write_maps(dir: &Path, stages: &[StageResult]) -> Result<Vec<MapFiles>, ImageError> {
-    std::fs::create_dir_all(dir.join("images"))
-        .map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
+    images_dir(dir)?;
     let mut files = Vec::new();
     for s in stages {
         for map in s.maps.iter().filter(|m| m.shows_disagreement()) {
@@ -105,10 +104,15 @@ fn image(pair: &ImagePair, pixels: &[[f32; 3]]) -> Image {
     Image { width: pair.width, height: pair.height, pixels: pixels.to_vec() }
 }
 
+/// Makes `dir/images`, where the report's pictures go.
+fn images_dir(dir: &Path) -> Result<(), ImageError> {
+    let images = dir.join("images");
+    std::fs::create_dir_all(&images).map_err(|e| ImageError::Write { path: images, source: e })
+}
+
 /// Writes each stage's image pairs into `dir/images` and returns their files.
 pub fn write_images(dir: &Path, stages: &[StageResult]) -> Result<Vec<ImageFiles>, ImageError> {
-    std::fs::create_dir_all(dir.join("images"))
-        .map_err(|e| ImageError::Write { path: dir.join("images"), source: e })?;
+    images_dir(dir)?;
     let mut files = Vec::new();
     for s in stages {
         for pair in &s.images {

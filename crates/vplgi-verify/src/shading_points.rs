@@ -93,17 +93,49 @@ fn describe(i: usize, width: u32, spp: u32, c: &ShadingPoint, g: &ShadingPoint) 
     format!("sample {i} (pixel {}, {}): CPU {}, GPU {}", px % width, px / width, show(c), show(g))
 }
 
+/// What the comparison reads off one sample's pair of shading points: [`hit_differences`] counts
+/// it, and the stage's map colours it ([`crate::map::PointJudge`]).
+pub(crate) struct PointPair {
+    /// The same triangle (or both missed).
+    pub same: bool,
+    /// Another triangle at the same point (within 1e-5 of the extent): a ray through an edge two
+    /// triangles share may legitimately return either.
+    pub tie: bool,
+    /// Position difference over the extent.
+    pub apart: f32,
+    /// The cosine between the camera ray and the CPU's normal ([`HitDifferences`] says why
+    /// positions are judged times it).
+    pub cos: f32,
+    /// Largest emitted-radiance difference of a channel, and whether it is within 1e-6
+    /// (relative above 1).
+    pub emitted: f32,
+    pub emission_agrees: bool,
+}
+
+impl PointPair {
+    pub(crate) fn of(c: &ShadingPoint, g: &ShadingPoint, extent: f32, eye: Vec3) -> PointPair {
+        let apart = (Vec3::from(c.position) - Vec3::from(g.position)).length() / extent;
+        let same = c.triangle == g.triangle;
+        let emitted = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
+        PointPair {
+            same,
+            tie: !same && !c.is_miss() && !g.is_miss() && apart <= 1e-5,
+            apart,
+            cos: Vec3::from(c.normal).dot((Vec3::from(c.position) - eye).normalize_or_zero()).abs(),
+            emitted,
+            emission_agrees: emitted <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0),
+        }
+    }
+}
+
 /// Classifies every sample's pair of shading points; `eye` is the camera's position.
 pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, eye: Vec3, (width, spp): (u32, u32)) -> HitDifferences {
     let mut d = HitDifferences { samples: cpu.len(), ..Default::default() };
     for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
-        let apart = (Vec3::from(c.position) - Vec3::from(g.position)).length() / extent;
-        let same = c.triangle == g.triangle;
-        let tie = !same && !c.is_miss() && !g.is_miss() && apart <= 1e-5;
+        let PointPair { same, tie, apart, cos, emitted, emission_agrees } = PointPair::of(c, g, extent, eye);
         if same {
             d.same_any += 1;
-            let emitted = (Vec3::from(c.emitted) - Vec3::from(g.emitted)).abs().max_element();
-            if emitted <= 1e-6 * Vec3::from(c.emitted).max_element().max(1.0) {
+            if emission_agrees {
                 d.same_emission += 1;
             } else if emitted > d.max_emitted {
                 d.max_emitted = emitted;
@@ -136,7 +168,6 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
                 d.max_position = apart;
                 d.max_position_at = Some(describe(i, width, spp, c, g));
             }
-            let cos = Vec3::from(c.normal).dot((Vec3::from(c.position) - eye).normalize_or_zero()).abs();
             if apart * cos > d.max_position_conditioned {
                 d.max_position_conditioned = apart * cos;
                 d.max_position_conditioned_at = Some(format!("{} (cosine of incidence {cos:.2e})", describe(i, width, spp, c, g)));
