@@ -61,19 +61,14 @@ pub fn camera_path(cs: &CpuScene, origin: Vec3, dir: Vec3, depth: u32, rng: &mut
 /// The shading points of samples `samples` only (a tile of the image); each is the same as in
 /// the whole frame.
 pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops::Range<u32>) -> Vec<ShadingPoint> {
-    let CameraParams { camera, width, height, spp, seed, specular_depth } = *params;
+    let CameraParams { camera, width, spp, seed, specular_depth, .. } = *params;
     samples
         .into_par_iter()
         .map(|i| {
             let pixel = i / spp;
             let (x, y) = ((pixel % width) as f32, (pixel / width) as f32);
-            let mut jitter = (spp != 1).then(|| Rng::new(seed, Stream::Camera, i));
+            let (dir, mut jitter) = sample_ray(params, i);
             let mut chain = Rng::new(seed, Stream::Specular, i);
-            let (sx, sy) = match jitter.as_mut() {
-                Some(rng) => (x + rng.next_f32(), y + rng.next_f32()),
-                None => (x + 0.5, y + 0.5),
-            };
-            let dir = camera.ray_direction(sx, sy, width, height);
             let path = camera_path(cs, camera.position, dir, specular_depth, &mut chain);
             // A miss carries its pixel's emission too: the pixel may see an emitter's edge
             // against the background, and dropping it there would bias the pixel dark.
@@ -102,6 +97,20 @@ pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops
             }
         })
         .collect()
+}
+
+/// Sample `i`'s camera ray direction (from `params.camera.position`), and at spp > 1 its jitter
+/// stream, left where the pixel's emission rays draw next.
+pub fn sample_ray(params: &CameraParams, i: u32) -> (Vec3, Option<Rng>) {
+    let CameraParams { camera, width, height, spp, seed, .. } = *params;
+    let pixel = i / spp;
+    let (x, y) = ((pixel % width) as f32, (pixel / width) as f32);
+    let mut jitter = (spp != 1).then(|| Rng::new(seed, Stream::Camera, i));
+    let (sx, sy) = match jitter.as_mut() {
+        Some(rng) => (x + rng.next_f32(), y + rng.next_f32()),
+        None => (x + 0.5, y + 0.5),
+    };
+    (camera.ray_direction(sx, sy, width, height), jitter)
 }
 
 /// The emission seen through the pixel whose top-left corner is `(x, y)`: the mean over one ray

@@ -37,9 +37,9 @@ fn compare_mapped(
 ) -> Result<Vec<Disagreement>, VerifyError> {
     let (cpu, gpu) = both(twins, parents, params)?;
     if let Some(map) = map {
-        map.mark_points(&cpu, &gpu, &crate::shading_points::judge(twins));
+        map.mark_points(&cpu, &gpu, &crate::shading_points::judge(twins, None));
     }
-    let d = hit_differences(&cpu, &gpu, twins.cpu.extent, twins.scene.camera.position, (width, spp));
+    let d = hit_differences(&cpu, &gpu, twins.cpu.extent, twins.scene.camera.position, (width, spp), None);
     let kept = cpu.iter().filter(|p| !p.is_miss()).count();
     let (mut weight, mut worst, mut raw, mut raw_at, mut other) = (0.0f64, None, 0.0f32, None, 0usize);
     for (i, ((c, g), parent)) in cpu.iter().zip(&gpu).zip(parents).enumerate() {

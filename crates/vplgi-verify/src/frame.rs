@@ -29,6 +29,7 @@ impl Shared {
             twins.cpu.extent,
             twins.scene.camera.position,
             (cfg.width, cfg.spp),
+            None,
         );
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
             let checks = match cfg.vpl_source {
@@ -154,7 +155,12 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let mut r = result(VerifyStage::Frame);
     let shared = Shared::new(twins, cfg, modes)?;
     let mut hits = DisagreementMap::new("frame-primary-hits", cfg.width, cfg.height);
-    hits.mark_points(&shared.c_sp, &shared.g_sp, &crate::shading_points::judge(twins));
+    let camera = cfg.camera_params(twins.scene.camera);
+    hits.mark_points(
+        &shared.c_sp,
+        &shared.g_sp,
+        &crate::shading_points::judge(twins, Some(&camera)),
+    );
     r.maps.push(hits);
     for mode in modes {
         let (checks, notes, pair, map) = compare(twins, &mode.apply(cfg), &shared)?;

@@ -3,7 +3,7 @@
 //! compensation points, or the VPLs that project onto it). A pattern (a seam, a silhouette, an
 //! emitter) is what a kernel author needs to see, and one number cannot show it.
 
-use crate::shading_points::PointPair;
+use crate::shading_points::{Nudge, PointPair};
 use glam::Vec3;
 use serde::Serialize;
 use vplgi_types::{Camera, ShadingPoint};
@@ -104,8 +104,8 @@ impl DisagreementMap {
     /// Marks each pair of items of image-space points (`cpu[i]` against `gpu[i]`, their pixel
     /// the CPU's `pixel` field) by its kind: [`PointJudge::kind`].
     pub fn mark_points(&mut self, cpu: &[ShadingPoint], gpu: &[ShadingPoint], judge: &PointJudge) {
-        for (c, g) in cpu.iter().zip(gpu) {
-            self.mark(c.pixel as usize, judge.kind(c, g));
+        for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
+            self.mark(c.pixel as usize, judge.kind(i, c, g));
         }
     }
 
@@ -134,7 +134,7 @@ impl DisagreementMap {
 
 /// How two backends' shading points (or compensation points) of the same sample are judged, as
 /// `vplgi verify`'s shading-points rows judge them.
-pub struct PointJudge {
+pub struct PointJudge<'a> {
     /// The scene's extent, the unit of positions.
     pub extent: f32,
     /// Where the rays come from: a position difference is judged times the cosine of incidence
@@ -142,19 +142,27 @@ pub struct PointJudge {
     pub eye: Vec3,
     /// The position bound, over the extent.
     pub position_bound: f64,
+    /// Where the points are camera samples: a specular chain that parts within rounding is a tie.
+    pub nudge: Option<Nudge<'a>>,
 }
 
-impl PointJudge {
-    /// A miss on one side only; another triangle (a tie within 1e-5 of the extent); the same
+impl PointJudge<'_> {
+    /// Of sample `i`: a miss on one side only; another triangle (a tie within 1e-5 of the
+    /// extent, or a specular chain the CPU follows to the GPU's end when nudged); the same
     /// triangle with other emission, or positions apart beyond the bound where no mirror or
     /// glass came between (beyond); or agreement.
-    pub fn kind(&self, c: &ShadingPoint, g: &ShadingPoint) -> ItemKind {
+    pub fn kind(&self, i: usize, c: &ShadingPoint, g: &ShadingPoint) -> ItemKind {
         let pair = PointPair::of(c, g, self.extent, self.eye);
+        let nudged = || {
+            !pair.same
+                && c.specular.max(g.specular) > 0
+                && self.nudge.is_some_and(|n| n.reaches(i, g))
+        };
         if c.is_miss() != g.is_miss() {
-            return ItemKind::Miss;
+            return if nudged() { ItemKind::Tie } else { ItemKind::Miss };
         }
         if !pair.same {
-            return if pair.tie { ItemKind::Tie } else { ItemKind::Other };
+            return if pair.tie || nudged() { ItemKind::Tie } else { ItemKind::Other };
         }
         let direct = c.specular == 0 && g.specular == 0 && !c.is_miss();
         if !pair.emission_agrees || (direct && (pair.apart * pair.cos) as f64 > self.position_bound)

@@ -2,15 +2,18 @@
 //! triangle; positions within 1e-4 of the scene extent).
 
 use crate::tolerance::{
-    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SPECULAR_CHAINS_DIVERGED,
+    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SPECULAR_CHAINS_DIVERGED, SPECULAR_CHAIN_NUDGE,
     SHADING_POINTS_EMISSION_SUMS, LONG_SPECULAR_CHAINS_DIVERGED, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
     SHADING_POINTS_UNREACHABLE_EMISSION,
 };
 use crate::map::{DisagreementMap, PointJudge};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::{DVec3, Vec3};
+use vplgi_cpu::shading_points::{camera_path, sample_ray};
+use vplgi_cpu::CpuScene;
 use vplgi_scene::Scene;
-use vplgi_types::{CameraParams, ShadingPoint};
+use vplgi_types::sampling::orthonormal_basis;
+use vplgi_types::{CameraParams, Rng, ShadingPoint, Stream, MISS};
 
 /// How two backends' shading points of the same samples differ. Samples whose camera ray passed
 /// a mirror or glass on either backend are counted apart ([`Chains`]).
@@ -69,8 +72,10 @@ impl HitDifferences {
 #[derive(Clone, Debug, Default)]
 pub struct Chains {
     pub samples: usize,
-    /// Ending on another surface (beyond an edge tie).
+    /// Ending on another surface, beyond an edge tie and beyond a [`Nudge`].
     pub diverged: usize,
+    /// Ending on another surface where the CPU, its camera ray nudged, ends where the GPU did.
+    pub nudged: usize,
     /// Of those, the samples whose backends passed different numbers of specular vertices: a
     /// reflect-or-refract choice or a total internal reflection that went the other way.
     pub other_length: usize,
@@ -128,8 +133,43 @@ impl PointPair {
     }
 }
 
-/// Classifies every sample's pair of shading points; `eye` is the camera's position.
-pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, eye: Vec3, (width, spp): (u32, u32)) -> HitDifferences {
+/// Whether a specular chain's divergence lies within rounding: the CPU traces the sample again
+/// with its camera ray turned a little ([`SPECULAR_CHAIN_NUDGE`] says how far, and why) and
+/// ends on the GPU's triangle through as many specular vertices, or misses as it did.
+#[derive(Clone, Copy)]
+pub struct Nudge<'a> {
+    pub cs: &'a CpuScene<'a>,
+    pub camera: CameraParams,
+}
+
+impl Nudge<'_> {
+    pub fn reaches(&self, sample: usize, gpu: &ShadingPoint) -> bool {
+        let (dir, _) = sample_ray(&self.camera, sample as u32);
+        let (u, v) = orthonormal_basis(dir);
+        let turns = [1.0, 0.1, 0.01].into_iter().flat_map(|scale| {
+            (0..8).map(move |k| {
+                let (sin, cos) = (k as f32 * std::f32::consts::FRAC_PI_4).sin_cos();
+                (scale * SPECULAR_CHAIN_NUDGE) as f32 * (u * cos + v * sin)
+            })
+        });
+        turns.into_iter().any(|turn| {
+            let mut chain = Rng::new(self.camera.seed, Stream::Specular, sample as u32);
+            let path = camera_path(self.cs, self.camera.camera.position, (dir + turn).normalize(), self.camera.specular_depth, &mut chain);
+            path.hit.map_or(MISS, |h| h.triangle) == gpu.triangle && path.specular == gpu.specular
+        })
+    }
+}
+
+/// Classifies every sample's pair of shading points; `eye` is the camera's position. A chained
+/// pair that parts is checked with `nudge` where given (the samples are `nudge`'s camera's).
+pub fn hit_differences(
+    cpu: &[ShadingPoint],
+    gpu: &[ShadingPoint],
+    extent: f32,
+    eye: Vec3,
+    (width, spp): (u32, u32),
+    nudge: Option<&Nudge>,
+) -> HitDifferences {
     let mut d = HitDifferences { samples: cpu.len(), ..Default::default() };
     for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
         let PointPair { same, tie, apart, cos, emitted, emission_agrees } = PointPair::of(c, g, extent, eye);
@@ -152,6 +192,8 @@ pub fn hit_differences(cpu: &[ShadingPoint], gpu: &[ShadingPoint], extent: f32, 
             if same && !c.is_miss() && apart > chain.max_position {
                 chain.max_position = apart;
                 chain.max_position_at = Some(describe(i, width, spp, c, g));
+            } else if !same && !tie && nudge.is_some_and(|n| n.reaches(i, g)) {
+                chain.nudged += 1;
             } else if !same && !tie {
                 chain.diverged += 1;
                 chain.other_length += (c.specular != g.specular) as usize;
@@ -279,14 +321,21 @@ pub fn compare(twins: &Twins, camera: &CameraParams) -> Result<Vec<Disagreement>
     Ok(compare_points(twins, camera, &cpu, &gpu))
 }
 
-/// How the maps judge a pair of shading points, as the rows below do.
-pub fn judge(twins: &Twins) -> PointJudge {
-    PointJudge { extent: twins.cpu.extent, eye: twins.scene.camera.position, position_bound: SHADING_POINTS_POSITION_REL }
+/// How the maps judge a pair of shading points, as the rows below do; `camera` made them (a
+/// chain that parts is then nudged).
+pub fn judge<'a>(twins: &Twins<'a>, camera: Option<&CameraParams>) -> PointJudge<'a> {
+    PointJudge {
+        extent: twins.cpu.extent,
+        eye: twins.scene.camera.position,
+        position_bound: SHADING_POINTS_POSITION_REL,
+        nudge: camera.map(|&camera| Nudge { cs: twins.cpu, camera }),
+    }
 }
 
 /// Compares both backends' shading points of `camera`'s samples.
 fn compare_points(twins: &Twins, camera: &CameraParams, cpu: &[ShadingPoint], gpu: &[ShadingPoint]) -> Vec<Disagreement> {
-    let d = hit_differences(cpu, gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp));
+    let nudge = Nudge { cs: twins.cpu, camera: *camera };
+    let d = hit_differences(cpu, gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp), Some(&nudge));
     let case = format!("{}x{}, {} spp", camera.width, camera.height, camera.spp);
     let mut albedo = 0.0f32;
     for (c, g) in cpu.iter().zip(gpu).filter(|(c, g)| c.triangle == g.triangle && !c.is_miss()) {
@@ -342,6 +391,14 @@ fn compare_points(twins: &Twins, camera: &CameraParams, cpu: &[ShadingPoint], gp
                 .with_case(&case),
         );
         rows.push(
+            Disagreement::info(
+                "shading_points",
+                format!("samples through {label} ending on another surface that the CPU reaches with its camera ray nudged (set aside as ties)"),
+                chains.nudged as f64,
+            )
+            .with_case(&case),
+        );
+        rows.push(
             Disagreement::info("shading_points", format!("position difference / scene extent through {label}, on the same triangle"), chains.max_position as f64)
                 .with_case(&case)
                 .with_worst(chains.max_position_at.clone()),
@@ -358,7 +415,7 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let (cpu, gpu) = both(twins, &camera)?;
     r.checks = compare_points(twins, &camera, &cpu, &gpu);
     let mut map = DisagreementMap::new(format!("shading_points-{}x{}-{}spp", camera.width, camera.height, camera.spp), camera.width, camera.height);
-    map.mark_points(&cpu, &gpu, &judge(twins));
+    map.mark_points(&cpu, &gpu, &judge(twins, Some(&camera)));
     r.maps.push(map);
     r.notes.push(format!(
         "{} samples; a ray through an edge shared by two triangles may return either (same point, another triangle): counted as agreement, and reported. \

@@ -33,6 +33,16 @@ pub const SHADING_POINTS_POSITION_REL: f64 = 1e-4;
 pub const SPECULAR_CHAINS_DIVERGED: f64 = 1e-3;
 /// The same for chains of two or more vertices, whose directions' rounding compounds.
 pub const LONG_SPECULAR_CHAINS_DIVERGED: f64 = 5e-3;
+/// Specular chains: a sample whose backends end on different surfaces is set aside as a tie
+/// (and reported) where the CPU, tracing the sample's camera ray turned by this many radians
+/// (or a tenth or a hundredth of it) in one of 8 directions, ends where the GPU did. Each
+/// backend rounds a chain's vertices its own way, so the segment after one leaves in a
+/// direction a few ulps off the other's, and may pass the other side of an edge it nearly
+/// meets, of a surface that crosses the mirror, or of total internal reflection's critical
+/// angle. Turned by 1e-5, a ray moves by 1e-5 of the distance it goes, the unchained rows' tie
+/// distance for a scene about as deep as its extent; no one-sided error of a kernel (a wrong
+/// normal, index or Fresnel term) hides within it.
+pub const SPECULAR_CHAIN_NUDGE: f64 = 1e-5;
 
 /// The row of a specular-chain bound: the share of `items` of which `diverged` diverge, judged
 /// against `bound` when there are at least 1 / `bound` of them. With fewer, one divergence alone
