@@ -1,8 +1,9 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/scene.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/scene.wgsl common/bsdf.wgsl
 // Stage bias_points: the bias compensation of the geometry-term clamp (vplgi-cpu/src/bias_points.rs).
 // From each parent shading point, one cosine-sampled segment (stream (seed, STREAM_BIAS, i)) to
 // the surface it sees; kept as a shading point where the clamp bites, with albedo = its albedo x
-// the parent's x the clamped share 1 - g_max / G, no emission and the parent's pixel.
+// the parent's x the clamped share 1 - g_max / G, no emission and the parent's pixel. None
+// where the segment meets a mirror or glass: no VPL sits there, so the clamp removed nothing.
 
 struct Params {
     first: u32,   // first sample of this chunk
@@ -59,6 +60,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let surf = surface_at(hit, dir);
+    if (bsdf_is_specular(surf.bsdf)) {
+        return;
+    }
     let w = clamped_share(sp.position, sp.normal, surf.position, surf.ns, params.g_max);
     if (w <= 0.0) {
         return;

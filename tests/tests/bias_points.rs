@@ -170,3 +170,56 @@ proptest::proptest! {
         vplgi_tests::hold(&checks)?;
     }
 }
+
+/// No VPL sits on a mirror or glass, so the clamp removes no light that arrives from one: a
+/// compensation segment that meets a specular surface keeps no point, on both backends. In the
+/// Cornell box with a mirror wall and sphere, with a clamp large enough that hundreds of
+/// segments reach them (counted by tracing the same directions here).
+#[test]
+fn compensation_stops_at_mirrors_and_glass() {
+    let scene =
+        vplgi_scene::generate::generate("cornell-mirror", 2_000).expect("a generated scene");
+    let device = vplgi_embree::Device::new(None).expect("Embree device");
+    let cs = CpuScene::new(&scene, &device).expect("Embree scene");
+    let (w, h) = (64, 64);
+    let parents = vplgi_cpu::shading_points::shading_points(
+        &cs,
+        &CameraParams::new(scene.camera, w, h, 1, 9),
+    );
+    let params = config(9).bias_params(cs.extent, 1);
+    // The segments bias_point traces: cosine-sampled from each parent with the bias stream.
+    let reaching = parents
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| !p.is_miss())
+        .filter(|(i, p)| {
+            let mut rng = vplgi_types::Rng::new(params.seed, vplgi_types::Stream::Bias, *i as u32);
+            let n = glam::Vec3::from(p.normal);
+            let dir = vplgi_types::sampling::cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
+            let start = glam::Vec3::from(p.position) + n * cs.eps;
+            cs.trace(start, dir).is_some_and(|hit| hit.bsdf().is_specular())
+        })
+        .count();
+    println!("{reaching} of {} segments meet a mirror", parents.len());
+    assert!(reaching > 100, "only {reaching} segments meet a mirror: the test would prove little");
+    let mut sides = vec![("CPU", vplgi_cpu::bias_points::bias_points(&cs, &parents, 0, &params))];
+    if let Some(gpu) = vplgi_tests::shared_gpu("compensation_stops_at_mirrors_and_glass") {
+        let gpu_points = vplgi_tests::with_twins(gpu, &scene, |t| {
+            vplgi_verify::bias_points::both(t, &parents, &params).expect("GPU").1
+        });
+        sides.push(("GPU", gpu_points));
+    }
+    for (side, points) in sides {
+        let kept = points.iter().filter(|p| !p.is_miss()).count();
+        let on_specular = points
+            .iter()
+            .filter(|p| {
+                !p.is_miss()
+                    && scene.surface(p.triangle as usize).with_colour(glam::Vec3::ONE).is_specular()
+            })
+            .count();
+        println!("{side}: {kept} compensation points, {on_specular} on a mirror");
+        assert!(kept > 200, "{side}: only {kept} compensation points");
+        assert_eq!(on_specular, 0, "{side}: compensation points on mirrors");
+    }
+}

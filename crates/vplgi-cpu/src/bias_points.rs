@@ -38,7 +38,8 @@ pub fn clamped_share(p: Vec3, np: Vec3, y: Vec3, ny: Vec3, g_max: f32) -> f32 {
 }
 
 /// The next level of compensation points of `parents` (camera samples `first ..`): one per
-/// parent, a miss where the parent is a miss, the segment escapes, or the clamp does not bite.
+/// parent, a miss where the parent is a miss, the segment escapes or meets a mirror or glass, or
+/// the clamp does not bite.
 pub fn bias_points(cs: &CpuScene, parents: &[ShadingPoint], first: u32, params: &BiasParams) -> Vec<ShadingPoint> {
     parents.par_iter().enumerate().map(|(k, sp)| bias_point(cs, sp, first + k as u32, params)).collect()
 }
@@ -62,6 +63,11 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
     let Some(hit) = cs.trace(p + ng * cs.eps, dir) else {
         return miss;
     };
+    // The clamp cut only light from VPLs near p, and no VPL sits on a mirror or glass: what p
+    // sees through one is light VPLs never carried (a caustic), not light the clamp removed.
+    if hit.bsdf().is_specular() {
+        return miss;
+    }
     let w = clamped_share(p, n, hit.position, hit.ns, params.g_max);
     if w <= 0.0 {
         return miss;
