@@ -7,6 +7,7 @@ use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 use vplgi_scene::generate::{generate, GENERATORS};
 use vplgi_scene::mitsuba::{export, RenderDefaults};
+use vplgi_scene::Surface;
 use vplgi_types::FrameConfig;
 
 #[derive(Args)]
@@ -70,7 +71,7 @@ struct GenerateArgs {
     /// detail is fixed.
     #[arg(long)]
     triangles: Option<usize>,
-    /// Output file [default: out/scenes/NAME.glb].
+    /// Output file [default: out/scenes/NAME.glb, NAME-matte.glb with --matte].
     #[arg(long, value_name = "FILE.glb")]
     out: Option<PathBuf>,
     /// Also animate the camera node: a walk of N keyframes one second apart (forward by 12 % of
@@ -78,6 +79,11 @@ struct GenerateArgs {
     /// as a sequence.
     #[arg(long, value_name = "N")]
     camera_walk: Option<u32>,
+    /// Make every surface diffuse, its base colour kept (mirrors, glass and metals turn matte):
+    /// the same scene without specular or glossy light, which tells what only they cause (`make
+    /// validate` renders cornell-mirror and cornell-glass both ways).
+    #[arg(long)]
+    matte: bool,
 }
 
 pub fn run(args: SceneArgs) -> Result<()> {
@@ -138,13 +144,18 @@ fn run_generate(g: GenerateArgs) -> Result<()> {
     let default = GENERATORS.iter().find(|x| x.0 == g.name).map_or(300_000, |x| x.1);
     let mut scene =
         generate(&g.name, g.triangles.unwrap_or(default)).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if g.matte {
+        scene.name = format!("{} (matte)", scene.name);
+        scene.materials.iter_mut().for_each(|m| m.surface = Surface::Diffuse);
+    }
     if let Some(keys) = g.camera_walk {
         scene.camera_path = Some(
             vplgi_scene::generate::camera_walk(&scene, keys)
                 .map_err(|e| anyhow::anyhow!("--camera-walk: {e}"))?,
         );
     }
-    let out = g.out.unwrap_or_else(|| PathBuf::from(format!("out/scenes/{}.glb", g.name)));
+    let stem = if g.matte { format!("{}-matte", g.name) } else { g.name.clone() };
+    let out = g.out.unwrap_or_else(|| PathBuf::from(format!("out/scenes/{stem}.glb")));
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }

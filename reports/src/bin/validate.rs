@@ -1,7 +1,9 @@
 //! `make validate`: vplgi's references against an independent renderer, Mitsuba 3's `path`
-//! integrator, on the built-in Cornell box and the three generated scenes, written to
+//! integrator, on the built-in Cornell box, the generated scenes, and the Cornell boxes with
+//! mirrors, glass and rough metal (the first two also made matte), written to
 //! `docs/VALIDATION.md` (numbers in `docs/validation/validation.json`, pictures beside it,
-//! full-size images under `target/validate/`).
+//! full-size images under `target/validate/`). `--scenes` reruns some and keeps the other rows
+//! of the last report, each row dated with its own commit.
 //!
 //! Per scene: `vplgi scene export --format mitsuba`, then Mitsuba (scalar_rgb, `max_depth` =
 //! bounces + 2, box-filtered pixels) in independent passes, and `vplgi reference` with jittered
@@ -64,10 +66,17 @@ struct Opts {
     /// Light bounces (vplgi's --bounces; Mitsuba's max_depth is this + 2).
     #[arg(long, default_value_t = 3)]
     bounces: u32,
+    /// Light bounces for the scenes with mirrors, glass or metal and their matte twins. A mirror
+    /// or glass vertex is no bounce to vplgi but one more depth to Mitsuba, so at --bounces the
+    /// two would integrate different paths; this deep, both hold all but about 0.7^14 of the
+    /// light.
+    #[arg(long, default_value_t = 12)]
+    deep_bounces: u32,
     /// Triangles of the generated scenes.
     #[arg(long, default_value_t = 20_000)]
     triangles: usize,
-    /// Only these scenes (comma-separated) [default: all four].
+    /// Only these scenes (comma-separated; the report keeps the other rows of the last one)
+    /// [default: all].
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
     /// Where scenes and full-size images go.
@@ -75,7 +84,26 @@ struct Opts {
     work: PathBuf,
 }
 
-const SCENES: [&str; 4] = ["cornell-box", "cornell-fine", "conference", "living-room"];
+const SCENES: [&str; 9] = [
+    "cornell-box",
+    "cornell-fine",
+    "conference",
+    "living-room",
+    "cornell-mirror",
+    "cornell-mirror-matte",
+    "cornell-glass",
+    "cornell-glass-matte",
+    "cornell-glossy",
+];
+/// A generated scene made matte (`vplgi scene generate --matte`): the twin of the specular scene
+/// its name starts with.
+const MATTE: &str = "-matte";
+
+/// Whether `name` is rendered --deep-bounces deep: a scene with mirrors, glass or metal, or the
+/// matte twin of one (the same depth, so that the two compare).
+fn deep(name: &str) -> bool {
+    ["cornell-mirror", "cornell-glass", "cornell-glossy"].iter().any(|s| name.starts_with(s))
+}
 const MITSUBA_PASSES: u32 = 8;
 /// vplgi's two references: with the clamp's bias compensation (`vplgi reference`'s default), and
 /// clamped as the paper's clustered frames are.
@@ -259,7 +287,10 @@ fn main() -> Result<()> {
     std::fs::create_dir_all(&docs).with_context(|| format!("cannot create {}", docs.display()))?;
     let vplgi = |args: &[&str]| run(Command::new(&o.vplgi).args(args));
     let mut rows = Vec::new();
+    let date = || shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]);
     for name in &scenes {
+        let bounces = if deep(name) { o.deep_bounces } else { o.bounces };
+        let generator = name.strip_suffix(MATTE);
         let dir = o.work.join(name);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot create {}", dir.display()))?;
@@ -269,15 +300,11 @@ fn main() -> Result<()> {
             let glb = o.work.join("scenes").join(format!("{name}-{}.glb", o.triangles));
             if !glb.exists() {
                 eprintln!("{name}: generating ({} triangles)", o.triangles);
-                vplgi(&[
-                    "scene",
-                    "generate",
-                    name,
-                    "--triangles",
-                    &o.triangles.to_string(),
-                    "--out",
-                    &glb.to_string_lossy(),
-                ])?;
+                let triangles = o.triangles.to_string();
+                let mut args =
+                    vec!["scene", "generate", generator.unwrap_or(name), "--triangles", &triangles];
+                args.extend(generator.map(|_| "--matte"));
+                vplgi(&[&args[..], &["--out", &glb.to_string_lossy()]].concat())?;
             }
             glb.to_string_lossy().into_owned()
         };
@@ -296,7 +323,7 @@ fn main() -> Result<()> {
             "--height",
             &hs,
             "--bounces",
-            &o.bounces.to_string(),
+            &bounces.to_string(),
         ])?;
         eprintln!("{name}: Mitsuba, {} spp", o.mitsuba_spp);
         let per_pass = o.mitsuba_spp.div_ceil(MITSUBA_PASSES);
@@ -319,14 +346,17 @@ fn main() -> Result<()> {
         let m = side(&dir.join("mitsuba-render"), "mean.exr", MITSUBA_PASSES)?;
         vplgi_image::write_png(&docs.join(format!("{name}-mitsuba.png")), &m.mean, 1.0)?;
         let mut variants = Vec::new();
-        for (variant, compensated) in VARIANTS {
+        // The deep scenes are judged compensated only: the clamped variant would double their
+        // time for a row that shows only what the diffuse scenes already show.
+        let variants_run = if deep(name) { &VARIANTS[..1] } else { &VARIANTS[..] };
+        for &(variant, compensated) in variants_run {
             eprintln!(
                 "{name}: vplgi reference ({variant}), {} runs of {} seeds x {} spp, {} VPLs",
                 o.runs, o.seeds, o.spp, o.vpls
             );
             let start = Instant::now();
             let (seeds, spp, vpls, bounces) =
-                (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), o.bounces.to_string());
+                (o.seeds.to_string(), o.spp.to_string(), o.vpls.to_string(), bounces.to_string());
             let (mut means, mut variances, mut sidecars) = (Vec::new(), Vec::new(), Vec::new());
             for run in 0..o.runs {
                 let run_dir = dir.join(format!("vplgi-{variant}")).join(format!("run-{run}"));
@@ -403,13 +433,17 @@ fn main() -> Result<()> {
         let mitsuba_seconds = mitsuba_run["seconds"].as_f64().unwrap_or(f64::NAN);
         rows.push(json!({
             "scene": name,
+            "commit": commit,
+            "date": date(),
+            "bounces": bounces,
             "mitsuba_seconds": mitsuba_seconds,
             "mitsuba_seconds_to_equal_error": seconds_to_equal_error(mitsuba_seconds, expected_rel_mse(&m, &m.mean)),
             "variants": variants,
         }));
     }
+    let rows = with_earlier_rows(rows, &docs.join("validation.json"))?;
     let report = json!({
-        "date": shell("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
+        "date": date(),
         "commit": commit,
         "width": w, "height": h, "mitsuba_spp": o.mitsuba_spp, "mitsuba_passes": MITSUBA_PASSES,
         "runs": o.runs, "seeds": o.seeds, "spp": o.spp, "vpls": o.vpls, "bounces": o.bounces, "triangles": o.triangles,
@@ -422,13 +456,42 @@ fn main() -> Result<()> {
     Ok(())
 }
 
+/// `rows` and, for the scenes this run left out, the rows of the report at `json` (if any), in
+/// [`SCENES`] order. A row from a report older than per-row dates takes that report's.
+fn with_earlier_rows(rows: Vec<Value>, json: &Path) -> Result<Vec<Value>> {
+    let earlier: Value = match std::fs::read_to_string(json) {
+        Ok(text) => {
+            serde_json::from_str(&text).with_context(|| format!("{}: not JSON", json.display()))?
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", json.display())),
+    };
+    let find = |rows: &[Value], name: &str| rows.iter().find(|r| r["scene"] == name).cloned();
+    let old = earlier["scenes"].as_array().cloned().unwrap_or_default();
+    Ok(SCENES
+        .iter()
+        .filter_map(|name| {
+            find(&rows, name).or_else(|| {
+                let mut row = find(&old, name)?;
+                for key in ["commit", "date", "bounces"] {
+                    if row[key].is_null() {
+                        row[key] = earlier[key].clone();
+                    }
+                }
+                Some(row)
+            })
+        })
+        .collect())
+}
+
 fn markdown(r: &Value) -> Result<String> {
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let mut s = String::new();
     writeln!(s, "# Validation: vplgi's references against Mitsuba 3\n")?;
     writeln!(
         s,
-        "Generated by `make validate` on {}, commit {}, Mitsuba {} (`scalar_rgb`, `path` integrator). Numbers: \
+        "Generated by `make validate`, last on {} at commit {}; each scene's row names the commit it ran at (`--scenes` \
+         reruns some and keeps the rest). Mitsuba {} (`scalar_rgb`, `path` integrator). Numbers: \
          [validation/validation.json](validation/validation.json); full-size images under `target/validate/` after a run.\n",
         r["date"].as_str().unwrap_or("?"),
         r["commit"].as_str().unwrap_or("?"),
@@ -437,22 +500,19 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(
         s,
         "Each scene is written by `vplgi scene export --format mitsuba` and rendered by both at {}x{}: Mitsuba with {} samples \
-         per pixel in {} independent passes and `max_depth` = {} (the same paths as vplgi's {} bounces); vplgi with {} \
-         independent runs of `vplgi reference --seeds {} --spp {} --vpls {} --bounces {}` (jittered samples, so both \
-         integrate over each pixel). \
+         per pixel in {} independent passes and `max_depth` = bounces + 2 (the same paths as vplgi's bounces in a \
+         diffuse scene); vplgi with {} independent runs of `vplgi reference --seeds {} --spp {} --vpls {} --bounces B` \
+         (jittered samples, so both integrate over each pixel), B per scene in the table. \
          Generated scenes have {} triangles. Both run on the same 2 CPU cores; times are wall-clock seconds of each \
          render.\n",
         r["width"],
         r["height"],
         r["mitsuba_spp"],
         r["mitsuba_passes"],
-        f(&r["bounces"]) + 2.0,
-        r["bounces"],
         r["runs"],
         r["seeds"],
         r["spp"],
         r["vpls"],
-        r["bounces"],
         r["triangles"]
     )?;
     writeln!(
@@ -472,21 +532,31 @@ fn markdown(r: &Value) -> Result<String> {
          removes is put back, `--bias-compensation true`) and **clamped** (`--bias-compensation false`, the transport \
          the paper's clustered frames approximate). Both use the default clamp, d_min = 0.05 of the scene's diagonal.\n"
     )?;
-    writeln!(s, "| scene | vplgi | relMSE | noise relMSE | quotient | FLIP | vplgi (s) | Mitsuba (s) |\n|---|---|---:|---:|---:|---:|---:|---:|")?;
+    writeln!(
+        s,
+        "The scenes with mirrors, glass or metal (and the matte twins of the first two) run {} bounces deep and compensated only: \
+         a mirror or glass vertex is no bounce to vplgi (its camera rays and light particles pass through up to 6 between \
+         two surfaces) but one more depth to Mitsuba, so at 3 bounces the two would integrate different paths. \
+         [Mirrors, glass and metal](#mirrors-glass-and-metal) says what they show.\n",
+        scenes_bounces(r, true)
+    )?;
+    writeln!(s, "| scene | bounces | vplgi | relMSE | noise relMSE | quotient | FLIP | vplgi (s) | Mitsuba (s) | commit |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---|")?;
     let scenes = r["scenes"].as_array().cloned().unwrap_or_default();
     for sc in &scenes {
         for v in sc["variants"].as_array().cloned().unwrap_or_default() {
             writeln!(
                 s,
-                "| {} | {} | {:.3e} | {:.3e} | {:.2} | {:.4} | {:.0} | {:.0} |",
+                "| {} | {} | {} | {:.3e} | {:.3e} | {:.2} | {:.4} | {:.0} | {:.0} | {} |",
                 sc["scene"].as_str().unwrap_or("?"),
+                sc["bounces"],
                 v["variant"].as_str().unwrap_or("?"),
                 f(&v["rel_mse"]),
                 f(&v["noise_rel_mse"]),
                 f(&v["rel_mse"]) / f(&v["noise_rel_mse"]),
                 f(&v["flip"]),
                 f(&v["vplgi_seconds"]),
-                f(&sc["mitsuba_seconds"])
+                f(&sc["mitsuba_seconds"]),
+                sc["commit"].as_str().unwrap_or("?")
             )?;
         }
     }
@@ -508,16 +578,18 @@ fn markdown(r: &Value) -> Result<String> {
                 .map_or(f64::NAN, |v| f(&v["seconds_to_equal_error"]))
         };
         let m = f(&sc["mitsuba_seconds_to_equal_error"]);
+        let shown = |x: f64| if x.is_finite() { format!("{x:.0}") } else { "–".to_string() };
         writeln!(
             s,
-            "| {} | {:.0} | {:.0} | {:.0} | {:.2} |",
+            "| {} | {:.0} | {} | {} | {:.2} |",
             sc["scene"].as_str().unwrap_or("?"),
             m,
-            t("compensated"),
-            t("clamped"),
+            shown(t("compensated")),
+            shown(t("clamped")),
             t("compensated") / m
         )?;
     }
+    specular_section(&mut s, &scenes)?;
     for sc in &scenes {
         let n = sc["scene"].as_str().unwrap_or("?");
         writeln!(s, "\n## {n}\n\nvplgi's mean over Mitsuba's (+- 2 sigma of noise):\n\n| vplgi | band | R | G | B |\n|---|---|---:|---:|---:|")?;
@@ -536,11 +608,127 @@ fn markdown(r: &Value) -> Result<String> {
                 )?;
             }
         }
-        writeln!(s, "\n| vplgi (compensated) | Mitsuba | FLIP error (compensated) | darker / brighter: compensated | darker / brighter: clamped |\n|---|---|---|---|---|")?;
-        writeln!(
-            s,
-            "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio-compensated.png) | ![](validation/{n}-ratio-clamped.png) |"
-        )?;
+        if deep(n) {
+            writeln!(s, "\n| vplgi (compensated) | Mitsuba | FLIP error | darker / brighter |\n|---|---|---|---|")?;
+            writeln!(
+                s,
+                "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio-compensated.png) |"
+            )?;
+        } else {
+            writeln!(s, "\n| vplgi (compensated) | Mitsuba | FLIP error (compensated) | darker / brighter: compensated | darker / brighter: clamped |\n|---|---|---|---|---|")?;
+            writeln!(
+                s,
+                "| ![](validation/{n}-vplgi.png) | ![](validation/{n}-mitsuba.png) | ![](validation/{n}-flip.png) | ![](validation/{n}-ratio-compensated.png) | ![](validation/{n}-ratio-clamped.png) |"
+            )?;
+        }
     }
     Ok(s)
+}
+
+/// The bounces the deep scenes (or the others) ran at, as the rows record them.
+fn scenes_bounces(r: &Value, deep_ones: bool) -> String {
+    let mut b: Vec<String> = r["scenes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|sc| deep(sc["scene"].as_str().unwrap_or("")) == deep_ones)
+        .map(|sc| sc["bounces"].to_string())
+        .collect();
+    b.dedup();
+    if b.is_empty() {
+        "--deep-bounces".to_string()
+    } else {
+        b.join(" or ")
+    }
+}
+
+/// The compensated variant's bands of a scene row.
+fn bands(row: &Value) -> Vec<Value> {
+    row["variants"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .find(|v| v["variant"] == "compensated")
+        .and_then(|v| v["bands"].as_array().cloned())
+        .unwrap_or_default()
+}
+
+/// Whether every channel of every band is within `bound` of 1.
+fn within(bands: &[Value], bound: f64) -> bool {
+    !bands.is_empty()
+        && bands.iter().all(|b| {
+            (0..3).all(|c| b["ratio"][c].as_f64().is_some_and(|r| (r - 1.0).abs() <= bound))
+        })
+}
+
+/// How far the twin of a specular scene may be from Mitsuba for the scene's difference to be
+/// put down to caustics alone.
+const TWIN_BOUND: f64 = 0.005;
+
+/// The section on the scenes with mirrors, glass and metal: each band's ratio beside the matte
+/// twin's, and whether the twin agrees.
+fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
+    let row = |name: &str| scenes.iter().find(|r| r["scene"] == name);
+    if ["cornell-mirror", "cornell-glass", "cornell-glossy"].iter().all(|n| row(n).is_none()) {
+        return Ok(());
+    }
+    writeln!(
+        s,
+        "\n## Mirrors, glass and metal\n\n\
+         vplgi's VPLs never sit on a mirror or glass, and its shadow rays stop at glass, so light that reaches a diffuse \
+         surface straight from a mirror or glass (a caustic: the light's reflection on the floor and walls, light focused \
+         through the glass sphere, direct light through the cube) is missing from its references; the photon maps add it. \
+         The rest is in both renderers: camera rays through mirrors and glass, and light particles reflected and refracted \
+         on to the surfaces where they leave VPLs. Each of these scenes is rendered beside its matte twin (`vplgi scene \
+         generate --matte`: every surface diffuse, base colours kept). Where the twin agrees within +-{:.1} % in every \
+         band and channel, vplgi's transport is right there, and the specular scene's own shortfall is the caustic light: \
+         its ratio map is darker (blue) where caustics fall. vplgi shades rough metal as diffuse so far, so cornell-glossy \
+         measures how far that is from Mitsuba's rough conductors.\n\n\
+         Per band, vplgi's mean over Mitsuba's, the mean of R, G and B (+- the largest channel's 2 sigma):\n\n\
+         | scene | band | with mirrors, glass or metal | matte twin | twin within +-{:.1} % |\n|---|---|---:|---:|---|",
+        100.0 * TWIN_BOUND,
+        100.0 * TWIN_BOUND
+    )?;
+    let cell = |b: Option<&Value>| {
+        b.map_or("–".to_string(), |b| {
+            let f = |k: &str, c: usize| b[k][c].as_f64().unwrap_or(f64::NAN);
+            let mean = (0..3).map(|c| f("ratio", c)).sum::<f64>() / 3.0;
+            let sigma = (0..3).map(|c| f("two_sigma", c)).fold(0.0, f64::max);
+            format!("{mean:.4} +- {sigma:.4}")
+        })
+    };
+    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy"] {
+        let Some(r) = row(name) else { continue };
+        let twin = row(&format!("{name}{MATTE}")).map(bands).unwrap_or_default();
+        let verdict = match twin.is_empty() {
+            true => "–",
+            false if within(&twin, TWIN_BOUND) => "yes",
+            false => "no",
+        };
+        for (i, b) in bands(r).iter().enumerate() {
+            writeln!(
+                s,
+                "| {name} | {} | {} | {} | {} |",
+                b["band"].as_str().unwrap_or("?"),
+                cell(Some(b)),
+                cell(twin.get(i)),
+                if i == 0 { verdict } else { "" }
+            )?;
+        }
+    }
+    writeln!(s, "\n| scene | vplgi | Mitsuba | darker / brighter | matte twin: darker / brighter |\n|---|---|---|---|---|")?;
+    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy"] {
+        if row(name).is_none() {
+            continue;
+        }
+        let twin = match row(&format!("{name}{MATTE}")) {
+            Some(_) => format!("![](validation/{name}{MATTE}-ratio-compensated.png)"),
+            None => "–".to_string(),
+        };
+        writeln!(
+            s,
+            "| {name} | ![](validation/{name}-vplgi.png) | ![](validation/{name}-mitsuba.png) | ![](validation/{name}-ratio-compensated.png) | {twin} |"
+        )?;
+    }
+    Ok(())
 }
