@@ -1,15 +1,21 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl common/bsdf.wgsl common/specular.wgsl
 // Stage 1 with --vpl-source rsm, rsm_vpls (vplgi-cpu/src/rsm_vpls.rs): one reflective shadow map
 // per light (vplgi_shared::rsm), in two kernels around scan.wgsl:
-//   rsm_texel: one thread per texel: its ray (rsm::texel_ray), its first hit, a VPL in slot t and
-//            a count of 1, or a count of 0 where the ray escapes or a spot sends nothing;
+//   rsm_texel: one thread per texel: its ray (rsm::texel_ray) through at most specular_depth
+//            mirrors and glass (reflect or refract by Fresnel, stream (seed, STREAM_RSM_SPECULAR,
+//            t)), a VPL in slot t where it then hits and a count of 1, or a count of 0 where the
+//            ray escapes or a spot sends nothing;
 //   compact: the VPLs in texel order behind the exclusive offsets of the counts.
 
 struct Params {
     texels: u32,
     maps: u32,
     eps: f32,
-    pad: u32,
+    seed: u32,
+    specular_depth: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -95,13 +101,28 @@ fn rsm_texel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         power = m.power * (falloff * omega);
     }
     let inf = bitcast<f32>(0x7f800000u);
-    let hit = bvh_trace(origin, dir, 0.0, inf, false);
-    if (hit.triangle == NO_HIT) {
-        return;
+    var chain = rng_new(params.seed, STREAM_RSM_SPECULAR, t);
+    var specular = 0u;
+    loop {
+        let hit = bvh_trace(origin, dir, 0.0, inf, false);
+        if (hit.triangle == NO_HIT) {
+            return;
+        }
+        let s = surface_at(hit, dir);
+        if (specular == params.specular_depth || !bsdf_is_specular(s.bsdf)) {
+            slots[t] = Vpl(s.position, t, s.ns, 1u, power * s.albedo, specular);
+            counts[t] = 1u;
+            return;
+        }
+        let out = scatter_specular(s, dir, rng_next_f32(&chain), false);
+        if (out.valid == 0u) {
+            return;
+        }
+        power = power * out.weight;
+        specular = specular + 1u;
+        dir = out.wo;
+        origin = offset_toward(s.position, s.ng, s.position + dir, params.eps);
     }
-    let s = surface_at(hit, dir);
-    slots[t] = Vpl(s.position, t, s.ns, 1u, power * s.albedo, 0u);
-    counts[t] = 1u;
 }
 
 @compute @workgroup_size(64)

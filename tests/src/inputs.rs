@@ -394,6 +394,20 @@ pub fn point_light_between_mirror_and_ceiling(light: f32, ceiling: f32, intensit
     s
 }
 
+/// The flux [`point_light_between_mirror_and_ceiling`] sends by way of its mirror to the disk of
+/// `radius` on the ceiling under the light, once reflected there (the VPLs' flux): the mirror
+/// image at depth `light` under the floor gives irradiance ρ_m I cos θ′ / d′², which integrates
+/// over the disk to ρ_c ρ_m I 2π D (1 / D − 1 / √(D² + R²)), D = `ceiling` + `light`.
+pub fn mirror_image_flux(light: f64, ceiling: f64, intensity: f64, radius: f64) -> f64 {
+    let d = ceiling + light;
+    0.5 * 0.9
+        * intensity
+        * 2.0
+        * std::f64::consts::PI
+        * d
+        * (1.0 / d - 1.0 / (d * d + radius * radius).sqrt())
+}
+
 /// `scene` with every third material a mirror and every third glass (index 1.5), starting at the
 /// second: random scenes with specular chains, glass in open meshes included.
 pub fn with_mirrors_and_glass(mut scene: Scene) -> Scene {

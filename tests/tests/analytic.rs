@@ -230,7 +230,8 @@ fn vpl_flux_from_the_sun_is_its_irradiance_on_the_lit_surfaces() {
     assert!(rel.abs().max_element() < 2e-3, "{rel}");
     assert!(set.vpls.iter().all(|v| v.bounce == 1));
     // The shadow map: one orthographic map, its texels' flux summed the same way.
-    let rsm = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, 256, &NoProgress).vpls;
+    let rsm =
+        vplgi_cpu::rsm_vpls::rsm_vpls(&cs, &vplgi_types::RsmParams::new(256, 1), &NoProgress).vpls;
     let total = rsm.iter().fold(glam::DVec3::ZERO, |a, v| a + Vec3::from(v.flux).as_dvec3());
     let rel = (total - expected) / expected;
     println!(

@@ -3,6 +3,7 @@
 //! Each test prints the adapter it ran on and the measured disagreement.
 
 use vplgi_scene::cornell::cornell_box;
+use vplgi_types::RsmParams;
 
 /// The Cornell box's area light, the box with a spot added, a plane under a point light and a
 /// sunlit plane with a box: one map per light kind, at the paper's Cornell-box size (128²).
@@ -16,9 +17,10 @@ fn rsm_vpls_matches_the_cpu() {
         vplgi_tests::inputs::sunlit_plane_with_box(),
     ] {
         println!("{}", scene.name);
-        let checks =
-            vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, 128))
-                .expect("GPU");
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
+            vplgi_verify::rsm_vpls::compare(t, &RsmParams::new(128, 1))
+        })
+        .expect("GPU");
         vplgi_tests::check_all("", &checks);
     }
 }
@@ -31,10 +33,81 @@ proptest::proptest! {
     /// comparison. At least about 1,000 texels, so that one texel differing at a grazing hit is
     /// within 0.1 %.
     #[test]
-    fn rsm_vpls_matches_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), size in 34u32..96) {
+    fn rsm_vpls_matches_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), size in 34u32..96, seed in proptest::prelude::any::<u32>()) {
         let Some(gpu) = vplgi_tests::shared_gpu("rsm_vpls_matches_the_cpu_on_random_scenes") else { return Ok(()) };
         println!("{}, --rsm-size {size}", scene.name);
-        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, size)).expect("GPU");
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, &RsmParams::new(size, seed))).expect("GPU");
+        vplgi_tests::hold(&checks)?;
+    }
+}
+
+/// The shadow map of a point light between a mirror floor and a diffuse ceiling: texels that
+/// meet the mirror go on to the ceiling, where their VPLs carry what the light's mirror image
+/// sends to the disk under it ([`vplgi_tests::inputs::mirror_image_flux`], within 0.5 %: the
+/// sphere map's texels resolve the disk's edge), and none sits on the mirror. On both backends.
+#[test]
+fn texels_that_meet_a_mirror_light_the_ceiling_as_the_mirror_image_does() {
+    use vplgi_gpu::buffers::read_back;
+    let (h, ceiling, intensity, radius) = (0.5f64, 1.0f64, 2.0f64, 0.5f64);
+    let scene = vplgi_tests::inputs::point_light_between_mirror_and_ceiling(
+        h as f32,
+        ceiling as f32,
+        intensity as f32,
+    );
+    let device = vplgi_embree::Device::new(None).expect("embree");
+    let cs = vplgi_cpu::CpuScene::new(&scene, &device).expect("scene");
+    let params = RsmParams::new(512, 1);
+    let mut sets =
+        vec![("CPU", vplgi_cpu::rsm_vpls::rsm_vpls(&cs, &params, &vplgi_cpu::NoProgress).vpls)];
+    if let Some(gpu) = vplgi_tests::shared_gpu(
+        "texels_that_meet_a_mirror_light_the_ceiling_as_the_mirror_image_does",
+    ) {
+        let vpls = vplgi_tests::with_twins(gpu, &scene, |t| {
+            let maps = t.gpu.scene().sampler.rsm_maps(params.size);
+            let g = t
+                .gpu
+                .kernels()
+                .rsm_vpls
+                .run(t.device(), t.queue(), t.gpu.scene(), &maps, &params)
+                .expect("GPU");
+            read_back::<vplgi_types::Vpl>(t.device(), t.queue(), &g.buffer, g.count as usize)
+                .expect("read back")
+        });
+        sets.push(("GPU", vpls));
+    }
+    let expected = vplgi_tests::inputs::mirror_image_flux(h, ceiling, intensity, radius);
+    for (backend, vpls) in sets {
+        let on_mirror = vpls.iter().filter(|v| v.position[1].abs() < 1e-4).count();
+        let inside =
+            |v: &&vplgi_types::Vpl| (v.position[0] as f64).hypot(v.position[2] as f64) < radius;
+        let flux: f64 =
+            vpls.iter().filter(|v| v.specular == 1).filter(inside).map(|v| v.flux[0] as f64).sum();
+        let rel = (flux - expected).abs() / expected;
+        println!("{backend}: flux through the mirror on the disk {flux:.5}, the mirror image gives {expected:.5} ({:.3} % off); {on_mirror} VPLs on the mirror", 100.0 * rel);
+        assert_eq!(on_mirror, 0, "{backend}: VPLs on the mirror");
+        vplgi_verify::tolerance::Disagreement::at_most(
+            backend,
+            "mirror-lit flux on the disk against the mirror image's, relative",
+            rel,
+            0.005,
+        )
+        .check();
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(vplgi_tests::proptest_config(8))]
+
+    /// Shadow maps of random rooms whose materials are by turns mirrors and glass: the texels
+    /// whose rays pass them judged apart, one vertex and more, against the SPEC's chain rows.
+    /// Rooms, not soups, for the reason `trace_vpls`'s specular test gives.
+    #[test]
+    fn specular_rsm_vpls_match_the_cpu_on_random_rooms(scene in vplgi_tests::inputs::room(), size in 34u32..96, seed in proptest::prelude::any::<u32>(), depth in 1u32..=8) {
+        let Some(gpu) = vplgi_tests::shared_gpu("specular_rsm_vpls_match_the_cpu_on_random_rooms") else { return Ok(()) };
+        let scene = vplgi_tests::inputs::with_mirrors_and_glass(scene);
+        println!("{}, --rsm-size {size}", scene.name);
+        let params = RsmParams { specular_depth: depth, ..RsmParams::new(size, seed) };
+        let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::rsm_vpls::compare(t, &params)).expect("GPU");
         vplgi_tests::hold(&checks)?;
     }
 }

@@ -174,9 +174,9 @@ proptest::proptest! {
 /// A point light of intensity I at height h between a mirror floor (reflectance ρ_m) and a
 /// diffuse ceiling (height H, albedo ρ_c): the ceiling is lit by the light's mirror image at -h,
 /// whose irradiance is ρ_m I cos θ′ / d′². Over a disk of radius R under the light, the VPLs
-/// whose particle passed the mirror carry ρ_c times that irradiance integrated, in closed form
-/// ρ_c ρ_m I 2π (H + h) (1 / (H + h) − 1 / √((H + h)² + R²)): within 1 %. No VPL sits on the
-/// mirror. On both backends.
+/// whose particle passed the mirror carry ρ_c times that irradiance integrated
+/// ([`vplgi_tests::inputs::mirror_image_flux`]): within 1 %. No VPL sits on the mirror. On both
+/// backends.
 #[test]
 fn light_off_a_mirror_lights_the_ceiling_as_the_mirror_image_does() {
     use vplgi_gpu::buffers::read_back;
@@ -206,14 +206,7 @@ fn light_off_a_mirror_lights_the_ceiling_as_the_mirror_image_does() {
         });
         sets.push(("GPU", vpls));
     }
-    let d = ceiling + h;
-    let expected = 0.5
-        * 0.9
-        * intensity
-        * 2.0
-        * std::f64::consts::PI
-        * d
-        * (1.0 / d - 1.0 / (d * d + radius * radius).sqrt());
+    let expected = vplgi_tests::inputs::mirror_image_flux(h, ceiling, intensity, radius);
     for (backend, vpls) in sets {
         let on_mirror = vpls.iter().filter(|v| v.position[1].abs() < 1e-4).count();
         let inside =

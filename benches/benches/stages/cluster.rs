@@ -84,7 +84,7 @@ fn cluster_stage(c: &mut Criterion) {
         [("128-256", 128, 256), ("128-1024", 128, 1024), ("256-1024", 256, 1024)]
     };
     for (name, size, k) in table1 {
-        let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, size, &vplgi_cpu::NoProgress).vpls;
+        let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(&cs, &vplgi_types::RsmParams::new(size, 1), &vplgi_cpu::NoProgress).vpls;
         let maps = cs.lights.rsm_maps(size);
         let params = vplgi_shared::rsm::RsmClusterParams { k, iterations: 10, weights: Default::default(), extent: cs.extent };
         group.bench_function(BenchmarkId::new("cpu-rsm", name), |b| b.iter(|| vplgi_cpu::rsm_cluster::rsm_cluster(&vpls, &maps, &params, None).k()));

@@ -6,6 +6,7 @@ use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, cpu_scene, smoke, Gpu};
 use vplgi_cpu::NoProgress;
 use vplgi_gpu::rsm_vpls::RsmVplsKernel;
+use vplgi_types::RsmParams;
 
 fn rsm_vpls(c: &mut Criterion) {
     let mut group = c.benchmark_group("rsm_vpls");
@@ -15,11 +16,12 @@ fn rsm_vpls(c: &mut Criterion) {
     let kernel = gpu.as_ref().map(|g| RsmVplsKernel::new(&g.ctx.device).expect("rsm_vpls pipelines"));
     let sizes: [(&str, u32); 2] = if smoke() { [("small", 16), ("paper", 32)] } else { [("small", 128), ("paper", 256)] };
     for (name, size) in sizes {
-        group.bench_function(BenchmarkId::new("cpu", name), |b| b.iter(|| vplgi_cpu::rsm_vpls::rsm_vpls(&cs, size, &NoProgress)));
+        let params = RsmParams::new(size, 1);
+        group.bench_function(BenchmarkId::new("cpu", name), |b| b.iter(|| vplgi_cpu::rsm_vpls::rsm_vpls(&cs, &params, &NoProgress)));
         if let (Some(g), Some(k)) = (&gpu, &kernel) {
             let maps = g.scene.sampler.rsm_maps(size);
             let run = || {
-                k.run(&g.ctx.device, &g.ctx.queue, &g.scene, &maps).expect("rsm_vpls");
+                k.run(&g.ctx.device, &g.ctx.queue, &g.scene, &maps, &params).expect("rsm_vpls");
             };
             run();
             group.bench_function(BenchmarkId::new("gpu", name), |b| b.iter_custom(|iters| g.time(iters, run)));

@@ -66,8 +66,9 @@ pub struct FrameArgs {
     pub spp: Option<u32>,
     /// Mirrors and glass a camera ray follows, reflecting or refracting (chosen by Fresnel), to
     /// the first surface that is neither: that surface becomes the sample's shading point, seen
-    /// through the chain's colour. After N of them the next surface is taken whatever it is
-    /// (0: the first hit, a mirror shaded as if matte).
+    /// through the chain's colour. Light particles and shadow-map texels pass as many between
+    /// two surfaces that hold VPLs. After N of them the next surface is taken whatever it is
+    /// (0: the first hit, a mirror shaded as if matte) [default: 6].
     #[arg(long, value_name = "N")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub specular_depth: Option<u32>,

@@ -2,39 +2,60 @@
 //! al. 2012, after Dachsbacher and Stamminger 2005), each texel whose ray hits a surface a VPL
 //! there, its flux the texel's power times the albedo (`vplgi_shared::rsm`). One bounce only.
 //!
-//! Texel t's ray is a pure function of the maps and t, so the VPLs, in texel order with `path` =
-//! t, do not depend on threads; a texel whose ray escapes (or a spot texel outside the outer
-//! cone) leaves no VPL. No normalisation follows: the texels' powers already sum to the lights'.
+//! A map records the first surface each texel's light reaches, and a mirror or glass is not
+//! one: there the ray goes on, reflected or refracted as `trace_vpls`'s particles are (power
+//! through glass takes no η²; reflect or refract is chosen by Fresnel with the stream (seed,
+//! `RsmSpecular`, t)), to at most `specular_depth` vertices, and the surface it then meets holds
+//! the VPL, its flux times the chain's weight.
+//!
+//! Texel t's ray is a pure function of the maps, the seed and t, so the VPLs, in texel order
+//! with `path` = t, do not depend on threads; a texel whose ray escapes (or a spot texel outside
+//! the outer cone) leaves no VPL. No normalisation follows: the texels' powers already sum to
+//! the lights'.
 
 use crate::trace_vpls::VplSet;
 use crate::CpuScene;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
+use vplgi_shared::bsdf::Transport;
 use vplgi_shared::rsm::{self, RsmLight};
-use vplgi_types::Vpl;
+use vplgi_types::{Rng, RsmParams, Stream, Vpl};
 use vplgi_frame::FrameError;
 
-/// The VPL of texel `t` of `maps`, if its ray hits a surface.
-pub fn texel_vpl(cs: &CpuScene, maps: &[RsmLight], t: u32) -> Option<Vpl> {
+/// The VPL of texel `t` of `maps`, if its ray, through its mirrors and glass, hits a surface.
+pub fn texel_vpl(cs: &CpuScene, maps: &[RsmLight], t: u32, params: &RsmParams) -> Option<Vpl> {
     let ray = rsm::texel_ray(&maps[rsm::map_of(maps, t)], t)?;
-    let hit = cs.trace(ray.origin + ray.surface_normal * cs.eps, ray.dir)?;
-    let flux = ray.power * hit.albedo;
-    Some(Vpl { position: hit.position.to_array(), path: t, normal: hit.ns.to_array(), bounce: 1, flux: flux.to_array(), specular: 0 })
+    let mut chain = Rng::new(params.seed, Stream::RsmSpecular, t);
+    let (mut origin, mut dir, mut power) = (ray.origin + ray.surface_normal * cs.eps, ray.dir, ray.power);
+    let mut specular = 0;
+    loop {
+        let hit = cs.trace(origin, dir)?;
+        if specular == params.specular_depth || !hit.bsdf().is_specular() {
+            let flux = power * hit.albedo;
+            return Some(Vpl { position: hit.position.to_array(), path: t, normal: hit.ns.to_array(), bounce: 1, flux: flux.to_array(), specular });
+        }
+        let (out, weight) = hit.scatter_specular(dir, chain.next_f32(), Transport::Importance)?;
+        power *= weight;
+        specular += 1;
+        dir = out;
+        origin = cs.offset_toward(hit.position, hit.ng, hit.position + dir);
+    }
 }
 
-/// The VPLs of the maps of every light of the scene for a budget of about `size²` texels.
-pub fn rsm_vpls(cs: &CpuScene, size: u32, progress: &dyn Progress) -> VplSet {
-    let maps = cs.lights.rsm_maps(size);
+/// The VPLs of the maps of every light of the scene for a budget of about `params.size²`
+/// texels.
+pub fn rsm_vpls(cs: &CpuScene, params: &RsmParams, progress: &dyn Progress) -> VplSet {
+    let maps = cs.lights.rsm_maps(params.size);
     let texels = rsm::texel_count(&maps);
     progress.start("rsm_vpls", 1);
-    let vpls: Vec<Vpl> = (0..texels).into_par_iter().filter_map(|t| texel_vpl(cs, &maps, t)).collect();
+    let vpls: Vec<Vpl> = (0..texels).into_par_iter().filter_map(|t| texel_vpl(cs, &maps, t, params)).collect();
     progress.finish();
     VplSet { vpls, particles: texels }
 }
 
 impl vplgi_frame::stages::RsmVpls for CpuScene<'_> {
-    fn rsm_vpls(&self, size: u32, progress: &dyn Progress) -> Result<(Vec<Vpl>, u32), FrameError> {
-        let set = rsm_vpls(self, size, progress);
+    fn rsm_vpls(&self, params: &RsmParams, progress: &dyn Progress) -> Result<(Vec<Vpl>, u32), FrameError> {
+        let set = rsm_vpls(self, params, progress);
         Ok((set.vpls, set.particles))
     }
 }
@@ -54,7 +75,7 @@ mod tests {
         let scene = vplgi_scene::cornell::plane_with_point_light(size, h, rho, intensity);
         let device = vplgi_embree::Device::new(None).expect("embree");
         let cs = CpuScene::new(&scene, &device).expect("scene");
-        let set = rsm_vpls(&cs, 512, &crate::NoProgress);
+        let set = rsm_vpls(&cs, &RsmParams::new(512, 1), &crate::NoProgress);
         let total: f64 = set.vpls.iter().map(|v| v.flux[0] as f64).sum();
         let a = size as f64;
         let omega = 4.0 * (a * a / (a * a + (h * h) as f64)).asin();

@@ -118,7 +118,9 @@ fn render_view<B: Backend>(
         VplSource::Paths => {
             timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?
         }
-        VplSource::Rsm => timed(b, &mut t, Stage::RsmVpls, || b.rsm_vpls(cfg.rsm_size, progress))?,
+        VplSource::Rsm => {
+            timed(b, &mut t, Stage::RsmVpls, || b.rsm_vpls(&cfg.rsm_params(), progress))?
+        }
     };
     (stats.vpls, stats.light_particles) = (vpls.count(), particles);
 

@@ -20,7 +20,7 @@ use vplgi_shared::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_shared::seeding::SeedParams;
 use vplgi_types::clustering::{Centre, ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::{BiasParams, CameraParams, ShadeParams, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, RsmParams, ShadeParams, TraceParams};
 
 /// The stages in pipeline order: `name Trait [part PartTrait, ...],`, one row per line (the
 /// Makefile reads the names from these lines). Calls `$then!` with the rows.
@@ -127,10 +127,10 @@ pub trait TraceVpls: Storage {
 /// Stage 1 with `--vpl-source rsm`.
 pub trait RsmVpls: Storage {
     /// VPLs from the reflective shadow maps of every light for a budget of about `size²` texels,
-    /// and how many texels that was.
+    /// each texel's ray followed through mirrors and glass, and how many texels that was.
     fn rsm_vpls(
         &self,
-        size: u32,
+        params: &RsmParams,
         progress: &dyn Progress,
     ) -> Result<(Self::Vpls, u32), Self::Error>;
 }

@@ -1,6 +1,7 @@
 //! Stage 1 with `--vpl-source rsm` on the GPU, `rsm_vpls` (`shaders/rsm_vpls.wgsl`), the twin of
 //! `vplgi_cpu::rsm_vpls::rsm_vpls`: the same maps (built on the host, `vplgi_shared::rsm`), the
-//! same texel rays, the VPLs compacted in texel order. One read-back: the VPL count.
+//! same texel rays through the same specular chains, the VPLs compacted in texel order. One
+//! read-back: the VPL count.
 
 use crate::buffers::{dispatch_bound, dispatch_windows, kernel_params, read_word, storage, storage_zeroed};
 use crate::context::validated;
@@ -11,7 +12,7 @@ use crate::trace_vpls::GpuVpls;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_shared::rsm::{self, RsmLight};
-use vplgi_types::Vpl;
+use vplgi_types::{RsmParams, Vpl};
 use crate::backend::GpuBackend;
 use vplgi_frame::Progress;
 
@@ -21,7 +22,9 @@ pub(crate) struct Params {
     pub(crate) texels: u32,
     pub(crate) maps: u32,
     pub(crate) eps: f32,
-    pub(crate) pad: u32,
+    pub(crate) seed: u32,
+    pub(crate) specular_depth: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 /// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
@@ -43,8 +46,8 @@ impl RsmVplsKernel {
         })
     }
 
-    /// The VPLs of `maps` (`LightSampler::rsm_maps`), in texel order.
-    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, maps: &[RsmLight]) -> Result<GpuVpls, GpuError> {
+    /// The VPLs of `maps` (`LightSampler::rsm_maps(rsm.size)`), in texel order.
+    pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, maps: &[RsmLight], rsm: &RsmParams) -> Result<GpuVpls, GpuError> {
         let texels = rsm::texel_count(maps);
         if texels == 0 {
             return Ok(GpuVpls { buffer: storage_zeroed::<Vpl>(device, "vpls", 1), count: 0, particles: 0 });
@@ -62,7 +65,7 @@ impl RsmVplsKernel {
         let slots = storage_zeroed::<Vpl>(device, "rsm slots", texels as usize);
         let counts = storage_zeroed::<u32>(device, "rsm counts", texels as usize);
         let offsets = storage_zeroed::<u32>(device, "rsm offsets", texels as usize + 1);
-        let params = kernel_params(device, "rsm params", &Params { texels, maps: maps.len() as u32, eps: scene.eps, pad: 0 });
+        let params = kernel_params(device, "rsm params", &Params { texels, maps: maps.len() as u32, eps: scene.eps, seed: rsm.seed, specular_depth: rsm.specular_depth, pad: [0; 3] });
         validated(device, "rsm_vpls texel", || {
             let own = [(0, &params), (1, &map_buf), (11, &slots), (12, &counts)];
             let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
@@ -80,8 +83,8 @@ impl RsmVplsKernel {
 }
 
 impl vplgi_frame::stages::RsmVpls for GpuBackend<'_> {
-    fn rsm_vpls(&self, size: u32, _progress: &dyn Progress) -> Result<(GpuVpls, u32), GpuError> {
-        let v = self.kernels.rsm_vpls.run(self.device, self.queue, &self.scene, &self.scene.sampler.rsm_maps(size))?;
+    fn rsm_vpls(&self, params: &RsmParams, _progress: &dyn Progress) -> Result<(GpuVpls, u32), GpuError> {
+        let v = self.kernels.rsm_vpls.run(self.device, self.queue, &self.scene, &self.scene.sampler.rsm_maps(params.size), params)?;
         let particles = v.particles;
         Ok((v, particles))
     }
@@ -93,7 +96,7 @@ mod layout_tests {
     #[test]
     fn records_match_their_wgsl_layouts() {
         crate::shader::layout::check(crate::layout_rows! {
-            [super::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps }
+            [super::Params] "rsm_vpls.wgsl" "Params" { texels, maps, eps, seed, specular_depth }
         });
     }
 }

@@ -141,6 +141,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("STREAM_SEEDING", Stream::Seeding as u32),
         ("STREAM_GATHER", Stream::Gather as u32),
         ("STREAM_SPECULAR", Stream::Specular as u32),
+        ("STREAM_RSM_SPECULAR", Stream::RsmSpecular as u32),
         ("BVH_END", crate::bvh::END),
         ("LEAF_COUNT_BITS", crate::bvh::LEAF_COUNT_BITS),
         ("BVH_LINK_LEAF", crate::bvh::LINK_LEAF),

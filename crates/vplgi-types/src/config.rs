@@ -488,6 +488,14 @@ impl FrameConfig {
     }
 
     /// The parameters of `trace_vpls`.
+    pub fn rsm_params(&self) -> crate::RsmParams {
+        crate::RsmParams {
+            size: self.rsm_size,
+            seed: self.seed,
+            specular_depth: self.specular_depth,
+        }
+    }
+
     pub fn trace_params(&self) -> crate::TraceParams {
         crate::TraceParams {
             seed: self.seed,

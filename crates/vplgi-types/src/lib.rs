@@ -33,6 +33,6 @@ pub use config::{
     ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding,
     ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
-pub use params::{BiasParams, CameraParams, SeedParams, ShadeParams, TraceParams};
+pub use params::{BiasParams, CameraParams, RsmParams, SeedParams, ShadeParams, TraceParams};
 pub use pod::{BsdfRecord, Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -22,6 +22,25 @@ impl TraceParams {
     }
 }
 
+/// `rsm_vpls`: the reflective shadow maps of every light for a budget of about `size²` texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RsmParams {
+    /// Texels per side of the budget.
+    pub size: u32,
+    /// Seeds the reflect-or-refract choices at glass, the maps' only randomness.
+    pub seed: u32,
+    /// Mirrors and glass a texel's ray passes before the surface it meets holds its VPL,
+    /// whatever that surface is (0: the first hit).
+    pub specular_depth: u32,
+}
+
+impl RsmParams {
+    /// Maps of budget `size`², chains to the default depth.
+    pub fn new(size: u32, seed: u32) -> Self {
+        RsmParams { size, seed, specular_depth: DEFAULT_SPECULAR_DEPTH }
+    }
+}
+
 /// `shading_points`: the camera samples of a `width` x `height` image, `spp` per pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraParams {

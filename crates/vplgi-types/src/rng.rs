@@ -38,6 +38,8 @@ pub enum Stream {
     Gather = 9,
     /// Reflect or refract at glass along a camera ray's specular chain (`shading_points`).
     Specular = 10,
+    /// Reflect or refract at glass along a shadow-map texel's ray (`rsm_vpls`).
+    RsmSpecular = 11,
 }
 
 /// The PCG hash: one LCG step followed by a random-rotation-like output permutation.

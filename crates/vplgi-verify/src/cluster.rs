@@ -359,7 +359,7 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
 /// scene's diagonal (the update row, 1e-6 relative).
 pub fn compare_rsm(twins: &Twins, frame: &CpuFrame, cfg: &FrameConfig) -> Result<Vec<Disagreement>, VerifyError> {
     let device = twins.device();
-    let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls;
+    let vpls = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, &cfg.rsm_params(), &vplgi_cpu::NoProgress).vpls;
     if vpls.is_empty() {
         return Ok(Vec::new());
     }

@@ -34,7 +34,7 @@ impl Shared {
         let vpl_rounding = if modes.iter().any(|m| m.cluster.clusters_vpls()) {
             let checks = match cfg.vpl_source {
                 VplSource::Paths => crate::trace_vpls::compare(twins, &cfg.trace_params())?,
-                VplSource::Rsm => crate::rsm_vpls::compare(twins, cfg.rsm_size)?,
+                VplSource::Rsm => crate::rsm_vpls::compare(twins, &cfg.rsm_params())?,
             };
             Some(
                 checks

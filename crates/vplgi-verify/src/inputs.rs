@@ -39,7 +39,7 @@ impl CpuFrame {
                     .vpls
             }
             VplSource::Rsm => {
-                vplgi_cpu::rsm_vpls::rsm_vpls(cs, cfg.rsm_size, &vplgi_cpu::NoProgress).vpls
+                vplgi_cpu::rsm_vpls::rsm_vpls(cs, &cfg.rsm_params(), &vplgi_cpu::NoProgress).vpls
             }
         };
         CpuFrame { sps, row_of, hits, vpls }

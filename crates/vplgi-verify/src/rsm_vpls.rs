@@ -1,45 +1,81 @@
 //! `rsm_vpls`: the GPU's reflective-shadow-map VPLs against the CPU's, texel by texel (the
 //! trace_vpls row of the SPEC: positions, normals and fluxes within 1e-4 relative; at most 0.1 %
 //! of texels may differ at grazing hits, counted; a texel whose ray meets a shared edge, or the
-//! line where two triangles cross, may land on either triangle, counted apart as a tie).
+//! line where two triangles cross, may land on either triangle, counted apart as a tie). Texels
+//! whose rays passed mirrors or glass are judged apart, as `trace_vpls`'s paths are.
 
-use crate::tolerance::{Disagreement, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use crate::tolerance::{Disagreement, LONG_SPECULAR_CHAINS_DIVERGED, SPECULAR_CHAINS_DIVERGED, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
 use crate::trace_vpls::{difference, on_an_edge, on_two_triangles};
 use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use vplgi_gpu::buffers::read_back;
-use vplgi_types::Vpl;
+use vplgi_types::{RsmParams, Vpl};
 
-/// Both backends' VPLs of the maps of budget `size` (texel order).
-pub fn both(twins: &Twins, size: u32) -> Result<(Vec<Vpl>, Vec<Vpl>, u32), VerifyError> {
-    let cpu = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, size, &vplgi_cpu::NoProgress);
-    let maps = twins.gpu.scene().sampler.rsm_maps(size);
-    let g = twins.gpu.kernels().rsm_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), &maps)?;
+/// Both backends' VPLs of the maps of `params` (texel order).
+pub fn both(twins: &Twins, params: &RsmParams) -> Result<(Vec<Vpl>, Vec<Vpl>, u32), VerifyError> {
+    let cpu = vplgi_cpu::rsm_vpls::rsm_vpls(twins.cpu, params, &vplgi_cpu::NoProgress);
+    let maps = twins.gpu.scene().sampler.rsm_maps(params.size);
+    let g = twins.gpu.kernels().rsm_vpls.run(twins.device(), twins.queue(), twins.gpu.scene(), &maps, params)?;
     let gpu: Vec<Vpl> = read_back(twins.device(), twins.queue(), &g.buffer, g.count as usize)?;
     Ok((cpu.vpls, gpu, cpu.particles))
 }
 
-/// Compares the texels of the maps of budget `size`.
-pub fn compare(twins: &Twins, size: u32) -> Result<Vec<Disagreement>, VerifyError> {
-    compare_mapped(twins, size, &mut Vec::new())
+/// Compares the texels of the maps of `params`.
+pub fn compare(twins: &Twins, params: &RsmParams) -> Result<Vec<Disagreement>, VerifyError> {
+    compare_mapped(twins, params, &mut Vec::new())
+}
+
+/// The texels whose rays passed mirrors or glass of one class (one vertex, or more), and those
+/// among them whose VPLs differ, the worst described.
+#[derive(Default)]
+struct Chained {
+    texels: usize,
+    differ: usize,
+    worst_diff: f32,
+    worst: Option<String>,
 }
 
 /// [`compare`], adding to `parted` where each texel's VPLs that differ lie (the CPU's, or the
 /// GPU's where the CPU has none), as a tie or not.
-fn compare_mapped(twins: &Twins, size: u32, parted: &mut Placed) -> Result<Vec<Disagreement>, VerifyError> {
-    let (cpu, gpu, texels) = both(twins, size)?;
+fn compare_mapped(twins: &Twins, params: &RsmParams, parted: &mut Placed) -> Result<Vec<Disagreement>, VerifyError> {
+    let (cpu, gpu, texels) = both(twins, params)?;
     let extent = twins.cpu.extent;
     let (c, g): (BTreeMap<u32, Vpl>, BTreeMap<u32, Vpl>) = (cpu.iter().map(|v| (v.path, *v)).collect(), gpu.iter().map(|v| (v.path, *v)).collect());
     let (mut differ, mut ties, mut max_agreeing, mut worst_diff, mut worst) = (0usize, 0usize, 0.0f32, 0.0f32, None);
     let eps = TRACE_VPLS_REL as f32 * extent;
+    // By the most mirrors and glass either backend's ray passed: one, more.
+    let mut chains: [Chained; 2] = Default::default();
     for t in c.keys().chain(g.keys().filter(|t| !c.contains_key(t))) {
         let (a, b) = (c.get(t), g.get(t));
         let d = match (a, b) {
             (Some(x), Some(y)) => difference(x, y, extent, (1.0, 1.0)),
             _ => f32::INFINITY,
         };
+        let chain = match a.iter().chain(&b).map(|v| v.specular).max().unwrap_or(0) {
+            0 => None,
+            1 => Some(&mut chains[0]),
+            _ => Some(&mut chains[1]),
+        };
+        if let Some(chain) = chain {
+            // The tie tests below look at the VPLs alone, and a chained ray may part at an
+            // edge of the mirror before them: chained texels are judged by their own bound.
+            chain.texels += 1;
+            if d > TRACE_VPLS_REL as f32 {
+                chain.differ += 1;
+                if let Some(v) = a.or(b) {
+                    parted.push((Vec3::from(v.position), ItemKind::Other));
+                }
+                if d > chain.worst_diff || chain.worst.is_none() {
+                    chain.worst_diff = d;
+                    chain.worst = Some(format!("texel {t}: CPU {}, GPU {}", show(a), show(b)));
+                }
+            } else {
+                max_agreeing = max_agreeing.max(d);
+            }
+            continue;
+        }
         if d <= TRACE_VPLS_REL as f32 {
             max_agreeing = max_agreeing.max(d);
             continue;
@@ -65,15 +101,21 @@ fn compare_mapped(twins: &Twins, size: u32, parted: &mut Placed) -> Result<Vec<D
         differ += 1;
         if d > worst_diff || worst.is_none() {
             worst_diff = d;
-            let show = |v: Option<&Vpl>| v.map_or("none".to_string(), |v| format!("at {} flux {}", v3(v.position), v3(v.flux)));
             worst = Some(format!("texel {t}: CPU {}, GPU {}", show(a), show(b)));
         }
     }
-    let case = format!("--rsm-size {size}: {} texels, {} VPLs on the CPU", count(texels as usize), count(cpu.len()));
-    Ok(vec![
-        Disagreement::at_most("rsm_vpls", "share of texels whose VPLs differ", differ as f64 / texels.max(1) as f64, TRACE_VPLS_DIVERGED_PATHS)
-            .with_case(&case)
-            .with_worst(worst),
+    let case = format!("--rsm-size {}: {} texels, {} VPLs on the CPU", params.size, count(texels as usize), count(cpu.len()));
+    let direct = (texels as usize).saturating_sub(chains[0].texels + chains[1].texels);
+    let [one, longer] = chains;
+    let mut rows = vec![
+        Disagreement::at_most(
+            "rsm_vpls",
+            "share of texels whose VPLs differ (of those whose rays pass no mirror or glass)",
+            differ as f64 / direct.max(1) as f64,
+            TRACE_VPLS_DIVERGED_PATHS,
+        )
+        .with_case(&case)
+        .with_worst(worst),
         Disagreement::info(
             "rsm_vpls",
             "texels that part at a tie (the same point where two triangles meet; or a VPL on an edge on one side only)",
@@ -82,7 +124,22 @@ fn compare_mapped(twins: &Twins, size: u32, parted: &mut Placed) -> Result<Vec<D
         .with_case(&case),
         Disagreement::info("rsm_vpls", "largest relative difference on agreeing texels", max_agreeing as f64).with_case(&case),
         Disagreement::info("rsm_vpls", "VPL count, |CPU - GPU|", cpu.len().abs_diff(gpu.len()) as f64).with_case(&case),
-    ])
+    ];
+    for (class, label, bound) in [(one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
+        if class.texels > 0 {
+            let what = format!("texels whose rays pass {label} and whose VPLs differ");
+            rows.push(crate::tolerance::share_of_diverged("rsm_vpls", &what, (class.differ, class.texels), bound).with_case(&case).with_worst(class.worst));
+        }
+    }
+    Ok(rows)
+}
+
+/// A texel's VPL on one backend, described.
+fn show(v: Option<&Vpl>) -> String {
+    v.map_or("none".to_string(), |v| match v.specular {
+        0 => format!("at {} flux {}", v3(v.position), v3(v.flux)),
+        n => format!("at {} flux {} through {n} specular", v3(v.position), v3(v.flux)),
+    })
 }
 
 /// The reflective shadow maps of the frame's `--rsm-size` (whatever its VPL source).
@@ -90,7 +147,7 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::RsmVpls);
     let mut parted = Vec::new();
-    r.checks = compare_mapped(twins, cfg.rsm_size, &mut parted)?;
+    r.checks = compare_mapped(twins, &cfg.rsm_params(), &mut parted)?;
     // The texels whose VPLs differ, seen from the camera.
     r.maps.push(DisagreementMap::projected("rsm_vpls", &twins.scene.camera, (cfg.width, cfg.height), &parted));
     r.notes.push(
