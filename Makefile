@@ -213,10 +213,12 @@ references: build
 	$(VPLGI) reference target/fixture-scenes/living-room.glb $(REF_ARGS) $(CLUSTERED) --why "$(WHY)" --out $(REF_DIR)/living-room-clustered
 	rm -f $(REF_DIR)/*/mean.png
 
-# The paper's table on the three generated scenes at the paper's resolutions and VPL counts:
-# docs/RESULTS.md. About 30 minutes of CPU frames on 2 cores (the unclustered references
-# dominate) and 25 of GPU frames on lavapipe. RESULTS_ARGS=--cpu-only skips the GPU frames;
-# RESULTS_ARGS=--reuse keeps frames already in target/results (after an interrupted run).
+# The paper's table on the three generated scenes at the paper's resolutions and VPL counts,
+# and on the mirror and glass Cornell boxes at 512x512: docs/RESULTS.md. About 35 minutes of CPU
+# frames on 2 cores (the unclustered references dominate) and 30 of GPU frames on lavapipe.
+# RESULTS_ARGS=--cpu-only skips the GPU frames; RESULTS_ARGS=--reuse keeps frames already in
+# target/results (after an interrupted run); RESULTS_ARGS=--scenes=a,b reruns some scenes and
+# keeps the others' rows.
 results: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin results -- --out docs/RESULTS.md $(RESULTS_ARGS)
 
@@ -235,10 +237,12 @@ rsm: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin rsm -- --out docs/RSM.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
-# under target/ with numpy (nothing system-wide): each of the four scenes exported with
-# `vplgi scene export --format mitsuba`, rendered by Mitsuba and by vplgi (compensated and clamped),
-# compared per channel and per third of the image against both images' noise: docs/VALIDATION.md.
-# About 35 minutes on 2 cores (64 seeds per scene at 128x90); a quick, noisier subset:
+# under target/ with numpy (nothing system-wide): each scene exported with `vplgi scene export
+# --format mitsuba`, rendered by Mitsuba and by vplgi (compensated, and clamped for the diffuse
+# four), compared per channel and per third of the image against both images' noise; the mirror,
+# glass and metal Cornell boxes beside the matte twins of the first two: docs/VALIDATION.md.
+# About 55 minutes on 2 cores (64 seeds per scene at 128x90); VALIDATE_ARGS="--scenes a,b" reruns
+# some scenes and keeps the others' rows; a quick, noisier check:
 # make validate VALIDATE_ARGS="--scenes cornell-box --seeds 2"
 MITSUBA_PY := target/mitsuba-python
 validate: build

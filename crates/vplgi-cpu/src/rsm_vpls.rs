@@ -24,7 +24,11 @@ use vplgi_frame::FrameError;
 
 /// The VPL of texel `t` of `maps`, if its ray, through its mirrors and glass, hits a surface.
 pub fn texel_vpl(cs: &CpuScene, maps: &[RsmLight], t: u32, params: &RsmParams) -> Option<Vpl> {
-    let ray = rsm::texel_ray(&maps[rsm::map_of(maps, t)], t)?;
+    follow_texel(cs, &rsm::texel_ray(&maps[rsm::map_of(maps, t)], t)?, t, params)
+}
+
+/// The VPL of texel `t` whose ray is `ray`: what [`texel_vpl`] does once it has the ray.
+pub fn follow_texel(cs: &CpuScene, ray: &rsm::TexelRay, t: u32, params: &RsmParams) -> Option<Vpl> {
     let mut chain = Rng::new(params.seed, Stream::RsmSpecular, t);
     let (mut origin, mut dir, mut power) = (ray.origin + ray.surface_normal * cs.eps, ray.dir, ray.power);
     let mut specular = 0;

@@ -16,6 +16,7 @@ use glam::Vec3;
 use vplgi_shared::bsdf::Transport;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
+use vplgi_scene::lights::Emission;
 use vplgi_types::{sampling, Rng, Stream, Vpl};
 
 use vplgi_types::params::MAX_SURVIVAL;
@@ -44,14 +45,24 @@ pub fn emission_scramble(seed: u32) -> [u32; 5] {
 /// stand for, vary less from seed to seed. Each particle's emission is still uniformly
 /// distributed (the shift is random), so the estimate stays unbiased.
 pub fn trace_particle(cs: &CpuScene, p: &TraceParams, scramble: [u32; 5], index: u32) -> Vec<Vpl> {
-    let TraceParams { seed, bounces, specular_depth, .. } = *p;
-    let mut rng = Rng::new(seed, Stream::LightPath, index);
+    match particle_emission(cs, scramble, index) {
+        Some(emission) => follow_particle(cs, p, index, &emission),
+        None => Vec::new(),
+    }
+}
+
+/// Where light particle `index` leaves its light, in which direction and with what power.
+pub fn particle_emission(cs: &CpuScene, scramble: [u32; 5], index: u32) -> Option<Emission> {
     // Direction in dimensions 1-2 (the best stratified pair), then light choice and point.
     let s = sampling::scrambled_sobol5(index, scramble);
-    let u = [s[2], s[3], s[4], s[0], s[1]];
-    let Some(emission) = cs.lights.emit(cs.scene, u) else {
-        return Vec::new();
-    };
+    cs.lights.emit(cs.scene, [s[2], s[3], s[4], s[0], s[1]])
+}
+
+/// The VPLs of light particle `index` once it has left its light as `emission` says: what
+/// [`trace_particle`] does after the emission, with the particle's own random stream.
+pub fn follow_particle(cs: &CpuScene, p: &TraceParams, index: u32, emission: &Emission) -> Vec<Vpl> {
+    let TraceParams { seed, bounces, specular_depth, .. } = *p;
+    let mut rng = Rng::new(seed, Stream::LightPath, index);
     let mut vpls = Vec::new();
     let (mut origin, mut dir, mut power) = (emission.origin + emission.surface_normal * cs.eps, emission.dir, emission.power);
     // Specular vertices in a row, and in all.

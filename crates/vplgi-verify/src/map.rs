@@ -165,7 +165,12 @@ impl PointJudge<'_> {
             return if pair.tie || nudged() { ItemKind::Tie } else { ItemKind::Other };
         }
         let direct = c.specular == 0 && g.specular == 0 && !c.is_miss();
-        if !pair.emission_agrees || (direct && (pair.apart * pair.cos) as f64 > self.position_bound)
+        let emission_tie =
+            || !direct && self.nudge.is_some_and(|n| n.camera.spp == 1 && n.sees_emission(i, g));
+        if !pair.emission_agrees && emission_tie() {
+            ItemKind::Tie
+        } else if !pair.emission_agrees
+            || (direct && (pair.apart * pair.cos) as f64 > self.position_bound)
         {
             ItemKind::Beyond
         } else {

@@ -35,7 +35,8 @@ pub const SPECULAR_CHAINS_DIVERGED: f64 = 1e-3;
 pub const LONG_SPECULAR_CHAINS_DIVERGED: f64 = 5e-3;
 /// Specular chains: a sample whose backends end on different surfaces is set aside as a tie
 /// (and reported) where the CPU, tracing the sample's camera ray turned by this many radians
-/// (or a tenth or a hundredth of it) in one of 8 directions, ends where the GPU did. Each
+/// (or a tenth or a hundredth of it) in one of 8 directions, ends where the GPU did; likewise a
+/// light path or shadow-map texel whose VPLs part beyond a tie, its emission direction turned. Each
 /// backend rounds a chain's vertices its own way, so the segment after one leaves in a
 /// direction a few ulps off the other's, and may pass the other side of an edge it nearly
 /// meets, of a surface that crosses the mirror, or of total internal reflection's critical
@@ -44,31 +45,57 @@ pub const LONG_SPECULAR_CHAINS_DIVERGED: f64 = 5e-3;
 /// normal, index or Fresnel term) hides within it.
 pub const SPECULAR_CHAIN_NUDGE: f64 = 1e-5;
 
-/// The row of a specular-chain bound: the share of `items` of which `diverged` diverge, judged
-/// against `bound` when there are at least 1 / `bound` of them. With fewer, one divergence alone
-/// would breach the bound, so the share is reported, not judged.
+/// How often a row of rare events may breach its bound by chance alone: once in this many runs.
+pub const CHANCE: f64 = 1e-3;
+
+/// The most of `items` events (divergences) that a true rate of `rate` gives more often than
+/// [`CHANCE`]: the smallest k with P(X > k) < CHANCE for X ~ Poisson(items × rate), the
+/// binomial's limit for rare events (the normal approximation past a mean of 600).
+pub fn allowed_by_chance(items: usize, rate: f64) -> usize {
+    let mean = items as f64 * rate;
+    if mean > 600.0 {
+        return (mean + 3.1 * mean.sqrt()).ceil() as usize;
+    }
+    let (mut pmf, mut cdf, mut k) = ((-mean).exp(), 0.0, 0usize);
+    loop {
+        cdf += pmf;
+        if 1.0 - cdf < CHANCE {
+            return k;
+        }
+        k += 1;
+        pmf *= mean / k as f64;
+    }
+}
+
+/// The row of a divergence rate (light paths, shadow-map texels, specular chains): the share of
+/// `items` of which `diverged` diverge, against
+/// what a rate of `bound` gives `items` at most, but for one run in [`CHANCE`]. Divergences at
+/// edges, crossings and Fresnel choices are rare independent events: a flat share would fail a
+/// thousand items on their second, once in four runs at the bound's own rate. Fewer than
+/// 1 / `bound` items expect less than one divergence, too few to tell a rate by: the share is
+/// reported, not judged.
 pub fn share_of_diverged(
     stage: &str,
     what: &str,
     (diverged, items): (usize, usize),
     bound: f64,
 ) -> Disagreement {
-    let share = diverged as f64 / items.max(1) as f64;
-    if (items as f64) * bound >= 1.0 {
-        Disagreement::at_most(
-            stage,
-            format!("share of the {} {what}", crate::count(items)),
-            share,
-            bound,
-        )
-    } else {
+    if (items as f64) * bound < 1.0 {
         let what = format!(
             "share of the {} {what} (too few to judge against {bound}: one would be {:.1e})",
             crate::count(items),
             1.0 / items.max(1) as f64
         );
-        Disagreement::info(stage, what, share)
+        return Disagreement::info(stage, what, diverged as f64 / items.max(1) as f64);
     }
+    let allowed = allowed_by_chance(items, bound);
+    Disagreement::at_most(
+        stage,
+        format!("share of the {} {what} (a rate of {bound} gives {allowed} or fewer but once in {:.0} runs)", crate::count(items), 1.0 / CHANCE),
+        diverged as f64 / items.max(1) as f64,
+        // Three significant digits: what the row prints.
+        format!("{:.2e}", allowed as f64 / items.max(1) as f64).parse().unwrap_or(1.0),
+    )
 }
 /// Bias-compensation points (`bias_points`): the same surfaces as shading points (the bound
 /// above), and weights (albedo x parent albedo x clamped share 1 - g_max / G, each at most 1)
@@ -424,6 +451,23 @@ mod tests {
         {
             assert_eq!(d.holds(), d.used().unwrap() <= 1.0);
         }
+    }
+
+    #[test]
+    fn chance_allows_what_a_poisson_tail_gives() {
+        // Mean 1: P(X > 4) = 3.7e-3, P(X > 5) = 5.9e-4.
+        assert_eq!(allowed_by_chance(1000, 1e-3), 5);
+        // Mean 0.1: P(X > 1) = 4.7e-3, P(X > 2) = 1.5e-4.
+        assert_eq!(allowed_by_chance(100, 1e-3), 2);
+        assert_eq!(allowed_by_chance(0, 1e-3), 0);
+        // Mean 1,000, past the exact sum: about 3.1 sigma over the mean.
+        assert_eq!(allowed_by_chance(1_000_000, 1e-3), 1099);
+        let row = |d| share_of_diverged("s", "x", (d, 1000), 1e-3).holds();
+        assert!(row(5) && !row(6));
+        assert!(
+            matches!(share_of_diverged("s", "x", (2, 999), 1e-3).bound, Bound::Info),
+            "too few to judge"
+        );
     }
 
     #[test]

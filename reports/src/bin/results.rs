@@ -1,4 +1,5 @@
-//! `make results`: the paper's table reproduced on the three generated scenes, written to
+//! `make results`: the paper's table reproduced on the three generated scenes, and on the Cornell
+//! boxes with a mirror wall and sphere and with glass (not in the paper), written to
 //! `docs/RESULTS.md` (numbers also in `docs/results/results.json`, thumbnails in
 //! `docs/results/`, full-size images under `target/results/`).
 //!
@@ -41,6 +42,10 @@ struct Opts {
     /// target/results-quick with --quick].
     #[arg(long)]
     work: Option<PathBuf>,
+    /// Only these scenes (comma-separated); the report keeps the other scenes' rows of the last
+    /// one, each dated with its own commit [default: all].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
 }
 
 struct SceneSpec {
@@ -102,7 +107,29 @@ fn main() -> Result<()> {
             triangles: if q { 20_000 } else { 300_000 },
             paper: "living room, 313 k triangles, 1024x720, 10,000 VPLs",
         },
+        SceneSpec {
+            name: "cornell-mirror",
+            width: if q { 64 } else { 512 },
+            height: if q { 64 } else { 512 },
+            vpls: if q { 500 } else { 5000 },
+            triangles: if q { 2_000 } else { 20_000 },
+            paper: "none: the Cornell box with a mirror back wall and a mirror sphere, seen and lit through the mirrors (`--specular-depth` 6)",
+        },
+        SceneSpec {
+            name: "cornell-glass",
+            width: if q { 64 } else { 512 },
+            height: if q { 64 } else { 512 },
+            vpls: if q { 500 } else { 5000 },
+            triangles: if q { 2_000 } else { 20_000 },
+            paper: "none: the Cornell box with a closed glass cube and sphere, seen and lit through the glass",
+        },
     ];
+    if let Some(bad) = o.scenes.iter().find(|n| !scenes.iter().any(|sc| sc.name == n.as_str())) {
+        anyhow::bail!(
+            "--scenes: unknown scene {bad:?} (known: {})",
+            scenes.iter().map(|sc| sc.name).collect::<Vec<_>>().join(", ")
+        );
+    }
     let configs: Vec<(&str, u32, u32)> = if q {
         CONFIGS.iter().map(|&(n, v, s)| (n, v / 25, s / 25)).collect()
     } else {
@@ -115,7 +142,10 @@ fn main() -> Result<()> {
     std::fs::create_dir_all(&docs)?;
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
     let mut rows = Vec::new();
-    for sc in &scenes {
+    let (date, commit) = vplgi_reports::date_and_commit()?;
+    for sc in
+        scenes.iter().filter(|sc| o.scenes.is_empty() || o.scenes.iter().any(|n| n == sc.name))
+    {
         let glb = work.join("scenes").join(format!("{}-{}.glb", sc.name, sc.triangles));
         if !glb.exists() {
             eprintln!("generating {} ({} triangles)", sc.name, sc.triangles);
@@ -198,14 +228,43 @@ fn main() -> Result<()> {
                 frames.push(json!({"config": config, "backend": backend, "k_vpl": k_vpl, "k_sp": k_sp, "ms": r.timings_ms.total(), "rss_mib": r.peak_rss_mib, "mse": c["mse"], "flip": c["flip"], "adapter": r.adapter.as_ref().map(|a| a.name.clone())}));
             }
         }
-        rows.push(json!({"scene": sc.name, "paper": sc.paper, "width": sc.width, "height": sc.height, "vpls": sc.vpls, "frames": frames}));
+        rows.push(json!({"scene": sc.name, "paper": sc.paper, "width": sc.width, "height": sc.height, "vpls": sc.vpls, "frames": frames, "date": date, "commit": commit}));
     }
-    let (date, commit) = vplgi_reports::date_and_commit()?;
+    let order: Vec<&str> = scenes.iter().map(|sc| sc.name).collect();
+    let rows = with_earlier_rows(rows, &order, &docs.join("results.json"))?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("results.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
     println!("wrote {} and {}", o.out.display(), docs.join("results.json").display());
     Ok(())
+}
+
+/// `rows` and, for the scenes this run left out, the rows of the report at `json` (if any), in
+/// `order`. A row from a report older than per-row dates takes that report's date and commit.
+fn with_earlier_rows(rows: Vec<Value>, order: &[&str], json: &Path) -> Result<Vec<Value>> {
+    let earlier: Value = match std::fs::read(json) {
+        Ok(bytes) => {
+            serde_json::from_slice(&bytes).with_context(|| format!("parsing {}", json.display()))?
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
+        Err(e) => return Err(e).with_context(|| format!("reading {}", json.display())),
+    };
+    let find = |rows: &[Value], name: &str| rows.iter().find(|r| r["scene"] == name).cloned();
+    let old = earlier["scenes"].as_array().cloned().unwrap_or_default();
+    Ok(order
+        .iter()
+        .filter_map(|name| {
+            find(&rows, name).or_else(|| {
+                let mut row = find(&old, name)?;
+                for key in ["date", "commit"] {
+                    if row[key].is_null() {
+                        row[key] = earlier[key].clone();
+                    }
+                }
+                Some(row)
+            })
+        })
+        .collect())
 }
 
 /// The adapter the GPU frames ran on, or a note that there were none.
@@ -225,19 +284,21 @@ fn markdown(r: &Value) -> Result<String> {
     writeln!(s, "# Results: the paper's table on the generated scenes\n")?;
     writeln!(
         s,
-        "{} The scenes come from `vplgi scene generate` (see the README). Numbers: [results/results.json](results/results.json); full-size images under `target/results/` after a run.\n",
+        "{} Each scene's section names the commit it was rendered at (`--scenes` reruns some and keeps the rest). The scenes come from `vplgi scene generate` (see the README). Numbers: [results/results.json](results/results.json); full-size images under `target/results/` after a run.\n",
         vplgi_reports::generated_by("results", r, "table")
     )?;
     writeln!(s, "Every frame is one `vplgi render` process on this machine's 2 cores: time is the frame's total (`timings_ms.total`), memory the process's peak resident set (scene, acceleration structure, buffers; on the GPU also lavapipe's). GPU frames (backend `gpu`) ran on **{}**: where that is Mesa lavapipe, software Vulkan on the same two cores, their times say nothing about a real GPU. Speed-up is over the reference, which is rendered on the CPU only; MSE and FLIP are against it. Peak memory is given for every frame of both backends (cornell-fine is at its paper resolution, 1024x1024, not 1024x720). [PERFORMANCE.md](PERFORMANCE.md) compares the backends stage by stage on the Cornell box.\n", gpu_adapter(r))?;
     for sc in r["scenes"].as_array().cloned().unwrap_or_default() {
         writeln!(
             s,
-            "## {} ({}x{}, {} VPLs)\n\nThe paper's scene: {}.\n",
+            "## {} ({}x{}, {} VPLs)\n\nThe paper's scene: {}. Rendered on {} at commit {}.\n",
             sc["scene"].as_str().unwrap_or("?"),
             sc["width"],
             sc["height"],
             sc["vpls"],
-            sc["paper"].as_str().unwrap_or("?")
+            sc["paper"].as_str().unwrap_or("?"),
+            sc["date"].as_str().unwrap_or("?"),
+            sc["commit"].as_str().unwrap_or("?")
         )?;
         writeln!(s, "| setting (VPL / SP clusters) | backend | time (s) | speed-up | peak memory (MiB) | MSE | FLIP |\n|---|---|---:|---:|---:|---:|---:|")?;
         let frames = sc["frames"].as_array().cloned().unwrap_or_default();
