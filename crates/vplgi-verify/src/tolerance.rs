@@ -93,8 +93,7 @@ pub fn share_of_diverged(
         stage,
         format!("share of the {} {what} (a rate of {bound} gives {allowed} or fewer but once in {:.0} runs)", crate::count(items), 1.0 / CHANCE),
         diverged as f64 / items.max(1) as f64,
-        // Three significant digits: what the row prints.
-        format!("{:.2e}", allowed as f64 / items.max(1) as f64).parse().unwrap_or(1.0),
+        allowed as f64 / items.max(1) as f64,
     )
 }
 /// Bias-compensation points (`bias_points`): the same surfaces as shading points (the bound
@@ -468,6 +467,12 @@ mod tests {
             matches!(share_of_diverged("s", "x", (2, 999), 1e-3).bound, Bound::Info),
             "too few to judge"
         );
+        // The row holds at exactly the allowed count and fails one past it, whatever the items.
+        for items in 1000..3000 {
+            let allowed = allowed_by_chance(items, 1e-3);
+            let row = |d| share_of_diverged("s", "x", (d, items), 1e-3).holds();
+            assert!(row(allowed) && !row(allowed + 1), "{items} items, {allowed} allowed");
+        }
     }
 
     #[test]
