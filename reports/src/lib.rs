@@ -2,8 +2,8 @@
 //! `perf_report` (docs/PERFORMANCE.md), `results` (docs/RESULTS.md), `variants`
 //! (docs/VARIANTS.md), `rsm` (docs/RSM.md), `validate` (docs/VALIDATION.md), `mutants_report`
 //! (docs/MUTANTS.md and the mutation ledger) and `bench_compare` (`make bench`'s verdicts). This
-//! library holds what they share: the floor kernel, the performance history, running commands
-//! and dating a document with its commit.
+//! library holds what they share: the floor kernel, the performance history, running commands,
+//! dating a document with its commit, and keeping the rows of scenes a run left out.
 
 pub mod floor;
 pub mod history;
@@ -51,4 +51,40 @@ pub fn generated_by(target: &str, r: &serde_json::Value, what: &str) -> String {
         r["date"].as_str().unwrap_or("?"),
         r["commit"].as_str().unwrap_or("?")
     )
+}
+
+/// `rows` (one per scene, by `"scene"`) and, for the scenes of `order` this run left out, the
+/// rows of the report at `json` (if there is one), in `order`. A kept row from a report older
+/// than per-row keys takes each of `inherited` (its date, commit, ...) from that report.
+pub fn with_earlier_rows(
+    rows: Vec<serde_json::Value>,
+    order: &[&str],
+    json: &std::path::Path,
+    inherited: &[&str],
+) -> anyhow::Result<Vec<serde_json::Value>> {
+    use anyhow::Context;
+    let earlier: serde_json::Value = match std::fs::read_to_string(json) {
+        Ok(text) => {
+            serde_json::from_str(&text).with_context(|| format!("{}: not JSON", json.display()))?
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => serde_json::Value::Null,
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", json.display())),
+    };
+    let find =
+        |rows: &[serde_json::Value], name: &str| rows.iter().find(|r| r["scene"] == name).cloned();
+    let old = earlier["scenes"].as_array().cloned().unwrap_or_default();
+    Ok(order
+        .iter()
+        .filter_map(|name| {
+            find(&rows, name).or_else(|| {
+                let mut row = find(&old, name)?;
+                for &key in inherited {
+                    if row[key].is_null() {
+                        row[key] = earlier[key].clone();
+                    }
+                }
+                Some(row)
+            })
+        })
+        .collect())
 }

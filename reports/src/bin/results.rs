@@ -231,40 +231,17 @@ fn main() -> Result<()> {
         rows.push(json!({"scene": sc.name, "paper": sc.paper, "width": sc.width, "height": sc.height, "vpls": sc.vpls, "frames": frames, "date": date, "commit": commit}));
     }
     let order: Vec<&str> = scenes.iter().map(|sc| sc.name).collect();
-    let rows = with_earlier_rows(rows, &order, &docs.join("results.json"))?;
+    let rows = vplgi_reports::with_earlier_rows(
+        rows,
+        &order,
+        &docs.join("results.json"),
+        &["date", "commit"],
+    )?;
     let report = json!({"quick": q, "date": date, "commit": commit, "scenes": rows});
     std::fs::write(docs.join("results.json"), serde_json::to_string_pretty(&report)? + "\n")?;
     std::fs::write(&o.out, markdown(&report)?)?;
     println!("wrote {} and {}", o.out.display(), docs.join("results.json").display());
     Ok(())
-}
-
-/// `rows` and, for the scenes this run left out, the rows of the report at `json` (if any), in
-/// `order`. A row from a report older than per-row dates takes that report's date and commit.
-fn with_earlier_rows(rows: Vec<Value>, order: &[&str], json: &Path) -> Result<Vec<Value>> {
-    let earlier: Value = match std::fs::read(json) {
-        Ok(bytes) => {
-            serde_json::from_slice(&bytes).with_context(|| format!("parsing {}", json.display()))?
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
-        Err(e) => return Err(e).with_context(|| format!("reading {}", json.display())),
-    };
-    let find = |rows: &[Value], name: &str| rows.iter().find(|r| r["scene"] == name).cloned();
-    let old = earlier["scenes"].as_array().cloned().unwrap_or_default();
-    Ok(order
-        .iter()
-        .filter_map(|name| {
-            find(&rows, name).or_else(|| {
-                let mut row = find(&old, name)?;
-                for key in ["date", "commit"] {
-                    if row[key].is_null() {
-                        row[key] = earlier[key].clone();
-                    }
-                }
-                Some(row)
-            })
-        })
-        .collect())
 }
 
 /// The adapter the GPU frames ran on, or a note that there were none.

@@ -452,7 +452,12 @@ fn main() -> Result<()> {
             "variants": variants,
         }));
     }
-    let rows = with_earlier_rows(rows, &docs.join("validation.json"))?;
+    let rows = vplgi_reports::with_earlier_rows(
+        rows,
+        &SCENES,
+        &docs.join("validation.json"),
+        &["commit", "date", "bounces"],
+    )?;
     let report = json!({
         "date": date(),
         "commit": commit,
@@ -465,34 +470,6 @@ fn main() -> Result<()> {
     std::fs::write(&o.out, markdown(&report)?)?;
     println!("wrote {} and {}", o.out.display(), docs.join("validation.json").display());
     Ok(())
-}
-
-/// `rows` and, for the scenes this run left out, the rows of the report at `json` (if any), in
-/// [`SCENES`] order. A row from a report older than per-row dates takes that report's.
-fn with_earlier_rows(rows: Vec<Value>, json: &Path) -> Result<Vec<Value>> {
-    let earlier: Value = match std::fs::read_to_string(json) {
-        Ok(text) => {
-            serde_json::from_str(&text).with_context(|| format!("{}: not JSON", json.display()))?
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
-        Err(e) => return Err(e).with_context(|| format!("cannot read {}", json.display())),
-    };
-    let find = |rows: &[Value], name: &str| rows.iter().find(|r| r["scene"] == name).cloned();
-    let old = earlier["scenes"].as_array().cloned().unwrap_or_default();
-    Ok(SCENES
-        .iter()
-        .filter_map(|name| {
-            find(&rows, name).or_else(|| {
-                let mut row = find(&old, name)?;
-                for key in ["commit", "date", "bounces"] {
-                    if row[key].is_null() {
-                        row[key] = earlier[key].clone();
-                    }
-                }
-                Some(row)
-            })
-        })
-        .collect())
 }
 
 fn markdown(r: &Value) -> Result<String> {
