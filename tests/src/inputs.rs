@@ -374,10 +374,11 @@ pub fn glass_slab_before_wall() -> Scene {
 /// Half the thickness of [`glass_slab_before_wall`]'s slab.
 pub const SLAB_HALF: f32 = 0.3;
 
-/// A point light of intensity `intensity` at height `light` between a mirror floor (y = 0,
-/// reflectance 0.9) and a diffuse ceiling (y = `ceiling`, albedo 0.5, facing down), both 20
-/// wide: the ceiling is lit by the light and by its mirror image at y = -`light`.
-pub fn point_light_between_mirror_and_ceiling(light: f32, ceiling: f32, intensity: f32) -> Scene {
+/// A point light of intensity [`MIRROR_ORACLE`]`.2` at height `.0` between a mirror floor (y = 0,
+/// reflectance 0.9) and a diffuse ceiling (y = `.1`, albedo 0.5, facing down), both 20 wide: the
+/// ceiling is lit by the light and by its mirror image at y = -`.0`.
+pub fn point_light_between_mirror_and_ceiling() -> Scene {
+    let (light, ceiling, intensity, _) = MIRROR_ORACLE;
     let mut s =
         Scene { name: "point light between a mirror and a ceiling".into(), ..Scene::default() };
     let mirror = material(&mut s, Vec3::splat(0.9), Vec3::ZERO);
@@ -385,27 +386,51 @@ pub fn point_light_between_mirror_and_ceiling(light: f32, ceiling: f32, intensit
     let ceiling_material = material(&mut s, Vec3::splat(0.5), Vec3::ZERO);
     let (corner, u, v) = (Vec3::new(-10.0, 0.0, -10.0), Vec3::X * 20.0, Vec3::Z * 20.0);
     grid_quad(&mut s, corner, (u, v), 1, Vec3::Y, mirror);
-    grid_quad(&mut s, corner + Vec3::Y * ceiling, (u, v), 1, -Vec3::Y, ceiling_material);
+    grid_quad(&mut s, corner + Vec3::Y * ceiling as f32, (u, v), 1, -Vec3::Y, ceiling_material);
     s.lights.push(PunctualLight::Point {
-        position: Vec3::Y * light,
-        intensity: Vec3::splat(intensity),
+        position: Vec3::Y * light as f32,
+        intensity: Vec3::splat(intensity as f32),
     });
     s.validate().expect("a valid scene");
     s
 }
 
-/// The flux [`point_light_between_mirror_and_ceiling`] sends by way of its mirror to the disk of
-/// `radius` on the ceiling under the light, once reflected there (the VPLs' flux): the mirror
-/// image at depth `light` under the floor gives irradiance ρ_m I cos θ′ / d′², which integrates
-/// over the disk to ρ_c ρ_m I 2π D (1 / D − 1 / √(D² + R²)), D = `ceiling` + `light`.
-pub fn mirror_image_flux(light: f64, ceiling: f64, intensity: f64, radius: f64) -> f64 {
+/// [`point_light_between_mirror_and_ceiling`]'s light height, ceiling height and intensity, and
+/// the radius of the disk under the light that [`check_mirror_image_flux`] judges.
+pub const MIRROR_ORACLE: (f64, f64, f64, f64) = (0.5, 1.0, 2.0, 0.5);
+
+/// Each backend's VPLs of [`point_light_between_mirror_and_ceiling`]: none on the mirror, and
+/// the flux of those whose particle passed it, on the disk under the light, within `bound`
+/// (relative) of what the mirror image sends there once reflected. The image at depth h under
+/// the floor gives irradiance ρ_m I cos θ′ / d′², which integrates over the disk of radius R to
+/// ρ_c ρ_m I 2π D (1 / D − 1 / √(D² + R²)), D = H + h. Prints both.
+pub fn check_mirror_image_flux(sets: &[(&str, Vec<vplgi_types::Vpl>)], bound: f64) {
+    let (light, ceiling, intensity, radius) = MIRROR_ORACLE;
     let d = ceiling + light;
-    0.5 * 0.9
+    let expected = 0.5
+        * 0.9
         * intensity
         * 2.0
         * std::f64::consts::PI
         * d
-        * (1.0 / d - 1.0 / (d * d + radius * radius).sqrt())
+        * (1.0 / d - 1.0 / (d * d + radius * radius).sqrt());
+    for &(backend, ref vpls) in sets {
+        let on_mirror = vpls.iter().filter(|v| v.position[1].abs() < 1e-4).count();
+        let inside =
+            |v: &&vplgi_types::Vpl| (v.position[0] as f64).hypot(v.position[2] as f64) < radius;
+        let flux: f64 =
+            vpls.iter().filter(|v| v.specular == 1).filter(inside).map(|v| v.flux[0] as f64).sum();
+        let rel = (flux - expected).abs() / expected;
+        println!("{backend}: flux through the mirror on the disk {flux:.5}, the mirror image gives {expected:.5} ({:.3} % off); {on_mirror} VPLs on the mirror", 100.0 * rel);
+        assert_eq!(on_mirror, 0, "{backend}: VPLs on the mirror");
+        vplgi_verify::tolerance::Disagreement::at_most(
+            backend,
+            "mirror-lit flux on the disk against the mirror image's, relative",
+            rel,
+            bound,
+        )
+        .check();
+    }
 }
 
 /// `scene` with every third material a mirror and every third glass (index 1.5), starting at the

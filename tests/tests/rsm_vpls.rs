@@ -43,17 +43,13 @@ proptest::proptest! {
 
 /// The shadow map of a point light between a mirror floor and a diffuse ceiling: texels that
 /// meet the mirror go on to the ceiling, where their VPLs carry what the light's mirror image
-/// sends to the disk under it ([`vplgi_tests::inputs::mirror_image_flux`], within 0.5 %: the
-/// sphere map's texels resolve the disk's edge), and none sits on the mirror. On both backends.
+/// sends to the disk under it ([`vplgi_tests::inputs::check_mirror_image_flux`], within 0.5 %:
+/// the sphere map's texels resolve the disk's edge), and none sits on the mirror. On both
+/// backends.
 #[test]
 fn texels_that_meet_a_mirror_light_the_ceiling_as_the_mirror_image_does() {
     use vplgi_gpu::buffers::read_back;
-    let (h, ceiling, intensity, radius) = (0.5f64, 1.0f64, 2.0f64, 0.5f64);
-    let scene = vplgi_tests::inputs::point_light_between_mirror_and_ceiling(
-        h as f32,
-        ceiling as f32,
-        intensity as f32,
-    );
+    let scene = vplgi_tests::inputs::point_light_between_mirror_and_ceiling();
     let device = vplgi_embree::Device::new(None).expect("embree");
     let cs = vplgi_cpu::CpuScene::new(&scene, &device).expect("scene");
     let params = RsmParams::new(512, 1);
@@ -75,24 +71,7 @@ fn texels_that_meet_a_mirror_light_the_ceiling_as_the_mirror_image_does() {
         });
         sets.push(("GPU", vpls));
     }
-    let expected = vplgi_tests::inputs::mirror_image_flux(h, ceiling, intensity, radius);
-    for (backend, vpls) in sets {
-        let on_mirror = vpls.iter().filter(|v| v.position[1].abs() < 1e-4).count();
-        let inside =
-            |v: &&vplgi_types::Vpl| (v.position[0] as f64).hypot(v.position[2] as f64) < radius;
-        let flux: f64 =
-            vpls.iter().filter(|v| v.specular == 1).filter(inside).map(|v| v.flux[0] as f64).sum();
-        let rel = (flux - expected).abs() / expected;
-        println!("{backend}: flux through the mirror on the disk {flux:.5}, the mirror image gives {expected:.5} ({:.3} % off); {on_mirror} VPLs on the mirror", 100.0 * rel);
-        assert_eq!(on_mirror, 0, "{backend}: VPLs on the mirror");
-        vplgi_verify::tolerance::Disagreement::at_most(
-            backend,
-            "mirror-lit flux on the disk against the mirror image's, relative",
-            rel,
-            0.005,
-        )
-        .check();
-    }
+    vplgi_tests::inputs::check_mirror_image_flux(&sets, 0.005);
 }
 
 proptest::proptest! {

@@ -175,17 +175,12 @@ proptest::proptest! {
 /// diffuse ceiling (height H, albedo ρ_c): the ceiling is lit by the light's mirror image at -h,
 /// whose irradiance is ρ_m I cos θ′ / d′². Over a disk of radius R under the light, the VPLs
 /// whose particle passed the mirror carry ρ_c times that irradiance integrated
-/// ([`vplgi_tests::inputs::mirror_image_flux`]): within 1 %. No VPL sits on the mirror. On both
+/// ([`vplgi_tests::inputs::check_mirror_image_flux`]): within 1 %. No VPL sits on the mirror. On both
 /// backends.
 #[test]
 fn light_off_a_mirror_lights_the_ceiling_as_the_mirror_image_does() {
     use vplgi_gpu::buffers::read_back;
-    let (h, ceiling, intensity, radius) = (0.5f64, 1.0f64, 2.0f64, 0.5f64);
-    let scene = vplgi_tests::inputs::point_light_between_mirror_and_ceiling(
-        h as f32,
-        ceiling as f32,
-        intensity as f32,
-    );
+    let scene = vplgi_tests::inputs::point_light_between_mirror_and_ceiling();
     let device = vplgi_embree::Device::new(None).expect("embree");
     let cs = CpuScene::new(&scene, &device).expect("scene");
     let params = TraceParams::new(3, 400_000, 1);
@@ -206,22 +201,5 @@ fn light_off_a_mirror_lights_the_ceiling_as_the_mirror_image_does() {
         });
         sets.push(("GPU", vpls));
     }
-    let expected = vplgi_tests::inputs::mirror_image_flux(h, ceiling, intensity, radius);
-    for (backend, vpls) in sets {
-        let on_mirror = vpls.iter().filter(|v| v.position[1].abs() < 1e-4).count();
-        let inside =
-            |v: &&vplgi_types::Vpl| (v.position[0] as f64).hypot(v.position[2] as f64) < radius;
-        let flux: f64 =
-            vpls.iter().filter(|v| v.specular == 1).filter(inside).map(|v| v.flux[0] as f64).sum();
-        let rel = (flux - expected).abs() / expected;
-        println!("{backend}: flux through the mirror on the disk {flux:.5}, the mirror image gives {expected:.5} ({:.3} % off); {on_mirror} VPLs on the mirror", 100.0 * rel);
-        assert_eq!(on_mirror, 0, "{backend}: VPLs on the mirror");
-        Disagreement::at_most(
-            backend,
-            "mirror-lit flux on the disk against the mirror image's, relative",
-            rel,
-            0.01,
-        )
-        .check();
-    }
+    vplgi_tests::inputs::check_mirror_image_flux(&sets, 0.01);
 }

@@ -4,7 +4,7 @@
 //! line where two triangles cross, may land on either triangle, counted apart as a tie). Texels
 //! whose rays passed mirrors or glass are judged apart, as `trace_vpls`'s paths are.
 
-use crate::tolerance::{Disagreement, LONG_SPECULAR_CHAINS_DIVERGED, SPECULAR_CHAINS_DIVERGED, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
+use crate::tolerance::{chain_rows, Disagreement, Diverged, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
 use crate::trace_vpls::{difference, on_an_edge, on_two_triangles};
 use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
@@ -27,17 +27,6 @@ pub fn compare(twins: &Twins, params: &RsmParams) -> Result<Vec<Disagreement>, V
     compare_mapped(twins, params, &mut Vec::new())
 }
 
-/// The texels whose rays passed mirrors or glass of one class (one vertex, or more), and those
-/// among them whose VPLs differ, the worst described.
-#[derive(Default)]
-struct Chained {
-    texels: usize,
-    differ: usize,
-    /// Differing where the CPU, the texel's ray nudged, makes the GPU's VPL: set aside as ties.
-    nudged: usize,
-    worst_diff: f32,
-    worst: Option<String>,
-}
 
 /// [`compare`], adding to `parted` where each texel's VPLs that differ lie (the CPU's, or the
 /// GPU's where the CPU has none), as a tie or not.
@@ -64,7 +53,7 @@ fn compare_mapped(twins: &Twins, params: &RsmParams, parted: &mut Placed) -> Res
         })
     };
     // By the most mirrors and glass either backend's ray passed: one, more.
-    let mut chains: [Chained; 2] = Default::default();
+    let mut chains: [Diverged; 2] = Default::default();
     for t in c.keys().chain(g.keys().filter(|t| !c.contains_key(t))) {
         let (a, b) = (c.get(t), g.get(t));
         let d = match (a, b) {
@@ -79,21 +68,17 @@ fn compare_mapped(twins: &Twins, params: &RsmParams, parted: &mut Placed) -> Res
         if let Some(chain) = chain {
             // The tie tests below look at the VPLs alone, and a chained ray may part at an
             // edge of the mirror before them: chained texels are judged by their own bound.
-            chain.texels += 1;
+            chain.items += 1;
             if d > TRACE_VPLS_REL as f32 && nudge_reaches(*t, b) {
                 chain.nudged += 1;
                 if let Some(v) = a.or(b) {
                     parted.push((Vec3::from(v.position), ItemKind::Tie));
                 }
             } else if d > TRACE_VPLS_REL as f32 {
-                chain.differ += 1;
                 if let Some(v) = a.or(b) {
                     parted.push((Vec3::from(v.position), ItemKind::Other));
                 }
-                if d > chain.worst_diff || chain.worst.is_none() {
-                    chain.worst_diff = d;
-                    chain.worst = Some(format!("texel {t}: CPU {}, GPU {}", show(a), show(b)));
-                }
+                chain.diverge(d, || format!("texel {t}: CPU {}, GPU {}", show(a), show(b)));
             } else {
                 max_agreeing = max_agreeing.max(d);
             }
@@ -132,8 +117,7 @@ fn compare_mapped(twins: &Twins, params: &RsmParams, parted: &mut Placed) -> Res
         }
     }
     let case = format!("--rsm-size {}: {} texels, {} VPLs on the CPU", params.size, count(texels as usize), count(cpu.len()));
-    let direct = (texels as usize).saturating_sub(chains[0].texels + chains[1].texels);
-    let [one, longer] = chains;
+    let direct = (texels as usize).saturating_sub(chains[0].items + chains[1].items);
     let mut rows = vec![
         crate::tolerance::share_of_diverged(
             "rsm_vpls",
@@ -152,14 +136,13 @@ fn compare_mapped(twins: &Twins, params: &RsmParams, parted: &mut Placed) -> Res
         Disagreement::info("rsm_vpls", "largest relative difference on agreeing texels", max_agreeing as f64).with_case(&case),
         Disagreement::info("rsm_vpls", "VPL count, |CPU - GPU|", cpu.len().abs_diff(gpu.len()) as f64).with_case(&case),
     ];
-    for (class, label, bound) in [(one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
-        if class.texels > 0 {
-            let what = format!("texels whose rays pass {label} and whose VPLs differ");
-            rows.push(crate::tolerance::share_of_diverged("rsm_vpls", &what, (class.differ, class.texels), bound).with_case(&case).with_worst(class.worst));
-            let what = format!("texels whose rays pass {label} and part where the CPU, the ray nudged, makes the GPU's VPL (set aside as ties)");
-            rows.push(Disagreement::info("rsm_vpls", what, class.nudged as f64).with_case(&case));
-        }
-    }
+    rows.extend(chain_rows(
+        "rsm_vpls",
+        &case,
+        chains,
+        |label| format!("texels whose rays pass {label} and whose VPLs differ"),
+        |label| format!("texels whose rays pass {label} and part where the CPU, the ray nudged, makes the GPU's VPL (set aside as ties)"),
+    ));
     Ok(rows)
 }
 

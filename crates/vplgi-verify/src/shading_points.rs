@@ -2,8 +2,8 @@
 //! triangle; positions within 1e-4 of the scene extent).
 
 use crate::tolerance::{
-    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, SPECULAR_CHAINS_DIVERGED, SPECULAR_CHAIN_NUDGE,
-    SHADING_POINTS_EMISSION_SUMS, LONG_SPECULAR_CHAINS_DIVERGED, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
+    shading_points_emission_rays, shading_points_emission_rounding, shading_points_same_emission_share, Disagreement, CHAIN_CLASSES, SPECULAR_CHAIN_NUDGE,
+    SHADING_POINTS_EMISSION_SUMS, SHADING_POINTS_POSITION_REL, SHADING_POINTS_SAME_SURFACE,
     SHADING_POINTS_UNREACHABLE_EMISSION,
 };
 use crate::map::{DisagreementMap, PointJudge};
@@ -432,7 +432,7 @@ fn compare_points(twins: &Twins, camera: &CameraParams, cpu: &[ShadingPoint], gp
         // of the image: this row judges every sample's emission, so 1 % more fails at any spp.
         reachable,
     ];
-    for (chains, label, bound) in [(&d.one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (&d.longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
+    for ((label, bound), chains) in CHAIN_CLASSES.into_iter().zip([&d.one, &d.longer]) {
         if chains.samples == 0 {
             continue;
         }

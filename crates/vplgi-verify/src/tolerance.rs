@@ -45,6 +45,60 @@ pub const LONG_SPECULAR_CHAINS_DIVERGED: f64 = 5e-3;
 /// normal, index or Fresnel term) hides within it.
 pub const SPECULAR_CHAIN_NUDGE: f64 = 1e-5;
 
+/// The classes of specular chains judged apart, by the most vertices either backend passed:
+/// how the rows name each, and its bound.
+pub const CHAIN_CLASSES: [(&str, f64); 2] = [
+    ("one mirror or glass surface", SPECULAR_CHAINS_DIVERGED),
+    ("two or more", LONG_SPECULAR_CHAINS_DIVERGED),
+];
+
+/// Items of one class (light paths, texels) and those among them that diverge, the worst
+/// described; and those set aside because a nudge of the CPU's emission reproduces the GPU's.
+#[derive(Default)]
+pub struct Diverged {
+    pub items: usize,
+    pub diverged: usize,
+    pub nudged: usize,
+    pub worst_diff: f32,
+    pub worst: Option<String>,
+}
+
+impl Diverged {
+    /// Counts one item that diverged by `diff`, described by `describe` if the worst so far.
+    pub fn diverge(&mut self, diff: f32, describe: impl FnOnce() -> String) {
+        self.diverged += 1;
+        if diff > self.worst_diff || self.worst.is_none() {
+            self.worst_diff = diff;
+            self.worst = Some(describe());
+        }
+    }
+}
+
+/// The rows of `classes` ([`CHAIN_CLASSES`] order) that hold items: each one's share of
+/// divergences, named by `diverge(label)`, and its nudged items, by `nudged(label)`.
+pub fn chain_rows(
+    stage: &str,
+    case: &str,
+    classes: [Diverged; 2],
+    diverge: impl Fn(&str) -> String,
+    nudged: impl Fn(&str) -> String,
+) -> Vec<Disagreement> {
+    let mut rows = Vec::new();
+    for ((label, bound), class) in CHAIN_CLASSES.into_iter().zip(classes) {
+        if class.items > 0 {
+            rows.push(
+                share_of_diverged(stage, &diverge(label), (class.diverged, class.items), bound)
+                    .with_case(case)
+                    .with_worst(class.worst),
+            );
+            rows.push(
+                Disagreement::info(stage, nudged(label), class.nudged as f64).with_case(case),
+            );
+        }
+    }
+    rows
+}
+
 /// How often a row of rare events may breach its bound by chance alone: once in this many runs.
 pub const CHANCE: f64 = 1e-3;
 

@@ -1,9 +1,7 @@
 //! `trace_vpls`: the GPU's VPLs against the CPU's (SPEC: same count; positions, normals and
 //! fluxes within 1e-4 relative; at most 0.1 % of paths diverge, counted).
 
-use crate::tolerance::{
-    Disagreement, SPECULAR_CHAINS_DIVERGED, LONG_SPECULAR_CHAINS_DIVERGED, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL,
-};
+use crate::tolerance::{chain_rows, Disagreement, Diverged, TRACE_VPLS_DIVERGED_PATHS, TRACE_VPLS_REL};
 use crate::map::{DisagreementMap, ItemKind, Placed};
 use crate::{count, result, v3, StageResult, Twins, VerifyError, VerifyStage, Plan};
 use glam::Vec3;
@@ -126,7 +124,7 @@ fn compare_paths(twins: &Twins, params: &TraceParams) -> Result<(Vec<Disagreemen
         }
         let chain = a.iter().chain(b).map(|v| v.specular).max().unwrap_or(0).min(2) as usize;
         let class = &mut classes[chain];
-        class.paths += 1;
+        class.items += 1;
         // Any path that parts beyond a tie is tried: a ray that grazes a silhouette (hitting on
         // one side, escaping on the other: no VPL to test for an edge) or meets a mirror on one
         // side only parts by rounding the tie test cannot see.
@@ -143,13 +141,11 @@ fn compare_paths(twins: &Twins, params: &TraceParams) -> Result<(Vec<Disagreemen
         } else if nudged {
             class.nudged += 1;
         } else if path_diff > TRACE_VPLS_REL as f32 {
-            class.diverged += 1;
-            if path_diff > class.worst_diff || class.worst.is_none() {
-                class.worst_diff = path_diff;
+            class.diverge(path_diff, || {
                 let i = at.unwrap_or(0);
                 let show = |v: Option<&Vpl>| v.map_or("none".to_string(), |v| format!("bounce {} at {} flux {}", v.bounce, v3(v.position), v3(v.flux)));
-                class.worst = Some(format!("path {p}, VPL {i}: CPU {}, GPU {}", show(a.get(i)), show(b.get(i))));
-            }
+                format!("path {p}, VPL {i}: CPU {}, GPU {}", show(a.get(i)), show(b.get(i)))
+            });
         } else {
             max_agreeing = max_agreeing.max(path_diff);
         }
@@ -170,7 +166,7 @@ fn compare_paths(twins: &Twins, params: &TraceParams) -> Result<(Vec<Disagreemen
         crate::tolerance::share_of_diverged(
             "trace_vpls",
             "light paths that diverge (of those passing no mirror or glass)",
-            (direct.diverged, direct.paths),
+            (direct.diverged, direct.items),
             TRACE_VPLS_DIVERGED_PATHS,
         )
         .with_case(&case)
@@ -191,14 +187,13 @@ fn compare_paths(twins: &Twins, params: &TraceParams) -> Result<(Vec<Disagreemen
         Disagreement::info("trace_vpls", "light particles traced, |CPU - GPU| (moves with diverging paths)", (cpu.particles as f64 - g.particles as f64).abs())
             .with_case(&case),
     ];
-    for (class, label, bound) in [(one, "one mirror or glass surface", SPECULAR_CHAINS_DIVERGED), (longer, "two or more", LONG_SPECULAR_CHAINS_DIVERGED)] {
-        if class.paths > 0 {
-            let what = format!("light paths through {label} that diverge");
-            rows.push(crate::tolerance::share_of_diverged("trace_vpls", &what, (class.diverged, class.paths), bound).with_case(&case).with_worst(class.worst));
-            let what = format!("light paths through {label} that part where the CPU, its emission direction nudged, makes the GPU's VPLs (set aside as ties)");
-            rows.push(Disagreement::info("trace_vpls", what, class.nudged as f64).with_case(&case));
-        }
-    }
+    rows.extend(chain_rows(
+        "trace_vpls",
+        &case,
+        [one, longer],
+        |label| format!("light paths through {label} that diverge"),
+        |label| format!("light paths through {label} that part where the CPU, its emission direction nudged, makes the GPU's VPLs (set aside as ties)"),
+    ));
     Ok((rows, parted))
 }
 
@@ -219,17 +214,6 @@ fn nudge_reaches(cs: &vplgi_cpu::CpuScene, params: &TraceParams, (scramble, inde
             _ => false,
         })
     })
-}
-
-/// The light paths of one class and those among them that diverge, the worst described; and
-/// those set aside because a nudge of the CPU's emission reproduces the GPU's path.
-#[derive(Default)]
-struct Diverged {
-    paths: usize,
-    diverged: usize,
-    nudged: usize,
-    worst_diff: f32,
-    worst: Option<String>,
 }
 
 /// The frame's VPLs.
