@@ -1,9 +1,10 @@
 // include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/sampling.wgsl common/scene.wgsl common/bsdf.wgsl
 // Stage bias_points: the bias compensation of the geometry-term clamp (vplgi-cpu/src/bias_points.rs).
-// From each parent shading point, one cosine-sampled segment (stream (seed, STREAM_BIAS, i)) to
-// the surface it sees; kept as a shading point where the clamp bites, with albedo = its albedo x
-// the parent's x the clamped share 1 - g_max / G, no emission and the parent's pixel. None
-// where the segment meets a mirror or glass: no VPL sits there, so the clamp removed nothing.
+// From each parent shading point, one segment sampled by its BSDF (by the cosine on a diffuse
+// surface; stream (seed, STREAM_BIAS, i)) to the surface it sees; kept as a shading point seen
+// from the parent where the clamp bites, with albedo = its albedo x the parent's x the sample's
+// weight x the clamped share 1 - g_max / (a G), no emission and the parent's pixel. None where
+// the segment meets a mirror or glass: no VPL sits there, so the clamp removed nothing.
 
 struct Params {
     first: u32,   // first sample of this chunk
@@ -20,9 +21,9 @@ struct Params {
 @group(0) @binding(6) var<storage, read> parents: array<ShadingPoint>;
 @group(0) @binding(7) var<storage, read_write> out: array<ShadingPoint>;
 
-// bias_points::clamped_share: 1 - g_max / G where the clamp bites, else 0.
-fn clamped_share(p: vec3<f32>, np: vec3<f32>, y: vec3<f32>, ny: vec3<f32>, g_max: f32) -> f32 {
-    let g = unclamped_geometry_term(p, np, y, ny);
+// bias_points::clamped_share: 1 - g_max / (a G) where the clamp bites, else 0.
+fn clamped_share(p: vec3<f32>, np: vec3<f32>, y: vec3<f32>, ny: vec3<f32>, g_max: f32, lobe: f32) -> f32 {
+    let g = unclamped_geometry_term(p, np, y, ny) * lobe;
     if (g > g_max) {
         return 1.0 - g_max / g;
     }
@@ -44,9 +45,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     var rng = rng_new(params.seed, STREAM_BIAS, params.first + local);
-    let u1 = rng_next_f32(&rng);
-    let u2 = rng_next_f32(&rng);
-    let dir = cosine_hemisphere(sp.normal, u1, u2);
+    let bsdf = white_bsdf(sp.material);
+    var dir: vec3<f32>;
+    var weight = vec3<f32>(1.0);
+    if (bsdf_is_glossy(bsdf)) {
+        let n = sp.normal;
+        let tb = orthonormal_basis(n);
+        let local_view = vec3<f32>(dot(sp.view, tb[0]), dot(sp.view, tb[1]), dot(sp.view, n));
+        let u0 = rng_next_f32(&rng);
+        let ux = rng_next_f32(&rng);
+        let uy = rng_next_f32(&rng);
+        let s = bsdf_sample(bsdf, local_view, u0, vec2<f32>(ux, uy), true);
+        if (s.valid == 0u) {
+            return;
+        }
+        dir = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
+        weight = s.weight;
+    } else {
+        let u1 = rng_next_f32(&rng);
+        let u2 = rng_next_f32(&rng);
+        dir = cosine_hemisphere(sp.normal, u1, u2);
+    }
     var ng = scene_tri(sp.triangle).ng.xyz;
     if (dot(ng, sp.normal) < 0.0) {
         ng = -ng;
@@ -63,14 +82,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     if (bsdf_is_specular(surf.bsdf)) {
         return;
     }
-    let w = clamped_share(sp.position, sp.normal, surf.position, surf.ns, params.g_max);
+    let w = clamped_share(sp.position, sp.normal, surf.position, surf.ns, params.g_max, bsdf_lobe(bsdf, sp.normal, sp.view, dir));
     if (w <= 0.0) {
         return;
     }
     child.position = surf.position;
     child.normal = surf.ns;
     child.triangle = hit.triangle;
-    child.albedo = surf.albedo * sp.albedo * w;
+    child.material = surf.material;
+    child.albedo = surf.albedo * sp.albedo * weight * w;
     child.emitted = vec3<f32>(0.0);
+    child.view = -dir;
     out[local] = child;
 }

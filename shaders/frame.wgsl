@@ -87,7 +87,7 @@ fn vpl_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let v = vpls[i];
     let flux = select(v.flux, vec3<f32>(0.0), v.bounce > params.max_bounce);
-    lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(flux, 0.0));
+    lights[i] = VplLight(vec4<f32>(v.position, 0.0), vec4<f32>(v.normal, 0.0), vec4<f32>(flux, 0.0), vec4<f32>(v.incoming, bitcast<f32>(v.material)));
 }
 
 // Which of the VPLs base .. base + 31 (below `end`) belong to cluster k, as bits. The loops over
@@ -296,7 +296,7 @@ fn cluster_lights_finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
         }
         exact = select(0u, EXACT_DISK, params.shape == LIGHT_SHAPE_DISK_EXACT && radius2 > 0.0);
     }
-    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, bitcast<f32>(exact)), vec4<f32>(a.xyz, 0.0));
+    lights[k] = VplLight(vec4<f32>(r.position, radius2), vec4<f32>(r.normal, bitcast<f32>(exact)), vec4<f32>(a.xyz, 0.0), vec4<f32>(r.incoming, bitcast<f32>(r.material)));
 }
 
 // disk::member_weight

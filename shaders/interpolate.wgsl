@@ -41,6 +41,8 @@ fn sample_points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     sp.normal = points[j].normal.xyz;
     sp.pixel = j;
     sp.triangle = 0u;
+    // No material: an irradiance sample is shaded as a diffuse receiver (shade::lobe_record).
+    sp.material = MISS;
     sample_sps[j] = sp;
     sample_rows[j] = j;
 }

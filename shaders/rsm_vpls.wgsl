@@ -110,7 +110,7 @@ fn rsm_texel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         }
         let s = surface_at(hit, dir);
         if (specular == params.specular_depth || !bsdf_is_specular(s.bsdf)) {
-            slots[t] = Vpl(s.position, t, s.ns, 1u, power * s.albedo, specular);
+            slots[t] = Vpl(s.position, t, s.ns, 1u, power * s.albedo, specular, -dir, s.material);
             counts[t] = 1u;
             return;
         }

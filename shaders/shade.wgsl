@@ -1,4 +1,4 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/sampling.wgsl common/lights.wgsl common/scene.wgsl common/bsdf.wgsl
 // Stage 5, shade (vplgi-cpu/src/shade.rs): per pixel, the mean over its spp shading points of
 // emitted + direct + indirect radiance, indirect by Eq. 6 with the clamped geometry term and
 // the visibility of Eq. 8 / 9-10 (mode 1) or the point's own row (mode 0).
@@ -41,6 +41,9 @@ override ROWS: u32 = 1u;
 // that point and Eq. 2 frames do not carry the exact form factors' code in their light loop (on
 // lavapipe that alone made `shade` several times slower).
 override EXACT_SHAPES: bool = false;
+// Whether the scene has glossy surfaces, whose lobes (shade::lobe_terms) are evaluated light by
+// light: a pipeline of its own, for the same reason.
+override GLOSSY: bool = false;
 
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(7) var<storage, read> sps: array<ShadingPoint>;
@@ -56,6 +59,50 @@ override EXACT_SHAPES: bool = false;
 // The polygon lights' outlines (vplgi_types::LightOutline): POLYGON_SIDES vertices per light,
 // each with the area in w, w = 0 after the last.
 @group(0) @binding(15) var<storage, read> outlines: array<vec4<f32>>;
+// Each material's BSDF in white (Surface::with_colour(1)), for the lobes a_p and a_c.
+@group(0) @binding(16) var<storage, read> lobes: array<BsdfRecord>;
+
+// shade::receiver: material m's white BSDF; one past the table is diffuse (an irradiance sample).
+fn lobe_record(m: u32) -> BsdfRecord {
+    if (m < arrayLength(&lobes)) {
+        return lobes[m];
+    }
+    return diffuse_record();
+}
+
+fn diffuse_record() -> BsdfRecord {
+    return BsdfRecord(vec3<f32>(1.0), BSDF_DIFFUSE, 0.0, 0.0, 0.0, 0u);
+}
+
+// shade::lobe_terms for one light: a glossy receiver's a_p under a point light's clamp (G
+// recomputed as light_geometry_term does) or times a disk's G, then a glossy light's own a_c.
+fn lobe_term(p: vec3<f32>, n: vec3<f32>, receiver: BsdfRecord, view: vec3<f32>, l: VplLight, light: BsdfRecord, incoming: vec3<f32>, g: f32, g_max: f32) -> f32 {
+    let x = l.position.xyz;
+    let nx = l.normal.xyz;
+    let d = x - p;
+    let d2 = dot(d, d);
+    let inv_d = 1.0 / sqrt(d2);
+    let dir = d * inv_d;
+    var out = g;
+    if (bsdf_is_glossy(receiver)) {
+        let a = bsdf_lobe(receiver, n, view, dir);
+        if (l.position.w == 0.0 && bitcast<u32>(l.normal.w) == 0u) {
+            let cos_p = dot(n, d) * inv_d;
+            let cos_x = -dot(nx, d) * inv_d;
+            var raw = 0.0;
+            if (d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0) {
+                raw = cos_p * cos_x / (d2 + 0.0);
+            }
+            out = min(a * raw, g_max);
+        } else {
+            out = out * a;
+        }
+    }
+    if (bsdf_is_glossy(light)) {
+        out = out * bsdf_lobe(light, nx, incoming, -dir);
+    }
+    return out;
+}
 
 // Distribution::sample: the first item whose CDF exceeds u (a lower bound on cdf > u).
 fn sample_table_area(u: f32) -> u32 {
@@ -246,6 +293,9 @@ fn polygon_edge(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
 fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
     let p = sp.position;
     let n = sp.normal;
+    // A glossy receiver's lobe toward each light, as in shade_lights.
+    let receiver = lobe_record(sp.material);
+    let glossy = bsdf_is_glossy(receiver);
     var rng = rng_new(params.seed, STREAM_DIRECT, index);
     // One draw per statement: the CPU draws them in this order.
     let r0 = rng_next_u32(&rng);
@@ -303,7 +353,11 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
             continue;
         }
         if (visible(p, n, pos, e.normal.xyz, params.eps)) {
-            area = area + e.radiance.xyz * (cos_p * cos_l / (d2 * d2) / pdf_area);
+            var a = 1.0;
+            if (glossy) {
+                a = bsdf_lobe(receiver, n, sp.view, normalize(d));
+            }
+            area = area + e.radiance.xyz * (cos_p * cos_l / (d2 * d2) / pdf_area * a);
         }
     }
     var sum = area / f32(max(params.direct_samples, 1u));
@@ -313,7 +367,11 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
             // Directional: E cos, along a ray to infinity.
             let cos_d = -dot(n, l.direction.xyz);
             if (cos_d > 0.0 && visible_toward(p, n, -l.direction.xyz, params.eps)) {
-                sum = sum + l.intensity.xyz * cos_d;
+                var a = 1.0;
+                if (glossy) {
+                    a = bsdf_lobe(receiver, n, sp.view, normalize(-l.direction.xyz));
+                }
+                sum = sum + l.intensity.xyz * (cos_d * a);
             }
             continue;
         }
@@ -325,7 +383,11 @@ fn direct(sp: ShadingPoint, index: u32) -> vec3<f32> {
         }
         let falloff = punctual_falloff(l, -d / sqrt(d2));
         if (falloff > 0.0 && visible_from_surface(p, n, l.position.xyz, params.eps)) {
-            sum = sum + l.intensity.xyz * (falloff * cos_p / (d2 * sqrt(d2)));
+            var a = 1.0;
+            if (glossy) {
+                a = bsdf_lobe(receiver, n, sp.view, normalize(d));
+            }
+            sum = sum + l.intensity.xyz * (falloff * cos_p / (d2 * sqrt(d2)) * a);
         }
     }
     return sum * (sp.albedo / PI);
@@ -351,6 +413,8 @@ fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     var pos: array<vec3<f32>, SHADE_POINTS>;
     var nrm: array<vec3<f32>, SHADE_POINTS>;
     var sum: array<vec3<f32>, SHADE_POINTS>;
+    var view: array<vec3<f32>, SHADE_POINTS>;
+    var receiver: array<BsdfRecord, SHADE_POINTS>;
     var row_base: array<u32, SHADE_POINTS * MAX_F>;
     var row_w: array<f32, SHADE_POINTS * MAX_F>;
     var words: array<u32, SHADE_POINTS * MAX_F>;
@@ -361,6 +425,10 @@ fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         pos[q] = sp.position;
         nrm[q] = sp.normal;
         sum[q] = select(vec3<f32>(0.0), running[local].xyz, resumed);
+        if (GLOSSY) {
+            view[q] = sp.view;
+            receiver[q] = lobe_record(sp.material);
+        }
         // Points past the end or missing the scene are shaded like the last one and not stored.
         let row = row_of[i] - params.first_row;
         if (params.mode == SHADE_OWN_ROW) {
@@ -387,10 +455,21 @@ fn shade_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         }
         let block_end = min(end, block * 32u + 32u);
         for (; c < block_end; c = c + 1u) {
-            let l = vpl_lights[c];
+            // Field by field: the lobe's vec4 is loaded only where it is used.
+            let l = VplLight(vpl_lights[c].position, vpl_lights[c].normal, vpl_lights[c].flux, vec4<f32>(0.0));
+            var light = diffuse_record();
+            var incoming = vec3<f32>(0.0);
+            if (GLOSSY) {
+                let lobe = vpl_lights[c].incoming;
+                incoming = lobe.xyz;
+                light = lobe_record(bitcast<u32>(lobe.w));
+            }
             let bit = c % 32u;
             for (var q = 0u; q < SHADE_POINTS; q = q + 1u) {
-                let g = light_geometry_term(pos[q], nrm[q], l, c, g_max);
+                var g = light_geometry_term(pos[q], nrm[q], l, c, g_max);
+                if (GLOSSY) {
+                    g = lobe_term(pos[q], nrm[q], receiver[q], view[q], l, light, incoming, g, g_max);
+                }
                 var v = 0.0;
                 for (var j = 0u; j < ROWS; j = j + 1u) {
                     v = v + select(0.0, row_w[q * MAX_F + j], ((words[q * MAX_F + j] >> bit) & 1u) == 1u);

@@ -39,6 +39,7 @@ struct CameraPath {
     throughput: vec3<f32>,  // product of the specular vertices' sample weights
     emitted: vec3<f32>,     // emission seen along the chain, the last surface's included
     specular: u32,          // specular vertices passed
+    view: vec3<f32>,        // from the last surface back along the ray that reached it
 }
 
 // Follows origin + t dir through at most params.specular_depth specular vertices, reflecting or
@@ -63,6 +64,7 @@ fn camera_path(origin_in: vec3<f32>, dir_in: vec3<f32>, chain: ptr<function, Rng
         if (path.specular == params.specular_depth || !bsdf_is_specular(surf.bsdf)) {
             path.surf = surf;
             path.triangle = hit.triangle;
+            path.view = -dir;
             break;
         }
         let s = scatter_specular(surf, dir, rng_next_f32(chain), true);
@@ -121,6 +123,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         sp.normal = path.surf.ns;
         sp.triangle = path.triangle;
         sp.albedo = path.throughput * path.surf.albedo;
+        sp.view = path.view;
+        sp.material = path.surf.material;
     }
     // A miss carries its pixel's emission too, as on the CPU.
     if (params.spp != 1u) {

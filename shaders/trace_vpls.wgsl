@@ -6,7 +6,8 @@
 //            count, and records how many particles were used when the count is reached.
 // Particle i uses only point i of the frame's scrambled Sobol' set (its emission) and the stream
 // (seed, STREAM_LIGHT_PATH, i) (its bounces), so batching does not matter. Mirrors and glass hold
-// no VPL: the particle reflects or refracts there, at most specular_depth times in a row.
+// no VPL: the particle reflects or refracts there, at most specular_depth times in a row. At
+// rough metal it leaves a VPL and goes on along its BSDF's sample.
 // Fluxes are divided by the particle count by `normalize` once it is known.
 
 struct Params {
@@ -128,19 +129,36 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             }
             specular = 0u;
             let flux = power * s.albedo;
-            slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, flux, passed);
+            slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, flux, passed, -dir, s.material);
             n = n + 1u;
             if (bounce == params.bounces) {
                 break;
             }
-            let survive = min(max(max(s.albedo.x, s.albedo.y), s.albedo.z), MAX_SURVIVAL);
-            if (survive <= 0.0 || rng_next_f32(&rng) >= survive) {
-                break;
+            if (bsdf_is_glossy(s.bsdf)) {
+                // The BSDF's own sample, then Russian roulette on its weight.
+                let u1 = rng_next_f32(&rng);
+                let ux = rng_next_f32(&rng);
+                let uy = rng_next_f32(&rng);
+                let b = scatter(s, dir, u1, vec2<f32>(ux, uy), false);
+                if (b.valid == 0u) {
+                    break;
+                }
+                let survive = min(max(max(b.weight.x, b.weight.y), b.weight.z), MAX_SURVIVAL);
+                if (survive <= 0.0 || rng_next_f32(&rng) >= survive) {
+                    break;
+                }
+                power = power * (b.weight / survive);
+                dir = b.wo;
+            } else {
+                let survive = min(max(max(s.albedo.x, s.albedo.y), s.albedo.z), MAX_SURVIVAL);
+                if (survive <= 0.0 || rng_next_f32(&rng) >= survive) {
+                    break;
+                }
+                power = flux / survive;
+                let u5 = rng_next_f32(&rng);
+                let u6 = rng_next_f32(&rng);
+                dir = cosine_hemisphere(s.ns, u5, u6);
             }
-            power = flux / survive;
-            let u5 = rng_next_f32(&rng);
-            let u6 = rng_next_f32(&rng);
-            dir = cosine_hemisphere(s.ns, u5, u6);
             if (dot(dir, s.ng) <= 0.0) {
                 break;
             }

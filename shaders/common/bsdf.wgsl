@@ -245,3 +245,25 @@ fn bsdf_sample(b: BsdfRecord, wi: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bo
 fn bsdf_is_specular(b: BsdfRecord) -> bool {
     return b.kind == BSDF_MIRROR || b.kind == BSDF_DIELECTRIC || b.kind == BSDF_THIN_DIELECTRIC;
 }
+
+// Surface::is_glossy: rough metal, alone or blended.
+fn bsdf_is_glossy(b: BsdfRecord) -> bool {
+    return b.kind == BSDF_ROUGH_CONDUCTOR || b.kind == BSDF_BLEND;
+}
+
+// Surface::lobe: a white surface of this kind's BSDF from wi to wo (unit world directions about
+// the shading normal n) over a white Lambertian surface's 1 / π; exactly 1 for a diffuse one.
+fn bsdf_lobe(b: BsdfRecord, n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    if (b.kind == BSDF_DIFFUSE) {
+        return 1.0;
+    }
+    var white = b;
+    white.reflectance = vec3<f32>(1.0);
+    let tb = orthonormal_basis(n);
+    let li = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
+    let lo = vec3<f32>(dot(wo, tb[0]), dot(wo, tb[1]), dot(wo, n));
+    if (lo.z == 0.0) {
+        return 0.0;
+    }
+    return PI * bsdf_eval(white, li, lo).x / abs(lo.z);
+}

@@ -1,10 +1,16 @@
-// Where a ray leaves a mirror or glass (vplgi-cpu SurfaceHit::scatter_specular). Needs
+// Where a ray leaves a surface (vplgi-cpu SurfaceHit::scatter). Needs
 // common/types.wgsl, common/sampling.wgsl, common/bsdf.wgsl and common/surface.wgsl.
 
 // The BSDF's sample for a ray that arrived along `dir`, u1 choosing reflection or refraction by
-// Fresnel, its wo turned to world space; valid 0 where the surface sends nothing. +z is the
-// side the normal points to: glass's outside. `radiance`: a refraction's weight carries η².
+// Fresnel, its wo turned to world space; valid 0 where the surface sends nothing.
+// `radiance`: a refraction's weight carries η².
 fn scatter_specular(surf: Surface, dir: vec3<f32>, u1: f32, radiance: bool) -> BsdfSample {
+    return scatter(surf, dir, u1, vec2<f32>(0.0), radiance);
+}
+
+// SurfaceHit::scatter: the BSDF's sample from u1 (which lobe) and u (where in it), wo in world
+// space. +z is the side the normal points to: glass's outside.
+fn scatter(surf: Surface, dir: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bool) -> BsdfSample {
     var n = surf.ns;
     if (!surf.facing) {
         n = -surf.ns;
@@ -12,7 +18,7 @@ fn scatter_specular(surf: Surface, dir: vec3<f32>, u1: f32, radiance: bool) -> B
     let tb = orthonormal_basis(n);
     let wi = -dir;
     let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
-    var s = bsdf_sample(surf.bsdf, local, u1, vec2<f32>(0.0), radiance);
+    var s = bsdf_sample(surf.bsdf, local, u1, u, radiance);
     s.wo = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
     return s;
 }

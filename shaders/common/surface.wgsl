@@ -15,6 +15,13 @@ fn scene_tri(i: u32) -> SceneTri {
     }
 }
 
+// Surface::with_colour(1): the BSDF of material m in white.
+fn white_bsdf(m: u32) -> BsdfRecord {
+    var b = materials[m].bsdf;
+    b.reflectance = vec3<f32>(1.0);
+    return b;
+}
+
 struct Surface {
     position: vec3<f32>,
     ng: vec3<f32>,        // geometric normal facing the ray's origin
@@ -22,6 +29,7 @@ struct Surface {
     albedo: vec3<f32>,
     emitted: vec3<f32>,   // emission towards the ray's origin (front side only)
     bsdf: BsdfRecord,     // its reflectance is albedo
+    material: u32,        // its material's index
     facing: bool,         // the ray hit the front side (where the geometric normal points)
 }
 
@@ -98,7 +106,8 @@ fn surface_at(hit: Hit, dir: vec3<f32>) -> Surface {
     if (dot(s.ns, s.ng) < 0.0) {
         s.ns = -s.ns;
     }
-    let m = materials[bitcast<u32>(st.ng.w)];
+    s.material = bitcast<u32>(st.ng.w);
+    let m = materials[s.material];
     s.albedo = m.base_color.xyz;
     let t = bitcast<u32>(m.base_color.w);
     if (TEXTURED && t != MISS) {

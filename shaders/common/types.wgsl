@@ -9,7 +9,9 @@ struct ShadingPoint {
     albedo: vec3<f32>,
     specular: u32,       // mirrors and glass passed on the way (shading_points.wgsl)
     emitted: vec3<f32>,
-    pad1: u32,
+    material: u32,       // the hit's material index
+    view: vec3<f32>,     // toward where the ray that found it came from
+    pad2: u32,
 }
 
 struct Vpl {
@@ -19,6 +21,8 @@ struct Vpl {
     bounce: u32,
     flux: vec3<f32>,
     specular: u32,   // mirrors and glass passed since the light (trace_vpls)
+    incoming: vec3<f32>, // toward where the light came from
+    material: u32,       // whose BSDF the VPL emits through
 }
 
 // A VPL, or a VPL cluster at its representative with its members' summed flux, as a light.
@@ -26,6 +30,7 @@ struct VplLight {
     position: vec4<f32>,
     normal: vec4<f32>,
     flux: vec4<f32>,
+    incoming: vec4<f32>, // w: bitcast of the material it emits through
 }
 // Its exact form factor, VplLight::exact, is in the normal's w (EXACT_DISK, EXACT_POLYGON); a
 // polygon's outline has POLYGON_SIDES vertices.

@@ -395,6 +395,24 @@ pub fn point_light_between_mirror_and_ceiling() -> Scene {
     s
 }
 
+/// [`point_light_between_mirror_and_ceiling`] with a floor of rough metal (GGX α 0.09, colour
+/// 0.9) instead of the mirror, seen from above the light at a slant: the floor's glossy peak
+/// reflects the lit ceiling, one unit above it.
+pub fn point_light_between_rough_metal_and_ceiling() -> Scene {
+    let mut s = point_light_between_mirror_and_ceiling();
+    s.name = "point light between rough metal and a ceiling".into();
+    s.materials[0].surface = Surface::RoughConductor { alpha: 0.09 };
+    let eye = Vec3::new(0.0, 0.8, 3.0);
+    s.camera = vplgi_scene::Camera {
+        position: eye,
+        forward: (Vec3::new(0.0, 0.0, -1.0) - eye).normalize(),
+        up: Vec3::Y,
+        yfov: 50f32.to_radians(),
+    };
+    s.validate().expect("a valid scene");
+    s
+}
+
 /// [`point_light_between_mirror_and_ceiling`]'s light height, ceiling height and intensity, and
 /// the radius of the disk under the light that [`check_mirror_image_flux`] judges.
 pub const MIRROR_ORACLE: (f64, f64, f64, f64) = (0.5, 1.0, 2.0, 0.5);
@@ -444,6 +462,23 @@ pub fn with_mirrors_and_glass(mut scene: Scene) -> Scene {
         };
     }
     scene.name = format!("{} with mirrors and glass", scene.name);
+    scene
+}
+
+/// `scene` with every third material rough metal (GGX α 0.01, 0.09 or 0.36 in turn: glTF
+/// roughness 0.1, 0.3 and 0.6) and every third half metal on diffuse, starting at the second:
+/// random scenes with glossy receivers and glossy VPLs.
+pub fn with_rough_metal(mut scene: Scene) -> Scene {
+    const ALPHAS: [f32; 3] = [0.01, 0.09, 0.36];
+    for (i, m) in scene.materials.iter_mut().enumerate() {
+        let alpha = ALPHAS[(i / 3) % 3];
+        m.surface = match i % 3 {
+            1 => Surface::RoughConductor { alpha },
+            2 => Surface::Blend { metallic: 0.5, alpha },
+            _ => Surface::Diffuse,
+        };
+    }
+    scene.name = format!("{} with rough metal", scene.name);
     scene
 }
 

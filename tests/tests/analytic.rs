@@ -67,15 +67,22 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
         let d2 = h * h + r * r;
         let g = (h * h / d2) / d2;
         let expected = flux * (rho / PI) * g / PI;
-        let got = indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY);
+        let got =
+            indirect(&[], &sp, 0, &LightArrays::new(&vec![light].into(), &[]), &vis, f32::INFINITY);
         assert!(
             (got - expected).abs().max_element() <= 1e-6 * expected.max_element(),
             "r = {r}: {got} vs {expected}"
         );
         // With the clamp at d_min = h the geometry term at r = 0 is exactly 1/h², i.e. unclamped;
         // at d_min = 2h it is capped at 1/(4h²).
-        let capped =
-            indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, 1.0 / (4.0 * h * h));
+        let capped = indirect(
+            &[],
+            &sp,
+            0,
+            &LightArrays::new(&vec![light].into(), &[]),
+            &vis,
+            1.0 / (4.0 * h * h),
+        );
         let expected_capped = flux * (rho / PI) * g.min(1.0 / (4.0 * h * h)) / PI;
         assert!((capped - expected_capped).abs().max_element() <= 1e-6 * expected.max_element());
     }
@@ -84,7 +91,7 @@ fn one_vpl_over_a_plane_matches_the_closed_form() {
     let sp = ShadingPoint { normal: [0.0, 1.0, 0.0], albedo: [rho; 3], ..Default::default() };
     let vis = VisibilitySource::Own { matrix: &blocked, row_of: &row_of, first_row: 0 };
     assert_eq!(
-        indirect(&sp, 0, &LightArrays::new(&vec![light].into()), &vis, f32::INFINITY),
+        indirect(&[], &sp, 0, &LightArrays::new(&vec![light].into(), &[]), &vis, f32::INFINITY),
         Vec3::ZERO
     );
 }
@@ -334,4 +341,187 @@ fn emission_through_jittered_pixels_is_the_covered_area_on_both_backends() {
             "{backend}: stratified emission spreads {worst_spread} of one ray's"
         );
     }
+}
+
+/// The white GGX microfacet BRDF (Walter et al. 2007) between unit directions `wi` and `wo` about
+/// the normal `n`, in f64 and in its tan θ form: D(h) = α² / (π cos⁴ θ_h (α² + tan² θ_h)²) and
+/// Smith's separable G1(v) = 2 / (1 + √(1 + α² tan² θ_v)), f = D G1(wi) G1(wo) / (4 cos θ_i
+/// cos θ_o). An evaluation independent of `vplgi_shared::bsdf`'s (Mitsuba's) form.
+fn ggx_f64(n: Vec3, wi: Vec3, wo: Vec3, alpha: f64) -> f64 {
+    let (n, wi, wo) = (n.as_dvec3(), wi.as_dvec3(), wo.as_dvec3());
+    let (ci, co) = (n.dot(wi), n.dot(wo));
+    if ci <= 0.0 || co <= 0.0 {
+        return 0.0;
+    }
+    let h = (wi + wo).normalize();
+    let ch = n.dot(h);
+    let tan2 = |c: f64| (1.0 - c * c).max(0.0) / (c * c);
+    let a2 = alpha * alpha;
+    let d = a2 / (std::f64::consts::PI * ch.powi(4) * (a2 + tan2(ch)).powi(2));
+    let g1 = |c: f64| 2.0 / (1.0 + (1.0 + a2 * tan2(c)).sqrt());
+    d * g1(ci) * g1(co) / (4.0 * ci * co)
+}
+
+/// A point light of intensity I at height h over a rough metal or half-metal plane of colour ρ,
+/// seen from straight above: the radiance at a plane point is ρ f(v, l) I cos θ_l / d², f the
+/// white GGX BRDF of [`ggx_f64`] for the metal, (1 − m) / π + m f for a blend of metal share
+/// m. With no VPLs the image is exactly that (up to f32 rounding), on both backends: the shading
+/// points' view direction, the receiver's lobe and direct light together.
+#[test]
+fn point_light_over_rough_metal_matches_the_ggx_formula_on_both_backends() {
+    use vplgi_shared::bsdf::Surface;
+    let (h, rho, intensity) = (1.2f32, 0.7f32, 4.0f32);
+    let gpu =
+        vplgi_tests::gpu("point_light_over_rough_metal_matches_the_ggx_formula_on_both_backends")
+            .map(|ctx| (vplgi_gpu::GpuKernels::new(&ctx.device).unwrap(), ctx));
+    for surface in [
+        Surface::RoughConductor { alpha: 0.09 },
+        Surface::RoughConductor { alpha: 0.36 },
+        Surface::Blend { metallic: 0.4, alpha: 0.09 },
+    ] {
+        let mut scene = plane_with_point_light(2.0, h, rho, intensity);
+        scene.materials[0].surface = surface;
+        let device = vplgi_embree::Device::new(None).unwrap();
+        let cs = CpuScene::new(&scene, &device).unwrap();
+        let cfg = FrameConfig {
+            width: 32,
+            height: 32,
+            vpls: 0,
+            cluster: ClusterMode::None,
+            ..FrameConfig::reference()
+        };
+        let sps =
+            vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
+        let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
+        let gpu = gpu.as_ref().map(|(kernels, ctx)| {
+            vplgi_gpu::render(&ctx.device, &ctx.queue, kernels, &scene, &cfg).unwrap().pixels
+        });
+        let (eye, light) = (scene.camera.position, Vec3::new(0.0, h, 0.0));
+        for (backend, pixels) in [("CPU", Some(&cpu)), ("GPU", gpu.as_ref())] {
+            let Some(pixels) = pixels else { continue };
+            let (mut worst, mut checked) = (0.0f64, 0);
+            for (sp, px) in sps.iter().zip(pixels) {
+                if sp.is_miss() {
+                    continue;
+                }
+                let p = Vec3::from(sp.position);
+                let (v, l) = ((eye - p).normalize(), (light - p).normalize());
+                let f = match surface {
+                    Surface::RoughConductor { alpha } => ggx_f64(Vec3::Y, v, l, alpha as f64),
+                    Surface::Blend { metallic, alpha } => {
+                        (1.0 - metallic as f64) / std::f64::consts::PI
+                            + metallic as f64 * ggx_f64(Vec3::Y, v, l, alpha as f64)
+                    }
+                    _ => unreachable!(),
+                };
+                let expected = rho as f64 * f * intensity as f64 * l.y as f64
+                    / (light - p).length_squared() as f64;
+                worst = worst.max((px[0] as f64 - expected).abs() / expected);
+                checked += 1;
+            }
+            println!(
+                "{backend}, {}: {checked} pixels, worst relative error {worst:.2e}",
+                surface.describe()
+            );
+            assert!(checked > 500, "the plane must fill most of the image");
+            assert!(
+                worst < 1e-4,
+                "{backend}, {}: worst relative error {worst}",
+                surface.describe()
+            );
+        }
+    }
+}
+
+/// One VPL of flux Φ at height h over a plane, by the white GGX BRDF f of [`ggx_f64`]: a rough
+/// metal VPL lit from ω_in lights a diffuse plane of albedo ρ with Φ f(ω_in, ω_p) cos θ_c
+/// cos θ_p / d² ρ / π; a diffuse VPL lights a rough metal plane of colour ρ seen from ω_v with Φ
+/// cos θ_c / π cos θ_p / d² ρ f(ω_v, ω_c), and the clamp caps π f G at g_max (Eq. 6 with both
+/// lobes, `shade`'s module equation).
+#[test]
+fn one_glossy_vpl_and_one_glossy_receiver_match_the_ggx_formula() {
+    use vplgi_scene::Material;
+    use vplgi_shared::bsdf::Surface;
+    let (h, rho, alpha) = (0.8f32, 0.5f32, 0.36f32);
+    let flux = Vec3::new(2.0, 1.0, 0.5);
+    let material = |surface| Material {
+        name: String::new(),
+        base_color: Vec3::splat(rho),
+        base_color_texture: None,
+        emission: Vec3::ZERO,
+        surface,
+    };
+    let materials = [material(Surface::Diffuse), material(Surface::RoughConductor { alpha })];
+    let x = Vec3::new(0.0, h, 0.0);
+    let incoming = Vec3::new(0.5, -0.6, 0.1).normalize();
+    let view = Vec3::new(-0.3, 1.0, 0.2).normalize();
+    let mut matrix = BitMatrix::new(1, 1);
+    matrix.set(0, 0);
+    let row_of = [0u32];
+    let vis = VisibilitySource::Own { matrix: &matrix, row_of: &row_of, first_row: 0 };
+    let mut worst = 0.0f64;
+    for r in [0.0f32, 0.3, 1.0, 2.5] {
+        let p = Vec3::new(r, 0.0, 0.2 * r);
+        let d2 = (x - p).length_squared() as f64;
+        let (to_light, cos) = ((x - p).normalize(), (h as f64) / d2.sqrt());
+        let g = cos * cos / d2;
+        let sp = |material: u32| ShadingPoint {
+            position: p.to_array(),
+            normal: [0.0, 1.0, 0.0],
+            albedo: [rho; 3],
+            material,
+            view: view.to_array(),
+            ..Default::default()
+        };
+        let light = |material: u32| VplLight {
+            material,
+            incoming: incoming.to_array(),
+            ..VplLight::new(x, -Vec3::Y, flux)
+        };
+        let pi = std::f64::consts::PI;
+        let cases = [
+            // A glossy VPL over a diffuse plane.
+            (
+                sp(0),
+                light(1),
+                f32::INFINITY,
+                ggx_f64(-Vec3::Y, incoming, -to_light, alpha as f64) * g * rho as f64 / pi,
+            ),
+            // A diffuse VPL over a glossy plane, unclamped and clamped at a third of π f G.
+            (
+                sp(1),
+                light(0),
+                f32::INFINITY,
+                g / pi * rho as f64 * ggx_f64(Vec3::Y, view, to_light, alpha as f64),
+            ),
+        ];
+        for (point, vpl, g_max, per_flux) in cases {
+            let got = indirect(
+                &materials,
+                &point,
+                0,
+                &LightArrays::new(&vec![vpl].into(), &materials),
+                &vis,
+                g_max,
+            );
+            for k in 0..3 {
+                let want = flux[k] as f64 * per_flux;
+                worst = worst.max((got[k] as f64 - want).abs() / want);
+            }
+        }
+        let kernel = pi * ggx_f64(Vec3::Y, view, to_light, alpha as f64) * g;
+        let cap = (kernel / 3.0) as f32;
+        let got = indirect(
+            &materials,
+            &sp(1),
+            0,
+            &LightArrays::new(&vec![light(0)].into(), &materials),
+            &vis,
+            cap,
+        );
+        let want = flux.x as f64 / pi * rho as f64 / pi * cap as f64;
+        worst = worst.max((got.x as f64 - want).abs() / want);
+    }
+    println!("one glossy VPL, one glossy receiver: worst relative error {worst:.2e}");
+    assert!(worst < 1e-4, "worst relative error {worst}");
 }

@@ -36,12 +36,32 @@ fn three_ways<B: Backend>(b: &B, seeds: std::ops::Range<u32>) -> Vec<(f64, f64, 
 where
     B::Error: std::fmt::Debug,
 {
+    three_ways_over(b, seeds, None, G_CLAMP)
+}
+
+/// [`three_ways`] over the pixels `mask` keeps (all of them without one), with the clamp at
+/// `g_clamp` of the diagonal.
+fn three_ways_over<B: Backend>(
+    b: &B,
+    seeds: std::ops::Range<u32>,
+    mask: Option<&[bool]>,
+    g_clamp: f32,
+) -> Vec<(f64, f64, f64)>
+where
+    B::Error: std::fmt::Debug,
+{
     let frame = |cfg: FrameConfig| {
-        luminance(&render(b, &cfg, &vplgi_frame::NoProgress).expect("frame").pixels)
+        let pixels = render(b, &cfg, &vplgi_frame::NoProgress).expect("frame").pixels;
+        match mask {
+            Some(m) => luminance(
+                &pixels.iter().zip(m).filter(|(_, &k)| k).map(|(p, _)| *p).collect::<Vec<_>>(),
+            ),
+            None => luminance(&pixels),
+        }
     };
     seeds
         .map(|seed| {
-            let c = config(seed);
+            let c = FrameConfig { g_clamp_rel: g_clamp, ..config(seed) };
             let unclamped =
                 frame(FrameConfig { g_clamp_rel: 0.0, bias_compensation: false, ..c.clone() });
             let clamped = frame(FrameConfig { bias_compensation: false, ..c.clone() });
@@ -101,6 +121,29 @@ fn compensation_puts_back_what_the_clamp_removes_on_the_gpu() {
     check_compensation("gpu", &three_ways(&gb, 1..7));
 }
 
+/// The same where only glossy peaks are clamped: a rough metal floor (GGX α 0.09) one unit under
+/// a lit diffuse ceiling, the clamp at d_min = 0.95, so no pair of surfaces is close enough for G
+/// alone to pass g_max, but a_p G does in the floor's peak. Over the pixels that see the floor,
+/// the compensation (which samples the metal's BSDF) puts the peaks back, on both backends.
+#[test]
+fn compensation_puts_back_the_glossy_peaks_the_clamp_cuts() {
+    let scene = vplgi_tests::inputs::point_light_between_rough_metal_and_ceiling();
+    let device = vplgi_embree::Device::new(None).unwrap();
+    let cs = CpuScene::new(&scene, &device).unwrap();
+    let g_clamp = 0.95 / scene.extent();
+    let sps =
+        vplgi_cpu::shading_points::shading_points(&cs, &config(0).camera_params(scene.camera));
+    let floor: Vec<bool> = sps.iter().map(|sp| !sp.is_miss() && sp.material == 0).collect();
+    println!("{} of {} pixels see the floor", floor.iter().filter(|&&m| m).count(), floor.len());
+    check_compensation("cpu, glossy peaks", &three_ways_over(&cs, 1..9, Some(&floor), g_clamp));
+    if let Some(gpu) =
+        vplgi_tests::shared_gpu("compensation_puts_back_the_glossy_peaks_the_clamp_cuts")
+    {
+        let gb = GpuBackend::new(&gpu.ctx.device, &gpu.ctx.queue, &gpu.kernels, &scene).unwrap();
+        check_compensation("gpu, glossy peaks", &three_ways_over(&gb, 1..9, Some(&floor), g_clamp));
+    }
+}
+
 /// The GPU's compensation points of the CPU's shading points, by `vplgi verify`'s comparison:
 /// the same surfaces (ties on shared edges counted as agreement; SPEC's shading-point bound) and
 /// the same weights; and each level draws its own directions.
@@ -158,8 +201,10 @@ proptest::proptest! {
         height in 32u32..64,
         g_clamp in 0.02f32..0.4,
         seed in proptest::prelude::any::<u32>(),
+        glossy in proptest::prelude::any::<bool>(),
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("bias_points_match_the_cpu_on_random_scenes") else { return Ok(()) };
+        let scene = if glossy { vplgi_tests::inputs::with_rough_metal(scene) } else { scene };
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| {
             let cfg = FrameConfig { width, height, spp: 1, seed, g_clamp_rel: g_clamp, ..FrameConfig::reference() };

@@ -377,7 +377,15 @@ fn rsm_vpls_without_a_near_cluster_take_the_best_of_all() {
             } else {
                 ([0.5, i - 0.5, j], [-1.0, 0.0, 0.0])
             };
-            vplgi_types::Vpl { position, path: t, normal, bounce: 1, flux: [1e-3; 3], specular: 0 }
+            vplgi_types::Vpl {
+                position,
+                path: t,
+                normal,
+                bounce: 1,
+                flux: [1e-3; 3],
+                specular: 0,
+                ..Default::default()
+            }
         })
         .collect();
     let map = RsmLight { size: n, ..point(Vec3::ZERO, Vec3::ONE) };
@@ -407,6 +415,7 @@ fn rsm_row(positions: &[[f32; 3]], flux: &[[f32; 3]], k: u32) -> vplgi_cpu::clus
             bounce: 1,
             flux: flux[t],
             specular: 0,
+            ..Default::default()
         })
         .collect();
     let map =

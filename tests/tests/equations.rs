@@ -180,9 +180,10 @@ fn one_light_on_both_backends(
         lights: vec![light],
         outlines: outline.into_iter().collect(),
     };
-    let lights = LightArrays::new(&set);
+    let lights = LightArrays::new(&set, &[]);
     let vis = VisibilitySource::Fuzzy { matrix, row_of, labels, weights, f: f as usize };
-    let cpu = sps.iter().enumerate().map(|(i, sp)| indirect(sp, i, &lights, &vis, g_max)).collect();
+    let cpu =
+        sps.iter().enumerate().map(|(i, sp)| indirect(&[], sp, i, &lights, &vis, g_max)).collect();
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     scene.lights.clear();
     let n = sps.len();
@@ -206,6 +207,7 @@ fn one_light_on_both_backends(
             outlines: outline_buf.as_ref(),
             light_count: 1,
             exact_shapes: light.exact != 0,
+            lobes: None,
             visibility: Visibility::Fuzzy {
                 labels: &lb,
                 weights: &wb,

@@ -164,6 +164,7 @@ fn frames_are_identical_under_forced_small_limits() {
     let Some(ctx) = vplgi_tests::gpu("frames_are_identical_under_forced_small_limits") else {
         return;
     };
+    const SP_BYTES: u64 = std::mem::size_of::<vplgi_types::ShadingPoint>() as u64;
     let scene = cornell_box();
     let kernels = GpuKernels::new(&ctx.device).unwrap();
     for (cluster, spp, tight) in [
@@ -177,7 +178,7 @@ fn frames_are_identical_under_forced_small_limits() {
             width: 48,
             height: 40,
             spp,
-            vpls: 800,
+            vpls: 600,
             k_sp: 150,
             k_vpl: 80,
             cluster,
@@ -190,7 +191,7 @@ fn frames_are_identical_under_forced_small_limits() {
         let label_bytes = hits * 4 * cfg.effective_f() as u64;
         let limit = if tight {
             // Hit points (32 B each) need three or more windows, labels and weights two or more;
-            // the 800 VPLs (48 B each) still fit one binding.
+            // the 600 VPLs (64 B each) still fit one binding.
             let limit = 40 << 10;
             assert!(
                 hits * 32 > 2 * limit && label_bytes > limit,
@@ -198,8 +199,8 @@ fn frames_are_identical_under_forced_small_limits() {
             );
             limit
         } else {
-            // Shading points (64 B) need more than one binding, every other array fits in one.
-            let limit = n_sp * 64 / 2 - 64 * 7;
+            // Shading points (80 B) need more than one binding, every other array fits in one.
+            let limit = n_sp * SP_BYTES / 2 - SP_BYTES * 7;
             assert!(hits * 32 <= limit && label_bytes <= limit);
             limit
         };
@@ -215,7 +216,7 @@ fn frames_are_identical_under_forced_small_limits() {
         .unwrap();
         println!(
             "{cluster:?}, spp {spp}: binding limit {limit} B for {n_sp} shading points ({} B), {hits} hit points ({} B), labels {label_bytes} B, 64 workgroups per dimension: images identical: {}",
-            n_sp * 64,
+            n_sp * SP_BYTES,
             hits * 32,
             full.pixels == chunked.pixels
         );

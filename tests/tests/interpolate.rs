@@ -72,8 +72,13 @@ fn both(
     let lights: vplgi_cpu::shade::VplLights = light.into_iter().collect::<Vec<VplLight>>().into();
     let mut cpu_samples = samples.clone();
     if light.is_some() {
-        cpu_samples.irradiance =
-            vplgi_cpu::shade::sample_irradiance(&samples.points, &lights, &matrix, f32::INFINITY);
+        cpu_samples.irradiance = vplgi_cpu::shade::sample_irradiance(
+            &[],
+            &samples.points,
+            &lights,
+            &matrix,
+            f32::INFINITY,
+        );
     }
     let vis = VisibilitySource::Interpolated {
         row_of: &row_of,
@@ -81,12 +86,13 @@ fn both(
         f: f as usize,
         samples: &cpu_samples,
     };
-    let arrays = LightArrays::new(&lights);
+    let arrays = LightArrays::new(&lights, &[]);
     let cpu: Vec<Vec3> = (0..sps.len())
         .map(|i| {
             vplgi_cpu::shade::irradiance(
                 sps[i].position.into(),
                 sps[i].normal.into(),
+                None,
                 i,
                 &arrays,
                 &vis,
@@ -111,6 +117,7 @@ fn both(
                     outlines: None,
                     light_count: 1,
                     exact_shapes: false,
+                    lobes: None,
                     g_max: f32::INFINITY,
                 };
                 k.interpolate

@@ -79,6 +79,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         outlines: None,
         light_count: lights.lights.len() as u32,
         exact_shapes: false,
+        lobes: None,
         visibility: Visibility::Own { first_row: 0 },
     };
     let out = kernel
@@ -165,6 +166,7 @@ fn shade_matches_the_cpu_on_identical_inputs() {
         outlines: None,
         light_count: lights_c.lights.len() as u32,
         exact_shapes: false,
+        lobes: None,
         visibility: Visibility::Fuzzy {
             labels: &labels,
             weights: &weights,
@@ -263,7 +265,14 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
         weights: &weights,
         f: f as usize,
     };
-    let cpu = indirect(&sps[0], 0, &LightArrays::new(&lights.clone().into()), &vis, f32::INFINITY);
+    let cpu = indirect(
+        &[],
+        &sps[0],
+        0,
+        &LightArrays::new(&lights.clone().into(), &[]),
+        &vis,
+        f32::INFINITY,
+    );
     let gpu_pixel = vplgi_tests::with_twins(gpu, &scene, |t| {
         let (device, queue) = (t.device(), t.queue());
         let (sb, rb, lb, wb, lg) = (
@@ -285,6 +294,7 @@ fn shade_sums_every_light_past_lavapipes_loop_limit() {
             outlines: None,
             light_count: n,
             exact_shapes: false,
+            lobes: None,
             visibility: Visibility::Fuzzy { labels: &lb, weights: &wb, f, window },
         };
         let params =
@@ -328,6 +338,7 @@ fn cluster_lights_sum_every_vpl_past_lavapipes_loop_limit() {
                 bounce: 1,
                 flux: [1e-4, 2e-4 * x, 3e-5],
                 specular: 0,
+                ..Default::default()
             }
         })
         .collect();
@@ -462,8 +473,10 @@ proptest::proptest! {
         (vpls, k_vpl, k_sp, f) in (1u32..600, 1u32..120, 1u32..300, 1u32..=8),
         (g_clamp_rel, direct_samples, seed) in (0f32..0.2, 1u32..4, proptest::prelude::any::<u32>()),
         light_shape in proptest::sample::select(vec![LightShape::Point, LightShape::Disk, LightShape::DiskExact, LightShape::Polygon]),
+        glossy in proptest::prelude::any::<bool>(),
     ) {
         let Some(gpu) = vplgi_tests::shared_gpu("shade_matches_the_cpu_on_random_scenes") else { return Ok(()) };
+        let scene = if glossy { vplgi_tests::inputs::with_rough_metal(scene) } else { scene };
         let cfg = mode.apply(&vplgi_types::FrameConfig { width, height, spp, vpls, k_vpl, k_sp, f, g_clamp_rel, direct_samples, seed, iterations: 4, light_shape, ..vplgi_types::FrameConfig::verify() });
         println!("{}: {} {width}x{height}x{spp}, {vpls} VPLs, K {k_vpl}/{k_sp}, F {f}, {light_shape:?} lights", scene.name, mode.name());
         let (checks, _) = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::shade::compare(t, &cfg)).expect("GPU");
@@ -520,9 +533,10 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     let mut window = BitMatrix::new(2, 2);
     window.set(0, 0);
     window.set(1, 1);
-    let arrays = LightArrays::new(&lights.to_vec().into());
+    let arrays = LightArrays::new(&lights.to_vec().into(), &[]);
     for i in 0..2 {
         let from_whole = indirect(
+            &[],
             &sp,
             i,
             &arrays,
@@ -530,6 +544,7 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
             f32::INFINITY,
         );
         let from_window = indirect(
+            &[],
             &sp,
             i,
             &arrays,
@@ -541,6 +556,7 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
     }
     let (a, b) = (
         indirect(
+            &[],
             &sp,
             0,
             &arrays,
@@ -548,6 +564,7 @@ fn own_rows_are_read_relative_to_the_windows_first_row() {
             f32::INFINITY,
         ),
         indirect(
+            &[],
             &sp,
             1,
             &arrays,

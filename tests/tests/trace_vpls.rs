@@ -118,9 +118,10 @@ proptest::proptest! {
     /// diverging at a grazing hit is within the SPEC's 0.1 % (with 115 VPLs from 538 particles,
     /// one ray through a triangle's edge that Embree hit and the GPU missed was 0.9 % of the paths).
     #[test]
-    fn trace_vpls_matches_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), extra in 0u32..2000, bounces in 1u32..=4, seed in proptest::prelude::any::<u32>()) {
+    fn trace_vpls_matches_the_cpu_on_random_scenes(scene in vplgi_tests::inputs::random_scene(), extra in 0u32..2000, bounces in 1u32..=4, seed in proptest::prelude::any::<u32>(), glossy in proptest::prelude::any::<bool>()) {
         let count = 1000 * bounces + extra;
         let Some(gpu) = vplgi_tests::shared_gpu("trace_vpls_matches_the_cpu_on_random_scenes") else { return Ok(()) };
+        let scene = if glossy { vplgi_tests::inputs::with_rough_metal(scene) } else { scene };
         println!("{}", scene.name);
         let checks = vplgi_tests::with_twins(gpu, &scene, |t| vplgi_verify::trace_vpls::compare(t, &TraceParams::new(seed, count, bounces))).expect("GPU");
         vplgi_tests::hold(&checks)?;

@@ -26,17 +26,17 @@ fn interpolate_stage(c: &mut Criterion) {
         let g_max = inputs.cfg.g_max(inputs.cs.extent);
         let inv_radius = vplgi_cpu::gather_radius::gather_radius(&inputs.cs, &inputs.rows, &inputs.cfg.gather_params());
         let sc = &inputs.sp_clusters;
-        let none = LightArrays::new(&Default::default());
+        let none = LightArrays::new(&Default::default(), &[]);
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
             b.iter(|| {
-                let irr = sample_irradiance(&inputs.rows, &inputs.lights, &inputs.matrix, g_max);
+                let irr = sample_irradiance(&inputs.cs.scene.materials, &inputs.rows, &inputs.lights, &inputs.matrix, g_max);
                 let samples = IrradianceSamples { points: inputs.rows.clone(), inv_radius: inv_radius.clone(), irradiance: irr };
                 let vis = VisibilitySource::Interpolated { row_of: &inputs.row_of, labels: &sc.labels, f: sc.f, samples: &samples };
                 let sps = &inputs.sps;
                 (0..sps.len())
                     .into_par_iter()
                     .filter(|&i| inputs.row_of[i] != MISS)
-                    .map(|i| irradiance(sps[i].position.into(), sps[i].normal.into(), i, &none, &vis, g_max).x)
+                    .map(|i| irradiance(sps[i].position.into(), sps[i].normal.into(), None, i, &none, &vis, g_max).x)
                     .sum::<f32>()
             })
         });
@@ -51,6 +51,7 @@ fn interpolate_stage(c: &mut Criterion) {
                 outlines: None,
                 light_count: inputs.lights.lights.len() as u32,
                 exact_shapes: false,
+                lobes: None,
                 g_max,
             };
             let (sps, row_of, labels) = (storage(device, "sps", &inputs.sps), storage(device, "row_of", &inputs.row_of), storage(device, "labels", &sc.labels));

@@ -46,6 +46,7 @@ fn shade(c: &mut Criterion) {
                     outlines: outlines.as_ref(),
                     light_count: lights.lights.len() as u32,
                     exact_shapes: lights.lights.iter().any(|l| l.exact != 0),
+                    lobes: None,
                     visibility: Visibility::Fuzzy { labels: &labels, weights: &weights, f: sc.f as u32, window },
                 };
                 let run = || {

@@ -121,7 +121,8 @@ pub struct FrameArgs {
     /// every VPL light through its F clusters' visibility (the core paper, Eq. 8-10), or the
     /// lights are summed only at each cluster's representative (its sample point) and every
     /// shading point interpolates the samples of its F nearest clusters with irradiance-caching
-    /// weights (Wang et al. 2009); needs --cluster sp or both.
+    /// weights (Wang et al. 2009); needs --cluster sp or both, and a scene without rough metal,
+    /// whose glossy light is not a multiple of the irradiance.
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shade: Option<ShadeMode>,

@@ -47,6 +47,8 @@ pub struct SurfaceHit {
     pub t: f32,
     /// What the surface scatters like; its colour is `albedo`.
     pub surface: Surface,
+    /// The index of its material.
+    pub material: u32,
     /// Whether the ray hit the triangle's front side (where its geometric normal points).
     pub facing: bool,
 }
@@ -59,19 +61,32 @@ impl SurfaceHit {
 
     /// Where a ray that arrived along `dir` leaves this mirror or glass, and with what weight:
     /// the BSDF's sample with `u1` choosing reflection or refraction by Fresnel. None where the
-    /// surface sends nothing. The local frame's +z is the side the normal points to, glass's
-    /// outside, whose Fresnel term tells entering from leaving by the sign of cos θ_i.
+    /// surface sends nothing.
     pub fn scatter_specular(
         &self,
         dir: Vec3,
         u1: f32,
         transport: Transport,
     ) -> Option<(Vec3, Vec3)> {
+        self.scatter(dir, u1, Vec2::ZERO, transport)
+    }
+
+    /// Where a ray that arrived along `dir` leaves, and with what weight (eval / pdf, the colour
+    /// included): the BSDF's sample from `u1` (which lobe) and `u` (where in it). None where the
+    /// surface sends nothing. The local frame's +z is the side the normal points to, glass's
+    /// outside, whose Fresnel term tells entering from leaving by the sign of cos θ_i.
+    pub fn scatter(
+        &self,
+        dir: Vec3,
+        u1: f32,
+        u: Vec2,
+        transport: Transport,
+    ) -> Option<(Vec3, Vec3)> {
         let n = if self.facing { self.ns } else { -self.ns };
         let (t, b) = orthonormal_basis(n);
         let wi = -dir;
         let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
-        let s = self.bsdf().sample(local, u1, Vec2::ZERO, transport)?;
+        let s = self.bsdf().sample(local, u1, u, transport)?;
         Some((t * s.wo.x + b * s.wo.y + n * s.wo.z, s.weight))
     }
 }
@@ -113,6 +128,7 @@ impl<'a> CpuScene<'a> {
             triangle: hit.triangle,
             t: hit.t,
             surface: self.scene.surface(t),
+            material: self.scene.material_ids[t],
             facing,
         })
     }

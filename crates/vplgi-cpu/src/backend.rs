@@ -60,6 +60,10 @@ impl Storage for CpuScene<'_> {
         self.scene.camera
     }
 
+    fn has_glossy(&self) -> bool {
+        self.scene.materials.iter().any(|m| m.surface.is_glossy())
+    }
+
     fn compact_hits(
         &self,
         chunks: &[SampleChunk<Vec<ShadingPoint>>],

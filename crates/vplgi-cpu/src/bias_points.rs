@@ -1,35 +1,38 @@
 //! Stage `bias_points`: the bias compensation of the geometry-term clamp (Kollig and Keller,
 //! "Illumination in the presence of weak singularities", 2004).
 //!
-//! The clamp replaces G(p, y) = cos θ_p cos θ_y / |p − y|² by min(G, g_max), which loses, at
-//! shading point p,
+//! The clamp (`shade`) replaces a VPL's a_p G(p, y), the receiver's lobe a_p =
+//! `Surface::lobe` (1 on a diffuse surface) times G = cos θ_p cos θ_y / |p − y|², by
+//! min(a_p G, g_max), which loses, at shading point p seen from ω_v,
 //!
 //! ```text
-//!   ΔL(p) = ∫ (ρ_p / π) L_r(y → p) (G(p, y) − g_max)⁺ V(p, y) dA(y)
-//!         = ∫ (ρ_p / π) L_r(y → p) w(p, y) cos θ_p dω,     w = max(0, 1 − g_max / G)
+//!   ΔL(p) = ∫ f_p(ω_v, ω) L_r(y → p) w(p, y) cos θ_p dω,     w = max(0, 1 − g_max / (a_p G))
 //! ```
 //!
-//! Sampling ω by cos θ_p / π leaves one term per shading point, ρ_p w L_r(y): the direction is
-//! traced to the surface y it sees, and y becomes a shading point of its own whose albedo
-//! carries the weight ρ_y ρ_p w, so that shading it (direct light plus the VPLs, `shade`) gives
-//! ρ_p w L_r(y). Its own clamped VPLs are compensated the same way one level further. Where the
-//! clamp does not bite (w = 0, the common case: surfaces farther apart than d_min) the point is a
-//! miss and costs nothing more. y's emission is not counted: light emitted from y towards p is
-//! p's direct light, which `shade` samples without a clamp.
+//! Sampling ω by p's BSDF (by cos θ_p / π on a diffuse surface) leaves one term per shading
+//! point, the sample's weight f_p cos θ_p / pdf times w L_r(y): the direction is traced to the
+//! surface y it sees, and y becomes a shading point of its own, seen from p, whose albedo
+//! carries ρ_y, the weight and w, so that shading it (direct light plus the VPLs, `shade`)
+//! gives the term. Its own clamped VPLs are compensated the same way one level further. Where
+//! the clamp does not bite (w = 0, the common case: surfaces farther apart than d_min and off a
+//! glossy peak) the point is a miss and costs nothing more. y's emission is not counted: light
+//! emitted from y towards p is p's direct light, which `shade` samples without a clamp.
 
 use crate::shade::geometry_term;
 use crate::CpuScene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use vplgi_shared::bsdf::Transport;
+use vplgi_types::sampling::orthonormal_basis;
 use vplgi_types::{sampling, BiasParams, Rng, ShadingPoint, Stream, MISS};
 
-/// The clamped share 1 − g_max / G of a pair of surface points (p with normal `np`, y with
-/// normal `ny`, both unit and facing each other for a positive share), or 0 where the clamp does
-/// not bite.
+/// The clamped share 1 − g_max / (a G) of a pair of surface points (p with normal `np`, y with
+/// normal `ny`, both unit and facing each other for a positive share; `lobe` the receiver's a,
+/// `Surface::lobe`, toward y), or 0 where the clamp does not bite.
 #[inline]
-pub fn clamped_share(p: Vec3, np: Vec3, y: Vec3, ny: Vec3, g_max: f32) -> f32 {
-    // The unclamped G (0 where the pair faces away), which the clamp would cut at g_max.
-    let g = geometry_term(p, np, y, ny, f32::INFINITY);
+pub fn clamped_share(p: Vec3, np: Vec3, y: Vec3, ny: Vec3, g_max: f32, lobe: f32) -> f32 {
+    // The unclamped a G (0 where the pair faces away), which the clamp would cut at g_max.
+    let g = geometry_term(p, np, y, ny, f32::INFINITY) * lobe;
     if g > g_max {
         1.0 - g_max / g
     } else {
@@ -52,7 +55,20 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
     }
     let (p, n) = (Vec3::from(sp.position), Vec3::from(sp.normal));
     let mut rng = Rng::new(params.seed, Stream::Bias, index);
-    let dir = sampling::cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
+    let surface = cs.scene.materials[sp.material as usize].surface;
+    let view = Vec3::from(sp.view);
+    // The direction and the sample's weight f cos / pdf over the colour (1 for a diffuse surface).
+    let (dir, weight) = if surface.is_glossy() {
+        let (t, b) = orthonormal_basis(n);
+        let local = Vec3::new(view.dot(t), view.dot(b), view.dot(n));
+        let (u1, u) = (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
+        let Some(s) = surface.with_colour(Vec3::ONE).sample(local, u1, u, Transport::Radiance) else {
+            return miss;
+        };
+        (t * s.wo.x + b * s.wo.y + n * s.wo.z, s.weight)
+    } else {
+        (sampling::cosine_hemisphere(n, rng.next_f32(), rng.next_f32()), Vec3::ONE)
+    };
     // Leave along the geometric normal on the side the shading normal faces, as the light
     // particles do; a direction under the surface (shading normals can allow it) sees nothing.
     let ng = cs.scene.geometric_normal(sp.triangle as usize);
@@ -68,7 +84,7 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
     if hit.bsdf().is_specular() {
         return miss;
     }
-    let w = clamped_share(p, n, hit.position, hit.ns, params.g_max);
+    let w = clamped_share(p, n, hit.position, hit.ns, params.g_max, surface.lobe(n, view, dir));
     if w <= 0.0 {
         return miss;
     }
@@ -77,10 +93,10 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
         pixel: sp.pixel,
         normal: hit.ns.to_array(),
         triangle: hit.triangle,
-        albedo: (hit.albedo * Vec3::from(sp.albedo) * w).to_array(),
-        specular: 0,
-        emitted: [0.0; 3],
-        _pad1: 0,
+        material: hit.material,
+        albedo: (hit.albedo * Vec3::from(sp.albedo) * weight * w).to_array(),
+        view: (-dir).to_array(),
+        ..Default::default()
     }
 }
 
@@ -99,17 +115,17 @@ mod tests {
         let (p, up, down) = (Vec3::ZERO, Vec3::Z, -Vec3::Z);
         // Facing each other head-on 0.1 apart: G = 1 / 0.01 = 100; with g_max = 25 the clamp
         // keeps 25 of it and removes 75, a share of 0.75.
-        assert!((clamped_share(p, up, Vec3::new(0.0, 0.0, 0.1), down, 25.0) - 0.75).abs() < 1e-6);
+        assert!((clamped_share(p, up, Vec3::new(0.0, 0.0, 0.1), down, 25.0, 1.0) - 0.75).abs() < 1e-6);
         // At 45 degrees to both normals and sqrt(2) * 0.1 apart: G = 0.5 / 0.02 = 25: the clamp
         // no longer bites.
         let y = Vec3::new(0.1, 0.0, 0.1);
         let ny = Vec3::new(-1.0, 0.0, 0.0);
-        assert!((clamped_share(p, up, y, ny, 12.5) - 0.5).abs() < 1e-5);
-        assert_eq!(clamped_share(p, up, y, ny, 25.0 + 1e-3), 0.0);
+        assert!((clamped_share(p, up, y, ny, 12.5, 1.0) - 0.5).abs() < 1e-5);
+        assert_eq!(clamped_share(p, up, y, ny, 25.0 + 1e-3, 1.0), 0.0);
         // Facing away, or the same point: nothing to put back.
-        assert_eq!(clamped_share(p, up, Vec3::new(0.0, 0.0, 0.1), up, 1.0), 0.0);
-        assert_eq!(clamped_share(p, up, p, down, 1.0), 0.0);
+        assert_eq!(clamped_share(p, up, Vec3::new(0.0, 0.0, 0.1), up, 1.0, 1.0), 0.0);
+        assert_eq!(clamped_share(p, up, p, down, 1.0, 1.0), 0.0);
         // Without a clamp nothing is removed.
-        assert_eq!(clamped_share(p, up, Vec3::new(0.0, 0.0, 1e-3), down, f32::INFINITY), 0.0);
+        assert_eq!(clamped_share(p, up, Vec3::new(0.0, 0.0, 1e-3), down, f32::INFINITY, 1.0), 0.0);
     }
 }

@@ -43,7 +43,7 @@ pub fn interpolate(p: Vec3, n: Vec3, labels: &[u32], samples: &IrradianceSamples
 
 impl vplgi_frame::stages::Interpolate for CpuScene<'_> {
     fn sample_irradiance(&self, points: Vec<Endpoint>, inv_radius: Vec<f32>, lights: &VplLights, matrix: &BitMatrix, g_max: f32) -> Result<IrradianceSamples, FrameError> {
-        let irradiance = sample_irradiance(&points, lights, matrix, g_max);
+        let irradiance = sample_irradiance(&self.scene.materials, &points, lights, matrix, g_max);
         Ok(IrradianceSamples { points, inv_radius, irradiance })
     }
 }

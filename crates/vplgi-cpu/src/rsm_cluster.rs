@@ -311,7 +311,7 @@ mod tests {
                 } else {
                     (Vec3::new(0.5, i - 0.5, j), Vec3::NEG_X, Vec3::splat(0.5))
                 };
-                Vpl { position: position.to_array(), path: t, normal: normal.to_array(), bounce: 1, flux: (flux * 1e-3).to_array(), specular: 0 }
+                Vpl { position: position.to_array(), path: t, normal: normal.to_array(), bounce: 1, flux: (flux * 1e-3).to_array(), specular: 0, ..Default::default() }
             })
             .collect();
         (vpls, map)
@@ -367,6 +367,7 @@ mod tests {
                     bounce: 1,
                     flux: flux.to_array(),
                     specular: 0,
+                    ..Default::default()
                 }
             })
             .collect();

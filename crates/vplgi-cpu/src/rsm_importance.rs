@@ -40,7 +40,7 @@ mod tests {
     #[test]
     fn importance_is_the_flux_times_the_summed_geometry_terms() {
         let map = RsmLight { size: 2, ..rsm::point(Vec3::ZERO, Vec3::ONE) };
-        let vpl = |t: u32, x: f32| Vpl { position: [x, 0.0, 0.0], path: t, normal: [0.0, 1.0, 0.0], bounce: 1, flux: [1.0, 0.5, 0.5], specular: 0 };
+        let vpl = |t: u32, x: f32| Vpl { position: [x, 0.0, 0.0], path: t, normal: [0.0, 1.0, 0.0], bounce: 1, flux: [1.0, 0.5, 0.5], specular: 0, ..Default::default() };
         let vpls = [vpl(1, 0.0), vpl(3, 0.5)];
         let points = [
             Endpoint::new(Vec3::new(1.0, 1.0, 0.0), Vec3::NEG_X),

@@ -36,7 +36,16 @@ pub fn follow_texel(cs: &CpuScene, ray: &rsm::TexelRay, t: u32, params: &RsmPara
         let hit = cs.trace(origin, dir)?;
         if specular == params.specular_depth || !hit.bsdf().is_specular() {
             let flux = power * hit.albedo;
-            return Some(Vpl { position: hit.position.to_array(), path: t, normal: hit.ns.to_array(), bounce: 1, flux: flux.to_array(), specular });
+            return Some(Vpl {
+                position: hit.position.to_array(),
+                path: t,
+                normal: hit.ns.to_array(),
+                bounce: 1,
+                flux: flux.to_array(),
+                specular,
+                incoming: (-dir).to_array(),
+                material: hit.material,
+            });
         }
         let (out, weight) = hit.scatter_specular(dir, chain.next_f32(), Transport::Importance)?;
         power *= weight;

@@ -9,7 +9,21 @@
 //! ```
 //!
 //! Φ_c cos θ_c / π is the radiant intensity of a Lambertian VPL, and ρ_p / π the Lambertian
-//! BRDF (Eq. 6's I_c ρ G). Ṽ is the shading point's own visibility bit when shading points are
+//! BRDF (Eq. 6's I_c ρ G). On rough metal the two Lambertian factors become the BSDFs: the
+//! receiver's, seen along its `view` and lit from x_c, and the VPL's, lit from its `incoming`
+//! and seen from p, each as its ratio a to a white Lambertian surface's 1 / π
+//! (`Surface::lobe`, exactly 1 on a diffuse surface):
+//!
+//! ```text
+//!   L_ind(p) = Σ_c  Φ_c a_c (ρ_p / π) min(a_p G, g_max) / π · Ṽ(p, c)
+//! ```
+//!
+//! The clamp bounds the receiver's kernel a_p G, so a VPL in a glossy peak is cut as one too
+//! close to a diffuse surface is, and the cut is the same share 1 − g_max / (a_p G) of the
+//! light arriving from that direction, whatever the VPL: that is what `bias_points` puts back,
+//! by sampling the receiver's BSDF. The VPL's own lobe a_c is not clamped: the share it would
+//! cut depends on the direction light arrived at the VPL, which the compensation ray, summing
+//! all the light leaving a surface toward p, does not have. Ṽ is the shading point's own visibility bit when shading points are
 //! not clustered, else the weighted (Eq. 9, 10) or plain (Eq. 8) mean of its F clusters' bits.
 //! Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
 //! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp"). A cluster lit as a
@@ -22,7 +36,8 @@ use crate::visibility::BitMatrix;
 use crate::{CpuScene, ShadowSpan};
 use glam::Vec3;
 use std::f32::consts::PI;
-use vplgi_scene::PunctualLight;
+use vplgi_scene::{Material, PunctualLight};
+use vplgi_shared::bsdf::Surface;
 use vplgi_types::config::MAX_F;
 use vplgi_types::pod::{EXACT_DISK, EXACT_POLYGON};
 use vplgi_shared::{disk, polygon};
@@ -61,11 +76,15 @@ pub struct LightArrays {
     exact: Option<Vec<u32>>,
     /// The polygon lights' vertices and areas, by light (`vplgi_shared::polygon`).
     outlines: Vec<(Vec<Vec3>, f32)>,
+    /// Each light's surface and incoming direction where any light lies on a glossy surface,
+    /// whose lobes [`sum_lights`] evaluates light by light.
+    lobes: Option<Vec<(Surface, Vec3)>>,
 }
 
 impl LightArrays {
-    pub fn new(set: &VplLights) -> LightArrays {
+    pub fn new(set: &VplLights, materials: &[Material]) -> LightArrays {
         let lights = &set.lights;
+        let surface = |l: &VplLight| materials.get(l.material as usize).map_or(Surface::Diffuse, |m| m.surface);
         let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
         let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
         LightArrays {
@@ -75,6 +94,7 @@ impl LightArrays {
             radius2: lights.iter().map(|l| l.radius2).collect(),
             exact: lights.iter().any(|l| l.exact != 0).then(|| lights.iter().map(|l| l.exact).collect()),
             outlines: set.outlines.iter().map(|o| (o.vertices[..o.count()].iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect(), o.area())).collect(),
+            lobes: lights.iter().any(|l| surface(l).is_glossy()).then(|| lights.iter().map(|l| (surface(l), Vec3::from(l.incoming))).collect()),
         }
     }
 
@@ -114,21 +134,35 @@ pub fn geometry_term(p: Vec3, np: Vec3, x: Vec3, nx: Vec3, g_max: f32) -> f32 {
     (cos_p * cos_x / d2).min(g_max)
 }
 
-/// Indirect radiance at shading point `i` (Eq. 6): ρ / π times its [`irradiance`].
-pub fn indirect(sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
-    irradiance(Vec3::from(sp.position), Vec3::from(sp.normal), i, lights, vis, g_max) * (Vec3::from(sp.albedo) / PI)
+/// A glossy receiver's surface and the unit direction it is seen from; `None` for a diffuse one.
+pub type Receiver = Option<(Surface, Vec3)>;
+
+/// The receiver at shading point `sp` of a scene with `materials` (a material it lacks is
+/// diffuse).
+pub fn receiver(materials: &[Material], sp: &ShadingPoint) -> Receiver {
+    let surface = materials.get(sp.material as usize).map_or(Surface::Diffuse, |m| m.surface);
+    surface.is_glossy().then(|| (surface, Vec3::from(sp.view)))
 }
 
-/// The irradiance Σ_c Φ_c G / π Ṽ(c) of the VPL lights at point `p` with normal `n`, shading
-/// point `i` of `vis` (Φ_c cos θ_c / π is the light's intensity towards p, and G's other factor
-/// cos θ_p / d² turns it into irradiance).
-pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
+/// Indirect radiance at shading point `i` (Eq. 6): ρ / π times its [`irradiance`].
+pub fn indirect(materials: &[Material], sp: &ShadingPoint, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
+    let at = receiver(materials, sp);
+    irradiance(Vec3::from(sp.position), Vec3::from(sp.normal), at, i, lights, vis, g_max) * (Vec3::from(sp.albedo) / PI)
+}
+
+/// The irradiance Σ_c Φ_c a_c min(a_p G, g_max) / π Ṽ(c) of the VPL lights at point `p` with
+/// normal `n`, shading point `i` of `vis` (Φ_c a_c cos θ_c / π is the light's intensity towards
+/// p, and G's other factor cos θ_p / d² turns it into irradiance). At a glossy `receiver` it is
+/// weighted by the lobe a_p, so that ρ / π times it is still the reflected radiance. `vis` is
+/// never `Interpolated` at a glossy receiver: the frame refuses `--shade interpolate` on a scene
+/// with glossy surfaces, whose light is not a multiple of the irradiance.
+pub fn irradiance(p: Vec3, n: Vec3, receiver: Receiver, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
     // The visibility source is resolved once per shading point, so the per-light loop is a
     // monomorphised closure over plain slices.
     match *vis {
         VisibilitySource::Own { matrix, row_of, first_row } => {
             let row = matrix.row((row_of[i] - first_row) as usize);
-            sum_lights(p, n, lights, g_max, |word, v| {
+            sum_lights(p, n, receiver, lights, g_max, |word, v| {
                 v.fill(0.0);
                 add_bits(v, row[word], 1.0);
             })
@@ -148,7 +182,7 @@ pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &Visibi
             let (rows, w) = (&rows[..count], &w[..count]);
             // Ṽ is the sum of the weights of the rows whose bit is set, in label order. Adding
             // 0 for a clear bit leaves the sum unchanged, so this equals the branching sum.
-            sum_lights(p, n, lights, g_max, |word, v| {
+            sum_lights(p, n, receiver, lights, g_max, |word, v| {
                 v.fill(0.0);
                 for (row, &wf) in rows.iter().zip(w) {
                     add_bits(v, row[word], wf);
@@ -165,12 +199,12 @@ pub fn irradiance(p: Vec3, n: Vec3, i: usize, lights: &LightArrays, vis: &Visibi
 /// `--shade interpolate`'s irradiance samples: the irradiance of `lights` at each of `points`,
 /// point j seeing the lights of row j of `matrix` (the sum of [`shade`], light by light in the same
 /// order).
-pub fn sample_irradiance(points: &[Endpoint], lights: &VplLights, matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
-    let lights = LightArrays::new(lights);
+pub fn sample_irradiance(materials: &[Material], points: &[Endpoint], lights: &VplLights, matrix: &BitMatrix, g_max: f32) -> Vec<[f32; 3]> {
+    let lights = LightArrays::new(lights, materials);
     let rows: Vec<u32> = (0..points.len() as u32).collect();
     let vis = VisibilitySource::Own { matrix, row_of: &rows, first_row: 0 };
     use rayon::prelude::*;
-    points.par_iter().enumerate().map(|(j, e)| irradiance(e.p(), e.n(), j, &lights, &vis, g_max).to_array()).collect()
+    points.par_iter().enumerate().map(|(j, e)| irradiance(e.p(), e.n(), None, j, &lights, &vis, g_max).to_array()).collect()
 }
 
 /// `v[k] += w` for every set bit k of `bits` (and += 0 for the others, which changes nothing).
@@ -205,7 +239,7 @@ fn add_bits(v: &mut [f32; 64], bits: u64, w: f32) {
 /// Ṽ = 0 adds +0, which leaves the sum unchanged, so the result is bit-identical to skipping it,
 /// as the GPU twin does. Only the final sum is sequential; the rest vectorises.
 #[inline(always)]
-fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize, &mut [f32; 64])) -> Vec3 {
+fn sum_lights(p: Vec3, n: Vec3, receiver: Receiver, l: &LightArrays, g_max: f32, vis: impl Fn(usize, &mut [f32; 64])) -> Vec3 {
     let [px, py, pz] = &l.position;
     let [nx, ny, nz] = &l.normal;
     let [fx, fy, fz] = &l.flux;
@@ -234,6 +268,9 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
         if let Some(exact) = &l.exact {
             exact_terms(p, n, l, exact, base, &mut g[..len]);
         }
+        if receiver.is_some() || l.lobes.is_some() {
+            lobe_terms(p, n, receiver, l, g_max, base, &mut g[..len]);
+        }
         vis(word, &mut v);
         for (gk, vk) in g[..len].iter_mut().zip(&v[..len]) {
             *gk = *gk / PI * vk;
@@ -246,6 +283,38 @@ fn sum_lights(p: Vec3, n: Vec3, l: &LightArrays, g_max: f32, vis: impl Fn(usize,
         }
     }
     sum
+}
+
+/// The glossy lobes of the lights `base..base + g.len()`, written over their G: a glossy
+/// receiver's a_p (the module's equation) goes under a point light's clamp, which is applied
+/// again to a_p G recomputed with the vectorised loop's arithmetic, and multiplies a disk's or
+/// polygon's G, which has no clamp, as seen from the light's centre; a light on a glossy surface
+/// then multiplies by its own a_c.
+fn lobe_terms(p: Vec3, n: Vec3, receiver: Receiver, l: &LightArrays, g_max: f32, base: usize, g: &mut [f32]) {
+    let at = |a: &[Vec<f32>; 3], c: usize| Vec3::new(a[0][c], a[1][c], a[2][c]);
+    for (k, gk) in g.iter_mut().enumerate() {
+        let c = base + k;
+        let (x, nx) = (at(&l.position, c), at(&l.normal, c));
+        let d = x - p;
+        let d2 = d.dot(d);
+        let inv_d = 1.0 / d2.sqrt();
+        let dir = d * inv_d;
+        if let Some((surface, view)) = receiver {
+            let a = surface.lobe(n, view, dir);
+            let point = l.radius2[c] == 0.0 && l.exact.as_ref().is_none_or(|e| e[c] == 0);
+            if point {
+                let (cos_p, cos_x) = (n.dot(d) * inv_d, -nx.dot(d) * inv_d);
+                let raw = if d2 > 0.0 && cos_p > 0.0 && cos_x > 0.0 { disk::geometry_term(cos_p, cos_x, d2, 0.0) } else { 0.0 };
+                *gk = (a * raw).min(g_max);
+            } else {
+                *gk *= a;
+            }
+        }
+        if let Some(lobes) = &l.lobes {
+            let (surface, incoming) = lobes[c];
+            *gk *= surface.lobe(nx, incoming, -dir);
+        }
+    }
 }
 
 /// G of the exact disks and polygons among the lights `base..base + g.len()`
@@ -303,6 +372,9 @@ pub fn direct_with(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samp
     let p = Vec3::from(sp.position);
     let n = Vec3::from(sp.normal);
     let brdf = Vec3::from(sp.albedo) / PI;
+    // A glossy receiver's lobe toward the light, as in `indirect`; exactly 1 on a diffuse one.
+    let at = receiver(&cs.scene.materials, sp);
+    let lobe = |toward: Vec3| at.map_or(1.0, |(surface, view)| surface.lobe(n, view, toward.normalize()));
     let mut sum = Vec3::ZERO;
     let mut rng = Rng::new(seed, Stream::Direct, index);
     let scramble = [rng.next_u32(), rng.next_u32(), rng.next_u32()];
@@ -322,7 +394,7 @@ pub fn direct_with(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samp
             continue;
         }
         if unoccluded(cs.segment_span(p, n, s.position, s.normal)) {
-            area += s.radiance * (cos_p * cos_l / (d2 * d2) / s.pdf_area);
+            area += s.radiance * (cos_p * cos_l / (d2 * d2) / s.pdf_area * lobe(d));
         }
     }
     sum += area / samples.max(1) as f32;
@@ -332,7 +404,7 @@ pub fn direct_with(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samp
                 // E cos θ, along a ray to infinity.
                 let cos_d = -n.dot(direction);
                 if cos_d > 0.0 && unoccluded(cs.toward_span(p, n, -direction)) {
-                    sum += irradiance * cos_d;
+                    sum += irradiance * (cos_d * lobe(-direction));
                 }
             }
             PunctualLight::Point { position, intensity } | PunctualLight::Spot { position, intensity, .. } => {
@@ -344,7 +416,7 @@ pub fn direct_with(cs: &CpuScene, sp: &ShadingPoint, index: u32, seed: u32, samp
                 }
                 let falloff = l.falloff(-d / d2.sqrt());
                 if falloff > 0.0 && cs.from_surface_span(p, n, position).is_some_and(&mut unoccluded) {
-                    sum += intensity * (falloff * cos_p / (d2 * d2.sqrt()));
+                    sum += intensity * (falloff * cos_p / (d2 * d2.sqrt()) * lobe(d));
                 }
             }
         }
@@ -359,7 +431,7 @@ pub fn shade_point(cs: &CpuScene, sp: &ShadingPoint, i: usize, lights: &LightArr
         return if params.direct { Vec3::from(sp.emitted) } else { Vec3::ZERO };
     }
     let own = if params.direct { Vec3::from(sp.emitted) + direct(cs, sp, i as u32, params.seed, params.direct_samples) } else { Vec3::ZERO };
-    own + indirect(sp, i, lights, vis, params.g_max)
+    own + indirect(&cs.scene.materials, sp, i, lights, vis, params.g_max)
 }
 
 /// Shades pixels `pixels` (a range of pixel indices), averaging their `params.spp` shading points
@@ -376,7 +448,7 @@ pub fn shade(
 ) -> Vec<[f32; 3]> {
     use rayon::prelude::*;
     let spp = params.spp as usize;
-    let lights = LightArrays::new(lights);
+    let lights = LightArrays::new(lights, &cs.scene.materials);
     let lights = &lights;
     pixels
         .into_par_iter()
@@ -396,7 +468,7 @@ pub fn shade(
 /// members' outline in the representative's plane, `vplgi_shared::polygon`), or one point per VPL.
 pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape) -> VplLights {
     match clusters {
-        None => vpls.iter().map(|v| VplLight::new(v.position.into(), v.normal.into(), v.flux.into())).collect::<Vec<_>>().into(),
+        None => vpls.iter().map(|v| VplLight::of(v, v.flux.into())).collect::<Vec<_>>().into(),
         Some(c) => {
             // Sequential sums in VPL order: deterministic, and the GPU's order.
             let mut flux = vec![Vec3::ZERO; c.k()];
@@ -417,7 +489,7 @@ pub fn vpl_lights(vpls: &[Vpl], clusters: Option<&Clustering>, shape: LightShape
                 .map(|((&r, flux), members)| {
                     let v = &vpls[r as usize];
                     let (centre, normal) = (Vec3::from(v.position), Vec3::from(v.normal));
-                    let mut light = VplLight::new(centre, normal, flux);
+                    let mut light = VplLight::of(v, flux);
                     let of = |&i: &usize| (Vec3::from(vpls[i].position), Vec3::from(vpls[i].flux));
                     match shape {
                         LightShape::Point => {}

@@ -32,6 +32,8 @@ pub struct CameraPath {
     pub emitted: Vec3,
     /// Specular vertices passed.
     pub specular: u32,
+    /// Unit direction from the last surface back along the ray that reached it.
+    pub view: Vec3,
 }
 
 /// Follows the ray `origin + t dir` through at most `depth` specular vertices: at a mirror or
@@ -39,10 +41,11 @@ pub struct CameraPath {
 /// chosen by Fresnel with one number from `rng`, and stops at the first other surface (or at
 /// the surface after the `depth`-th vertex, whatever it is).
 pub fn camera_path(cs: &CpuScene, origin: Vec3, dir: Vec3, depth: u32, rng: &mut Rng) -> CameraPath {
-    let mut path = CameraPath { hit: None, throughput: Vec3::ONE, emitted: Vec3::ZERO, specular: 0 };
+    let mut path = CameraPath { hit: None, throughput: Vec3::ONE, emitted: Vec3::ZERO, specular: 0, view: -dir };
     let (mut origin, mut dir) = (origin, dir);
     while let Some(hit) = cs.trace(origin, dir) {
         path.emitted += path.throughput * hit.emitted;
+        path.view = -dir;
         if path.specular == depth || !hit.bsdf().is_specular() {
             path.hit = Some(hit);
             return path;
@@ -85,7 +88,9 @@ pub fn shading_points_of(cs: &CpuScene, params: &CameraParams, samples: std::ops
                     albedo: (path.throughput * h.albedo).to_array(),
                     specular: path.specular,
                     emitted: emitted.to_array(),
-                    _pad1: 0,
+                    view: path.view.to_array(),
+                    material: h.material,
+                    ..Default::default()
                 },
                 None => ShadingPoint {
                     pixel,

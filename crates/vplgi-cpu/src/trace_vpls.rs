@@ -1,7 +1,9 @@
 //! Stage 1, `trace_vpls`: light particles leave the lights and leave a VPL at every
 //! non-specular surface they hit, up to `bounces` surfaces (SPEC, "VPL tracing"). At mirrors and
 //! glass they reflect or refract and go on, carrying the chain's weight: a VPL cannot stand for a
-//! surface that scatters only along a delta direction.
+//! surface that scatters only along a delta direction. On rough metal the VPL keeps the
+//! direction its light came from, which its glossy lobe depends on (`shade`), and the particle
+//! goes on along the metal's own BSDF sample.
 //!
 //! Particle `i` emits from point i of the frame's scrambled Sobol' set and bounces with the
 //! random stream (seed, `Stream::LightPath`, i), and uses nothing else, so its path does not
@@ -12,7 +14,7 @@
 //! of the light leaving surfaces after 1..=`bounces` reflections.
 
 use crate::CpuScene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use vplgi_shared::bsdf::Transport;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
@@ -86,18 +88,42 @@ pub fn follow_particle(cs: &CpuScene, p: &TraceParams, index: u32, emission: &Em
         }
         specular = 0;
         let flux = power * hit.albedo;
-        vpls.push(Vpl { position: hit.position.to_array(), path: index, normal: hit.ns.to_array(), bounce, flux: flux.to_array(), specular: passed });
+        vpls.push(Vpl {
+            position: hit.position.to_array(),
+            path: index,
+            normal: hit.ns.to_array(),
+            bounce,
+            flux: flux.to_array(),
+            specular: passed,
+            incoming: (-dir).to_array(),
+            material: hit.material,
+        });
         if bounce == bounces {
             break;
         }
-        // Russian roulette on the albedo; cosine sampling makes the Lambertian weight f cos / pdf
-        // equal to the albedo.
-        let survive = hit.albedo.max_element().min(MAX_SURVIVAL);
-        if survive <= 0.0 || rng.next_f32() >= survive {
-            break;
+        if hit.surface.is_glossy() {
+            // The BSDF's own sample, then Russian roulette on its weight (eval / pdf, which
+            // carries the colour).
+            let (u1, u) = (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
+            let Some((out, weight)) = hit.scatter(dir, u1, u, Transport::Importance) else {
+                break;
+            };
+            let survive = weight.max_element().min(MAX_SURVIVAL);
+            if survive <= 0.0 || rng.next_f32() >= survive {
+                break;
+            }
+            power *= weight / survive;
+            dir = out;
+        } else {
+            // Russian roulette on the albedo; cosine sampling makes the Lambertian weight
+            // f cos / pdf equal to the albedo.
+            let survive = hit.albedo.max_element().min(MAX_SURVIVAL);
+            if survive <= 0.0 || rng.next_f32() >= survive {
+                break;
+            }
+            power = flux / survive;
+            dir = sampling::cosine_hemisphere(hit.ns, rng.next_f32(), rng.next_f32());
         }
-        power = flux / survive;
-        dir = sampling::cosine_hemisphere(hit.ns, rng.next_f32(), rng.next_f32());
         if dir.dot(hit.ng) <= 0.0 {
             // The shading normal let the direction dip under the surface.
             break;

@@ -112,6 +112,9 @@ pub trait Storage {
     /// The scene's own camera (frames without a camera of their own are seen from it).
     fn camera(&self) -> Camera;
 
+    /// Whether some material of the scene is glossy (`Surface::is_glossy`).
+    fn has_glossy(&self) -> bool;
+
     /// Refuses, before any work, a frame this backend cannot hold.
     fn check_frame(&self, _cfg: &FrameConfig) -> Result<(), Self::Error> {
         Ok(())

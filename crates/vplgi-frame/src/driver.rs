@@ -102,6 +102,14 @@ fn render_view<B: Backend>(
         )
         .into());
     }
+    if cfg.shade == ShadeMode::Interpolate && cfg.cluster != ClusterMode::None && b.has_glossy() {
+        return Err(FrameError::InvalidConfig(
+            "--shade interpolate interpolates irradiance, and rough metal does not reflect light as a multiple of \
+             its irradiance: render scenes with glossy surfaces with --shade fuzzy"
+                .into(),
+        )
+        .into());
+    }
     b.check_frame(cfg)?;
     let mut t = StageTimings::default();
     let extent = b.scene_extent();

@@ -232,6 +232,10 @@ impl Storage for GpuBackend<'_> {
         self.scene.camera
     }
 
+    fn has_glossy(&self) -> bool {
+        self.scene.glossy
+    }
+
     /// The per-sample hit flags, offsets and rows (4 B per sample) must fit one storage binding,
     /// and every per-point array (hit points, labels and weights: at most 64 B per point, bound in
     /// windows) one buffer.

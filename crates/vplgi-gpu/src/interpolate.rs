@@ -48,6 +48,8 @@ pub struct SampleLighting<'a> {
     pub light_count: u32,
     /// [`crate::shade::ShadeInputs::exact_shapes`].
     pub exact_shapes: bool,
+    /// [`crate::shade::ShadeInputs::lobes`].
+    pub lobes: Option<&'a wgpu::Buffer>,
     pub g_max: f32,
 }
 
@@ -110,6 +112,7 @@ impl InterpolateKernel {
             outlines: lighting.outlines,
             light_count: lighting.light_count,
             exact_shapes: lighting.exact_shapes,
+            lobes: lighting.lobes,
             visibility: Visibility::Own { first_row: 0 },
         };
         let irradiance = shade.light_sums(device, queue, &inputs, 0..n, 1, lighting.g_max)?;
@@ -163,6 +166,7 @@ impl vplgi_frame::stages::Interpolate for GpuBackend<'_> {
             outlines: lights.outlines.as_ref(),
             light_count: lights.count,
             exact_shapes: lights.exact_shapes,
+            lobes: self.scene.glossy_lobes(),
             g_max,
         };
         let k = self.kernels;

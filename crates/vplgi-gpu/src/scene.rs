@@ -74,6 +74,10 @@ pub struct GpuScene {
     pub bvh_frame: wgpu::Buffer,
     pub scene_tris: [wgpu::Buffer; SCENE_TRI_PAGES],
     pub materials: wgpu::Buffer,
+    /// Each material's BSDF in white (`Surface::with_colour(1)`), for `shade`'s lobes.
+    pub lobes: wgpu::Buffer,
+    /// Some material is glossy (`Surface::is_glossy`): `shade` evaluates lobes.
+    pub glossy: bool,
     pub texture_infos: wgpu::Buffer,
     /// [`TEXEL_PAGES`] pages of texel words ([`texel_words`]).
     pub texels: [wgpu::Buffer; TEXEL_PAGES],
@@ -120,6 +124,11 @@ pub const SCENE_BINDINGS: [(&str, SceneBuffer); 21] = [
 ];
 
 impl GpuScene {
+    /// [`Self::lobes`] where some material is glossy, for `ShadeInputs::lobes`.
+    pub fn glossy_lobes(&self) -> Option<&wgpu::Buffer> {
+        self.glossy.then_some(&self.lobes)
+    }
+
     /// The scene's arrays among the bindings `used` (those a pipeline reads).
     pub fn bindings(&self, used: &[u32]) -> Vec<(u32, wgpu::BufferBinding<'_>)> {
         (FIRST_SCENE_BINDING..)
@@ -165,6 +174,11 @@ impl GpuScene {
                 bsdf: m.surface.with_colour(glam::Vec3::ZERO).record(),
             })
             .collect();
+        let lobes: Vec<vplgi_types::BsdfRecord> = scene
+            .materials
+            .iter()
+            .map(|m| m.surface.with_colour(glam::Vec3::ONE).record())
+            .collect();
         let sampler = vplgi_scene::lights::LightSampler::new(scene);
         let (words, infos) = texel_words(scene);
         let texels = pages::<u32, TEXEL_PAGES>(device, "texel words", &words)?;
@@ -183,6 +197,8 @@ impl GpuScene {
             bvh_frame: storage(device, "bvh frame", &[arrays.frame]),
             scene_tris,
             materials: storage(device, "materials", &materials),
+            lobes: storage(device, "lobes", &lobes),
+            glossy: scene.materials.iter().any(|m| m.surface.is_glossy()),
             texture_infos: storage(device, "texture infos", &infos),
             texels,
             eps: scene.ray_epsilon(),

@@ -98,6 +98,10 @@ pub struct ShadeInputs<'a> {
     /// Whether any of the lights is a disk or a polygon lit by its exact form factor
     /// (`VplLight::exact`): such lights are only evaluated by the pipeline compiled for them.
     pub exact_shapes: bool,
+    /// The scene's white BSDFs (`GpuScene::glossy_lobes`) where it has glossy surfaces: the
+    /// lights are summed by the pipeline that evaluates lobes. None where every surface is
+    /// diffuse.
+    pub lobes: Option<&'a wgpu::Buffer>,
     pub visibility: Visibility<'a>,
 }
 
@@ -130,8 +134,9 @@ pub type Kernel = ShadeKernel;
 pub struct ShadeKernel {
     /// Emission, direct light and the per-point light sums, per pixel.
     finish: RayPipeline,
-    /// The light sums, by the number of visibility rows per point (1 ..= MAX_F) and then with
-    /// exact disks and polygons (`EXACT_SHAPES`) at index MAX_F + 1 + rows, compiled on first use.
+    /// The light sums, by the number of visibility rows per point (1 ..= MAX_F), then with exact
+    /// disks and polygons (`EXACT_SHAPES`) at index MAX_F + 1 + rows, then all of these with
+    /// glossy lobes (`GLOSSY`) 2 (MAX_F + 1) further on, compiled on first use.
     lights: Vec<OnceLock<wgpu::ComputePipeline>>,
 }
 
@@ -139,21 +144,23 @@ impl ShadeKernel {
     pub fn new(device: &wgpu::Device) -> Result<Self, GpuError> {
         validated(device, "shade pipeline", || {
             let kernel =
-                ShadeKernel { finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"), lights: (0..2 * (MAX_F + 1)).map(|_| OnceLock::new()).collect() };
+                ShadeKernel { finish: RayPipeline::new(device, "shade.wgsl", "shade_finish"), lights: (0..4 * (MAX_F + 1)).map(|_| OnceLock::new()).collect() };
             // The variants every default frame uses are compiled now, with the other kernels:
             // a pipeline first created after the device is lost is only "invalid", and the
             // frame's error would not say that the device was lost.
             for rows in [1, vplgi_types::FrameConfig::default().f] {
-                kernel.lights_pipeline(device, rows, false);
+                kernel.lights_pipeline(device, rows, false, false);
             }
             kernel
         })
     }
 
-    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32, exact_shapes: bool) -> &wgpu::ComputePipeline {
-        let index = rows as usize + if exact_shapes { MAX_F as usize + 1 } else { 0 };
+    fn lights_pipeline(&self, device: &wgpu::Device, rows: u32, exact_shapes: bool, glossy: bool) -> &wgpu::ComputePipeline {
+        let stride = MAX_F as usize + 1;
+        let index = rows as usize + exact_shapes as usize * stride + glossy as usize * 2 * stride;
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
         self.lights[index].get_or_init(|| {
-            pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64), ("EXACT_SHAPES", if exact_shapes { 1.0 } else { 0.0 })])
+            pipeline_with(device, "shade.wgsl", "shade_lights", &[("ROWS", rows as f64), ("EXACT_SHAPES", flag(exact_shapes)), ("GLOSSY", flag(glossy))])
         })
     }
 
@@ -185,6 +192,7 @@ impl ShadeKernel {
     ) -> Result<wgpu::Buffer, GpuError> {
         let count = pixels.end - pixels.start;
         let dummy = storage_zeroed::<u32>(device, "unused", 4);
+        let no_lobes = storage_zeroed::<vplgi_types::BsdfRecord>(device, "no lobes", 1);
         let (mode, first_row, f, labels, weights) = match inputs.visibility {
             Visibility::Own { first_row } => (SHADE_OWN_ROW, first_row, 1, dummy.as_entire_buffer_binding(), dummy.as_entire_buffer_binding()),
             Visibility::Fuzzy { labels, weights, f, window } => {
@@ -214,15 +222,24 @@ impl ShadeKernel {
         };
         validated(device, "shade lights", || {
             let running = storage_zeroed::<[f32; 4]>(device, "light sums", (count * spp).max(1) as usize);
-            let lights_pipeline = self.lights_pipeline(device, f, inputs.exact_shapes);
+            let lights_pipeline = self.lights_pipeline(device, f, inputs.exact_shapes, inputs.lobes.is_some());
             let invocations = (count * spp).div_ceil(SHADE_POINTS);
             let mut first = 0;
             while first < inputs.light_count {
                 let end = inputs.light_count.min(first + chunk);
                 let p = kernel_params(device, "shade params", &Params { light_first: first, light_end: end, ..params });
                 let outlines = inputs.outlines.unwrap_or(&dummy);
-                let mut bindings =
-                    bind(&[(0, &p), (7, inputs.sps), (8, inputs.row_of), (9, inputs.words), (12, inputs.vpl_lights), (14, &running), (15, outlines)]);
+                let lobes = inputs.lobes.unwrap_or(&no_lobes);
+                let mut bindings = bind(&[
+                    (0, &p),
+                    (7, inputs.sps),
+                    (8, inputs.row_of),
+                    (9, inputs.words),
+                    (12, inputs.vpl_lights),
+                    (14, &running),
+                    (15, outlines),
+                    (16, lobes),
+                ]);
                 bindings.push((10, labels.clone()));
                 bindings.push((11, weights.clone()));
                 in_kernel("shade lights", || dispatch_windows(device, queue, lights_pipeline, &bindings, invocations.div_ceil(64)));
@@ -265,7 +282,7 @@ impl ShadeKernel {
             while first < spp {
                 let end = spp.min(first + chunk);
                 let p = kernel_params(device, "shade params", &Params { sample_first: first, sample_end: end, ..params });
-                let mut bindings = bind(&[(0, &p), (7, sps), (13, &out), (14, running)]);
+                let mut bindings = bind(&[(0, &p), (7, sps), (13, &out), (14, running), (16, &scene.lobes)]);
                 bindings.extend(self.finish.scene_bindings(scene));
                 in_kernel("shade finish", || dispatch_windows(device, queue, self.finish.get(device, scene), &bindings, count.div_ceil(64)));
                 first = end;
@@ -296,6 +313,7 @@ impl vplgi_frame::stages::Shade for GpuBackend<'_> {
             outlines: lights.outlines.as_ref(),
             light_count: lights.count,
             exact_shapes: lights.exact_shapes,
+            lobes: self.scene.glossy_lobes(),
             visibility,
         };
         let running = match input.visibility {

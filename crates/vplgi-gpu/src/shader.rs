@@ -650,10 +650,10 @@ mod tests {
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
         use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
         let table = crate::layout_rows! {
-            [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, specular, emitted }
-            [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux, specular }
+            [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, specular, emitted, material, view }
+            [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux, specular, incoming, material }
             [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
-            [VplLight] "shade.wgsl" "VplLight" { position, normal, flux }
+            [VplLight] "shade.wgsl" "VplLight" { position, normal, flux, incoming }
             [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
             [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission, bsdf }
             [TextureInfo] "shading_points.wgsl" "TextureInfo" { offset, width, height, format }

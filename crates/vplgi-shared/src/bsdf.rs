@@ -81,6 +81,32 @@ impl Surface {
         }
     }
 
+    /// Whether it reflects light into a lobe that depends on where the light came from (rough
+    /// metal, alone or blended): a VPL or shading point on it needs [`Surface::lobe`].
+    pub fn is_glossy(&self) -> bool {
+        matches!(self, Surface::RoughConductor { .. } | Surface::Blend { .. })
+    }
+
+    /// The BSDF of a white surface of this kind from `wi` to `wo` (unit world directions about
+    /// the shading normal `n`, either may be the one light arrives from: the BSDFs are
+    /// reciprocal), over a white Lambertian surface's 1 / π. A diffuse surface's light times
+    /// this is a glossy one's: a receiver's, seen from `wi`, lit from `wo`; a VPL's, lit from
+    /// `wi`, seen from `wo`. Exactly 1 for a diffuse surface, so diffuse images keep their
+    /// arithmetic; 0 for `wo` on the other side of the surface from `wi`, and for the delta
+    /// lobes, which no VPL or shading point stands on.
+    pub fn lobe(self, n: Vec3, wi: Vec3, wo: Vec3) -> f32 {
+        if self == Surface::Diffuse {
+            return 1.0;
+        }
+        let (t, b) = vplgi_types::sampling::orthonormal_basis(n);
+        let local = |v: Vec3| Vec3::new(v.dot(t), v.dot(b), v.dot(n));
+        let (wi, wo) = (local(wi), local(wo));
+        if wo.z == 0.0 {
+            return 0.0;
+        }
+        PI * self.with_colour(Vec3::ONE).eval(wi, wo).x / wo.z.abs()
+    }
+
     /// Whether light passes through it (solid or thin glass).
     pub fn is_glass(&self) -> bool {
         matches!(self, Surface::Dielectric { .. } | Surface::ThinDielectric { .. })

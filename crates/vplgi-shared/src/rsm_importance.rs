@@ -231,6 +231,7 @@ mod tests {
             bounce: 1,
             flux: [flux; 3],
             specular: 0,
+            ..Default::default()
         }
     }
 

@@ -169,6 +169,8 @@ pub enum ShadeMode {
     /// Wang et al. 2009: the VPL lights are summed only at each cluster's sample point (its
     /// representative, with its own visibility row), and every shading point interpolates its F
     /// nearest clusters' sums with irradiance-caching weights, R_j measured by `--gather-rays`.
+    /// Refused on scenes with rough metal: a glossy receiver's light is not a multiple of its
+    /// irradiance.
     Interpolate,
 }
 

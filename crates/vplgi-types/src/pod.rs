@@ -10,11 +10,13 @@ use glam::Vec3;
 /// Marker for "no triangle": a primary ray that left the scene.
 pub const MISS: u32 = u32::MAX;
 
-/// A virtual point light: light that arrived at a diffuse surface and is re-emitted from it
-/// with a cosine lobe.
+/// A virtual point light: light that arrived at a non-specular surface and is re-emitted from it
+/// through the surface's BSDF.
 ///
-/// `flux` is the power the VPL re-emits (incident particle power times the albedo at the hit), so
-/// its radiant intensity is `flux * cos(theta) / pi` around `normal`.
+/// `flux` is the power the VPL re-emits (incident particle power times the colour at the hit), so
+/// on a diffuse surface its radiant intensity is `flux * cos(theta) / pi` around `normal`; on a
+/// glossy one it is `flux` times the BSDF of a white surface of its kind, lit from `incoming`, times
+/// cos θ (`vplgi_shared::bsdf::Surface::lobe`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Vpl {
@@ -27,6 +29,11 @@ pub struct Vpl {
     pub flux: [f32; 3],
     /// Mirrors and glass the particle passed on its way here, since it left the light.
     pub specular: u32,
+    /// Unit direction back toward where the light came from (the particle's last vertex or the
+    /// light), which a glossy VPL's lobe depends on.
+    pub incoming: [f32; 3],
+    /// The index of the material it lies on, whose BSDF it emits through.
+    pub material: u32,
 }
 
 /// The surface seen through one camera sample.
@@ -53,7 +60,13 @@ pub struct ShadingPoint {
     /// pixel's mean estimated from stratified rays
     /// ([`EMISSION_STRATA`](crate::params::EMISSION_STRATA)) for a jittered one, miss or hit.
     pub emitted: [f32; 3],
-    pub _pad1: u32,
+    /// The index of the hit's material, whose BSDF it reflects through (0 for a miss).
+    pub material: u32,
+    /// Unit direction from the point back along the ray that found it (toward the camera, or
+    /// toward the last mirror or glass of its chain, or toward the point it compensates): where
+    /// a glossy surface reflects its light.
+    pub view: [f32; 3],
+    pub _pad2: u32,
 }
 
 impl ShadingPoint {
@@ -107,8 +120,9 @@ impl Endpoint {
 }
 
 /// A light for indirect shading: one VPL, or one VPL cluster at its representative with its
-/// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (three `vec4<f32>`; the
-/// position's w is `radius2`, the normal's w the bits of `exact`, the flux's w 0).
+/// members' summed flux. The same bytes as `VplLight` in `types.wgsl` (four `vec4<f32>`; the
+/// position's w is `radius2`, the normal's w the bits of `exact`, the flux's w 0, the incoming
+/// direction's w the bits of `material`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct VplLight {
@@ -123,6 +137,10 @@ pub struct VplLight {
     pub exact: u32,
     pub flux: [f32; 3],
     pub _pad2: f32,
+    /// The lobe it emits through: [`Vpl::incoming`] and [`Vpl::material`] of the VPL it is, or of
+    /// a cluster's representative.
+    pub incoming: [f32; 3],
+    pub material: u32,
 }
 
 /// [`VplLight::exact`] of a disk lit by its exact form factor.
@@ -164,6 +182,15 @@ impl VplLight {
         }
     }
 
+    /// The light of one VPL (or of a cluster whose representative it is) with `flux`.
+    pub fn of(vpl: &Vpl, flux: Vec3) -> VplLight {
+        VplLight {
+            incoming: vpl.incoming,
+            material: vpl.material,
+            ..VplLight::new(vpl.position.into(), vpl.normal.into(), flux)
+        }
+    }
+
     /// Where its shadow rays end.
     pub fn endpoint(&self) -> Endpoint {
         Endpoint { position: self.position, normal: self.normal, ..Default::default() }
@@ -177,10 +204,13 @@ mod tests {
 
     #[test]
     fn layouts_match_wgsl_rules() {
-        assert_eq!(size_of::<Vpl>(), 48);
+        assert_eq!(size_of::<Vpl>(), 64);
         assert_eq!(offset_of!(Vpl, normal), 16);
         assert_eq!(offset_of!(Vpl, flux), 32);
-        assert_eq!(size_of::<ShadingPoint>(), 64);
+        assert_eq!(offset_of!(Vpl, incoming), 48);
+        assert_eq!(size_of::<ShadingPoint>(), 80);
+        assert_eq!(offset_of!(ShadingPoint, view), 64);
+        assert_eq!(size_of::<VplLight>(), 64);
         assert_eq!(offset_of!(ShadingPoint, normal), 16);
         assert_eq!(offset_of!(ShadingPoint, albedo), 32);
         assert_eq!(offset_of!(ShadingPoint, emitted), 48);

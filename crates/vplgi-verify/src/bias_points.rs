@@ -55,14 +55,15 @@ fn compare_mapped(
             // The weight the CPU's arithmetic gives at the GPU's point: the share moves with
             // the pair's distance, so the hit's rounding (judged by the position row) would
             // otherwise count twice, and most where surfaces nearly touch.
+            let surface = twins.cpu.scene.materials[parent.material as usize].surface;
+            let (p, n) = (Vec3::from(parent.position), Vec3::from(parent.normal));
+            // A glossy parent's lobe at each backend's own sampled direction (the point's view
+            // back to p): a peak of GGX α turns a direction's rounding δ into about δ / α of the
+            // lobe, more than the hit's rounding moves the share.
             let share = |y: &ShadingPoint| {
-                vplgi_cpu::bias_points::clamped_share(
-                    Vec3::from(parent.position),
-                    Vec3::from(parent.normal),
-                    Vec3::from(y.position),
-                    Vec3::from(y.normal),
-                    params.g_max,
-                ) as f64
+                let y_pos = Vec3::from(y.position);
+                let lobe = surface.lobe(n, Vec3::from(parent.view), -Vec3::from(y.view));
+                vplgi_cpu::bias_points::clamped_share(p, n, y_pos, Vec3::from(y.normal), params.g_max, lobe) as f64
             };
             let (at_cpu, at_gpu) = (share(c), share(g));
             if at_cpu > 0.0 {

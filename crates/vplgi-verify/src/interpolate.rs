@@ -17,7 +17,7 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
     let (device, queue) = (twins.device(), twins.queue());
     let g_max = cfg.g_max(cs.extent);
     let (matrix, _) = vplgi_cpu::visibility::visibility(cs, &clusters.rows, &clusters.cols, &vplgi_cpu::NoProgress);
-    let cpu = vplgi_cpu::shade::sample_irradiance(&clusters.rows, &clusters.lights, &matrix, g_max);
+    let cpu = vplgi_cpu::shade::sample_irradiance(&cs.scene.materials, &clusters.rows, &clusters.lights, &matrix, g_max);
     let words = storage(device, "words", bytemuck::cast_slice::<u64, u32>(matrix.words()));
     let lights = storage(device, "lights", &clusters.lights.lights);
     let outlines = (!clusters.lights.outlines.is_empty()).then(|| storage(device, "light outlines", &clusters.lights.outlines));
@@ -30,6 +30,7 @@ pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<
         outlines: outlines.as_ref(),
         light_count: n_lights,
         exact_shapes,
+        lobes: twins.gpu.scene().glossy_lobes(),
         g_max,
     };
     let n = clusters.rows.len();

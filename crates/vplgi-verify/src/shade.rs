@@ -82,7 +82,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
     let samples = match &clusters.sp_clusters {
         Some(_) if cfg.shade == ShadeMode::Interpolate => {
             let inv_radius = clusters.inv_radius(cs, cfg);
-            let irradiance = sample_irradiance(&clusters.rows, &clusters.lights, &matrix, params.g_max);
+            let irradiance = sample_irradiance(&cs.scene.materials, &clusters.rows, &clusters.lights, &matrix, params.g_max);
             Some(IrradianceSamples { points: clusters.rows.clone(), inv_radius, irradiance })
         }
         _ => None,
@@ -115,6 +115,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 outlines: outlines.as_ref(),
                 light_count: clusters.lights.lights.len() as u32,
                 exact_shapes,
+                lobes: twins.gpu.scene().glossy_lobes(),
                 g_max: params.g_max,
             };
             let points = (storage(device, "sample points", &samples.points), samples.points.len() as u32);
@@ -145,6 +146,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 outlines: outlines.as_ref(),
                 light_count: clusters.lights.lights.len() as u32,
                 exact_shapes,
+                lobes: twins.gpu.scene().glossy_lobes(),
                 visibility,
             };
             kernels.shade.run(device, queue, twins.gpu.scene(), &inputs, 0..n_pixels as u32, &params)?
@@ -171,7 +173,7 @@ pub fn compare_lights(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, cluste
     let polygons = buffer.outlines.is_some();
     let mut worst = (0.0f64, None);
     for (c, (a, b)) in clusters.lights.lights.iter().zip(&gpu).enumerate() {
-        let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 12]>(*a), bytemuck::cast::<VplLight, [f32; 12]>(*b));
+        let (fa, fb) = (bytemuck::cast::<VplLight, [f32; 16]>(*a), bytemuck::cast::<VplLight, [f32; 16]>(*b));
         // A polygon's R² is its outline's area / π, judged with the outline below.
         let judged = fa.iter().zip(&fb).enumerate().filter(|(i, _)| !(polygons && *i == 3));
         let d = judged.map(|(_, (x, y))| ((x - y).abs() / x.abs().max(1e-20)) as f64).fold(0.0, f64::max);

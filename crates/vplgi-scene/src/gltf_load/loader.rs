@@ -345,11 +345,6 @@ impl<'a> Loader<'a> {
                  through it (caustics, and direct light through glass) is missing until photon maps exist",
                 surface.describe()
             ));
-        } else if surface != Surface::Diffuse {
-            self.warn(format!(
-                "material '{name}' is {}: vplgi does not shade glossy reflection yet, so it renders as diffuse in its base colour",
-                surface.describe()
-            ));
         }
         let converted = Material {
             name,
