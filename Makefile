@@ -214,7 +214,7 @@ references: build
 	rm -f $(REF_DIR)/*/mean.png
 
 # The paper's table on the three generated scenes at the paper's resolutions and VPL counts,
-# and on the mirror and glass Cornell boxes at 512x512: docs/RESULTS.md. About 35 minutes of CPU
+# and on the mirror, glass and rough-metal Cornell boxes at 512x512: docs/RESULTS.md. About 35 minutes of CPU
 # frames on 2 cores (the unclustered references dominate) and 30 of GPU frames on lavapipe.
 # RESULTS_ARGS=--cpu-only skips the GPU frames; RESULTS_ARGS=--reuse keeps frames already in
 # target/results (after an interrupted run); RESULTS_ARGS=--scenes=a,b reruns some scenes and

@@ -26,7 +26,14 @@ fn quick_results_write_every_scene_and_setting() {
         .unwrap();
     assert!(o.status.success(), "results failed: {}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(&out).unwrap();
-    for scene in ["cornell-fine", "conference", "living-room", "cornell-mirror", "cornell-glass"] {
+    for scene in [
+        "cornell-fine",
+        "conference",
+        "living-room",
+        "cornell-mirror",
+        "cornell-glass",
+        "cornell-glossy",
+    ] {
         assert!(md.contains(&format!("## {scene}")), "{scene} missing");
         assert!(dir
             .path()

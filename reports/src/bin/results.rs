@@ -123,6 +123,14 @@ fn main() -> Result<()> {
             triangles: if q { 2_000 } else { 20_000 },
             paper: "none: the Cornell box with a closed glass cube and sphere, seen and lit through the glass",
         },
+        SceneSpec {
+            name: "cornell-glossy",
+            width: if q { 64 } else { 512 },
+            height: if q { 64 } else { 512 },
+            vpls: if q { 500 } else { 5000 },
+            triangles: if q { 2_000 } else { 20_000 },
+            paper: "none: the Cornell box with rough metal objects of roughness 0.6, 0.3 and 0.1 (GGX α 0.36, 0.09 and 0.01), lit and seen through their lobes",
+        },
     ];
     if let Some(bad) = o.scenes.iter().find(|n| !scenes.iter().any(|sc| sc.name == n.as_str())) {
         anyhow::bail!(

@@ -527,8 +527,8 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     writeln!(
         s,
-        "The scenes with mirrors, glass or metal (and the matte twins of the first two) run {} bounces deep and compensated only: \
-         a mirror or glass vertex is no bounce to vplgi (its camera rays and light particles pass through up to 6 between \
+        "The scenes with mirrors, glass or metal (and the matte twins of the first two) run {} bounces deep, and compensated \
+         only but for the metal one: a mirror or glass vertex is no bounce to vplgi (its camera rays and light particles pass through up to 6 between \
          two surfaces) but one more depth to Mitsuba, so at 3 bounces the two would integrate different paths. \
          [Mirrors, glass and metal](#mirrors-glass-and-metal) says what they show.\n",
         scenes_bounces(r, true)
