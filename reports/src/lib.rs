@@ -24,6 +24,18 @@ pub fn run(cmd: &mut std::process::Command) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Whether a generated scene `glb` must be (re)made by the `vplgi` binary: it is missing, or
+/// older than the binary, whose generators may have changed since (a kept scene would
+/// otherwise outlive a change to its generator and be measured in its old form).
+pub fn scene_is_stale(glb: &std::path::Path, vplgi: &std::path::Path) -> bool {
+    let modified = |p: &std::path::Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    match (modified(glb), modified(vplgi)) {
+        (Some(scene), Some(binary)) => scene < binary,
+        (Some(_), None) => false,
+        (None, _) => true,
+    }
+}
+
 /// When and from which commit a generated document is made: the UTC date and the short hash.
 pub fn date_and_commit() -> anyhow::Result<(String, String)> {
     let out = |cmd: &str, args: &[&str]| -> anyhow::Result<String> {

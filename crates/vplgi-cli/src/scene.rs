@@ -20,8 +20,9 @@ pub struct SceneArgs {
 enum SceneCommand {
     /// Generate a scene (deterministic) and write it as binary glTF: cornell-fine (the Cornell
     /// box tessellated, ~1.9 M triangles), conference (tables and chairs on thin legs, ~300 k),
-    /// living-room (large smooth walls, sofas, a window-like light, ~300 k), sunlit-living-room
-    /// (the same room with an open window and the sun, a directional light, shining in), seams
+    /// living-room (large smooth walls, sofas, a glass-topped table, a wall mirror, a
+    /// window-like light, ~300 k), sunlit-living-room (the same room with a wooden table and no
+    /// mirror, an open window and the sun, a directional light, shining in), seams
     /// and seams-rotated (a Cornell box whose walls and block faces are separately transformed
     /// meshes meeting at cracks a few ulps wide, as exported scenes do, seen by a centred camera
     /// whose pixel rays run along them: GPU traversal against Embree on real-world geometry),

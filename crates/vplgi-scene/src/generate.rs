@@ -6,9 +6,11 @@
 //! * `conference`: a closed meeting room with rows of tables and chairs on thin legs, lit from
 //!   ceiling panels, so that the light under the furniture is indirect and its shadows matter
 //!   (about 300 k triangles, like the paper's 331 k conference room);
-//! * `living-room`: large smooth walls and floor, two sofas and a low table, lit mostly through a
-//!   bright window-like panel in one wall (about 300 k triangles, like the paper's 313 k room);
-//! * `sunlit-living-room`: the same room with an open window in that wall and the sun (a
+//! * `living-room`: large smooth walls and floor, two sofas, a low table with a glass top and a
+//!   mirror on the back wall, lit mostly through a bright window-like panel in one wall (about
+//!   300 k triangles, like the paper's 313 k room);
+//! * `sunlit-living-room`: the same room, with a wooden table top and no mirror, with an open
+//!   window in that wall and the sun (a
 //!   directional light) shining through it onto the floor: the sun-lit room of Prutkin et al.'s
 //!   comparisons, whose indirect light all comes from one bright patch;
 //! * `seams` and `seams-rotated`: a Cornell box built as an exporter writes one, every wall and
@@ -38,7 +40,7 @@ pub const GENERATORS: [(&str, usize, &str); 9] = [
     (
         "living-room",
         300_000,
-        "large smooth walls, two sofas and a table, lit through a window-like panel",
+        "large smooth walls, two sofas, a glass-topped table and a wall mirror, lit through a window-like panel",
     ),
     (
         "sunlit-living-room",
@@ -408,7 +410,8 @@ pub fn conference(triangles: usize) -> Scene {
     b.s
 }
 
-/// A living room 7 x 2.8 x 6: two sofas (base, seat cushions, back, arms) facing a low table, a
+/// A living room 7 x 2.8 x 6: two sofas (base, seat cushions, back, arms) facing a low table
+/// with a glass top (index 1.5, a closed slab), a mirror on the back wall above the sofa, a
 /// bright window-like panel in the left wall and a dim lamp panel on the ceiling.
 pub fn living_room(triangles: usize) -> Scene {
     furnished_living_room("living-room", triangles, false)
@@ -440,6 +443,17 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
     let window =
         (!sun).then(|| b.material("window", Vec3::splat(0.9), Vec3::new(20.0, 19.0, 17.0)));
     let lamp = b.material("lamp", Vec3::splat(0.9), Vec3::new(4.0, 3.5, 2.8));
+    // The living room's glass table top and wall mirror. The sunlit room keeps a wooden top and
+    // no mirror: docs/RSM.md measures its one-bounce shadow-map clusters against references.
+    let (top, mirror) = if sun {
+        (wood, None)
+    } else {
+        let glass = b.material("glass table top", Vec3::ONE, Vec3::ZERO);
+        b.s.materials[glass as usize].surface = crate::Surface::Dielectric { eta: 1.5 };
+        let mirror = b.material("wall mirror", Vec3::splat(0.9), Vec3::ZERO);
+        b.s.materials[mirror as usize].surface = crate::Surface::Mirror;
+        (glass, Some(mirror))
+    };
     // Sofas: against the back wall (facing +z) and the right wall (facing -x).
     let sofa = |b: &mut Builder, lo: Vec3, hi: Vec3, along_x: bool| {
         let n = 4;
@@ -470,7 +484,11 @@ fn furnished_living_room(name: &str, triangles: usize, sun: bool) -> Scene {
     };
     sofa(&mut b, Vec3::new(-1.5, 0.0, -2.95), Vec3::new(1.5, 0.9, -2.05), true);
     sofa(&mut b, Vec3::new(2.55, 0.0, -1.2), Vec3::new(3.45, 0.9, 1.6), false);
-    b.boxed(Vec3::new(-0.7, 0.38, -1.3), Vec3::new(0.7, 0.42, -0.5), 2, true, wood);
+    b.boxed(Vec3::new(-0.7, 0.38, -1.3), Vec3::new(0.7, 0.42, -0.5), 2, true, top);
+    if let Some(mirror) = mirror {
+        // On the back wall above the sofa, facing into the room.
+        b.grid(Vec3::new(-1.0, 1.1, -2.99), Vec3::X * 2.0, Vec3::Y * 1.0, 1, 1, mirror);
+    }
     for (x, z) in [(-0.62, -1.22), (0.62, -1.22), (-0.62, -0.58), (0.62, -0.58)] {
         b.cylinder(Vec3::new(x, 0.0, z), 0.03, 0.38, 16, wood);
     }

@@ -155,7 +155,7 @@ fn main() -> Result<()> {
         scenes.iter().filter(|sc| o.scenes.is_empty() || o.scenes.iter().any(|n| n == sc.name))
     {
         let glb = work.join("scenes").join(format!("{}-{}.glb", sc.name, sc.triangles));
-        if !glb.exists() {
+        if vplgi_reports::scene_is_stale(&glb, &o.vplgi) {
             eprintln!("generating {} ({} triangles)", sc.name, sc.triangles);
             vplgi(&[
                 "scene",

@@ -84,11 +84,12 @@ struct Opts {
     work: PathBuf,
 }
 
-const SCENES: [&str; 9] = [
+const SCENES: [&str; 10] = [
     "cornell-box",
     "cornell-fine",
     "conference",
     "living-room",
+    "living-room-matte",
     "cornell-mirror",
     "cornell-mirror-matte",
     "cornell-glass",
@@ -102,7 +103,9 @@ const MATTE: &str = "-matte";
 /// Whether `name` is rendered --deep-bounces deep: a scene with mirrors, glass or metal, or the
 /// matte twin of one (the same depth, so that the two compare).
 fn deep(name: &str) -> bool {
-    ["cornell-mirror", "cornell-glass", "cornell-glossy"].iter().any(|s| name.starts_with(s))
+    ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"]
+        .iter()
+        .any(|s| name.starts_with(s))
 }
 /// Whether `name` is also rendered clamped (`--bias-compensation false`): the diffuse scenes,
 /// and the glossy one, where the row shows what the default clamp takes from glossy receivers.
@@ -314,7 +317,7 @@ fn main() -> Result<()> {
             "cornell-box".to_string()
         } else {
             let glb = o.work.join("scenes").join(format!("{name}-{}.glb", o.triangles));
-            if !glb.exists() {
+            if vplgi_reports::scene_is_stale(&glb, &o.vplgi) {
                 eprintln!("{name}: generating ({} triangles)", o.triangles);
                 let triangles = o.triangles.to_string();
                 let mut args =
@@ -527,7 +530,7 @@ fn markdown(r: &Value) -> Result<String> {
     )?;
     writeln!(
         s,
-        "The scenes with mirrors, glass or metal (and the matte twins of the first two) run {} bounces deep, and compensated \
+        "The scenes with mirrors, glass or metal (and the matte twins of those with mirrors or glass) run {} bounces deep, and compensated \
          only but for the metal one: a mirror or glass vertex is no bounce to vplgi (its camera rays and light particles pass through up to 6 between \
          two surfaces) but one more depth to Mitsuba, so at 3 bounces the two would integrate different paths. \
          [Mirrors, glass and metal](#mirrors-glass-and-metal) says what they show.\n",
@@ -662,7 +665,10 @@ const TWIN_BOUND: f64 = 0.005;
 /// twin's, and whether the twin agrees.
 fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
     let row = |name: &str| scenes.iter().find(|r| r["scene"] == name);
-    if ["cornell-mirror", "cornell-glass", "cornell-glossy"].iter().all(|n| row(n).is_none()) {
+    if ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"]
+        .iter()
+        .all(|n| row(n).is_none())
+    {
         return Ok(());
     }
     writeln!(
@@ -670,7 +676,8 @@ fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
         "\n## Mirrors, glass and metal\n\n\
          vplgi's VPLs never sit on a mirror or glass, and its shadow rays stop at glass, so light that reaches a diffuse \
          surface straight from a mirror or glass (a caustic: the light's reflection on the floor and walls, light focused \
-         through the glass sphere, direct light through the cube) is missing from its references; the photon maps add it. \
+         through the glass sphere, direct light through the cube; in the living room, the window's light off the wall mirror \
+         and through the glass table top) is missing from its references; the photon maps add it. \
          The rest is in both renderers: camera rays through mirrors and glass, and light particles reflected and refracted \
          on to the surfaces where they leave VPLs. Each of these scenes is rendered beside its matte twin (`vplgi scene \
          generate --matte`: every surface diffuse, base colours kept). Where the twin agrees within +-{:.1} % in every \
@@ -694,7 +701,7 @@ fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
             format!("{mean:.4} +- {sigma:.4}")
         })
     };
-    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy"] {
+    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"] {
         let Some(r) = row(name) else { continue };
         let twin = row(&format!("{name}{MATTE}")).map(bands).unwrap_or_default();
         let verdict = match twin.is_empty() {
@@ -714,7 +721,7 @@ fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
         }
     }
     writeln!(s, "\n| scene | vplgi | Mitsuba | darker / brighter | matte twin: darker / brighter |\n|---|---|---|---|---|")?;
-    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy"] {
+    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"] {
         if row(name).is_none() {
             continue;
         }

@@ -69,7 +69,7 @@ fn main() -> Result<()> {
     let mut rows = Vec::new();
     for (name, w, h) in scenes {
         let glb = work.join("scenes").join(format!("{name}-{triangles}.glb"));
-        if !glb.exists() {
+        if vplgi_reports::scene_is_stale(&glb, &o.vplgi) {
             eprintln!("generating {name}");
             vplgi(&[
                 "scene",
@@ -146,7 +146,7 @@ fn flicker(
         if q { ("20000", "3", "100") } else { ("300000", "17", "1000,4000") };
     let glb = work.join("scenes").join(format!("{name}-{triangles}-walk.glb"));
     let vplgi = |args: &[&str]| -> Result<()> { run(Command::new(&o.vplgi).args(args)) };
-    if !glb.exists() {
+    if vplgi_reports::scene_is_stale(&glb, &o.vplgi) {
         vplgi(&[
             "scene",
             "generate",
