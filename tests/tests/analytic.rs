@@ -8,15 +8,13 @@ use vplgi_cpu::{CpuScene, NoProgress};
 use vplgi_scene::cornell::plane_with_point_light;
 use vplgi_types::{ClusterMode, FrameConfig, ShadingPoint, TraceParams};
 
-/// A point light of intensity I at height h over a Lambertian plane of albedo ρ: the radiance at
-/// horizontal distance r is ρ/π · I h / (h² + r²)^{3/2}. With no VPLs the image is exactly that
-/// (up to f32 rounding): checks shading points, direct light and the camera together.
-#[test]
-fn point_light_over_a_plane_matches_the_closed_form() {
-    let (h, rho, intensity) = (1.5f32, 0.6f32, 4.0f32);
-    let scene = plane_with_point_light(2.0, h, rho, intensity);
+/// A 32x32 frame of `scene` lit by direct light alone (no VPLs) on the CPU: its configuration,
+/// shading points and pixels.
+fn direct_light_frame(
+    scene: &vplgi_scene::Scene,
+) -> (FrameConfig, Vec<ShadingPoint>, Vec<[f32; 3]>) {
     let device = vplgi_embree::Device::new(None).unwrap();
-    let cs = CpuScene::new(&scene, &device).unwrap();
+    let cs = CpuScene::new(scene, &device).unwrap();
     let cfg = FrameConfig {
         width: 32,
         height: 32,
@@ -25,10 +23,21 @@ fn point_light_over_a_plane_matches_the_closed_form() {
         ..FrameConfig::reference()
     };
     let sps = vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
-    let frame = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap();
+    let pixels = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
+    (cfg, sps, pixels)
+}
+
+/// A point light of intensity I at height h over a Lambertian plane of albedo ρ: the radiance at
+/// horizontal distance r is ρ/π · I h / (h² + r²)^{3/2}. With no VPLs the image is exactly that
+/// (up to f32 rounding): checks shading points, direct light and the camera together.
+#[test]
+fn point_light_over_a_plane_matches_the_closed_form() {
+    let (h, rho, intensity) = (1.5f32, 0.6f32, 4.0f32);
+    let scene = plane_with_point_light(2.0, h, rho, intensity);
+    let (_, sps, pixels) = direct_light_frame(&scene);
     let mut checked = 0;
     let mut worst = 0.0f32;
-    for (sp, px) in sps.iter().zip(&frame.pixels) {
+    for (sp, px) in sps.iter().zip(&pixels) {
         if sp.is_miss() {
             assert_eq!(*px, [0.0; 3]);
             continue;
@@ -381,18 +390,7 @@ fn point_light_over_rough_metal_matches_the_ggx_formula_on_both_backends() {
     ] {
         let mut scene = plane_with_point_light(2.0, h, rho, intensity);
         scene.materials[0].surface = surface;
-        let device = vplgi_embree::Device::new(None).unwrap();
-        let cs = CpuScene::new(&scene, &device).unwrap();
-        let cfg = FrameConfig {
-            width: 32,
-            height: 32,
-            vpls: 0,
-            cluster: ClusterMode::None,
-            ..FrameConfig::reference()
-        };
-        let sps =
-            vplgi_cpu::shading_points::shading_points(&cs, &cfg.camera_params(cs.scene.camera));
-        let cpu = vplgi_cpu::render(&cs, &cfg, &NoProgress).unwrap().pixels;
+        let (cfg, sps, cpu) = direct_light_frame(&scene);
         let gpu = gpu.as_ref().map(|(kernels, ctx)| {
             vplgi_gpu::render(&ctx.device, &ctx.queue, kernels, &scene, &cfg).unwrap().pixels
         });
