@@ -49,17 +49,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var dir: vec3<f32>;
     var weight = vec3<f32>(1.0);
     if (bsdf_is_glossy(bsdf)) {
-        let n = sp.normal;
-        let tb = orthonormal_basis(n);
-        let local_view = vec3<f32>(dot(sp.view, tb[0]), dot(sp.view, tb[1]), dot(sp.view, n));
         let u0 = rng_next_f32(&rng);
         let ux = rng_next_f32(&rng);
         let uy = rng_next_f32(&rng);
-        let s = bsdf_sample(bsdf, local_view, u0, vec2<f32>(ux, uy), true);
+        let s = bsdf_sample_about(bsdf, sp.normal, sp.view, u0, vec2<f32>(ux, uy), true);
         if (s.valid == 0u) {
             return;
         }
-        dir = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
+        dir = s.wo;
         weight = s.weight;
     } else {
         let u1 = rng_next_f32(&rng);

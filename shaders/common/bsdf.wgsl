@@ -241,6 +241,15 @@ fn bsdf_sample(b: BsdfRecord, wi: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bo
     return s;
 }
 
+// Bsdf::sample_about: bsdf_sample with wi and the sampled wo in world space, +z the unit normal n.
+fn bsdf_sample_about(b: BsdfRecord, n: vec3<f32>, wi: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bool) -> BsdfSample {
+    let tb = orthonormal_basis(n);
+    let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
+    var s = bsdf_sample(b, local, u1, u, radiance);
+    s.wo = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
+    return s;
+}
+
 // Every lobe a delta (Bsdf::is_specular): seen only along mirror and refraction directions.
 fn bsdf_is_specular(b: BsdfRecord) -> bool {
     return b.kind == BSDF_MIRROR || b.kind == BSDF_DIELECTRIC || b.kind == BSDF_THIN_DIELECTRIC;

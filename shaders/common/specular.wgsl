@@ -15,10 +15,5 @@ fn scatter(surf: Surface, dir: vec3<f32>, u1: f32, u: vec2<f32>, radiance: bool)
     if (!surf.facing) {
         n = -surf.ns;
     }
-    let tb = orthonormal_basis(n);
-    let wi = -dir;
-    let local = vec3<f32>(dot(wi, tb[0]), dot(wi, tb[1]), dot(wi, n));
-    var s = bsdf_sample(surf.bsdf, local, u1, u, radiance);
-    s.wo = tb[0] * s.wo.x + tb[1] * s.wo.y + n * s.wo.z;
-    return s;
+    return bsdf_sample_about(surf.bsdf, n, -dir, u1, u, radiance);
 }

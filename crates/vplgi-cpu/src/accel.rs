@@ -6,7 +6,6 @@ use glam::{Vec2, Vec3};
 use vplgi_embree::{Device, EmbreeError};
 use vplgi_scene::Scene;
 use vplgi_shared::bsdf::{Bsdf, Surface, Transport};
-use vplgi_types::sampling::orthonormal_basis;
 
 /// A scene prepared for the CPU stages.
 pub struct CpuScene<'a> {
@@ -83,11 +82,8 @@ impl SurfaceHit {
         transport: Transport,
     ) -> Option<(Vec3, Vec3)> {
         let n = if self.facing { self.ns } else { -self.ns };
-        let (t, b) = orthonormal_basis(n);
-        let wi = -dir;
-        let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
-        let s = self.bsdf().sample(local, u1, u, transport)?;
-        Some((t * s.wo.x + b * s.wo.y + n * s.wo.z, s.weight))
+        let s = self.bsdf().sample_about(n, -dir, u1, u, transport)?;
+        Some((s.wo, s.weight))
     }
 }
 

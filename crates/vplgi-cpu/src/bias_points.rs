@@ -23,7 +23,6 @@ use crate::CpuScene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use vplgi_shared::bsdf::Transport;
-use vplgi_types::sampling::orthonormal_basis;
 use vplgi_types::{sampling, BiasParams, Rng, ShadingPoint, Stream, MISS};
 
 /// The clamped share 1 − g_max / (a G) of a pair of surface points (p with normal `np`, y with
@@ -59,13 +58,11 @@ pub fn bias_point(cs: &CpuScene, sp: &ShadingPoint, index: u32, params: &BiasPar
     let view = Vec3::from(sp.view);
     // The direction and the sample's weight f cos / pdf over the colour (1 for a diffuse surface).
     let (dir, weight) = if surface.is_glossy() {
-        let (t, b) = orthonormal_basis(n);
-        let local = Vec3::new(view.dot(t), view.dot(b), view.dot(n));
         let (u1, u) = (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
-        let Some(s) = surface.with_colour(Vec3::ONE).sample(local, u1, u, Transport::Radiance) else {
+        let Some(s) = surface.with_colour(Vec3::ONE).sample_about(n, view, u1, u, Transport::Radiance) else {
             return miss;
         };
-        (t * s.wo.x + b * s.wo.y + n * s.wo.z, s.weight)
+        (s.wo, s.weight)
     } else {
         (sampling::cosine_hemisphere(n, rng.next_f32(), rng.next_f32()), Vec3::ONE)
     };

@@ -23,9 +23,10 @@
 //! light arriving from that direction, whatever the VPL: that is what `bias_points` puts back,
 //! by sampling the receiver's BSDF. The VPL's own lobe a_c is not clamped: the share it would
 //! cut depends on the direction light arrived at the VPL, which the compensation ray, summing
-//! all the light leaving a surface toward p, does not have. Ṽ is the shading point's own visibility bit when shading points are
-//! not clustered, else the weighted (Eq. 9, 10) or plain (Eq. 8) mean of its F clusters' bits.
-//! Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
+//! all the light leaving a surface toward p, does not have.
+//!
+//! Ṽ is the shading point's own visibility bit when shading points are not clustered, else the
+//! weighted (Eq. 9, 10) or plain (Eq. 8) mean of its F clusters' bits. Clamping G at 1/d_min² removes the splotches of VPLs close to a surface at a small energy
 //! loss; d_min is relative to the scene size (SPEC, "geometry-term clamp"). A cluster lit as a
 //! disk of radius R (`--light-shape disk`) has G = cos θ_p cos θ_c / (d² + R²) instead, Eq. 2 of
 //! Prutkin et al. 2012 (`vplgi_shared::disk`), and no clamp.
@@ -84,7 +85,7 @@ pub struct LightArrays {
 impl LightArrays {
     pub fn new(set: &VplLights, materials: &[Material]) -> LightArrays {
         let lights = &set.lights;
-        let surface = |l: &VplLight| materials.get(l.material as usize).map_or(Surface::Diffuse, |m| m.surface);
+        let surface = |l: &VplLight| surface_of(materials, l.material);
         let axis = |f: fn(&VplLight) -> Vec3, a: usize| lights.iter().map(|l| f(l)[a]).collect::<Vec<f32>>();
         let three = |f: fn(&VplLight) -> Vec3| [axis(f, 0), axis(f, 1), axis(f, 2)];
         LightArrays {
@@ -137,10 +138,15 @@ pub fn geometry_term(p: Vec3, np: Vec3, x: Vec3, nx: Vec3, g_max: f32) -> f32 {
 /// A glossy receiver's surface and the unit direction it is seen from; `None` for a diffuse one.
 pub type Receiver = Option<(Surface, Vec3)>;
 
-/// The receiver at shading point `sp` of a scene with `materials` (a material it lacks is
-/// diffuse).
+/// The surface of material `m` of `materials`; diffuse for a material it lacks (an irradiance
+/// sample point, or a test's lights without a scene).
+fn surface_of(materials: &[Material], m: u32) -> Surface {
+    materials.get(m as usize).map_or(Surface::Diffuse, |m| m.surface)
+}
+
+/// The receiver at shading point `sp` of a scene with `materials`.
 pub fn receiver(materials: &[Material], sp: &ShadingPoint) -> Receiver {
-    let surface = materials.get(sp.material as usize).map_or(Surface::Diffuse, |m| m.surface);
+    let surface = surface_of(materials, sp.material);
     surface.is_glossy().then(|| (surface, Vec3::from(sp.view)))
 }
 

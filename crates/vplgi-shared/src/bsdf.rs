@@ -363,6 +363,22 @@ impl Bsdf {
         }
     }
 
+    /// [`Self::sample`] in world space: `wi` and the sampled `wo` are world directions, the
+    /// local frame's +z the unit normal `n`.
+    pub fn sample_about(
+        &self,
+        n: Vec3,
+        wi: Vec3,
+        u1: f32,
+        u: Vec2,
+        transport: Transport,
+    ) -> Option<Sample> {
+        let (t, b) = vplgi_types::sampling::orthonormal_basis(n);
+        let local = Vec3::new(wi.dot(t), wi.dot(b), wi.dot(n));
+        let s = self.sample(local, u1, u, transport)?;
+        Some(Sample { wo: t * s.wo.x + b * s.wo.y + n * s.wo.z, ..s })
+    }
+
     /// A direction `wo` for `wi` from uniform numbers `u1` (which lobe) and `u` (where in it).
     /// None where the surface sends nothing (`wi` in its plane, or a microfacet reflection below
     /// the surface).
