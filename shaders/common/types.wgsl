@@ -25,6 +25,15 @@ struct Vpl {
     material: u32,       // whose BSDF the VPL emits through
 }
 
+// A node of a photon map's balanced kd-tree (vplgi_shared::photon_tree): the box of photons
+// first .. first + count; children 2i + 1 and 2i + 2.
+struct PhotonNode {
+    lo: vec3<f32>,
+    first: u32,
+    hi: vec3<f32>,
+    count: u32,
+}
+
 // A VPL, or a VPL cluster at its representative with its members' summed flux, as a light.
 struct VplLight {
     position: vec4<f32>,

@@ -10,8 +10,8 @@ use serde::Serialize;
 use vplgi_shared::rsm::RsmWeights;
 use vplgi_types::config::MAX_F;
 use vplgi_types::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding,
-    ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
+    Caustics, ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding,
+    Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 
 /// Options of one frame. Each is optional: what is not given comes from the preset. The field
@@ -72,6 +72,33 @@ pub struct FrameArgs {
     #[arg(long, value_name = "N")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub specular_depth: Option<u32>,
+    /// Caustics: the light that reaches surfaces straight from mirrors and glass (a caustic
+    /// under a glass ball, a patch lit by a mirror). VPLs and shadow rays cannot carry it; with
+    /// photons, light particles leave a photon wherever they leave a mirror or glass, and every
+    /// shading point adds the density of its --caustic-k nearest (Jensen's caustic map). Needs
+    /// --lighting all; nothing is traced in a scene without mirrors or glass.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caustics: Option<Caustics>,
+    /// With --caustics photons: photons the caustic map holds (light particles are traced until
+    /// it is full, or until 64 per photon have been).
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caustic_photons: Option<u32>,
+    /// With --caustics photons: photons per density estimate (at most 128). More is smoother
+    /// and blurs the caustic's edges more.
+    #[arg(long, value_name = "K")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caustic_k: Option<u32>,
+    /// With --caustics photons: the largest estimate radius, as a fraction of the scene's
+    /// bounding-box diagonal (where fewer than K photons lie within it, it is the radius).
+    #[arg(long, value_name = "FRACTION")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caustic_radius: Option<f32>,
+    /// With --caustics photons: photons per leaf of the map's balanced kd-tree at most.
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub photon_leaf: Option<u32>,
     /// Seed of every random decision; the same seed gives a bit-identical image.
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]

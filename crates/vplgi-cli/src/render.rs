@@ -178,6 +178,23 @@ pub fn run(args: RenderArgs) -> Result<()> {
         report.clusters.vpl,
         report.clusters.sp
     );
+    if cfg.has_caustics() {
+        let s = &report.stats;
+        if s.caustic_photons == 0 {
+            println!("caustics: no caustic photons (the scene has no mirror or glass, or no particle met one)");
+        } else {
+            println!(
+                "caustics: {} photons from {} light particles{}",
+                s.caustic_photons,
+                s.caustic_particles,
+                if s.caustic_truncated > 0 {
+                    format!(", {} estimates stopped at the visit budget", s.caustic_truncated)
+                } else {
+                    String::new()
+                }
+            );
+        }
+    }
     let t = &report.timings_ms;
     let stages: Vec<String> = Stage::ALL.iter().map(|&s| format!("{s} {:.1}", t.get(s))).collect();
     println!("timings (ms): {}, total {:.1}", stages.join(", "), t.total());

@@ -28,7 +28,10 @@ enum SceneCommand {
     /// whose pixel rays run along them: GPU traversal against Embree on real-world geometry),
     /// cornell-mirror, cornell-glass and cornell-glossy (the Cornell box with a mirror wall and
     /// sphere, a closed glass cube and sphere, rough metals of roughness 0.6, 0.3 and 0.1: mirrors
-    /// and glass are seen through and pass light on, rough metals reflect glossily).
+    /// and glass are seen through and pass light on, rough metals reflect glossily),
+    /// cornell-water (the Cornell box a third full of wavy water, index 1.33, lit by the ceiling
+    /// and by a point light whose caustics the waves throw on the floor: render it with
+    /// --caustics photons, ~17 k).
     Generate(GenerateArgs),
     /// Write a scene for another renderer, to cross-check vplgi's references against it:
     /// `--format mitsuba` writes DIR/scene.xml (Mitsuba 3, `path` integrator) with one PLY mesh per

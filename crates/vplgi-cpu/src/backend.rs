@@ -2,6 +2,7 @@
 //! stage implements its trait of [`vplgi_frame::stages`] in its own module; the frame itself is
 //! [`vplgi_frame::render`].
 
+use crate::caustics::PhotonMap;
 use crate::cluster::Clustering;
 use crate::interpolate::IrradianceSamples;
 use crate::shade::{vpl_lights, VplLight, VplLights};
@@ -51,6 +52,7 @@ impl Storage for CpuScene<'_> {
     type Matrix = BitMatrix;
     type Scalars = Vec<f32>;
     type IrradianceSamples = IrradianceSamples;
+    type PhotonMap = PhotonMap;
 
     fn scene_extent(&self) -> f32 {
         self.extent
@@ -62,6 +64,10 @@ impl Storage for CpuScene<'_> {
 
     fn has_glossy(&self) -> bool {
         self.scene.materials.iter().any(|m| m.surface.is_glossy())
+    }
+
+    fn has_specular(&self) -> bool {
+        self.scene.materials.iter().any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular())
     }
 
     fn compact_hits(

@@ -12,6 +12,10 @@
 //! one's path cut short), so the VPL set is deterministic and exactly `count` long. Each VPL's
 //! flux is divided by the number of particles used, which makes the VPL set an unbiased estimate
 //! of the light leaving surfaces after 1..=`bounces` reflections.
+//!
+//! The same particles make the caustic photon map (`Deposit::CausticPhotons`): a photon where
+//! a particle reaches a non-specular surface straight from a mirror or glass, with the power
+//! that arrived. Those are the paths whose last step no VPL or shadow ray can follow.
 
 use crate::CpuScene;
 use glam::{Vec2, Vec3};
@@ -19,7 +23,7 @@ use vplgi_shared::bsdf::Transport;
 use rayon::prelude::*;
 use vplgi_frame::Progress;
 use vplgi_scene::lights::Emission;
-use vplgi_types::{sampling, Rng, Stream, Vpl};
+use vplgi_types::{sampling, Deposit, Rng, Stream, Vpl};
 
 use vplgi_types::params::MAX_SURVIVAL;
 use vplgi_frame::FrameError;
@@ -40,7 +44,8 @@ pub fn emission_scramble(seed: u32) -> [u32; 5] {
 }
 
 /// Traces light particle `index` through `bounces` non-specular surfaces and at most
-/// `specular_depth` mirrors and glass between two of them, returning its VPLs with flux not yet
+/// `specular_depth` mirrors and glass between two of them, returning its VPLs (or caustic
+/// photons, as `p.deposit` says) with flux not yet
 /// divided by the particle count. Its emission (light choice, point, direction) is point `index` of a Sobol' set shared
 /// by the frame's particles and shifted by `scramble` ([`emission_scramble`]): the particles
 /// cover the lights' emission evenly instead of at random, so the VPLs, and the light they
@@ -86,18 +91,25 @@ pub fn follow_particle(cs: &CpuScene, p: &TraceParams, index: u32, emission: &Em
             origin = cs.offset_toward(hit.position, hit.ng, hit.position + dir);
             continue;
         }
+        let after_specular = specular > 0;
         specular = 0;
         let flux = power * hit.albedo;
-        vpls.push(Vpl {
-            position: hit.position.to_array(),
-            path: index,
-            normal: hit.ns.to_array(),
-            bounce,
-            flux: flux.to_array(),
-            specular: passed,
-            incoming: (-dir).to_array(),
-            material: hit.material,
-        });
+        let deposit = match p.deposit {
+            Deposit::Vpls => Some(flux),
+            Deposit::CausticPhotons => after_specular.then_some(power),
+        };
+        if let Some(flux) = deposit {
+            vpls.push(Vpl {
+                position: hit.position.to_array(),
+                path: index,
+                normal: hit.ns.to_array(),
+                bounce,
+                flux: flux.to_array(),
+                specular: passed,
+                incoming: (-dir).to_array(),
+                material: hit.material,
+            });
+        }
         if bounce == bounces {
             break;
         }
@@ -134,8 +146,9 @@ pub fn follow_particle(cs: &CpuScene, p: &TraceParams, index: u32, emission: &Em
     vpls
 }
 
-/// Traces light particles until exactly `count` VPLs exist (or until a particle budget of
-/// `64 * count + 65536` is spent, for scenes whose light mostly escapes).
+/// Traces light particles until exactly `count` VPLs (or caustic photons) exist, or until a
+/// particle budget of `64 * count + 65536` is spent, for scenes whose light mostly escapes or
+/// seldom meets a mirror.
 pub fn trace_vpls(cs: &CpuScene, p: &TraceParams, progress: &dyn Progress) -> VplSet {
     let TraceParams { seed, count, bounces, .. } = *p;
     let mut set = VplSet::default();

@@ -105,6 +105,8 @@ pub trait Storage {
     type Scalars;
     /// The sample points of `--shade interpolate` with their 1 / R_j and irradiance.
     type IrradianceSamples;
+    /// A photon map ordered by its kd-tree, with the tree.
+    type PhotonMap: Counted;
 
     /// The scene's bounding-box diagonal (what the geometry-term clamp is relative to).
     fn scene_extent(&self) -> f32;
@@ -114,6 +116,10 @@ pub trait Storage {
 
     /// Whether some material of the scene is glossy (`Surface::is_glossy`).
     fn has_glossy(&self) -> bool;
+
+    /// Whether some material of the scene is a mirror or glass (`Bsdf::is_specular`): only
+    /// such a scene has caustics.
+    fn has_specular(&self) -> bool;
 
     /// Refuses, before any work, a frame this backend cannot hold.
     fn check_frame(&self, _cfg: &FrameConfig) -> Result<(), Self::Error> {

@@ -131,6 +131,17 @@ fn render_view<B: Backend>(
         }
     };
     (stats.vpls, stats.light_particles) = (vpls.count(), particles);
+    // The caustic photon map: the same particles' paths, photons where they leave a mirror or
+    // glass. Timed as trace_vpls (the tracing) and caustics (the tree).
+    let photon_map = if cfg.has_caustics() && b.has_specular() {
+        let (photons, used) = timed(b, &mut t, Stage::TraceVpls, || {
+            b.trace_vpls(&cfg.caustic_trace_params(), progress)
+        })?;
+        (stats.caustic_photons, stats.caustic_particles) = (photons.count(), used);
+        Some(timed(b, &mut t, Stage::Caustics, || b.photon_map(&photons, cfg.photon_leaf))?)
+    } else {
+        None
+    };
 
     // Shading points of the rows, in chunks of whole pixels the backend can hold. Indices stay
     // global: the RNG streams use them, so a tile's pixels equal the whole frame's.
@@ -287,6 +298,17 @@ fn render_view<B: Backend>(
         }
     }
 
+    if let Some(map) = &photon_map {
+        let params = cfg.caustic_params(extent, 0);
+        for chunk in &chunks {
+            let (added, cut) = timed(b, &mut t, Stage::Caustics, || {
+                b.caustics(map, &chunk.samples, chunk.first..chunk.first + chunk.count, &params)
+            })?;
+            stats.caustic_truncated += cut as u64;
+            add_pixels(&mut pixels, ((chunk.first - first_sample) / spp) as usize, &added);
+        }
+    }
+
     // Bias compensation, level by level (Kollig and Keller): level j's points are surfaces seen
     // from level j - 1's where the clamp bit, shaded like camera hits (each its own visibility
     // row) by the VPLs of at most bounces - j surfaces, so no path is longer than the frame's.
@@ -307,7 +329,7 @@ fn render_view<B: Backend>(
             for chunk in chunks.iter_mut() {
                 let range = chunk.first..chunk.first + chunk.count;
                 let samples = timed(b, &mut t, Stage::BiasPoints, || {
-                    b.bias_points(&chunk.samples, range, &bias)
+                    b.bias_points(&chunk.samples, range.clone(), &bias)
                 })?;
                 chunk.samples = samples;
                 let hits = timed(b, &mut t, Stage::BiasPoints, || {
@@ -322,10 +344,16 @@ fn render_view<B: Backend>(
                 let added =
                     shade_own_rows(b, &mut t, &own, &level_shade, progress, &mut count_rays)?;
                 let px0 = ((chunk.first - first_sample) / spp) as usize;
-                for (p, a) in pixels[px0..px0 + added.len()].iter_mut().zip(added) {
-                    for c in 0..3 {
-                        p[c] += a[c];
-                    }
+                add_pixels(&mut pixels, px0, &added);
+                // The caustic light at the level's points, through photons of paths that are no
+                // longer than the frame's with the level's surfaces.
+                if let Some(map) = &photon_map {
+                    let params = cfg.caustic_params(extent, level);
+                    let (added, cut) = timed(b, &mut t, Stage::Caustics, || {
+                        b.caustics(map, &chunk.samples, range.clone(), &params)
+                    })?;
+                    stats.caustic_truncated += cut as u64;
+                    add_pixels(&mut pixels, px0, &added);
                 }
             }
             if !any {
@@ -346,6 +374,15 @@ fn render_view<B: Backend>(
         centres,
         rsm_centres,
     })
+}
+
+/// Adds `added` to the pixels from `first` on.
+fn add_pixels(pixels: &mut [[f32; 3]], first: usize, added: &[[f32; 3]]) {
+    for (p, a) in pixels[first..first + added.len()].iter_mut().zip(added) {
+        for c in 0..3 {
+            p[c] += a[c];
+        }
+    }
 }
 
 /// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).

@@ -123,6 +123,14 @@ pub struct FrameStats {
     pub vpl_kept: u32,
     #[serde(default)]
     pub vpl_fresh: u32,
+    /// `--caustics photons`: the caustic map's photons, the light particles traced for them,
+    /// and the estimates (camera and bias-compensation points) that stopped at the visit budget.
+    #[serde(default)]
+    pub caustic_photons: u32,
+    #[serde(default)]
+    pub caustic_particles: u32,
+    #[serde(default)]
+    pub caustic_truncated: u64,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.

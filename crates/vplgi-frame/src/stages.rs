@@ -20,7 +20,7 @@ use vplgi_shared::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_shared::seeding::SeedParams;
 use vplgi_types::clustering::{Centre, ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::{BiasParams, CameraParams, RsmParams, ShadeParams, TraceParams};
+use vplgi_types::{BiasParams, CameraParams, CausticParams, RsmParams, ShadeParams, TraceParams};
 
 /// The stages in pipeline order: `name Trait [part PartTrait, ...],`, one row per line (the
 /// Makefile reads the names from these lines). Calls `$then!` with the rows.
@@ -44,6 +44,8 @@ macro_rules! stage_table {
             interpolate Interpolate [],
             /// Stage 5: the pixels' radiance.
             shade Shade [],
+            /// `--caustics photons`: the caustic photon map's light at the shading points.
+            caustics Caustics [],
             /// The bias compensation's segments (their visibility and shading count as `visibility` and `shade`).
             bias_points BiasPoints [],
         }
@@ -275,4 +277,22 @@ pub trait BiasPoints: Storage {
         samples: Range<u32>,
         params: &BiasParams,
     ) -> Result<Self::Samples, Self::Error>;
+}
+
+/// `--caustics photons`: the light that reaches surfaces straight from mirrors and glass.
+pub trait Caustics: Storage {
+    /// The photon map of `photons` (`trace_vpls`' caustic photons): ordered by its balanced
+    /// kd-tree (`vplgi_shared::photon_tree`, built on the host), leaves of at most `leaf`.
+    fn photon_map(&self, photons: &Self::Vpls, leaf: u32) -> Result<Self::PhotonMap, Self::Error>;
+
+    /// The caustic radiance of the pixels of camera samples `samples` (whole pixels, whose
+    /// shading points are `points`), each the mean of its samples', and how many estimates
+    /// stopped at the visit budget (`vplgi_types::params::CAUSTIC_VISITS`).
+    fn caustics(
+        &self,
+        map: &Self::PhotonMap,
+        points: &Self::Samples,
+        samples: Range<u32>,
+        params: &CausticParams,
+    ) -> Result<(Vec<[f32; 3]>, u32), Self::Error>;
 }

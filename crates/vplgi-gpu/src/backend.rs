@@ -223,6 +223,7 @@ impl Storage for GpuBackend<'_> {
     type Matrix = wgpu::Buffer;
     type Scalars = wgpu::Buffer;
     type IrradianceSamples = GpuIrradianceSamples;
+    type PhotonMap = crate::caustics::GpuPhotonMap;
 
     fn scene_extent(&self) -> f32 {
         self.extent
@@ -234,6 +235,10 @@ impl Storage for GpuBackend<'_> {
 
     fn has_glossy(&self) -> bool {
         self.scene.glossy
+    }
+
+    fn has_specular(&self) -> bool {
+        self.scene.specular
     }
 
     /// The per-sample hit flags, offsets and rows (4 B per sample) must fit one storage binding,
@@ -283,6 +288,15 @@ impl Storage for GpuBackend<'_> {
                 what: format!("bytes of per-point labels of {what} in one buffer"),
                 needed: per_point,
                 limit: l.max_buffer_size,
+            });
+        }
+        let photons = cfg.caustic_photons as u64 * std::mem::size_of::<vplgi_types::Vpl>() as u64;
+        if cfg.has_caustics() && photons > l.max_storage_buffer_binding_size {
+            return Err(GpuError::TooLarge {
+                what: "bytes of the caustic photon map (--caustic-photons) in one storage binding"
+                    .into(),
+                needed: photons,
+                limit: l.max_storage_buffer_binding_size,
             });
         }
         Ok(())

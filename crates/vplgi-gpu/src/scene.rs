@@ -78,6 +78,8 @@ pub struct GpuScene {
     pub lobes: wgpu::Buffer,
     /// Some material is glossy (`Surface::is_glossy`): `shade` evaluates lobes.
     pub glossy: bool,
+    /// Some material is a mirror or glass: the scene has caustics.
+    pub specular: bool,
     pub texture_infos: wgpu::Buffer,
     /// [`TEXEL_PAGES`] pages of texel words ([`texel_words`]).
     pub texels: [wgpu::Buffer; TEXEL_PAGES],
@@ -199,6 +201,10 @@ impl GpuScene {
             materials: storage(device, "materials", &materials),
             lobes: storage(device, "lobes", &lobes),
             glossy: scene.materials.iter().any(|m| m.surface.is_glossy()),
+            specular: scene
+                .materials
+                .iter()
+                .any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular()),
             texture_infos: storage(device, "texture infos", &infos),
             texels,
             eps: scene.ray_epsilon(),

@@ -179,6 +179,9 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("RSM_SPOT", vplgi_shared::rsm::RSM_SPOT),
         ("RSM_DIRECTIONAL", vplgi_shared::rsm::RSM_DIRECTIONAL),
         ("RSM_NEIGHBOURHOOD", vplgi_shared::rsm::NEIGHBOURHOOD as u32),
+        ("MAX_CAUSTIC_K", vplgi_types::params::MAX_CAUSTIC_K),
+        ("CAUSTIC_VISITS", vplgi_types::params::CAUSTIC_VISITS),
+        ("PHOTON_STACK", vplgi_shared::photon_tree::STACK as u32),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_shared::polygon::CUT_TOLERANCE),
@@ -192,6 +195,7 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("CRACK_ULPS", crate::bvh::CRACK_ULPS),
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
         ("FACING_COS", vplgi_types::params::FACING_COS),
+        ("CAUSTIC_NORMAL_COS", vplgi_types::params::CAUSTIC_NORMAL_COS),
         ("MIN_INTERPOLATION_ERROR", vplgi_types::interpolation::MIN_ERROR),
         ("ANY_ORIENTATION", vplgi_types::light_groups::ANY_ORIENTATION),
         ("PUNCTUAL_POINT", vplgi_types::device::PUNCTUAL_POINT),
@@ -648,11 +652,12 @@ mod tests {
         use crate::bvh::BvhTri;
         use crate::lights::{Emitter, LightGroup, Punctual};
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
-        use vplgi_types::{Endpoint, ShadingPoint, Vpl, VplLight};
+        use vplgi_types::{Endpoint, PhotonNode, ShadingPoint, Vpl, VplLight};
         let table = crate::layout_rows! {
             [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, specular, emitted, material, view }
             [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux, specular, incoming, material }
             [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
+            [PhotonNode] "caustics.wgsl" "PhotonNode" { lo, first, hi, count }
             [VplLight] "shade.wgsl" "VplLight" { position, normal, flux, incoming }
             [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
             [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission, bsdf }

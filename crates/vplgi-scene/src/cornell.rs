@@ -85,6 +85,111 @@ pub fn cornell_glossy(triangles: usize) -> Scene {
     })
 }
 
+/// The Cornell box a third full of water (index 1.33, a closed mesh) whose surface is a sum of
+/// two sine waves, over the white short box, lit by the ceiling light and by a point light above
+/// the water (Wang et al.'s "box + water", Table 1): the waves focus the point light into bright
+/// lines on the floor and the box, through the water. The surface's grid takes what `triangles`
+/// leaves (at least 8 x 8 quads; 17,000 triangles is the paper's).
+pub fn cornell_water(triangles: usize) -> Scene {
+    let mut s = cornell_room("cornell-water", |s, white| {
+        let water = add_surface(s, "water", Vec3::ONE, Surface::Dielectric { eta: 1.33 });
+        add_box(s, &SHORT_BOX, white);
+        // 2 n² triangles on top, 8 n around the sides, 4 n below.
+        let n = ((triangles.saturating_sub(20) as f64 / 2.0).sqrt() - 3.0).max(8.0) as u32;
+        add_water(s, water, n);
+    });
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::new(0.3, 1.6, 0.1),
+        intensity: Vec3::splat(1.5),
+    });
+    s
+}
+
+/// The water's half width (a little inside the walls, so no face coincides with one) and its
+/// mean depth, above the short box's top.
+const WATER_HALF: f32 = 0.98;
+const WATER_DEPTH: f32 = 0.66;
+
+/// The water's height at (x, z): two crossing sine waves, 2 % of the room's height.
+fn water_height(x: f32, z: f32) -> f32 {
+    use std::f32::consts::TAU;
+    WATER_DEPTH
+        + 0.025 * (TAU * (1.3 * x + 0.4 * z) + 0.7).sin()
+        + 0.015 * (TAU * (1.9 * z - 0.6 * x)).cos()
+}
+
+/// The water as a closed mesh with outward normals: its surface a grid of `n` x `n` quads with
+/// the waves' own normals, four sides following the surface's edge, and a bottom a hair above
+/// the floor.
+fn add_water(s: &mut Scene, material: u32, n: u32) {
+    use std::f32::consts::TAU;
+    let a = WATER_HALF;
+    let at = |i: u32| -a + 2.0 * a * i as f32 / n as f32;
+    let base = s.positions.len() as u32;
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (at(i), at(j));
+            let h = 0.025 * TAU * (TAU * (1.3 * x + 0.4 * z) + 0.7).cos();
+            let g = -0.015 * TAU * (TAU * (1.9 * z - 0.6 * x)).sin();
+            let (dx, dz) = (1.3 * h - 0.6 * g, 0.4 * h + 1.9 * g);
+            s.positions.push(Vec3::new(x, water_height(x, z), z));
+            s.normals.push(Vec3::new(-dx, 1.0, -dz).normalize());
+            s.uvs.push(Vec2::ZERO);
+        }
+    }
+    let v = |i: u32, j: u32| base + j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            // Counter-clockwise seen from above: the front faces up, out of the water.
+            s.indices.push([v(i, j), v(i, j + 1), v(i + 1, j + 1)]);
+            s.indices.push([v(i, j), v(i + 1, j + 1), v(i + 1, j)]);
+        }
+    }
+    s.material_ids.resize(s.indices.len(), material);
+    let bottom = LIFT;
+    let side = |s: &mut Scene, p: &dyn Fn(f32) -> (f32, f32), facing: Vec3| {
+        for i in 0..n {
+            let (x0, z0) = p(at(i));
+            let (x1, z1) = p(at(i + 1));
+            add_quad(
+                s,
+                [
+                    Vec3::new(x0, bottom, z0),
+                    Vec3::new(x1, bottom, z1),
+                    Vec3::new(x1, water_height(x1, z1), z1),
+                    Vec3::new(x0, water_height(x0, z0), z0),
+                ],
+                facing,
+                material,
+            );
+        }
+    };
+    side(s, &|t| (-a, t), -Vec3::X);
+    side(s, &|t| (a, t), Vec3::X);
+    side(s, &|t| (t, -a), -Vec3::Z);
+    side(s, &|t| (t, a), Vec3::Z);
+    // The bottom: a fan from its centre to every vertex of the sides' bottom edges, so that each
+    // edge borders exactly two triangles (a closed mesh, as glass needs).
+    let ring: Vec<Vec3> = (0..n)
+        .map(|i| Vec3::new(at(i), bottom, -a))
+        .chain((0..n).map(|i| Vec3::new(a, bottom, at(i))))
+        .chain((0..n).map(|i| Vec3::new(at(n - i), bottom, a)))
+        .chain((0..n).map(|i| Vec3::new(-a, bottom, at(n - i))))
+        .collect();
+    let centre = s.positions.len() as u32;
+    for p in std::iter::once(Vec3::new(0.0, bottom, 0.0)).chain(ring.iter().copied()) {
+        s.positions.push(p);
+        s.normals.push(-Vec3::Y);
+        s.uvs.push(Vec2::ZERO);
+    }
+    let m = ring.len() as u32;
+    for k in 0..m {
+        // The front faces down, out of the water.
+        s.indices.push([centre, centre + 1 + k, centre + 1 + (k + 1) % m]);
+    }
+    s.material_ids.resize(s.indices.len(), material);
+}
+
 /// The triangles of the back wall (the third quad of [`cornell_room`]).
 const BACK_WALL: std::ops::Range<usize> = 4..6;
 /// How far the glass objects float above the floor.

@@ -20,6 +20,8 @@
 //! * `cornell-mirror`, `cornell-glass` and `cornell-glossy`: the Cornell box with a mirror wall
 //!   and sphere, a closed glass cube and sphere, and rough metals (roughness 0.6, 0.3, 0.1); the
 //!   sphere takes the budget.
+//! * `cornell-water`: the Cornell box a third full of wavy water, with a point light above it
+//!   (Wang et al.'s "box + water"); the water's surface takes the budget.
 //!
 //! [`camera_walk`] adds a camera path to any of them (`--camera-walk`), for frame sequences.
 //!
@@ -30,7 +32,7 @@ use crate::{Camera, CameraPath, Material, PunctualLight, Scene, Track};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// The generators, by name: (name, default triangle budget, what it is).
-pub const GENERATORS: [(&str, usize, &str); 9] = [
+pub const GENERATORS: [(&str, usize, &str); 10] = [
     ("cornell-fine", 1_900_000, "the Cornell box tessellated to the paper's 1.9 M triangles"),
     (
         "conference",
@@ -56,6 +58,11 @@ pub const GENERATORS: [(&str, usize, &str); 9] = [
     ("cornell-mirror", 2_230, "the Cornell box with a mirror back wall and a mirror sphere"),
     ("cornell-glass", 2_242, "the Cornell box with a closed glass cube and a glass sphere"),
     ("cornell-glossy", 2_240, "the Cornell box with rough metals of roughness 0.6, 0.3 and 0.1"),
+    (
+        "cornell-water",
+        17_000,
+        "the Cornell box a third full of wavy water over the short box, with a point light above it",
+    ),
 ];
 
 /// The scene `name` with about `triangles` triangles (at least the furniture's own count).
@@ -73,6 +80,7 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
         "cornell-mirror" => crate::cornell::cornell_mirror(triangles),
         "cornell-glass" => crate::cornell::cornell_glass(triangles),
         "cornell-glossy" => crate::cornell::cornell_glossy(triangles),
+        "cornell-water" => crate::cornell::cornell_water(triangles),
         _ => {
             return Err(format!(
                 "unknown scene {name:?}; the generators are {}",
@@ -638,11 +646,48 @@ mod tests {
         );
     }
 
+    /// The water of `cornell-water` is a closed mesh whose faces all point out of it: every edge
+    /// borders two of its triangles, once in each direction, and its volume by the divergence
+    /// theorem (Σ over faces of p · n A / 3) is the room's floor times the waves' mean height.
+    #[test]
+    fn the_water_is_closed_and_faces_out() {
+        let s = generate("cornell-water", 17_000).unwrap();
+        let water = s.materials.iter().position(|m| m.name == "water").unwrap() as u32;
+        let tris: Vec<[Vec3; 3]> = s
+            .indices
+            .iter()
+            .zip(&s.material_ids)
+            .filter(|(_, m)| **m == water)
+            .map(|(t, _)| t.map(|i| s.positions[i as usize]))
+            .collect();
+        let key = |p: Vec3| p.to_array().map(f32::to_bits);
+        let mut edges = std::collections::HashMap::new();
+        for t in &tris {
+            for k in 0..3 {
+                *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_insert(0) += 1;
+            }
+        }
+        for ((a, b), n) in &edges {
+            assert_eq!((*n, edges.get(&(*b, *a))), (1, Some(&1)), "edge {a:?} -> {b:?}");
+        }
+        let volume: f64 = tris
+            .iter()
+            .map(|t| (t[0].as_dvec3().dot(t[1].as_dvec3().cross(t[2].as_dvec3()))) / 6.0)
+            .sum();
+        let footprint = (2.0 * 0.98f64).powi(2);
+        println!(
+            "water: {} triangles, volume {volume:.4}, footprint x depth {:.4}",
+            tris.len(),
+            footprint * 0.659
+        );
+        assert!((volume / (footprint * (0.66 - 0.001)) - 1.0).abs() < 0.02, "volume {volume}");
+    }
+
     /// The specular scenes survive their own binary glTF: the loader reads back the surfaces
     /// the writer wrote (α through roughness = √α, within rounding).
     #[test]
     fn specular_scenes_read_back_from_gltf() {
-        for name in ["cornell-mirror", "cornell-glass", "cornell-glossy"] {
+        for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "cornell-water"] {
             let s = generate(name, 2_240).unwrap();
             let bytes = crate::gltf_write::glb(&s).unwrap();
             let back =

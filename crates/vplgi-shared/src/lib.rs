@@ -5,6 +5,7 @@
 //! * [`bsdf`]: surface scattering as Mitsuba 3 defines it (diffuse, mirror, GGX conductor,
 //!   glass, thin glass, and glTF's metallic blend): eval, sample and pdf.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
+//! * [`photon_tree`]: the balanced kd-tree over a photon map that `caustics` searches.
 //! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map, and Eq. 1 of Prutkin
 //!   et al.
@@ -16,6 +17,7 @@
 
 pub mod bsdf;
 pub mod disk;
+pub mod photon_tree;
 pub mod polygon;
 pub mod rsm;
 pub mod rsm_importance;

@@ -203,6 +203,21 @@ pub enum Lighting {
     Indirect,
 }
 
+/// Whether the light that reaches surfaces straight from mirrors and glass is in the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Caustics {
+    /// No: VPLs and shadow rays cannot carry it (a shadow ray stops at glass, and no VPL sits on
+    /// a mirror), so mirrors and glass cast shadows and throw no light.
+    #[default]
+    Off,
+    /// A caustic photon map (Jensen; Wang et al. 2009, section 3.4): light particles that pass a
+    /// mirror or glass leave a photon at the next surface, and every shading point (and bias
+    /// compensation point) adds the k nearest photons' density. Needs `--lighting all`.
+    Photons,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -333,6 +348,41 @@ pub struct FrameConfig {
     /// Files written before the option existed read as 6.
     #[serde(default = "default_specular_depth")]
     pub specular_depth: u32,
+    /// Whether caustic light is in the image. Files written before the option existed read as
+    /// off.
+    #[serde(default)]
+    pub caustics: Caustics,
+    /// With `Caustics::Photons`: caustic photons to store.
+    #[serde(default = "default_caustic_photons")]
+    pub caustic_photons: u32,
+    /// With `Caustics::Photons`: photons per density estimate.
+    #[serde(default = "default_caustic_k")]
+    pub caustic_k: u32,
+    /// With `Caustics::Photons`: the largest estimate radius, per scene bounding-box diagonal.
+    #[serde(default = "default_caustic_radius")]
+    pub caustic_radius: f32,
+    /// With `Caustics::Photons`: photons per leaf of the map's kd-tree at most.
+    #[serde(default = "default_photon_leaf")]
+    pub photon_leaf: u32,
+}
+
+/// Within Wang et al.'s caustic maps (24k to 277k photons, Table 1).
+fn default_caustic_photons() -> u32 {
+    100_000
+}
+
+/// Jensen's usual k; Wang et al. do not give theirs.
+fn default_caustic_k() -> u32 {
+    50
+}
+
+/// Wide enough that only sparse regions meet it, where it bounds the blur.
+fn default_caustic_radius() -> f32 {
+    0.05
+}
+
+fn default_photon_leaf() -> u32 {
+    crate::params::DEFAULT_PHOTON_LEAF
 }
 
 fn default_specular_depth() -> u32 {
@@ -398,6 +448,11 @@ impl FrameConfig {
             lighting: Lighting::All,
             temporal: Temporal::Off,
             specular_depth: default_specular_depth(),
+            caustics: Caustics::Off,
+            caustic_photons: default_caustic_photons(),
+            caustic_k: default_caustic_k(),
+            caustic_radius: default_caustic_radius(),
+            photon_leaf: default_photon_leaf(),
         }
     }
 
@@ -504,6 +559,36 @@ impl FrameConfig {
             count: self.vpls,
             bounces: self.bounces,
             specular_depth: self.specular_depth,
+            deposit: crate::Deposit::Vpls,
+        }
+    }
+
+    /// The parameters of `trace_vpls` for the caustic photon map: stored at the first
+    /// `bounces + 1` surfaces of each path, since a photon lights the surface it lies on
+    /// (a VPL lights the next one).
+    pub fn caustic_trace_params(&self) -> crate::TraceParams {
+        crate::TraceParams {
+            count: self.caustic_photons,
+            bounces: self.bounces + 1,
+            deposit: crate::Deposit::CausticPhotons,
+            ..self.trace_params()
+        }
+    }
+
+    /// Whether the frame adds caustic light.
+    pub fn has_caustics(&self) -> bool {
+        self.caustics == Caustics::Photons
+    }
+
+    /// The parameters of `caustics` in a scene of diagonal `extent`, at bias-compensation level
+    /// `level` (0: the camera's shading points): photons of paths that, with the level's
+    /// surfaces, are no longer than the frame's.
+    pub fn caustic_params(&self, extent: f32, level: u32) -> crate::CausticParams {
+        crate::CausticParams {
+            k: self.caustic_k,
+            max_radius: self.caustic_radius * extent,
+            max_bounce: (self.bounces + 1).saturating_sub(level),
+            spp: self.spp,
         }
     }
 
@@ -647,6 +732,37 @@ impl FrameConfig {
             }
             self.rsm_weights.validate()?;
         }
+        if self.caustics == Caustics::Photons {
+            if self.lighting != Lighting::All {
+                return Err("caustics photons adds light that VPLs do not carry, and --lighting indirect keeps only the VPLs' light: use one or the other".into());
+            }
+            let max_k = crate::params::MAX_CAUSTIC_K;
+            if !(1..=max_k).contains(&self.caustic_k) {
+                return Err(format!(
+                    "caustic-k must be between 1 and {max_k} (got {})",
+                    self.caustic_k
+                ));
+            }
+            if self.caustic_photons < self.caustic_k {
+                return Err(format!(
+                    "caustic-photons ({}) must be at least caustic-k ({}): an estimate takes the k nearest photons",
+                    self.caustic_photons, self.caustic_k
+                ));
+            }
+            if !(self.caustic_radius > 0.0 && self.caustic_radius.is_finite()) {
+                return Err(format!(
+                    "caustic-radius must be a finite number > 0 (got {})",
+                    self.caustic_radius
+                ));
+            }
+            if !(1..=crate::params::MAX_PHOTON_LEAF).contains(&self.photon_leaf) {
+                return Err(format!(
+                    "photon-leaf must be between 1 and {} (got {})",
+                    crate::params::MAX_PHOTON_LEAF,
+                    self.photon_leaf
+                ));
+            }
+        }
         if self.light_shape.is_area() && self.cluster.clusters_vpls() && self.bias_compensation {
             return Err(
                 "bias compensation puts back what the clamp takes from point lights, and disk and polygon lights have no clamp: use one or the other".into()
@@ -751,6 +867,11 @@ mod tests {
             "lighting",
             "temporal",
             "specular_depth",
+            "caustics",
+            "caustic_photons",
+            "caustic_k",
+            "caustic_radius",
+            "photon_leaf",
         ];
         for key in later {
             assert!(json.as_object_mut().unwrap().remove(key).is_some(), "no field {key}");
@@ -760,6 +881,38 @@ mod tests {
         assert_eq!(old, FrameConfig { rsm_seeding: RsmSeeding::Halton, ..FrameConfig::default() });
         assert_eq!((old.rsm_size, old.alpha, old.gather_rays), (128, 0.3, 16));
         assert_eq!(old.specular_depth, 6);
+        assert_eq!(
+            (old.caustics, old.caustic_photons, old.caustic_k, old.caustic_radius, old.photon_leaf),
+            (Caustics::Off, 100_000, 50, 0.05, 8)
+        );
+    }
+
+    /// The caustic map's options are checked only when caustics are on, and each bad value is
+    /// named.
+    #[test]
+    fn caustic_options_are_checked_and_named() {
+        let with = |f: fn(&mut FrameConfig)| {
+            let mut c = FrameConfig { caustics: Caustics::Photons, ..FrameConfig::default() };
+            f(&mut c);
+            c.validate()
+        };
+        assert_eq!(with(|_| {}), Ok(()));
+        assert!(with(|c| c.caustic_k = 0).unwrap_err().contains("caustic-k"));
+        assert!(with(|c| c.caustic_k = 129).unwrap_err().contains("caustic-k"));
+        assert!(with(|c| c.caustic_photons = 49).unwrap_err().contains("caustic-photons"));
+        assert!(with(|c| c.caustic_radius = 0.0).unwrap_err().contains("caustic-radius"));
+        assert!(with(|c| c.caustic_radius = f32::NAN).unwrap_err().contains("caustic-radius"));
+        assert!(with(|c| c.photon_leaf = 0).unwrap_err().contains("photon-leaf"));
+        assert!(with(|c| c.lighting = Lighting::Indirect).unwrap_err().contains("--lighting"));
+        let off = FrameConfig { caustic_k: 0, caustic_photons: 0, ..FrameConfig::default() };
+        assert_eq!(off.validate(), Ok(()));
+        // A photon lights the surface it lies on: one surface more than the VPLs, and one less
+        // at each bias-compensation level.
+        let c = FrameConfig { bounces: 3, ..FrameConfig::default() };
+        assert_eq!(c.caustic_trace_params().bounces, 4);
+        assert_eq!(c.caustic_params(2.0, 0).max_bounce, 4);
+        assert_eq!(c.caustic_params(2.0, 3).max_bounce, 1);
+        assert_eq!(c.caustic_params(2.0, 0).max_radius, 0.1);
     }
 
     #[test]

@@ -30,9 +30,12 @@ pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
 pub use config::{
-    ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding, Seeding,
-    ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
+    Caustics, ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding,
+    Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
-pub use params::{BiasParams, CameraParams, RsmParams, SeedParams, ShadeParams, TraceParams};
-pub use pod::{BsdfRecord, Endpoint, LightOutline, ShadingPoint, Vpl, VplLight, MISS};
+pub use params::{
+    BiasParams, CameraParams, CausticParams, Deposit, RsmParams, SeedParams, ShadeParams,
+    TraceParams,
+};
+pub use pod::{BsdfRecord, Endpoint, LightOutline, PhotonNode, ShadingPoint, Vpl, VplLight, MISS};
 pub use rng::{Rng, Stream};

@@ -13,14 +13,75 @@ pub struct TraceParams {
     /// Mirrors and glass a particle passes between two of those before the surface it meets
     /// is taken whatever it is (0: every surface holds a VPL).
     pub specular_depth: u32,
+    /// What a particle leaves at the surfaces it hits.
+    pub deposit: Deposit,
+}
+
+/// What `trace_vpls` leaves at a non-specular surface a particle hits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Deposit {
+    /// A VPL at every one: the light leaving it (flux times albedo).
+    #[default]
+    Vpls,
+    /// A caustic photon at those the particle reached straight from a mirror or glass: the
+    /// light arriving (flux before the albedo), which `caustics` estimates the density of. The
+    /// same paths as `Vpls` with the same seed, which is why they are one stage.
+    CausticPhotons,
 }
 
 impl TraceParams {
     /// `count` VPLs over `bounces` bounces, chains to the default depth.
     pub fn new(seed: u32, count: u32, bounces: u32) -> Self {
-        TraceParams { seed, count, bounces, specular_depth: DEFAULT_SPECULAR_DEPTH }
+        TraceParams {
+            seed,
+            count,
+            bounces,
+            specular_depth: DEFAULT_SPECULAR_DEPTH,
+            deposit: Deposit::Vpls,
+        }
+    }
+
+    /// `count` caustic photons at the first `bounces` non-specular surfaces of each path.
+    pub fn caustic_photons(seed: u32, count: u32, bounces: u32) -> Self {
+        TraceParams { deposit: Deposit::CausticPhotons, ..Self::new(seed, count, bounces) }
     }
 }
+
+/// `caustics`: the caustic light at shading points, by k-nearest-neighbour density estimation
+/// in the caustic photon map (Jensen's estimator, as Wang et al. use it for caustics).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CausticParams {
+    /// Photons per estimate: the radius is the k-th nearest's distance.
+    pub k: u32,
+    /// The largest radius, in scene units: where fewer than k photons lie within it, it is the
+    /// radius.
+    pub max_radius: f32,
+    /// Photons deposited at more than this many surfaces are not counted (a bias-compensation
+    /// level's points already have surfaces of their own on their path).
+    pub max_bounce: u32,
+    /// Camera samples per pixel: the stage returns pixel means.
+    pub spp: u32,
+}
+
+/// Largest `k` of [`CausticParams`]: the GPU keeps the k nearest in a fixed array.
+pub const MAX_CAUSTIC_K: u32 = 128;
+
+/// Photons per kd-tree leaf unless told otherwise (`--photon-leaf`).
+pub const DEFAULT_PHOTON_LEAF: u32 = 8;
+
+/// Largest leaf: a leaf's photons are tested one by one.
+pub const MAX_PHOTON_LEAF: u32 = 256;
+
+/// Least cosine between a photon's surface normal and the shading point's for the photon to
+/// count: photons on a wall around a corner, or on the other side of a thin wall, lie near in
+/// space but light another surface.
+pub const CAUSTIC_NORMAL_COS: f32 = 0.5;
+
+/// Node visits and photon tests one estimate may make, the same on both backends: an estimate
+/// that would need more keeps what it found by then and is counted. Far above what a query in a
+/// balanced tree needs, and far enough below lavapipe's 65,535 loop iterations per invocation
+/// for the heap's own loops.
+pub const CAUSTIC_VISITS: u32 = 12_000;
 
 /// `rsm_vpls`: the reflective shadow maps of every light for a budget of about `size²` texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

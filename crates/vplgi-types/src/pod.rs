@@ -17,6 +17,9 @@ pub const MISS: u32 = u32::MAX;
 /// on a diffuse surface its radiant intensity is `flux * cos(theta) / pi` around `normal`; on a
 /// glossy one it is `flux` times the BSDF of a white surface of its kind, lit from `incoming`, times
 /// cos θ (`vplgi_shared::bsdf::Surface::lobe`).
+///
+/// A caustic photon (`Deposit::CausticPhotons`) is the same record with `flux` the power that
+/// arrived, before the surface's colour: `caustics` applies the receiver's BSDF itself.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Vpl {
@@ -73,6 +76,19 @@ impl ShadingPoint {
     pub fn is_miss(&self) -> bool {
         self.triangle == MISS
     }
+}
+
+/// A node of the balanced kd-tree over a photon map (`vplgi_shared::photon_tree`): the box of
+/// its photons, which are `count` consecutive photons of the map from `first`. Node i's children
+/// are 2i + 1 and 2i + 2; the nodes whose children would lie past the array are the leaves. The
+/// same bytes as `PhotonNode` in `types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PhotonNode {
+    pub lo: [f32; 3],
+    pub first: u32,
+    pub hi: [f32; 3],
+    pub count: u32,
 }
 
 /// A surface point: one end of a shadow ray (`visibility`'s rows and columns) and a point to

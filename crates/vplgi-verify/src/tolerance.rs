@@ -192,6 +192,15 @@ pub const FUZZY_WEIGHTS_ABS: f64 = 1e-5;
 pub const VISIBILITY_SAME_BITS: f64 = 0.999;
 /// Shading and the final image on the same inputs: relMSE(GPU, CPU) at most this.
 pub const SHADE_REL_MSE: f64 = 1e-4;
+/// Caustic estimates (`caustics`) from the same photon map at the same shading points: each
+/// channel within this, relative to the estimate's largest channel, for all but the estimates
+/// whose k nearest differ ([`CAUSTICS_DIFFERING_SETS`]). The same walk and heap on both sides;
+/// only a fused multiply-add in a distance or the sum separates them.
+pub const CAUSTICS_REL: f64 = 1e-5;
+/// Caustic estimates whose k nearest photons differ: a rate of at most this. Two photons at
+/// distances a rounding apart swap places across the k-th; when that moves one photon in or out
+/// of the sum the estimate moves by a photon's share, about 1 / k.
+pub const CAUSTICS_DIFFERING_SETS: f64 = 1e-3;
 /// The lights of VPL clusters made from the same clustering (flux summed in VPL order; a disk's
 /// R² from the members' moments, `vplgi_shared::disk`): within this, relative. Sums in the same
 /// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice. A polygon's

@@ -232,6 +232,16 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
          these is set aside too where the CPU, its particle's emission direction turned by 1e-5 rad or less, makes the GPU's VPLs (rounding the tests cannot see)"
             .into(),
     );
+    // The caustic photons are the same paths' other deposit: judged by the same rows.
+    if twins.scene.materials.iter().any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular()) {
+        let params = TraceParams { count: cfg.caustic_photons.min(crate::caustics::VERIFY_PHOTONS), ..cfg.caustic_trace_params() };
+        let (checks, _) = compare_paths(twins, &params)?;
+        r.checks.extend(checks.into_iter().map(|c| {
+            let case = format!("caustic photons; {}", c.case);
+            c.with_case(case)
+        }));
+        r.notes.push("the caustic photons (the same particles, a photon where a path leaves a mirror or glass) are matched by light path the same way".into());
+    }
     Ok(r)
 }
 

@@ -342,7 +342,7 @@ impl<'a> Loader<'a> {
         if surface.with_colour(Vec3::ONE).is_specular() {
             self.warn(format!(
                 "material '{name}' is {}: camera rays and light particles go on from it, reflected or refracted, but light that reaches a diffuse surface \
-                 through it (caustics, and direct light through glass) is missing until photon maps exist",
+                 through it (caustics, and direct light through glass) is in the image only with --caustics photons",
                 surface.describe()
             ));
         }
