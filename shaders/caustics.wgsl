@@ -38,6 +38,15 @@ fn heap_less(ad: f32, ai: u32, bd: f32, bi: u32) -> bool {
     return ad < bd || (ad == bd && ai < bi);
 }
 
+fn heap_swap(a: u32, b: u32) {
+    let d = heap_d2[a];
+    let i = heap_i[a];
+    heap_d2[a] = heap_d2[b];
+    heap_i[a] = heap_i[b];
+    heap_d2[b] = d;
+    heap_i[b] = i;
+}
+
 // caustics::offer: the max-heap of the k smallest (distance², index), `len` entries so far.
 fn offer(len: u32, k: u32, d2: f32, j: u32) -> u32 {
     if (len < k) {
@@ -49,12 +58,7 @@ fn offer(len: u32, k: u32, d2: f32, j: u32) -> u32 {
             if (!heap_less(heap_d2[parent], heap_i[parent], heap_d2[i], heap_i[i])) {
                 break;
             }
-            let td = heap_d2[parent];
-            let ti = heap_i[parent];
-            heap_d2[parent] = heap_d2[i];
-            heap_i[parent] = heap_i[i];
-            heap_d2[i] = td;
-            heap_i[i] = ti;
+            heap_swap(parent, i);
             i = parent;
         }
         return len + 1u;
@@ -78,12 +82,7 @@ fn offer(len: u32, k: u32, d2: f32, j: u32) -> u32 {
         if (largest == i) {
             break;
         }
-        let td = heap_d2[i];
-        let ti = heap_i[i];
-        heap_d2[i] = heap_d2[largest];
-        heap_i[i] = heap_i[largest];
-        heap_d2[largest] = td;
-        heap_i[largest] = ti;
+        heap_swap(i, largest);
         i = largest;
     }
     return len;

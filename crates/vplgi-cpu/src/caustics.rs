@@ -70,7 +70,7 @@ pub struct Nearest {
 pub fn nearest(map: &PhotonMap, p: Vec3, n: Vec3, k: u32, max_r2: f32) -> Nearest {
     let k = k as usize;
     let mut out = Nearest { heap: Vec::with_capacity(k), truncated: false };
-    if map.photons.is_empty() {
+    if map.photons.is_empty() || k == 0 {
         return out;
     }
     let len = map.nodes.len();
@@ -166,7 +166,10 @@ pub fn estimate(map: &PhotonMap, materials: &[Material], sp: &ShadingPoint, para
     let (p, n) = (Vec3::from(sp.position), Vec3::from(sp.normal));
     let max_r2 = params.max_radius * params.max_radius;
     let found = nearest(map, p, n, params.k, max_r2);
-    let r2 = if found.heap.len() == params.k as usize { found.heap[0].0 } else { max_r2 };
+    let r2 = match found.heap.first() {
+        Some(&(kth, _)) if found.heap.len() == params.k as usize => kth,
+        _ => max_r2,
+    };
     let at = receiver(materials, sp);
     let mut sum = Vec3::ZERO;
     for &(d2, j) in &found.heap {
