@@ -156,7 +156,7 @@ impl PointJudge<'_> {
         let nudged = || {
             !pair.same
                 && c.specular.max(g.specular) > 0
-                && self.nudge.is_some_and(|n| n.reaches(i, g))
+                && self.nudge.as_ref().is_some_and(|n| n.reaches(i, g))
         };
         if c.is_miss() != g.is_miss() {
             return if nudged() { ItemKind::Tie } else { ItemKind::Miss };
@@ -165,8 +165,10 @@ impl PointJudge<'_> {
             return if pair.tie || nudged() { ItemKind::Tie } else { ItemKind::Other };
         }
         let direct = c.specular == 0 && g.specular == 0 && !c.is_miss();
-        let emission_tie =
-            || !direct && self.nudge.is_some_and(|n| n.camera.spp == 1 && n.sees_emission(i, g));
+        let emission_tie = || {
+            !direct
+                && self.nudge.as_ref().is_some_and(|n| n.camera.spp == 1 && n.sees_emission(i, g))
+        };
         if !pair.emission_agrees && emission_tie() {
             ItemKind::Tie
         } else if !pair.emission_agrees
