@@ -31,7 +31,8 @@ enum SceneCommand {
     /// and glass are seen through and pass light on, rough metals reflect glossily),
     /// cornell-water (the Cornell box a third full of wavy water, index 1.33, lit by the ceiling
     /// and by a point light whose caustics the waves throw on the floor: render it with
-    /// --caustics photons, ~17 k).
+    /// --caustics photons, ~17 k), cornell-mirrors (the Cornell box with a mirror back and right
+    /// wall, a finely tessellated white sphere and a point light, ~84 k).
     Generate(GenerateArgs),
     /// Write a scene for another renderer, to cross-check vplgi's references against it:
     /// `--format mitsuba` writes DIR/scene.xml (Mitsuba 3, `path` integrator) with one PLY mesh per

@@ -105,6 +105,30 @@ pub fn cornell_water(triangles: usize) -> Scene {
     s
 }
 
+/// The Cornell box with two mirrors, the back wall and the right wall (a mirror corner that
+/// shows the room over again), the tall box in the right wall's green, a finely tessellated white sphere where the short
+/// box stood taking what `triangles` leaves, and a point light besides the ceiling light (Wang
+/// et al.'s elephant between two mirrors, ~84,000 triangles): the mirrors throw the point
+/// light's caustics on the floor, the sphere and the red wall.
+pub fn cornell_mirrors(triangles: usize) -> Scene {
+    let mut s = cornell_room("cornell-mirrors", |s, white| {
+        let mirror = add_surface(s, "mirror", Vec3::splat(0.9), Surface::Mirror);
+        s.material_ids[BACK_WALL].fill(mirror);
+        s.material_ids[RIGHT_WALL].fill(mirror);
+        // The green of the right wall goes to the tall box, so the mirrors still show a colour.
+        let green =
+            s.materials.iter().position(|m| m.name == "green").expect("the room's green") as u32;
+        add_box(s, &TALL_BOX, green);
+        let rings = sphere_rings(triangles.saturating_sub(22));
+        add_sphere(s, SHORT_BOX.center + Vec3::new(0.0, 0.32, 0.0), 0.32, white, rings);
+    });
+    s.lights.push(PunctualLight::Point {
+        position: Vec3::new(-0.3, 1.5, 0.5),
+        intensity: Vec3::splat(1.5),
+    });
+    s
+}
+
 /// The water's half width (a little inside the walls, so no face coincides with one) and its
 /// mean depth, above the short box's top.
 const WATER_HALF: f32 = 0.98;
@@ -192,6 +216,8 @@ fn add_water(s: &mut Scene, material: u32, n: u32) {
 
 /// The triangles of the back wall (the third quad of [`cornell_room`]).
 const BACK_WALL: std::ops::Range<usize> = 4..6;
+/// The triangles of the right (green) wall, the fifth quad.
+const RIGHT_WALL: std::ops::Range<usize> = 8..10;
 /// How far the glass objects float above the floor.
 const LIFT: f32 = 1e-3;
 /// A sphere in front of the tall box, clear of both boxes.

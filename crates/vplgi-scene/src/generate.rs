@@ -22,6 +22,8 @@
 //!   sphere takes the budget.
 //! * `cornell-water`: the Cornell box a third full of wavy water, with a point light above it
 //!   (Wang et al.'s "box + water"); the water's surface takes the budget.
+//! * `cornell-mirrors`: the Cornell box with a mirror back and right wall, a fine white sphere
+//!   and a point light (Wang et al.'s elephant between two mirrors); the sphere takes the budget.
 //!
 //! [`camera_walk`] adds a camera path to any of them (`--camera-walk`), for frame sequences.
 //!
@@ -32,7 +34,7 @@ use crate::{Camera, CameraPath, Material, PunctualLight, Scene, Track};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// The generators, by name: (name, default triangle budget, what it is).
-pub const GENERATORS: [(&str, usize, &str); 10] = [
+pub const GENERATORS: [(&str, usize, &str); 11] = [
     ("cornell-fine", 1_900_000, "the Cornell box tessellated to the paper's 1.9 M triangles"),
     (
         "conference",
@@ -59,6 +61,11 @@ pub const GENERATORS: [(&str, usize, &str); 10] = [
     ("cornell-glass", 2_242, "the Cornell box with a closed glass cube and a glass sphere"),
     ("cornell-glossy", 2_240, "the Cornell box with rough metals of roughness 0.6, 0.3 and 0.1"),
     (
+        "cornell-mirrors",
+        84_000,
+        "the Cornell box with a mirror back and right wall, a fine white sphere and a point light",
+    ),
+    (
         "cornell-water",
         17_000,
         "the Cornell box a third full of wavy water over the short box, with a point light above it",
@@ -81,6 +88,7 @@ pub fn generate(name: &str, triangles: usize) -> Result<Scene, String> {
         "cornell-glass" => crate::cornell::cornell_glass(triangles),
         "cornell-glossy" => crate::cornell::cornell_glossy(triangles),
         "cornell-water" => crate::cornell::cornell_water(triangles),
+        "cornell-mirrors" => crate::cornell::cornell_mirrors(triangles),
         _ => {
             return Err(format!(
                 "unknown scene {name:?}; the generators are {}",
@@ -687,7 +695,13 @@ mod tests {
     /// the writer wrote (α through roughness = √α, within rounding).
     #[test]
     fn specular_scenes_read_back_from_gltf() {
-        for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "cornell-water"] {
+        for name in [
+            "cornell-mirror",
+            "cornell-glass",
+            "cornell-glossy",
+            "cornell-water",
+            "cornell-mirrors",
+        ] {
             let s = generate(name, 2_240).unwrap();
             let bytes = crate::gltf_write::glb(&s).unwrap();
             let back =
