@@ -67,7 +67,7 @@ impl Storage for CpuScene<'_> {
     }
 
     fn has_specular(&self) -> bool {
-        self.scene.materials.iter().any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular())
+        self.scene.has_specular()
     }
 
     fn compact_hits(

@@ -51,9 +51,8 @@ impl Counted for PhotonMap {
 
 /// The map of `photons`, leaves of at most `leaf` photons.
 pub fn photon_map(photons: &[Vpl], leaf: u32) -> PhotonMap {
-    let positions: Vec<Vec3> = photons.iter().map(|p| Vec3::from(p.position)).collect();
-    let tree = photon_tree::build(&positions, leaf);
-    PhotonMap { photons: tree.order.iter().map(|&j| photons[j as usize]).collect(), nodes: tree.nodes }
+    let (photons, nodes) = photon_tree::ordered(photons, leaf);
+    PhotonMap { photons, nodes }
 }
 
 /// The k nearest photons of a query: a max-heap on (distance², map index), its top the k-th.

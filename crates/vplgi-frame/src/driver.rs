@@ -11,8 +11,8 @@ use vplgi_shared::rsm_importance;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
 use vplgi_types::{
-    Camera, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams, Temporal,
-    VplClustering, VplSource,
+    Camera, CausticParams, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams,
+    Temporal, VplClustering, VplSource,
 };
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
@@ -301,11 +301,8 @@ fn render_view<B: Backend>(
     if let Some(map) = &photon_map {
         let params = cfg.caustic_params(extent, 0);
         for chunk in &chunks {
-            let (added, cut) = timed(b, &mut t, Stage::Caustics, || {
-                b.caustics(map, &chunk.samples, chunk.first..chunk.first + chunk.count, &params)
-            })?;
-            stats.caustic_truncated += cut as u64;
-            add_pixels(&mut pixels, ((chunk.first - first_sample) / spp) as usize, &added);
+            stats.caustic_truncated +=
+                add_caustics(b, &mut t, map, chunk, &params, &mut pixels, first_sample)?;
         }
     }
 
@@ -329,7 +326,7 @@ fn render_view<B: Backend>(
             for chunk in chunks.iter_mut() {
                 let range = chunk.first..chunk.first + chunk.count;
                 let samples = timed(b, &mut t, Stage::BiasPoints, || {
-                    b.bias_points(&chunk.samples, range.clone(), &bias)
+                    b.bias_points(&chunk.samples, range, &bias)
                 })?;
                 chunk.samples = samples;
                 let hits = timed(b, &mut t, Stage::BiasPoints, || {
@@ -349,11 +346,8 @@ fn render_view<B: Backend>(
                 // longer than the frame's with the level's surfaces.
                 if let Some(map) = &photon_map {
                     let params = cfg.caustic_params(extent, level);
-                    let (added, cut) = timed(b, &mut t, Stage::Caustics, || {
-                        b.caustics(map, &chunk.samples, range.clone(), &params)
-                    })?;
-                    stats.caustic_truncated += cut as u64;
-                    add_pixels(&mut pixels, px0, &added);
+                    stats.caustic_truncated +=
+                        add_caustics(b, &mut t, map, chunk, &params, &mut pixels, first_sample)?;
                 }
             }
             if !any {
@@ -383,6 +377,24 @@ fn add_pixels(pixels: &mut [[f32; 3]], first: usize, added: &[[f32; 3]]) {
             p[c] += a[c];
         }
     }
+}
+
+/// Adds the caustic light of `chunk`'s points to their pixels (`pixels` starts at camera sample
+/// `first_sample`); how many estimates stopped at the visit budget.
+fn add_caustics<B: Backend>(
+    b: &B,
+    t: &mut StageTimings,
+    map: &B::PhotonMap,
+    chunk: &SampleChunk<B::Samples>,
+    params: &CausticParams,
+    pixels: &mut [[f32; 3]],
+    first_sample: u32,
+) -> Result<u64, B::Error> {
+    let (added, cut) = timed(b, t, Stage::Caustics, || {
+        b.caustics(map, &chunk.samples, chunk.first..chunk.first + chunk.count, params)
+    })?;
+    add_pixels(pixels, ((chunk.first - first_sample) / params.spp) as usize, &added);
+    Ok(cut as u64)
 }
 
 /// A chunk's hits shaded with each hit its own visibility row (unclustered shading points).

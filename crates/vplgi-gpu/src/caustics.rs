@@ -99,10 +99,8 @@ impl CausticsKernel {
 impl vplgi_frame::stages::Caustics for GpuBackend<'_> {
     fn photon_map(&self, photons: &GpuVpls, leaf: u32) -> Result<GpuPhotonMap, GpuError> {
         let host = read_back::<Vpl>(self.device, self.queue, &photons.buffer, photons.count as usize)?;
-        let positions: Vec<Vec3> = host.iter().map(|p| Vec3::from(p.position)).collect();
-        let tree = vplgi_shared::photon_tree::build(&positions, leaf);
-        let ordered: Vec<Vpl> = tree.order.iter().map(|&j| host[j as usize]).collect();
-        Ok(self.kernels.caustics.upload(self.device, &ordered, &tree.nodes))
+        let (ordered, nodes) = vplgi_shared::photon_tree::ordered(&host, leaf);
+        Ok(self.kernels.caustics.upload(self.device, &ordered, &nodes))
     }
 
     fn caustics(

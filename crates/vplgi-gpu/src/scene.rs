@@ -201,10 +201,7 @@ impl GpuScene {
             materials: storage(device, "materials", &materials),
             lobes: storage(device, "lobes", &lobes),
             glossy: scene.materials.iter().any(|m| m.surface.is_glossy()),
-            specular: scene
-                .materials
-                .iter()
-                .any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular()),
+            specular: scene.has_specular(),
             texture_infos: storage(device, "texture infos", &infos),
             texels,
             eps: scene.ray_epsilon(),

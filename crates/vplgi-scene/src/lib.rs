@@ -405,7 +405,7 @@ impl Scene {
 
     /// Whether some triangle is a mirror or glass: a camera ray may then follow a specular chain.
     pub fn has_specular(&self) -> bool {
-        self.materials.iter().any(|m| m.surface.with_colour(Vec3::ONE).is_specular())
+        self.materials.iter().any(|m| m.surface.is_specular())
     }
 
     /// Checks internal consistency (index ranges, array lengths, finite values). Loaders call

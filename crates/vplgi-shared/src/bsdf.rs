@@ -87,6 +87,11 @@ impl Surface {
         matches!(self, Surface::RoughConductor { .. } | Surface::Blend { .. })
     }
 
+    /// Whether every lobe is a delta (a mirror, glass), whatever the colour: [`Bsdf::is_specular`].
+    pub fn is_specular(&self) -> bool {
+        self.with_colour(Vec3::ONE).is_specular()
+    }
+
     /// The BSDF of a white surface of this kind from `wi` to `wo` (unit world directions about
     /// the shading normal `n`, either may be the one light arrives from: the BSDFs are
     /// reciprocal), over a white Lambertian surface's 1 / π. A diffuse surface's light times

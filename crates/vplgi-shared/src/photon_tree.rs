@@ -10,7 +10,7 @@
 //! permuted so that each node's are consecutive.
 
 use glam::Vec3;
-use vplgi_types::PhotonNode;
+use vplgi_types::{PhotonNode, Vpl};
 
 /// Entries of a walk's stack: a depth-first walk holds one pending sibling per level, and a
 /// balanced tree over at most 2³² photons has at most 32 levels.
@@ -73,6 +73,14 @@ pub fn build(positions: &[Vec3], leaf: u32) -> PhotonTree {
         };
     }
     PhotonTree { order, nodes }
+}
+
+/// A photon map: `photons` permuted into the order of their tree (leaves of at most `leaf`), and
+/// the tree's nodes, as both backends search it.
+pub fn ordered(photons: &[Vpl], leaf: u32) -> (Vec<Vpl>, Vec<PhotonNode>) {
+    let positions: Vec<Vec3> = photons.iter().map(|p| Vec3::from(p.position)).collect();
+    let tree = build(&positions, leaf);
+    (tree.order.iter().map(|&j| photons[j as usize]).collect(), tree.nodes)
 }
 
 /// The box of the photons `members`; an empty box (lo > hi) for none.

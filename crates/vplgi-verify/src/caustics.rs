@@ -84,8 +84,7 @@ pub const VERIFY_PHOTONS: u32 = 50_000;
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = &plan.config;
     let mut r = result(VerifyStage::Caustics);
-    let specular = twins.scene.materials.iter().any(|m| m.surface.with_colour(Vec3::ONE).is_specular());
-    if !specular {
+    if !twins.scene.has_specular() {
         r.checks.push(Disagreement::info("caustics", "caustic photons (the scene has no mirror or glass: nothing to compare)", 0.0));
         return Ok(r);
     }

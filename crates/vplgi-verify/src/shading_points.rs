@@ -165,12 +165,14 @@ impl PointPair {
 pub struct Nudge<'a> {
     pub cs: &'a CpuScene<'a>,
     pub camera: CameraParams,
-    pub oracle: std::sync::Arc<TieOracle>,
+    /// The scene in f64, made at the first chain that parts: most comparisons have none, and the
+    /// copy is the size of the scene.
+    oracle: std::sync::Arc<std::sync::OnceLock<TieOracle>>,
 }
 
 impl<'a> Nudge<'a> {
-    pub fn new(twins: &Twins<'a>, camera: CameraParams) -> Nudge<'a> {
-        Nudge { cs: twins.cpu, camera, oracle: std::sync::Arc::new(TieOracle::new(twins.scene)) }
+    pub fn new(cs: &'a CpuScene<'a>, camera: CameraParams) -> Nudge<'a> {
+        Nudge { cs, camera, oracle: Default::default() }
     }
 
     pub fn reaches(&self, sample: usize, gpu: &ShadingPoint) -> bool {
@@ -184,7 +186,7 @@ impl<'a> Nudge<'a> {
         let (dir, _) = sample_ray(&self.camera, sample as u32);
         let o = self.camera.camera.position.as_dvec3();
         let reach = 4.0 * self.cs.extent as f64 + o.length();
-        self.oracle.ray_is_tie(o, dir.as_dvec3(), 0.0, reach)
+        self.oracle.get_or_init(|| TieOracle::new(self.cs.scene)).ray_is_tie(o, dir.as_dvec3(), 0.0, reach)
     }
 
     /// Whether a nudged camera ray of pixel-centre sample `sample` ends on the GPU's triangle
@@ -396,13 +398,13 @@ pub fn judge<'a>(twins: &Twins<'a>, camera: Option<&CameraParams>) -> PointJudge
         extent: twins.cpu.extent,
         eye: twins.scene.camera.position,
         position_bound: SHADING_POINTS_POSITION_REL,
-        nudge: camera.map(|&camera| Nudge::new(twins, camera)),
+        nudge: camera.map(|&camera| Nudge::new(twins.cpu, camera)),
     }
 }
 
 /// Compares both backends' shading points of `camera`'s samples.
 fn compare_points(twins: &Twins, camera: &CameraParams, cpu: &[ShadingPoint], gpu: &[ShadingPoint]) -> Vec<Disagreement> {
-    let nudge = Nudge::new(twins, *camera);
+    let nudge = Nudge::new(twins.cpu, *camera);
     let d = hit_differences(cpu, gpu, twins.cpu.extent, twins.scene.camera.position, (camera.width, camera.spp), Some(&nudge));
     let case = format!("{}x{}, {} spp", camera.width, camera.height, camera.spp);
     let mut albedo = 0.0f32;

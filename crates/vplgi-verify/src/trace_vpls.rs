@@ -233,7 +233,7 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
             .into(),
     );
     // The caustic photons are the same paths' other deposit: judged by the same rows.
-    if twins.scene.materials.iter().any(|m| m.surface.with_colour(glam::Vec3::ONE).is_specular()) {
+    if twins.scene.has_specular() {
         let params = TraceParams { count: cfg.caustic_photons.min(crate::caustics::VERIFY_PHOTONS), ..cfg.caustic_trace_params() };
         let (checks, _) = compare_paths(twins, &params)?;
         r.checks.extend(checks.into_iter().map(|c| {

@@ -104,12 +104,13 @@ const SCENES: [&str; 10] = [
 /// its name starts with.
 const MATTE: &str = "-matte";
 
+/// The scenes with mirrors, glass or metal (their matte twins are named after them).
+const SPECULAR: [&str; 4] = ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"];
+
 /// Whether `name` is rendered --deep-bounces deep: a scene with mirrors, glass or metal, or the
 /// matte twin of one (the same depth, so that the two compare).
 fn deep(name: &str) -> bool {
-    ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"]
-        .iter()
-        .any(|s| name.starts_with(s))
+    SPECULAR.iter().any(|s| name.starts_with(s))
 }
 /// Whether `name` is also rendered clamped (`--bias-compensation false`): the diffuse scenes,
 /// and the glossy one, where the row shows what the default clamp takes from glossy receivers.
@@ -703,6 +704,15 @@ fn within(bands: &[Value], bound: f64) -> bool {
         })
 }
 
+/// "yes" if every channel of every band is within `bound` of 1, "no" if not, "–" without bands.
+fn verdict(bands: &[Value], bound: f64) -> &'static str {
+    match bands.is_empty() {
+        true => "–",
+        false if within(bands, bound) => "yes",
+        false => "no",
+    }
+}
+
 /// How far the twin of a specular scene may be from Mitsuba for the scene's difference to be
 /// put down to caustics alone.
 const TWIN_BOUND: f64 = 0.005;
@@ -711,10 +721,7 @@ const TWIN_BOUND: f64 = 0.005;
 /// twin's, and whether the twin agrees.
 fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
     let row = |name: &str| scenes.iter().find(|r| r["scene"] == name);
-    if ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"]
-        .iter()
-        .all(|n| row(n).is_none())
-    {
+    if SPECULAR.iter().all(|n| row(n).is_none()) {
         return Ok(());
     }
     writeln!(
@@ -753,20 +760,12 @@ fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
             format!("{mean:.4} +- {sigma:.4}")
         })
     };
-    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"] {
+    for name in SPECULAR {
         let Some(r) = row(name) else { continue };
         let twin = row(&format!("{name}{MATTE}")).map(bands).unwrap_or_default();
-        let verdict = match twin.is_empty() {
-            true => "–",
-            false if within(&twin, TWIN_BOUND) => "yes",
-            false => "no",
-        };
+        let twin_verdict = verdict(&twin, TWIN_BOUND);
         let caustics = variant_bands(r, "caustics");
-        let caustics_verdict = match caustics.is_empty() {
-            true => "–",
-            false if within(&caustics, CAUSTICS_BOUND) => "yes",
-            false => "no",
-        };
+        let caustics_verdict = verdict(&caustics, CAUSTICS_BOUND);
         for (i, b) in bands(r).iter().enumerate() {
             writeln!(
                 s,
@@ -775,13 +774,13 @@ fn specular_section(s: &mut String, scenes: &[Value]) -> Result<()> {
                 cell(Some(b)),
                 cell(caustics.get(i)),
                 cell(twin.get(i)),
-                if i == 0 { verdict } else { "" },
+                if i == 0 { twin_verdict } else { "" },
                 if i == 0 { caustics_verdict } else { "" }
             )?;
         }
     }
     writeln!(s, "\n| scene | vplgi | Mitsuba | darker / brighter | with caustic photons: darker / brighter | matte twin: darker / brighter |\n|---|---|---|---|---|---|")?;
-    for name in ["cornell-mirror", "cornell-glass", "cornell-glossy", "living-room"] {
+    for name in SPECULAR {
         if row(name).is_none() {
             continue;
         }

@@ -339,7 +339,7 @@ impl<'a> Loader<'a> {
         for w in warnings {
             self.warn(format!("material '{name}': {w}"));
         }
-        if surface.with_colour(Vec3::ONE).is_specular() {
+        if surface.is_specular() {
             self.warn(format!(
                 "material '{name}' is {}: camera rays and light particles go on from it, reflected or refracted, but light that reaches a diffuse surface \
                  through it (caustics, and direct light through glass) is in the image only with --caustics photons",
