@@ -7,8 +7,9 @@
 // Particle i uses only point i of the frame's scrambled Sobol' set (its emission) and the stream
 // (seed, STREAM_LIGHT_PATH, i) (its bounces), so batching does not matter. Mirrors and glass hold
 // no VPL: the particle reflects or refracts there, at most specular_depth times in a row. At
-// rough metal it leaves a VPL and goes on along its BSDF's sample. With params.caustic the same
-// paths leave caustic photons instead: only where the last vertex was a mirror or glass.
+// rough metal it leaves a VPL and goes on along its BSDF's sample. With params.deposit the same
+// paths leave photons instead (the power that arrived): caustic photons only where the last
+// vertex was a mirror or glass, the global map's at every surface.
 // Fluxes are divided by the particle count by `normalize` once it is known.
 
 struct Params {
@@ -20,7 +21,7 @@ struct Params {
     kept: u32,         // VPLs kept before this batch
     eps: f32,
     specular_depth: u32,  // mirrors and glass passed between two VPLs
-    caustic: u32,         // 1: caustic photons (Deposit::CausticPhotons) instead of VPLs
+    deposit: u32,         // 0: VPLs; 1: caustic photons (Deposit::CausticPhotons); 2: photons (Deposit::Photons)
 }
 
 @group(0) @binding(0) var<storage, read> params: Params;
@@ -132,9 +133,9 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             let after_specular = specular > 0u;
             specular = 0u;
             let flux = power * s.albedo;
-            if (params.caustic == 0u || after_specular) {
-                // A caustic photon keeps the power that arrived.
-                let deposit = select(flux, power, params.caustic == 1u);
+            if (params.deposit != 1u || after_specular) {
+                // A photon keeps the power that arrived.
+                let deposit = select(flux, power, params.deposit != 0u);
                 slots[local * params.bounces + n] = Vpl(s.position, index, s.ns, bounce, deposit, passed, -dir, s.material);
                 n = n + 1u;
             }

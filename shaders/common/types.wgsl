@@ -34,6 +34,26 @@ struct PhotonNode {
     count: u32,
 }
 
+// A node of the illumination cut (vplgi_types::CutNode): representative position and normal,
+// radius r_p, and an irradiance (Eq. 3's estimate, or the density estimate in the cut).
+struct CutNode {
+    position: vec3<f32>,
+    radius: f32,
+    normal: vec3<f32>,
+    pad0: u32,
+    irradiance: vec3<f32>,
+    pad1: u32,
+}
+
+// A photon-tree node as final gathering walks it (vplgi_types::CutBound): the box around the
+// kernels of the cut nodes below, and the cut slot or CUT_ABOVE.
+struct CutBound {
+    lo: vec3<f32>,
+    slot: u32,
+    hi: vec3<f32>,
+    pad: u32,
+}
+
 // A VPL, or a VPL cluster at its representative with its members' summed flux, as a light.
 struct VplLight {
     position: vec4<f32>,

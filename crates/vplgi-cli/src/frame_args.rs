@@ -10,7 +10,7 @@ use serde::Serialize;
 use vplgi_shared::rsm::RsmWeights;
 use vplgi_types::config::MAX_F;
 use vplgi_types::{
-    Caustics, ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding,
+    Caustics, ClusterMode, FrameConfig, FuzzyMode, Gi, LightShape, Lighting, Preset, RsmSeeding,
     Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 
@@ -90,15 +90,47 @@ pub struct FrameArgs {
     #[arg(long, value_name = "K")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub caustic_k: Option<u32>,
-    /// With --caustics photons: the largest estimate radius, as a fraction of the scene's
-    /// bounding-box diagonal (where fewer than K photons lie within it, it is the radius).
+    /// With --caustics photons (and --gi photon's density estimates): the largest estimate
+    /// radius, as a fraction of the scene's bounding-box diagonal (where fewer than K photons lie
+    /// within it, it is the radius).
     #[arg(long, value_name = "FRACTION")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub caustic_radius: Option<f32>,
-    /// With --caustics photons: photons per leaf of the map's balanced kd-tree at most.
+    /// With --caustics photons or --gi photon: photons per leaf of a map's balanced kd-tree at
+    /// most.
     #[arg(long, value_name = "N")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub photon_leaf: Option<u32>,
+    /// What carries the indirect light. vpl: virtual point lights and shadow rays (the core
+    /// paper). photon: Wang et al. 2009's pipeline: light particles leave a photon at every
+    /// non-specular surface (the global map); its kd-tree is cut where Eq. 3's estimate says
+    /// the light has detail (--cut-size nodes, then --cut-refinements passes against the
+    /// density estimate); at each shading-point cluster's representative --gather-rays cosine
+    /// rays collect the light of the cut nodes around where they land (Eq. 4 and 5); every
+    /// shading point interpolates. Needs --cluster sp or both with --shade interpolate; add
+    /// --caustics photons in scenes with mirrors or glass. --preset photon sets all of it up as
+    /// the paper does.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gi: Option<Gi>,
+    /// With --gi photon: photons the global map holds.
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub global_photons: Option<u32>,
+    /// With --gi photon: the illumination cut's target size in tree nodes; E_min is the mean
+    /// estimate at the tree level of that many nodes (Wang et al. use 4096 and 8192).
+    #[arg(long, value_name = "NODES")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut_size: Option<u32>,
+    /// With --gi photon: refinement passes of the cut (at most 8); each splits the nodes whose
+    /// density estimate and Eq. 3 estimate differ by more than 1.2x the latter.
+    #[arg(long, value_name = "N")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut_refinements: Option<u32>,
+    /// With --gi photon: photons per density estimate at a cut node (2 to 128).
+    #[arg(long, value_name = "K")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub photon_k: Option<u32>,
     /// Seed of every random decision; the same seed gives a bit-identical image.
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -154,7 +186,9 @@ pub struct FrameArgs {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shade: Option<ShadeMode>,
     /// With --shade interpolate: cosine-distributed gather rays per sample point that measure
-    /// R_j, the harmonic mean distance to what it sees (the interpolation weight's scale).
+    /// R_j, the harmonic mean distance to what it sees (the interpolation weight's scale). With
+    /// --gi photon the same rays are the final gather, which needs many more: Wang et al. use
+    /// 250 to 500, --preset photon 256.
     #[arg(long)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gather_rays: Option<u32>,

@@ -102,7 +102,12 @@ impl<'a> CpuScene<'a> {
 
     /// Closest surface along `origin + t dir`, t in (0, inf).
     pub fn trace(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
-        let hit = self.rt.intersect(origin, dir, 0.0, f32::INFINITY)?;
+        self.trace_beyond(origin, dir, 0.0)
+    }
+
+    /// Closest surface along `origin + t dir`, t in (`tnear`, inf).
+    pub fn trace_beyond(&self, origin: Vec3, dir: Vec3, tnear: f32) -> Option<SurfaceHit> {
+        let hit = self.rt.intersect(origin, dir, tnear, f32::INFINITY)?;
         let t = hit.triangle as usize;
         let [a, b, c] = self.scene.triangle(t);
         // Interpolating the corners is more accurate than origin + t * dir far from the origin.

@@ -53,6 +53,7 @@ impl Storage for CpuScene<'_> {
     type Scalars = Vec<f32>;
     type IrradianceSamples = IrradianceSamples;
     type PhotonMap = PhotonMap;
+    type Cut = vplgi_shared::illumination_cut::GatherCut;
 
     fn scene_extent(&self) -> f32 {
         self.extent

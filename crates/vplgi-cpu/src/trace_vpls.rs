@@ -15,7 +15,9 @@
 //!
 //! The same particles make the caustic photon map (`Deposit::CausticPhotons`): a photon where
 //! a particle reaches a non-specular surface straight from a mirror or glass, with the power
-//! that arrived. Those are the paths whose last step no VPL or shadow ray can follow.
+//! that arrived. Those are the paths whose last step no VPL or shadow ray can follow. And they
+//! make the global photon map of `--gi photon` (`Deposit::Photons`): a photon, with the power
+//! that arrived, at every non-specular surface.
 
 use crate::CpuScene;
 use glam::{Vec2, Vec3};
@@ -97,6 +99,7 @@ pub fn follow_particle(cs: &CpuScene, p: &TraceParams, index: u32, emission: &Em
         let deposit = match p.deposit {
             Deposit::Vpls => Some(flux),
             Deposit::CausticPhotons => after_specular.then_some(power),
+            Deposit::Photons => Some(power),
         };
         if let Some(flux) = deposit {
             vpls.push(Vpl {

@@ -107,6 +107,8 @@ pub trait Storage {
     type IrradianceSamples;
     /// A photon map ordered by its kd-tree, with the tree.
     type PhotonMap: Counted;
+    /// An illumination cut, ready for final gathering.
+    type Cut;
 
     /// The scene's bounding-box diagonal (what the geometry-term clamp is relative to).
     fn scene_extent(&self) -> f32;

@@ -6,6 +6,7 @@ use crate::frame::{Frame, FrameError, FrameStats, Progress, StageTimings};
 use crate::stages::{Backend, Stage};
 use std::ops::Range;
 use std::time::Instant;
+use vplgi_shared::illumination_cut;
 use vplgi_shared::rsm::RsmCentre;
 use vplgi_shared::rsm_importance;
 use vplgi_types::clustering::Centre;
@@ -122,7 +123,16 @@ fn render_view<B: Backend>(
         ..Default::default()
     };
 
+    // With `--gi photon` there are no VPLs: the global photon map's cut lights the gather.
+    let cut = if cfg.has_photons() {
+        Some(illumination_cut(b, cfg, extent, &mut t, &mut stats, progress)?)
+    } else {
+        None
+    };
     let (vpls, particles) = match cfg.vpl_source {
+        _ if cut.is_some() => {
+            b.trace_vpls(&vplgi_types::TraceParams { count: 0, ..cfg.trace_params() }, progress)?
+        }
         VplSource::Paths => {
             timed(b, &mut t, Stage::TraceVpls, || b.trace_vpls(&cfg.trace_params(), progress))?
         }
@@ -258,12 +268,25 @@ fn render_view<B: Backend>(
                 ShadeMode::Fuzzy => None,
                 ShadeMode::Interpolate => {
                     progress.start(Stage::Interpolate.name(), 1);
-                    let inv_radius = timed(b, &mut t, Stage::GatherRadius, || {
-                        b.gather_radius(&reps, &cfg.gather_params())
-                    })?;
-                    let samples = timed(b, &mut t, Stage::Interpolate, || {
-                        b.sample_irradiance(reps, inv_radius, &lights, &matrix, shade.g_max)
-                    })?;
+                    let samples = match &cut {
+                        // The gather rays give both 1 / R_j and the irradiance.
+                        Some(cut) => {
+                            let (samples, uncovered) =
+                                timed(b, &mut t, Stage::FinalGather, || {
+                                    b.final_gather(reps, cut, &cfg.gather_params())
+                                })?;
+                            stats.gather_uncovered = uncovered as u64;
+                            samples
+                        }
+                        None => {
+                            let inv_radius = timed(b, &mut t, Stage::GatherRadius, || {
+                                b.gather_radius(&reps, &cfg.gather_params())
+                            })?;
+                            timed(b, &mut t, Stage::Interpolate, || {
+                                b.sample_irradiance(reps, inv_radius, &lights, &matrix, shade.g_max)
+                            })?
+                        }
+                    };
                     progress.finish();
                     Some(samples)
                 }
@@ -367,6 +390,33 @@ fn render_view<B: Backend>(
         stats,
         centres,
         rsm_centres,
+    })
+}
+
+/// `--gi photon`: the global photon map, its tree and its illumination cut, ready for gathering.
+/// Tracing is timed as `trace_vpls`, the tree and the cut as `illumination_cut`.
+fn illumination_cut<B: Backend>(
+    b: &B,
+    cfg: &vplgi_types::FrameConfig,
+    extent: f32,
+    t: &mut StageTimings,
+    stats: &mut FrameStats,
+    progress: &dyn Progress,
+) -> Result<B::Cut, B::Error> {
+    let (photons, used) =
+        timed(b, t, Stage::TraceVpls, || b.trace_vpls(&cfg.global_trace_params(), progress))?;
+    (stats.global_photons, stats.global_particles) = (photons.count(), used);
+    let params = cfg.cut_params(extent);
+    timed(b, t, Stage::IlluminationCut, || {
+        let map = b.photon_map(&photons, cfg.photon_leaf)?;
+        let estimates = b.node_estimates(&map, &params)?;
+        let cut = illumination_cut::select(&estimates, &params, |points| {
+            b.densities(&map, points, &params)
+        })?;
+        let s = cut.stats;
+        (stats.cut_coarse, stats.cut_size, stats.cut_estimates, stats.cut_truncated) =
+            (s.coarse, s.size, s.estimates, s.truncated);
+        b.upload_cut(cut)
     })
 }
 

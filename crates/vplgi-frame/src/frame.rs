@@ -131,6 +131,25 @@ pub struct FrameStats {
     pub caustic_particles: u32,
     #[serde(default)]
     pub caustic_truncated: u64,
+    /// `--gi photon`: the global map's photons and the light particles traced for them.
+    #[serde(default)]
+    pub global_photons: u32,
+    #[serde(default)]
+    pub global_particles: u32,
+    /// `--gi photon`: the illumination cut's size before and after its refinements, the density
+    /// estimates it made and how many of those stopped at the visit budget.
+    #[serde(default)]
+    pub cut_coarse: u32,
+    #[serde(default)]
+    pub cut_size: u32,
+    #[serde(default)]
+    pub cut_estimates: u32,
+    #[serde(default)]
+    pub cut_truncated: u32,
+    /// `--gi photon`: gather hits on a non-specular surface that no cut node's kernel reached
+    /// (they add no light).
+    #[serde(default)]
+    pub gather_uncovered: u64,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.
@@ -187,7 +206,7 @@ mod tests {
         assert_eq!((m.get(Stage::TraceVpls), m.get(Stage::Shade), m.total()), (1.0, 10.0, 20.0));
         assert_eq!(StageTimings::median(&[]).total(), 0.0);
         assert_eq!(t(1.0, 2.0).iter().last(), Some((Stage::BiasPoints, 0.0)));
-        assert_eq!(t(1.0, 2.0).iter().nth(7), Some((Stage::Shade, 2.0)));
+        assert_eq!(t(1.0, 2.0).iter().nth(9), Some((Stage::Shade, 2.0)));
     }
 
     #[test]

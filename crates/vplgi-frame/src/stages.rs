@@ -16,11 +16,15 @@
 use crate::backend::{ClusterCounts, RsmStart, ShadeInput, Storage};
 use crate::frame::Progress;
 use std::ops::Range;
+use vplgi_shared::illumination_cut::{Densities, GatherCut};
 use vplgi_shared::rsm::{RsmCentre, RsmClusterParams};
 use vplgi_shared::seeding::SeedParams;
 use vplgi_types::clustering::{Centre, ClusterParams, ClusterStart, Metric};
 use vplgi_types::interpolation::GatherParams;
-use vplgi_types::{BiasParams, CameraParams, CausticParams, RsmParams, ShadeParams, TraceParams};
+use vplgi_types::{
+    BiasParams, CameraParams, CausticParams, CutNode, CutParams, Endpoint, RsmParams, ShadeParams,
+    TraceParams,
+};
 
 /// The stages in pipeline order: `name Trait [part PartTrait, ...],`, one row per line (the
 /// Makefile reads the names from these lines). Calls `$then!` with the rows.
@@ -32,6 +36,8 @@ macro_rules! stage_table {
             trace_vpls TraceVpls [],
             /// Stage 1 with `--vpl-source rsm`: VPLs from reflective shadow maps.
             rsm_vpls RsmVpls [],
+            /// `--gi photon`: the global photon map's illumination cut (Eq. 3 and the density estimates of its refinement).
+            illumination_cut IlluminationCut [],
             /// Stage 2: the camera rays' first hits.
             shading_points ShadingPoints [],
             /// Stage 3: Alg. 1 and 2, with its seeds (`--seeding adaptive`) and the RSM-space clustering of VPLs (`--vpl-cluster rsm`) with its importance seeds.
@@ -40,6 +46,8 @@ macro_rules! stage_table {
             visibility Visibility [],
             /// `--shade interpolate`: the sample points' gather rays.
             gather_radius GatherRadius [],
+            /// `--gi photon`: the sample points' gather rays, lit by the illumination cut (Eq. 4 and 5).
+            final_gather FinalGather [],
             /// `--shade interpolate`: the irradiance at the sample points (the interpolation itself is part of `shade`).
             interpolate Interpolate [],
             /// Stage 5: the pixels' radiance.
@@ -135,6 +143,31 @@ pub trait RsmVpls: Storage {
         params: &RsmParams,
         progress: &dyn Progress,
     ) -> Result<(Self::Vpls, u32), Self::Error>;
+}
+
+/// `--gi photon`: the illumination cut of the global photon map (Wang et al. 2009, section
+/// 3.3). The backend does the per-node arithmetic; `vplgi_shared::illumination_cut` chooses the
+/// cut from it.
+pub trait IlluminationCut: Storage {
+    /// Every node of `map`'s tree: its representative (the member nearest the flux-weighted
+    /// centroid), radius r_p, and Eq. 3's estimate Ẽ_p, in tree order.
+    fn node_estimates(
+        &self,
+        map: &Self::PhotonMap,
+        params: &CutParams,
+    ) -> Result<Vec<CutNode>, Self::Error>;
+
+    /// The density estimate of irradiance at each of `points` from the `params.k` nearest
+    /// photons of `map`, and whether its search stopped at the visit budget.
+    fn densities(
+        &self,
+        map: &Self::PhotonMap,
+        points: &[Endpoint],
+        params: &CutParams,
+    ) -> Result<Densities, Self::Error>;
+
+    /// The chosen cut where final gathering reads it.
+    fn upload_cut(&self, cut: GatherCut) -> Result<Self::Cut, Self::Error>;
 }
 
 /// Stage 2.
@@ -237,6 +270,19 @@ pub trait GatherRadius: Storage {
         points: &Self::Points,
         params: &GatherParams,
     ) -> Result<Self::Scalars, Self::Error>;
+}
+
+/// `--gi photon`: the final gather at the sample points.
+pub trait FinalGather: Storage {
+    /// The irradiance at each of the sample points `points` from `params.rays` gather rays lit
+    /// by the cut (Eq. 4 and 5), kept with the points and the same rays' 1 / R_j; and how many
+    /// gather hits no cut node's kernel reached.
+    fn final_gather(
+        &self,
+        points: Self::Points,
+        cut: &Self::Cut,
+        params: &GatherParams,
+    ) -> Result<(Self::IrradianceSamples, u32), Self::Error>;
 }
 
 /// `--shade interpolate`: the irradiance at the sample points.

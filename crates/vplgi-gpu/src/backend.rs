@@ -224,6 +224,7 @@ impl Storage for GpuBackend<'_> {
     type Scalars = wgpu::Buffer;
     type IrradianceSamples = GpuIrradianceSamples;
     type PhotonMap = crate::caustics::GpuPhotonMap;
+    type Cut = crate::illumination_cut::GpuCut;
 
     fn scene_extent(&self) -> f32 {
         self.extent

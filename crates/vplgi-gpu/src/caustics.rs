@@ -29,6 +29,8 @@ pub struct GpuPhotonMap {
     pub photons: wgpu::Buffer,
     pub nodes: wgpu::Buffer,
     pub count: u32,
+    /// Nodes of the tree.
+    pub nodes_count: u32,
 }
 
 impl vplgi_frame::Counted for GpuPhotonMap {
@@ -65,6 +67,7 @@ impl CausticsKernel {
             photons: storage(device, "photon map", photons),
             nodes: storage(device, "photon tree", nodes),
             count: photons.len() as u32,
+            nodes_count: nodes.len() as u32,
         }
     }
 

@@ -182,6 +182,8 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("MAX_CAUSTIC_K", vplgi_types::params::MAX_CAUSTIC_K),
         ("CAUSTIC_VISITS", vplgi_types::params::CAUSTIC_VISITS),
         ("PHOTON_STACK", vplgi_shared::photon_tree::STACK as u32),
+        ("GATHER_VISITS", vplgi_types::params::GATHER_VISITS),
+        ("CUT_ABOVE", vplgi_types::pod::CUT_ABOVE),
     ];
     let f = vec![
         ("POLYGON_CUT_TOLERANCE", vplgi_shared::polygon::CUT_TOLERANCE),
@@ -583,7 +585,7 @@ mod tests {
             .filter(|(_, _, inc)| inc.contains(&"common/scene.wgsl"))
             .map(|(n, _, _)| *n)
             .collect();
-        assert_eq!(with_scene.len(), 7, "the ray-tracing stages: {with_scene:?}");
+        assert_eq!(with_scene.len(), 8, "the ray-tracing stages: {with_scene:?}");
         for stage in with_scene {
             let module = naga::front::wgsl::parse_str(&compose(stage)).expect("parses");
             let mut seen: Vec<(u32, String)> = module
@@ -652,12 +654,14 @@ mod tests {
         use crate::bvh::BvhTri;
         use crate::lights::{Emitter, LightGroup, Punctual};
         use crate::scene::{GpuMaterial, SceneTri, TextureInfo};
-        use vplgi_types::{Endpoint, PhotonNode, ShadingPoint, Vpl, VplLight};
+        use vplgi_types::{CutBound, CutNode, Endpoint, PhotonNode, ShadingPoint, Vpl, VplLight};
         let table = crate::layout_rows! {
             [ShadingPoint] "shading_points.wgsl" "ShadingPoint" { position, pixel, normal, triangle, albedo, specular, emitted, material, view }
             [Vpl] "trace_vpls.wgsl" "Vpl" { position, path, normal, bounce, flux, specular, incoming, material }
             [Endpoint] "visibility.wgsl" "Endpoint" { position, normal }
             [PhotonNode] "caustics.wgsl" "PhotonNode" { lo, first, hi, count }
+            [CutNode] "final_gather.wgsl" "CutNode" { position, radius, normal, irradiance }
+            [CutBound] "final_gather.wgsl" "CutBound" { lo, slot, hi }
             [VplLight] "shade.wgsl" "VplLight" { position, normal, flux, incoming }
             [SceneTri] "shading_points.wgsl" "SceneTri" { ng, n0, n1, n2, uv01, uv2 }
             [GpuMaterial] "shading_points.wgsl" "Material" { base_color, emission, bsdf }

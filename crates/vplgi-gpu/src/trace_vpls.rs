@@ -25,8 +25,8 @@ pub(crate) struct Params {
     pub(crate) kept: u32,
     pub(crate) eps: f32,
     pub(crate) specular_depth: u32,
-    /// 1: caustic photons (`Deposit::CausticPhotons`).
-    pub(crate) caustic: u32,
+    /// 0: VPLs, 1: caustic photons (`Deposit::CausticPhotons`), 2: photons (`Deposit::Photons`).
+    pub(crate) deposit: u32,
 }
 
 /// VPLs on the device.
@@ -62,7 +62,11 @@ impl TraceVplsKernel {
     pub fn run(&self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &GpuScene, p: &TraceParams) -> Result<GpuVpls, GpuError> {
         let lights = &scene.lights;
         let TraceParams { seed, count, bounces, specular_depth, deposit } = *p;
-        let caustic = (deposit == Deposit::CausticPhotons) as u32;
+        let deposit = match deposit {
+            Deposit::Vpls => 0,
+            Deposit::CausticPhotons => 1,
+            Deposit::Photons => 2,
+        };
         let vpls = storage_zeroed::<Vpl>(device, "vpls", count.max(1) as usize);
         if count == 0 || bounces == 0 || lights.emitter_count + lights.punctual_count == 0 {
             return Ok(GpuVpls { buffer: vpls, count: 0, particles: 0 });
@@ -78,7 +82,7 @@ impl TraceVplsKernel {
         let (mut next, mut kept, mut recorded) = (0u32, 0u32, 0u32);
         while kept < count && next < budget {
             let n = batch.min(budget - next);
-            let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, specular_depth, caustic };
+            let params = Params { seed, bounces, first: next, count: n, wanted: count, kept, eps: scene.eps, specular_depth, deposit };
             let params_buf = validated(device, "trace_vpls", || {
                 let p = kernel_params(device, "trace params", &params);
                 let own = [(0, &p), (11, &slots), (12, &counts)];
@@ -111,7 +115,7 @@ impl TraceVplsKernel {
             }
         }
         let particles = if recorded != 0 { recorded } else { next };
-        let params = Params { seed, bounces, first: 0, count: particles, wanted: count, kept, eps: scene.eps, specular_depth, caustic };
+        let params = Params { seed, bounces, first: 0, count: particles, wanted: count, kept, eps: scene.eps, specular_depth, deposit };
         validated(device, "trace_vpls normalize", || {
             let p = kernel_params(device, "normalize params", &params);
             dispatch_bound(device, queue, &self.normalize, &[(0, &p), (14, &totals), (15, &vpls)], kept.div_ceil(64));
@@ -140,7 +144,7 @@ mod layout_tests {
     #[test]
     fn records_match_their_wgsl_layouts() {
         crate::shader::layout::check(crate::layout_rows! {
-            [super::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps, specular_depth, caustic }
+            [super::Params] "trace_vpls.wgsl" "Params" { seed, bounces, first, count, wanted, kept, eps, specular_depth, deposit }
         });
     }
 }

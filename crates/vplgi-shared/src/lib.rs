@@ -5,7 +5,10 @@
 //! * [`bsdf`]: surface scattering as Mitsuba 3 defines it (diffuse, mirror, GGX conductor,
 //!   glass, thin glass, and glTF's metallic blend): eval, sample and pdf.
 //! * [`disk`]: VPL clusters as disk-shaped area lights (Eq. 2 of Prutkin et al.).
-//! * [`photon_tree`]: the balanced kd-tree over a photon map that `caustics` searches.
+//! * [`illumination_cut`]: the choice of the global photon map's cut from the node estimates
+//!   (Wang et al. 2009), and the bounds final gathering walks.
+//! * [`photon_tree`]: the balanced kd-tree over a photon map that `caustics`,
+//!   `illumination_cut` and `final_gather` search.
 //! * [`polygon`]: VPL clusters as convex polygons around their members, lit exactly.
 //! * [`rsm`]: reflective shadow maps, the texel rays of each light's map, and Eq. 1 of Prutkin
 //!   et al.
@@ -17,6 +20,7 @@
 
 pub mod bsdf;
 pub mod disk;
+pub mod illumination_cut;
 pub mod photon_tree;
 pub mod polygon;
 pub mod rsm;

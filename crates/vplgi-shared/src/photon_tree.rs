@@ -1,6 +1,6 @@
 //! The balanced kd-tree over a photon map, built once on the host and read by both backends'
-//! `caustics` (as the BVH is built once and shared): the twins then differ only in their
-//! per-query arithmetic, never in the structure they search.
+//! `caustics`, `illumination_cut` and `final_gather` (as the BVH is built once and shared): the
+//! twins then differ only in their per-query arithmetic, never in the structure they search.
 //!
 //! Each node splits its photons at the median along the longest side of their box, ties broken
 //! by the photon's index, so the tree is a pure function of the positions. Every level halves

@@ -218,6 +218,21 @@ pub enum Caustics {
     Photons,
 }
 
+/// What carries the indirect light.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Gi {
+    /// Virtual point lights with shadow rays (the core paper).
+    #[default]
+    Vpl,
+    /// Wang et al. 2009: a global photon map, its illumination cut, and final gathering at the
+    /// shading-point clusters' representatives, interpolated to every shading point. Needs
+    /// clustered shading points and `--shade interpolate`; add `--caustics photons` for the
+    /// light mirrors and glass throw.
+    Photon,
+}
+
 /// Named frame configurations: the paper's three settings (section 4), its unclustered
 /// reference, and vplgi's default operating point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -237,6 +252,10 @@ pub enum Preset {
     /// `vplgi verify`'s default: the default method on a small frame (128x128, 2,000 VPLs,
     /// 250 VPL / 1,500 SP clusters), so every stage runs on both backends in seconds.
     Verify,
+    /// Wang et al. 2009's photon pipeline: `--gi photon` with 4,000 shading-point clusters
+    /// (adaptive seeds, Eq. 2, min-error representatives), 256 final-gather rays each, and the
+    /// caustic map.
+    Photon,
 }
 
 impl Preset {
@@ -248,6 +267,7 @@ impl Preset {
             Preset::High => FrameConfig::paper_high(),
             Preset::Default => FrameConfig::default(),
             Preset::Verify => FrameConfig::verify(),
+            Preset::Photon => FrameConfig::photon(),
         }
     }
 }
@@ -364,6 +384,36 @@ pub struct FrameConfig {
     /// With `Caustics::Photons`: photons per leaf of the map's kd-tree at most.
     #[serde(default = "default_photon_leaf")]
     pub photon_leaf: u32,
+    /// What carries the indirect light. Files written before the option existed read as VPLs.
+    #[serde(default)]
+    pub gi: Gi,
+    /// With `Gi::Photon`: photons of the global map.
+    #[serde(default = "default_global_photons")]
+    pub global_photons: u32,
+    /// With `Gi::Photon`: the illumination cut's target size, in tree nodes.
+    #[serde(default = "default_cut_size")]
+    pub cut_size: u32,
+    /// With `Gi::Photon`: the cut's refinement passes.
+    #[serde(default = "default_cut_refinements")]
+    pub cut_refinements: u32,
+    /// With `Gi::Photon`: photons per density estimate at a cut node.
+    #[serde(default = "default_caustic_k")]
+    pub photon_k: u32,
+}
+
+/// Within Wang et al.'s global maps (239k to 470k photons, Table 1).
+fn default_global_photons() -> u32 {
+    250_000
+}
+
+/// Wang et al.'s smaller cut (Table 1: 4k or 8k).
+fn default_cut_size() -> u32 {
+    4096
+}
+
+/// Within Wang et al.'s 3 to 5 passes.
+fn default_cut_refinements() -> u32 {
+    4
 }
 
 /// Within Wang et al.'s caustic maps (24k to 277k photons, Table 1).
@@ -453,6 +503,11 @@ impl FrameConfig {
             caustic_k: default_caustic_k(),
             caustic_radius: default_caustic_radius(),
             photon_leaf: default_photon_leaf(),
+            gi: Gi::Vpl,
+            global_photons: default_global_photons(),
+            cut_size: default_cut_size(),
+            cut_refinements: default_cut_refinements(),
+            photon_k: default_caustic_k(),
         }
     }
 
@@ -483,6 +538,26 @@ impl FrameConfig {
     /// seconds, large enough that each cluster has about ten members.
     pub fn verify() -> Self {
         FrameConfig { width: 128, height: 128, vpls: 2_000, ..Self::clustered(250, 1_500) }
+    }
+
+    /// Wang et al. 2009's pipeline as they run it: shading points clustered by their adaptive
+    /// seeding, Eq. 2 and min-error representatives into 4k clusters (Table 1: 1.6k to 5k),
+    /// a final gather of 256 rays at each (their 250 to 500) lit by the global map's cut, and
+    /// the caustic map.
+    pub fn photon() -> Self {
+        FrameConfig {
+            cluster: ClusterMode::Sp,
+            k_sp: 4_000,
+            seeding: Seeding::Adaptive,
+            metric: SpMetric::Ward,
+            representative: SpRepresentative::MinError,
+            shade: ShadeMode::Interpolate,
+            gather_rays: 256,
+            gi: Gi::Photon,
+            caustics: Caustics::Photons,
+            bias_compensation: false,
+            ..Self::reference()
+        }
     }
 
     /// The fuzziness actually used: `Hard` means one cluster whatever `f` says.
@@ -573,6 +648,34 @@ impl FrameConfig {
             deposit: crate::Deposit::CausticPhotons,
             ..self.trace_params()
         }
+    }
+
+    /// The parameters of `trace_vpls` for the global photon map (`Gi::Photon`): every
+    /// non-specular surface of the first `bounces` holds a photon with the power that arrived,
+    /// caustic ones included (Jensen's global map). A photon lights the surface it lies on and a
+    /// gather ray carries that light one bounce further, so paths are as long as with VPLs.
+    pub fn global_trace_params(&self) -> crate::TraceParams {
+        crate::TraceParams {
+            count: self.global_photons,
+            deposit: crate::Deposit::Photons,
+            ..self.trace_params()
+        }
+    }
+
+    /// The parameters of the illumination cut (`Gi::Photon`) in a scene of diagonal `extent`.
+    pub fn cut_params(&self, extent: f32) -> crate::CutParams {
+        crate::CutParams {
+            size: self.cut_size,
+            refinements: self.cut_refinements,
+            k: self.photon_k,
+            max_radius: self.caustic_radius * extent,
+            min_radius: crate::params::MIN_CUT_RADIUS_REL * extent,
+        }
+    }
+
+    /// Whether indirect light comes from photons.
+    pub fn has_photons(&self) -> bool {
+        self.gi == Gi::Photon
     }
 
     /// Whether the frame adds caustic light.
@@ -749,19 +852,57 @@ impl FrameConfig {
                     self.caustic_photons, self.caustic_k
                 ));
             }
-            if !(self.caustic_radius > 0.0 && self.caustic_radius.is_finite()) {
+        }
+        if self.gi == Gi::Photon {
+            if !self.cluster.clusters_sps() || self.shade != ShadeMode::Interpolate {
+                return Err("gi photon gathers at the shading-point clusters' representatives and interpolates between them: use --cluster sp (or both) with --shade interpolate, or --preset photon".into());
+            }
+            if self.vpl_source != VplSource::Paths {
+                return Err(
+                    "gi photon traces photons along light paths: use --vpl-source paths".into()
+                );
+            }
+            let max_k = crate::params::MAX_CAUSTIC_K;
+            // An estimate sums the k - 1 photons strictly inside the k-th: k = 1 sums none.
+            if !(2..=max_k).contains(&self.photon_k) {
                 return Err(format!(
-                    "caustic-radius must be a finite number > 0 (got {})",
-                    self.caustic_radius
+                    "photon-k must be between 2 and {max_k} (got {})",
+                    self.photon_k
                 ));
             }
-            if !(1..=crate::params::MAX_PHOTON_LEAF).contains(&self.photon_leaf) {
+            if self.global_photons < self.photon_k {
                 return Err(format!(
-                    "photon-leaf must be between 1 and {} (got {})",
-                    crate::params::MAX_PHOTON_LEAF,
-                    self.photon_leaf
+                    "global-photons ({}) must be at least photon-k ({}): an estimate takes the k nearest photons",
+                    self.global_photons, self.photon_k
                 ));
             }
+            if self.cut_size == 0 {
+                return Err("cut-size must be at least 1".into());
+            }
+            if self.cut_refinements > crate::params::MAX_CUT_REFINEMENTS {
+                return Err(format!(
+                    "cut-refinements must be at most {} (got {})",
+                    crate::params::MAX_CUT_REFINEMENTS,
+                    self.cut_refinements
+                ));
+            }
+        }
+        if (self.caustics == Caustics::Photons || self.gi == Gi::Photon)
+            && !(self.caustic_radius > 0.0 && self.caustic_radius.is_finite())
+        {
+            return Err(format!(
+                "caustic-radius must be a finite number > 0 (got {})",
+                self.caustic_radius
+            ));
+        }
+        if (self.caustics == Caustics::Photons || self.gi == Gi::Photon)
+            && !(1..=crate::params::MAX_PHOTON_LEAF).contains(&self.photon_leaf)
+        {
+            return Err(format!(
+                "photon-leaf must be between 1 and {} (got {})",
+                crate::params::MAX_PHOTON_LEAF,
+                self.photon_leaf
+            ));
         }
         if self.light_shape.is_area() && self.cluster.clusters_vpls() && self.bias_compensation {
             return Err(

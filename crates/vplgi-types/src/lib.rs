@@ -30,12 +30,15 @@ pub mod temporal;
 
 pub use camera::{Camera, CameraPath};
 pub use config::{
-    Caustics, ClusterMode, FrameConfig, FuzzyMode, LightShape, Lighting, Preset, RsmSeeding,
+    Caustics, ClusterMode, FrameConfig, FuzzyMode, Gi, LightShape, Lighting, Preset, RsmSeeding,
     Seeding, ShadeMode, SpMetric, SpRepresentative, Temporal, VplClustering, VplSource,
 };
 pub use params::{
-    BiasParams, CameraParams, CausticParams, Deposit, RsmParams, SeedParams, ShadeParams,
-    TraceParams,
+    BiasParams, CameraParams, CausticParams, CutParams, Deposit, RsmParams, SeedParams,
+    ShadeParams, TraceParams,
 };
-pub use pod::{BsdfRecord, Endpoint, LightOutline, PhotonNode, ShadingPoint, Vpl, VplLight, MISS};
+pub use pod::{
+    BsdfRecord, CutBound, CutNode, Endpoint, LightOutline, PhotonNode, ShadingPoint, Vpl, VplLight,
+    MISS,
+};
 pub use rng::{Rng, Stream};

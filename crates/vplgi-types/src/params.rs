@@ -27,6 +27,10 @@ pub enum Deposit {
     /// light arriving (flux before the albedo), which `caustics` estimates the density of. The
     /// same paths as `Vpls` with the same seed, which is why they are one stage.
     CausticPhotons,
+    /// A photon at every one, with the light arriving: Jensen's global map (`--gi photon`),
+    /// whose illumination cut lights the final gather's hits. It holds the caustic photons too,
+    /// so light from a caustic reaches a gather ray like any other.
+    Photons,
 }
 
 impl TraceParams {
@@ -82,6 +86,40 @@ pub const CAUSTIC_NORMAL_COS: f32 = 0.5;
 /// balanced tree needs, and far enough below lavapipe's 65,535 loop iterations per invocation
 /// for the heap's own loops.
 pub const CAUSTIC_VISITS: u32 = 12_000;
+
+/// The illumination cut of the global photon map (`--gi photon`, Wang et al. 2009, section 3.3;
+/// `vplgi_shared::illumination_cut`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutParams {
+    /// The target size: E_min is the mean of Eq. 3's estimates at the tree level of this many
+    /// nodes.
+    pub size: u32,
+    /// Passes that replace a cut node by its children where the density estimate at it and
+    /// Eq. 3's differ by more than `CUT_REFINE_RATIO` of the latter.
+    pub refinements: u32,
+    /// Photons per density estimate at a cut node.
+    pub k: u32,
+    /// The density estimates' largest radius, in scene units.
+    pub max_radius: f32,
+    /// The least node radius r_p, in scene units: a node whose photons lie at one point (or a
+    /// single photon) has a box of size 0, where Eq. 3 would divide by 0 and Eq. 4's kernel
+    /// reach nothing.
+    pub min_radius: f32,
+}
+
+/// The refinement's threshold: a node is split where |E_p − Ẽ_p| > 1.2 Ẽ_p (Wang et al.'s ΔE).
+pub const CUT_REFINE_RATIO: f32 = 1.2;
+
+/// Most refinement passes (`--cut-refinements`): each may double the cut.
+pub const MAX_CUT_REFINEMENTS: u32 = 8;
+
+/// [`CutParams::min_radius`] per scene bounding-box diagonal.
+pub const MIN_CUT_RADIUS_REL: f32 = 1e-3;
+
+/// Cut-tree nodes one gather hit's lookup may visit, the same on both backends (a lookup that
+/// would need more keeps what it summed and is counted): kernels of a few cut nodes overlap at
+/// any point, so a lookup needs a few tree paths.
+pub const GATHER_VISITS: u32 = 2048;
 
 /// `rsm_vpls`: the reflective shadow maps of every light for a budget of about `size²` texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -91,6 +91,38 @@ pub struct PhotonNode {
     pub count: u32,
 }
 
+/// A node of the illumination cut (`vplgi_shared::illumination_cut`): its representative
+/// photon's position and surface normal (the member nearest the flux-weighted centroid), its
+/// radius r_p (the largest side of its box, at least `CutParams::min_radius`) and an irradiance:
+/// Eq. 3's Ẽ_p in a node's estimate, the density estimate E_p in the cut final gathering reads.
+/// The same bytes as `CutNode` in `types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CutNode {
+    pub position: [f32; 3],
+    pub radius: f32,
+    pub normal: [f32; 3],
+    pub _pad0: u32,
+    pub irradiance: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// A node of the photon tree as final gathering walks it: the box around the kernels (spheres
+/// of radius r_j about p_j) of the cut nodes at or below it, and `slot`, the cut node's index in
+/// the cut, or [`CUT_ABOVE`] for a node above the cut (walk its children). The same bytes as
+/// `CutBound` in `types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CutBound {
+    pub lo: [f32; 3],
+    pub slot: u32,
+    pub hi: [f32; 3],
+    pub _pad: u32,
+}
+
+/// [`CutBound::slot`] of a node above the cut.
+pub const CUT_ABOVE: u32 = 0xffff_fffe;
+
 /// A surface point: one end of a shadow ray (`visibility`'s rows and columns) and a point to
 /// cluster. The same bytes as `Endpoint` in `types.wgsl` (two `vec4<f32>`, w = 0).
 #[repr(C)]

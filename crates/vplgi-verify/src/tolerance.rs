@@ -201,6 +201,20 @@ pub const CAUSTICS_REL: f64 = 1e-5;
 /// distances a rounding apart swap places across the k-th; when that moves one photon in or out
 /// of the sum the estimate moves by a photon's share, about 1 / k.
 pub const CAUSTICS_DIFFERING_SETS: f64 = 1e-3;
+/// `illumination_cut`: Eq. 3's estimate of a node (and the density estimate at a cut node) from
+/// the same photon map, each channel within this relative to its largest channel, for all but
+/// the nodes whose representative or k nearest differ ([`CUT_DIFFERING_NODES`]). Sums in member
+/// order on both sides; only a fused multiply-add separates them.
+pub const CUT_REL: f64 = 1e-5;
+/// Nodes whose representative differs (two members a rounding apart from the centroid), density
+/// estimates whose k nearest differ, and cut nodes chosen differently from each backend's own
+/// numbers (a refinement decided at its threshold): a rate of at most this, as for caustics'
+/// k-nearest sets.
+pub const CUT_DIFFERING_NODES: f64 = 1e-3;
+/// `final_gather`: a sample point's gathered irradiance from the same cut within this, relative
+/// to its largest channel. The rays are `gather_radius`' and share its bound for 1 / R_j; a ray
+/// whose hit moves by a rounding moves Eq. 4's kernel weights continuously, by far less.
+pub const FINAL_GATHER_REL: f64 = 1e-4;
 /// The lights of VPL clusters made from the same clustering (flux summed in VPL order; a disk's
 /// R² from the members' moments, `vplgi_shared::disk`): within this, relative. Sums in the same
 /// order, but a kernel compiler may fuse a multiply and an add the CPU rounds twice. A polygon's

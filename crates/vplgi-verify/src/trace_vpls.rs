@@ -242,6 +242,16 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
         }));
         r.notes.push("the caustic photons (the same particles, a photon where a path leaves a mirror or glass) are matched by light path the same way".into());
     }
+    // And so are the global map's photons (`--gi photon`).
+    if cfg.has_photons() {
+        let params = TraceParams { count: cfg.global_photons.min(crate::illumination_cut::VERIFY_PHOTONS), ..cfg.global_trace_params() };
+        let (checks, _) = compare_paths(twins, &params)?;
+        r.checks.extend(checks.into_iter().map(|c| {
+            let case = format!("global photons; {}", c.case);
+            c.with_case(case)
+        }));
+        r.notes.push("the global map's photons (the same particles, a photon at every non-specular surface) are matched by light path the same way".into());
+    }
     Ok(r)
 }
 

@@ -1,0 +1,150 @@
+//! Stage `final_gather` (`--gi photon`, Wang et al. 2009, section 3.4): the irradiance at each
+//! sample point s_j (a shading-point cluster's representative) from `rays` cosine-distributed
+//! gather rays, each lit where it lands by the illumination cut. Eq. 1 makes the point's
+//! reflected radiance ρ E, and with cosine-distributed rays
+//!
+//! ```text
+//! E(s_j) = (π / N) Σ_k L(y_k),   L(y) = (ρ_y / π) Σ_j w_j E_{p_j} / Σ_j w_j,
+//! w_j = K(|p_j − y| / r_j) max(0, n_j · n_y)   (Eq. 4),   K(u) = 1 − u² for u ≤ 1, else 0   (Eq. 5)
+//! ```
+//!
+//! over the cut nodes p_j (representative position, normal, radius r_j and density estimate
+//! E_{p_j}) whose kernels reach y. So E(s_j) = (1 / N) Σ_k ρ_{y_k} Ê(y_k). A ray that escapes, or
+//! lands on a mirror or glass, adds nothing: light that reaches s_j through a mirror is the
+//! caustic map's (`--caustics photons`). Emission at y is not gathered either: it is s_j's direct
+//! light, which `shade` samples. A hit no kernel reaches (Σ w = 0) adds nothing and is counted.
+//!
+//! The rays are `gather_radius`' rays (stream `Gather`, point j), so the same pass also gives
+//! 1 / R_j for the interpolation. The lookup walks the tree above the cut
+//! (`vplgi_shared::illumination_cut::for_gathering`) left child first, summing in the order it
+//! meets the cut nodes, and stops after `GATHER_VISITS` nodes, as the GPU does.
+
+use crate::gather_radius::rays;
+use crate::interpolate::IrradianceSamples;
+use crate::CpuScene;
+use glam::Vec3;
+use rayon::prelude::*;
+use vplgi_frame::FrameError;
+use vplgi_shared::illumination_cut::{kernel, GatherCut};
+use vplgi_shared::photon_tree::{is_leaf, STACK};
+use vplgi_types::interpolation::{inverse_radius, GatherParams};
+use vplgi_types::params::GATHER_VISITS;
+use vplgi_types::pod::CUT_ABOVE;
+use vplgi_types::Endpoint;
+
+/// Eq. 4's kernel-weighted irradiance of the cut at `y` (normal `n`): Σ w E / Σ w, `None` where
+/// no kernel reaches; and whether the walk stopped at the visit budget.
+pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> (Option<Vec3>, bool) {
+    let len = cut.bounds.len();
+    if len == 0 {
+        return (None, false);
+    }
+    let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
+    let mut stack = [0u32; STACK];
+    let mut top = 1;
+    let mut visits = 0;
+    let mut truncated = false;
+    while top > 0 {
+        if visits >= GATHER_VISITS {
+            truncated = true;
+            break;
+        }
+        top -= 1;
+        let i = stack[top] as usize;
+        visits += 1;
+        let b = &cut.bounds[i];
+        if y.cmplt(Vec3::from(b.lo)).any() || y.cmpgt(Vec3::from(b.hi)).any() {
+            continue;
+        }
+        if b.slot == CUT_ABOVE {
+            if !is_leaf(i, len) {
+                stack[top] = 2 * i as u32 + 2;
+                stack[top + 1] = 2 * i as u32 + 1;
+                top += 2;
+            }
+            continue;
+        }
+        let node = &cut.nodes[b.slot as usize];
+        let d = Vec3::from(node.position) - y;
+        let u2 = (d.x * d.x + d.y * d.y + d.z * d.z) / (node.radius * node.radius);
+        let w = kernel(u2) * Vec3::from(node.normal).dot(n).max(0.0);
+        if w > 0.0 {
+            sum += w * Vec3::from(node.irradiance);
+            total += w;
+        }
+    }
+    ((total > 0.0).then(|| sum / total), truncated)
+}
+
+/// One sample point's gather: 1 / R, its irradiance, and how many of its hits no kernel reached
+/// and how many lookups were truncated.
+pub fn gather_at(cs: &CpuScene, cut: &GatherCut, e: &Endpoint, index: u32, params: &GatherParams) -> (f32, Vec3, u32, u32) {
+    let (origin, dirs) = rays(e.p(), e.n(), cs.eps, index, params);
+    let (mut inv_sum, mut sum, mut uncovered, mut truncated) = (0.0f32, Vec3::ZERO, 0, 0);
+    for dir in dirs {
+        let Some(hit) = cs.trace_beyond(origin, dir, cs.eps) else {
+            continue;
+        };
+        inv_sum += 1.0 / hit.t;
+        if hit.surface.is_specular() {
+            continue;
+        }
+        let (l, cut_short) = cut_irradiance(cut, hit.position, hit.ns);
+        truncated += cut_short as u32;
+        match l {
+            Some(l) => sum += hit.albedo * l,
+            None => uncovered += 1,
+        }
+    }
+    let n = params.rays.max(1) as f32;
+    (inverse_radius(inv_sum, params.rays), sum / n, uncovered, truncated)
+}
+
+/// The final gather at every sample point of `points`: the irradiance samples, and how many
+/// gather hits no kernel reached.
+pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> (IrradianceSamples, u32) {
+    let each: Vec<(f32, Vec3, u32, u32)> = points.par_iter().enumerate().map(|(j, e)| gather_at(cs, cut, e, j as u32, params)).collect();
+    let uncovered = each.iter().map(|g| g.2).sum();
+    let samples = IrradianceSamples {
+        inv_radius: each.iter().map(|g| g.0).collect(),
+        irradiance: each.iter().map(|g| g.1.to_array()).collect(),
+        points,
+    };
+    (samples, uncovered)
+}
+
+impl vplgi_frame::stages::FinalGather for CpuScene<'_> {
+    fn final_gather(&self, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> Result<(IrradianceSamples, u32), FrameError> {
+        Ok(final_gather(self, points, cut, params))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vplgi_shared::illumination_cut::for_gathering;
+    use vplgi_types::CutNode;
+
+    fn node(p: [f32; 3], n: [f32; 3], r: f32, e: f32) -> CutNode {
+        CutNode { position: p, radius: r, normal: n, irradiance: [e; 3], ..Default::default() }
+    }
+
+    /// Eq. 4 and 5 by hand. A cut of two nodes under the root: at the origin (radius 2, E = 10,
+    /// facing +z) and at (1, 0, 0) (radius 1, E = 4, normal 60° from +z). At y = (0.5, 0, 0) facing
+    /// +z: u² = 0.0625 and 0.25, so w = 0.9375 and 0.75 · 0.5 = 0.375, and
+    /// Ê = (0.9375 · 10 + 0.375 · 4) / 1.3125 = 8.2857. Beyond both kernels, nothing.
+    #[test]
+    fn eq4_and_eq5_by_hand() {
+        let turned = [3f32.sqrt() / 2.0, 0.0, 0.5];
+        let estimates = vec![CutNode::default(), node([0.0; 3], [0.0, 0.0, 1.0], 2.0, 10.0), node([1.0, 0.0, 0.0], turned, 1.0, 4.0)];
+        let e: Vec<Option<[f32; 3]>> = estimates.iter().map(|n| Some(n.irradiance)).collect();
+        let cut = for_gathering(&estimates, &[1, 2], &e);
+        let (got, truncated) = cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), Vec3::Z);
+        let exact = (0.9375 * 10.0 + 0.375 * 4.0) / 1.3125;
+        assert!(!truncated);
+        assert!((got.expect("covered").x - exact).abs() < 1e-5, "{got:?} vs {exact}");
+        assert_eq!(cut_irradiance(&cut, Vec3::new(5.0, 0.0, 0.0), Vec3::Z).0, None);
+        // A surface facing away from both nodes takes no weight from them.
+        assert_eq!(cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), -Vec3::Z).0, None);
+    }
+}
