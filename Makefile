@@ -15,7 +15,7 @@ STAGES := $(shell sed -n 's/^ *\([a-z_]*\) [A-Z][A-Za-z]* \[.*\],$$/\1/p' $(STAG
 STAGE_MODULES := $(shell sed -n 's/^ *\([a-z_]*\) [A-Z][A-Za-z]* \[\(.*\)\],$$/\1,\2/p' $(STAGE_TABLE) | tr ',' '\n' | awk 'NF {print $$1}')
 VPLGI := target/release/vplgi
 
-.PHONY: stages cli-doc all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants rsm validate test-slurm clean
+.PHONY: stages cli-doc all setup build demo test verify-long fuzz mutants bench bench-baseline perf-report references results variants rsm photons validate test-slurm clean
 
 all: build
 
@@ -52,7 +52,7 @@ demo: build
 # The Vulkan loader complains when XDG_RUNTIME_DIR is unset (harmless): give it a private one.
 TEST_ENV := XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}"
 TEST := $(TEST_ENV) $(CARGO) test --release --workspace
-CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm perf_report repository stages
+CPU_TESTS := analytic edge_cases path_tracer_oracle regression cli faults results variants rsm photons perf_report repository stages
 # The GPU tests: every differential test in tests/tests/, and `vplgi verify` as a user runs it
 # (crates/vplgi-cli/tests/verify.rs, with its report loaded in headless chromium).
 GPU_TESTS := $(filter-out $(CPU_TESTS),$(basename $(notdir $(wildcard tests/tests/*.rs)))) verify
@@ -235,6 +235,13 @@ variants: build
 # Table 1 sizes on the CPU and on lavapipe: docs/RSM.md. About 15 minutes.
 rsm: build
 	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin rsm -- --out docs/RSM.md
+
+# Wang et al.'s Figure 6 ablation on the generated cornell-glass and conference scenes (the
+# illumination cut and the interpolation each against a 1,024-ray gather from the full photon
+# map at every pixel, cuts of 1k to 16k nodes) and the cut's speed against a density estimate at
+# every gather hit, on the CPU: docs/PHOTONS.md. About ten minutes.
+photons: build
+	$(CARGO) run --release -p vplgi-reports --bin photons -- --out docs/PHOTONS.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
 # under target/ with numpy (nothing system-wide): each scene exported with `vplgi scene export

@@ -4,7 +4,9 @@
 // non-specular surface by the illumination cut: ρ_y Σ w_j E_j / Σ w_j over the cut nodes whose
 // kernels reach y, w_j = K(|p_j − y| / r_j) max(0, n_j · n_y) (Eq. 4), K(u) = 1 − u² for u ≤ 1
 // (Eq. 5). The walk of the tree above the cut is the CPU's: left child first, summing in the
-// order it meets cut nodes, stopped after GATHER_VISITS. A dispatch traces rays
+// order it meets cut nodes, stopped after GATHER_VISITS; a hit no kernel reaches takes the same
+// sum over kernels GATHER_FALLBACK_REACH times as wide (none: nothing), and is counted.
+// A dispatch traces rays
 // ray_first .. ray_end of every point and carries the sums; the last divides by the ray count:
 // E = (1 / N) Σ ρ_y Ê(y), and 1 / R = (1 / N) Σ 1 / t.
 
@@ -25,18 +27,29 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> irradiance: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> cut_nodes: array<CutNode>;
 @group(0) @binding(10) var<storage, read> cut_bounds: array<CutBound>;
-// Per point: gather hits no kernel reached, and lookups stopped at the visit budget.
+// Per point: gather hits no kernel reached (lit by the wider kernels), and lookups stopped
+// at the visit budget.
 @group(0) @binding(11) var<storage, read_write> counts: array<vec2<u32>>;
 
 struct CutLight {
     sum: vec3<f32>,
     total: f32,
+    wide_sum: vec3<f32>,   // the fallback's kernels, GATHER_FALLBACK_REACH times as wide
+    wide_total: f32,
     truncated: bool,
+}
+
+// Eq. 5's kernel for u² (0 beyond u = 1).
+fn kernel(u2: f32) -> f32 {
+    if (u2 <= 1.0) {
+        return 1.0 - u2;
+    }
+    return 0.0;
 }
 
 // final_gather::cut_irradiance before its division.
 fn cut_light(y: vec3<f32>, n: vec3<f32>) -> CutLight {
-    var out = CutLight(vec3<f32>(0.0), 0.0, false);
+    var out = CutLight(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, false);
     let len = arrayLength(&cut_bounds);
     var stack: array<u32, PHOTON_STACK>;
     stack[0] = 0u;
@@ -64,15 +77,18 @@ fn cut_light(y: vec3<f32>, n: vec3<f32>) -> CutLight {
         }
         let node = cut_nodes[b.slot];
         let d = node.position - y;
-        let u2 = (d.x * d.x + d.y * d.y + d.z * d.z) / (node.radius * node.radius);
-        var k = 0.0;
-        if (u2 <= 1.0) {
-            k = 1.0 - u2;
-        }
-        let w = k * max(dot(node.normal, n), 0.0);
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        let u2 = d2 / (node.radius * node.radius);
+        let facing = max(dot(node.normal, n), 0.0);
+        let w = kernel(u2) * facing;
         if (w > 0.0) {
             out.sum = out.sum + w * node.irradiance;
             out.total = out.total + w;
+        }
+        let wide = kernel(u2 / (GATHER_FALLBACK_REACH * GATHER_FALLBACK_REACH)) * facing;
+        if (wide > 0.0) {
+            out.wide_sum = out.wide_sum + wide * node.irradiance;
+            out.wide_total = out.wide_total + wide;
         }
     }
     return out;
@@ -113,6 +129,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             sum = sum + s.albedo * (l.sum / l.total);
         } else {
             c.x = c.x + 1u;
+            if (l.wide_total > 0.0) {
+                sum = sum + s.albedo * (l.wide_sum / l.wide_total);
+            }
         }
     }
     if (params.ray_end == params.rays) {

@@ -1,21 +1,22 @@
 // include: common/types.wgsl common/photons.wgsl
 // Stage illumination_cut (vplgi-cpu/src/illumination_cut.rs): per photon-tree node, its
-// representative (the member nearest the flux-weighted centroid, ties to the lower index), radius
+// representative (the member nearest a point just off its box's centre, ties to the lower
+// index), radius
 // r_p (largest box side, floored at min_radius) and Eq. 3's Ẽ_p = Σ max(0, ω_i·n_p) Φ_i / r_p²;
 // and the density estimate E = Σ Φ / (π r²) at given points (the cut nodes' representatives), r
 // at least min_radius.
 //
-// node_estimates runs three passes, each over the members of every node in ranges
-// [first, end) of its member list, one dispatch per range (a root's members are the whole map,
-// beyond lavapipe's 65,535 loop iterations): phase 0 sums the centroid, phase 1 finds the
-// representative, phase 2 sums Ẽ. Running values carry over in `sums`, and a node's range that
-// reaches its last member finishes that phase. Sums run in member order, as the CPU's.
+// node_estimates runs two passes, each over the members of every node in ranges [first, end) of
+// its member list, one dispatch per range (a root's members are the whole map, beyond
+// lavapipe's 65,535 loop iterations): phase 0 finds the representative, phase 1 sums Ẽ. Running
+// values carry over in `sums`, and a node's range that reaches its last member finishes that
+// phase. Sums run in member order, as the CPU's.
 
 struct Params {
     count: u32,       // nodes, or points for `densities`
     first: u32,       // member range of this dispatch
     end: u32,
-    phase: u32,       // 0 centroid, 1 representative, 2 estimate
+    phase: u32,       // 0 representative, 1 estimate
     min_radius: f32,
     k: u32,
     max_r2: f32,
@@ -25,7 +26,7 @@ struct Params {
 @group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read> photons: array<Vpl>;
 @group(0) @binding(2) var<storage, read> nodes: array<PhotonNode>;
-// Running values per node: phase 0 (Σ w x, Σ w); 1 (best d², best index bits); 2 Σ.
+// Running values per node: phase 0 (best d², best index bits); phase 1 Σ.
 @group(0) @binding(3) var<storage, read_write> sums: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> estimates: array<CutNode>;
 @group(0) @binding(5) var<storage, read> points: array<Endpoint>;
@@ -47,24 +48,8 @@ fn node_estimates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let last = node.count <= params.end;
     let fresh = params.first == 0u;
     if (params.phase == 0u) {
-        var s = select(sums[i], vec4<f32>(0.0), fresh);
-        for (var j = j0; j < j1; j = j + 1u) {
-            let m = photons[j];
-            let w = m.flux.x + m.flux.y + m.flux.z;
-            s = vec4<f32>(s.xyz + w * m.position, s.w + w);
-        }
-        sums[i] = s;
-        if (last && node.count > 0u) {
-            var c = photons[node.first].position;
-            if (s.w > 0.0) {
-                c = s.xyz / s.w;
-            }
-            estimates[i].position = c;
-        }
-        return;
-    }
-    if (params.phase == 1u) {
-        let c = estimates[i].position;
+        // illumination_cut::centre_fraction: just off the centre.
+        let c = node.lo + (node.hi - node.lo) * (vec3<f32>(0.5) + vec3<f32>(1.0, 2.0, 3.0) * CUT_CENTRE_SKEW);
         var best_d2 = bitcast<f32>(0x7f800000u);
         var best = node.first;
         if (!fresh) {

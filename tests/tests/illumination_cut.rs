@@ -62,19 +62,16 @@ fn photon_cloud(n: usize, seed: u32) -> Vec<Vpl> {
         .collect()
 }
 
-/// Eq. 3 at one node in f64 from its photons: the flux-weighted centroid, the member nearest it
-/// (the lower index on a tie) and Σ max(0, ω · n) Φ / r², r the largest side (or the floor).
+/// Eq. 3 at one node in f64 from its photons: the member nearest the point of their box where
+/// the representative is sought (`centre_fraction`; the lower index on a tie) and
+/// Σ max(0, ω · n) Φ / r², r the largest side (or the floor).
 fn eq3_f64(members: &[Vpl], min_radius: f64) -> (usize, f64, [f64; 3]) {
-    let (mut sum, mut weight) = (DVec3::ZERO, 0.0);
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     for m in members {
         let p = Vec3::from(m.position).as_dvec3();
-        let w: f64 = m.flux.iter().map(|&c| c as f64).sum();
-        sum += w * p;
-        weight += w;
         (lo, hi) = (lo.min(p), hi.max(p));
     }
-    let c = sum / weight;
+    let c = lo + (hi - lo) * vplgi_cpu::illumination_cut::centre_fraction().as_dvec3();
     let mut best = 0;
     for (j, m) in members.iter().enumerate() {
         if Vec3::from(m.position).as_dvec3().distance_squared(c)

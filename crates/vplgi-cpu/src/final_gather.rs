@@ -12,7 +12,8 @@
 //! E_{p_j}) whose kernels reach y. So E(s_j) = (1 / N) Σ_k ρ_{y_k} Ê(y_k). A ray that escapes, or
 //! lands on a mirror or glass, adds nothing: light that reaches s_j through a mirror is the
 //! caustic map's (`--caustics photons`). Emission at y is not gathered either: it is s_j's direct
-//! light, which `shade` samples. A hit no kernel reaches (Σ w = 0) adds nothing and is counted.
+//! light, which `shade` samples. A hit no kernel reaches (Σ w = 0) takes the same sum over
+//! kernels twice as wide (`GATHER_FALLBACK_REACH`; none: nothing), and is counted.
 //!
 //! The rays are `gather_radius`' rays (stream `Gather`, point j), so the same pass also gives
 //! 1 / R_j for the interpolation. The lookup walks the tree above the cut
@@ -24,22 +25,37 @@ use crate::interpolate::IrradianceSamples;
 use crate::CpuScene;
 use glam::Vec3;
 use rayon::prelude::*;
-use vplgi_frame::FrameError;
+use vplgi_frame::{FrameError, GatherCounts};
 use vplgi_shared::illumination_cut::{kernel, GatherCut};
 use vplgi_shared::photon_tree::{is_leaf, STACK};
 use vplgi_types::interpolation::{inverse_radius, GatherParams};
-use vplgi_types::params::GATHER_VISITS;
+use vplgi_types::params::{GATHER_FALLBACK_REACH, GATHER_VISITS};
 use vplgi_types::pod::CUT_ABOVE;
 use vplgi_types::Endpoint;
 
-/// Eq. 4's kernel-weighted irradiance of the cut at `y` (normal `n`): Σ w E / Σ w, `None` where
-/// no kernel reaches; and whether the walk stopped at the visit budget.
-pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> (Option<Vec3>, bool) {
+/// How a gather hit is lit: its irradiance, whether no Eq. 4 kernel reached it (so the wider
+/// fallback kernels lit it, or nothing did), and whether a walk stopped at the visit budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HitLight {
+    pub irradiance: Vec3,
+    pub fallback: bool,
+    pub truncated: bool,
+}
+
+/// Eq. 4's kernel-weighted irradiance of the cut at `y` (normal `n`): Σ w E / Σ w over the cut
+/// nodes whose kernels reach it. Where none does (Σ w = 0: a gap between kernels, or a corner
+/// where the near nodes lie on the other wall), the same sum with kernels twice as wide
+/// (`GATHER_FALLBACK_REACH`), which is continuous in `y` as Eq. 4 is; zero where even those do
+/// not reach, as behind a light a hand's breadth from the ceiling, where no photon lands. The
+/// nearest facing node, as NEXT-STAGES A.3 suggests, lit such places from far away, and jumped
+/// wherever the nearest changed (`make photons` and the property test measured both).
+pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> HitLight {
     let len = cut.bounds.len();
     if len == 0 {
-        return (None, false);
+        return HitLight { fallback: true, ..Default::default() };
     }
     let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
+    let (mut wide_sum, mut wide_total) = (Vec3::ZERO, 0.0f32);
     let mut stack = [0u32; STACK];
     let mut top = 1;
     let mut visits = 0;
@@ -66,21 +82,41 @@ pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> (Option<Vec3>, bool)
         }
         let node = &cut.nodes[b.slot as usize];
         let d = Vec3::from(node.position) - y;
-        let u2 = (d.x * d.x + d.y * d.y + d.z * d.z) / (node.radius * node.radius);
-        let w = kernel(u2) * Vec3::from(node.normal).dot(n).max(0.0);
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        let facing = Vec3::from(node.normal).dot(n).max(0.0);
+        let u2 = d2 / (node.radius * node.radius);
+        let w = kernel(u2) * facing;
         if w > 0.0 {
             sum += w * Vec3::from(node.irradiance);
             total += w;
         }
+        let wide = kernel(u2 / (GATHER_FALLBACK_REACH * GATHER_FALLBACK_REACH)) * facing;
+        if wide > 0.0 {
+            wide_sum += wide * Vec3::from(node.irradiance);
+            wide_total += wide;
+        }
     }
-    ((total > 0.0).then(|| sum / total), truncated)
+    if total > 0.0 {
+        return HitLight { irradiance: sum / total, fallback: false, truncated };
+    }
+    let irradiance = if wide_total > 0.0 { wide_sum / wide_total } else { Vec3::ZERO };
+    HitLight { irradiance, fallback: true, truncated }
 }
 
-/// One sample point's gather: 1 / R, its irradiance, and how many of its hits no kernel reached
-/// and how many lookups were truncated.
-pub fn gather_at(cs: &CpuScene, cut: &GatherCut, e: &Endpoint, index: u32, params: &GatherParams) -> (f32, Vec3, u32, u32) {
+/// What a point's hits counted: lit by the fallback's wider kernels (no Eq. 4 kernel reached
+/// them), or a lookup truncated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HitCounts {
+    pub fallback: u32,
+    pub truncated: u32,
+}
+
+/// One sample point's gather with each non-specular hit lit by `light` (at a point with a
+/// normal): 1 / R, the irradiance, and the counts. `light` is the cut's lookup in the frame;
+/// `make photons` also gathers with a density estimate at every hit, which the cut replaces.
+pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight) -> (f32, Vec3, HitCounts) {
     let (origin, dirs) = rays(e.p(), e.n(), cs.eps, index, params);
-    let (mut inv_sum, mut sum, mut uncovered, mut truncated) = (0.0f32, Vec3::ZERO, 0, 0);
+    let (mut inv_sum, mut sum, mut counts) = (0.0f32, Vec3::ZERO, HitCounts::default());
     for dir in dirs {
         let Some(hit) = cs.trace_beyond(origin, dir, cs.eps) else {
             continue;
@@ -89,32 +125,34 @@ pub fn gather_at(cs: &CpuScene, cut: &GatherCut, e: &Endpoint, index: u32, param
         if hit.surface.is_specular() {
             continue;
         }
-        let (l, cut_short) = cut_irradiance(cut, hit.position, hit.ns);
-        truncated += cut_short as u32;
-        match l {
-            Some(l) => sum += hit.albedo * l,
-            None => uncovered += 1,
-        }
+        let l = light(hit.position, hit.ns);
+        counts.truncated += l.truncated as u32;
+        counts.fallback += l.fallback as u32;
+        sum += hit.albedo * l.irradiance;
     }
     let n = params.rays.max(1) as f32;
-    (inverse_radius(inv_sum, params.rays), sum / n, uncovered, truncated)
+    (inverse_radius(inv_sum, params.rays), sum / n, counts)
 }
 
-/// The final gather at every sample point of `points`: the irradiance samples, and how many
-/// gather hits no kernel reached.
-pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> (IrradianceSamples, u32) {
-    let each: Vec<(f32, Vec3, u32, u32)> = points.par_iter().enumerate().map(|(j, e)| gather_at(cs, cut, e, j as u32, params)).collect();
-    let uncovered = each.iter().map(|g| g.2).sum();
+/// The final gather at every sample point of `points`, lit by `cut`: the irradiance samples, and
+/// what the lookups counted.
+pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> (IrradianceSamples, GatherCounts) {
+    let each: Vec<(f32, Vec3, HitCounts)> =
+        points.par_iter().enumerate().map(|(j, e)| gather_with(cs, e, j as u32, params, |y, n| cut_irradiance(cut, y, n))).collect();
+    let counts = GatherCounts {
+        fallback: each.iter().map(|g| g.2.fallback as u64).sum(),
+        truncated: each.iter().map(|g| g.2.truncated as u64).sum(),
+    };
     let samples = IrradianceSamples {
         inv_radius: each.iter().map(|g| g.0).collect(),
         irradiance: each.iter().map(|g| g.1.to_array()).collect(),
         points,
     };
-    (samples, uncovered)
+    (samples, counts)
 }
 
 impl vplgi_frame::stages::FinalGather for CpuScene<'_> {
-    fn final_gather(&self, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> Result<(IrradianceSamples, u32), FrameError> {
+    fn final_gather(&self, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> Result<(IrradianceSamples, GatherCounts), FrameError> {
         Ok(final_gather(self, points, cut, params))
     }
 }
@@ -132,19 +170,27 @@ mod tests {
     /// Eq. 4 and 5 by hand. A cut of two nodes under the root: at the origin (radius 2, E = 10,
     /// facing +z) and at (1, 0, 0) (radius 1, E = 4, normal 60° from +z). At y = (0.5, 0, 0) facing
     /// +z: u² = 0.0625 and 0.25, so w = 0.9375 and 0.75 · 0.5 = 0.375, and
-    /// Ê = (0.9375 · 10 + 0.375 · 4) / 1.3125 = 8.2857. Beyond both kernels, nothing.
+    /// Ê = (0.9375 · 10 + 0.375 · 4) / 1.3125 = 8.2857. Beyond every kernel, the kernels twice as
+    /// wide; beyond those, nothing.
     #[test]
     fn eq4_and_eq5_by_hand() {
         let turned = [3f32.sqrt() / 2.0, 0.0, 0.5];
         let estimates = vec![CutNode::default(), node([0.0; 3], [0.0, 0.0, 1.0], 2.0, 10.0), node([1.0, 0.0, 0.0], turned, 1.0, 4.0)];
         let e: Vec<Option<[f32; 3]>> = estimates.iter().map(|n| Some(n.irradiance)).collect();
         let cut = for_gathering(&estimates, &[1, 2], &e);
-        let (got, truncated) = cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), Vec3::Z);
+        let got = cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), Vec3::Z);
         let exact = (0.9375 * 10.0 + 0.375 * 4.0) / 1.3125;
-        assert!(!truncated);
-        assert!((got.expect("covered").x - exact).abs() < 1e-5, "{got:?} vs {exact}");
-        assert_eq!(cut_irradiance(&cut, Vec3::new(5.0, 0.0, 0.0), Vec3::Z).0, None);
-        // A surface facing away from both nodes takes no weight from them.
-        assert_eq!(cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), -Vec3::Z).0, None);
+        assert!(!got.truncated && !got.fallback);
+        assert!((got.irradiance.x - exact).abs() < 1e-5, "{got:?} vs {exact}");
+        // (1.9, 1.9, 0) is beyond both kernels (u² = 1.805 and 4.42); twice as wide, the origin's
+        // reaches it (u² / 4 = 0.45) and the other's does not (1.105): the origin's lights it.
+        let corner = cut_irradiance(&cut, Vec3::new(1.9, 1.9, 0.0), Vec3::Z);
+        assert_eq!((corner.irradiance.x, corner.fallback), (10.0, true));
+        // At x = 5, beyond both wide kernels (u² / 4 = 1.5625 and 4), nothing does.
+        let far = cut_irradiance(&cut, Vec3::new(5.0, 0.0, 0.0), Vec3::Z);
+        assert_eq!((far.irradiance, far.fallback), (Vec3::ZERO, true));
+        // A surface facing away from both nodes takes no weight and no light from them.
+        let away = cut_irradiance(&cut, Vec3::new(0.5, 0.0, 0.0), -Vec3::Z);
+        assert_eq!((away.irradiance, away.fallback), (Vec3::ZERO, true));
     }
 }

@@ -2,9 +2,10 @@
 //! arithmetic of the global photon map's cut. The choices made from it (which nodes form the
 //! cut, which are refined) are `vplgi_shared::illumination_cut`'s, shared with the GPU.
 //!
-//! Each node of the photon tree gets a representative, the member photon nearest the node's
-//! flux-weighted centroid (ties to the lower index), whose position and surface normal stand for
-//! the node, a radius r_p, the largest side of the node's box, and Eq. 3's estimate
+//! Each node of the photon tree gets a representative, the member photon nearest the centre of
+//! the node's box (just off it, `CUT_CENTRE_SKEW`; ties to the lower index), whose position and
+//! surface normal stand for the
+//! node, a radius r_p, the largest side of the node's box, and Eq. 3's estimate
 //!
 //! ```text
 //! Ẽ_p = Σ_{i ∈ p} max(0, ω_i · n_p) Φ_i / r_p²
@@ -17,7 +18,12 @@
 //!
 //! The refinement compares Ẽ_p with the density estimate at the representative, E_p = Σ Φ_i /
 //! (π r²) over the k nearest photons whose normals are within 60° of its own (the search of
-//! `caustics`, r the k-th's distance); E_p is also what a cut node lights final gathering with.
+//! `caustics`, r the k-th's distance); E_p is also what a cut node lights final gathering with,
+//! as the irradiance at its representative's place. That is why the place is the box's centre and
+//! not a centroid of the photons: photons crowd where light is bright (their density is the
+//! irradiance), so a flux-weighted centroid (NEXT-STAGES A.3's choice) leans toward the bright
+//! part of every node, and gathering from it read 6 to 8 % bright on `cornell-glass` at cuts of
+//! 4k nodes (`make photons`).
 
 use crate::caustics::{nearest, PhotonMap};
 use crate::CpuScene;
@@ -26,6 +32,7 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use vplgi_frame::FrameError;
 use vplgi_shared::illumination_cut::{Densities, GatherCut};
+use vplgi_types::params::CUT_CENTRE_SKEW;
 use vplgi_types::{CutNode, CutParams, Endpoint, Vpl};
 
 /// The representative, radius and Eq. 3 estimate of every node of `map`'s tree.
@@ -34,28 +41,21 @@ pub fn node_estimates(map: &PhotonMap, params: &CutParams) -> Vec<CutNode> {
         .par_iter()
         .map(|node| {
             let members = &map.photons[node.first as usize..(node.first + node.count) as usize];
-            let side = (Vec3::from(node.hi) - Vec3::from(node.lo)).max_element();
-            node_estimate(members, side, params.min_radius)
+            node_estimate(members, Vec3::from(node.lo), Vec3::from(node.hi), params.min_radius)
         })
         .collect()
 }
 
-/// One node's estimate from its photons `members` and its box's largest side.
-pub fn node_estimate(members: &[Vpl], side: f32, min_radius: f32) -> CutNode {
+/// One node's estimate from its photons `members` and its box `lo`..`hi`.
+pub fn node_estimate(members: &[Vpl], lo: Vec3, hi: Vec3, min_radius: f32) -> CutNode {
     if members.is_empty() {
         return CutNode { radius: min_radius, ..Default::default() };
     }
-    // The flux-weighted centroid, weighted by the sum of the three channels.
-    let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-    for m in members {
-        let w = m.flux[0] + m.flux[1] + m.flux[2];
-        sum += w * Vec3::from(m.position);
-        weight += w;
-    }
-    let centroid = if weight > 0.0 { sum / weight } else { Vec3::from(members[0].position) };
+    let centre = lo + (hi - lo) * centre_fraction();
+    let side = (hi - lo).max_element();
     let (mut best, mut best_d2) = (0, f32::INFINITY);
     for (j, m) in members.iter().enumerate() {
-        let d = Vec3::from(m.position) - centroid;
+        let d = Vec3::from(m.position) - centre;
         let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
         if d2 < best_d2 {
             (best, best_d2) = (j, d2);
@@ -75,6 +75,11 @@ pub fn node_estimate(members: &[Vpl], side: f32, min_radius: f32) -> CutNode {
         irradiance: (e / (radius * radius)).to_array(),
         ..Default::default()
     }
+}
+
+/// Where in a node's box its representative is sought, per axis (`CUT_CENTRE_SKEW`).
+pub fn centre_fraction() -> Vec3 {
+    Vec3::splat(0.5) + Vec3::new(1.0, 2.0, 3.0) * CUT_CENTRE_SKEW
 }
 
 /// The density estimate of irradiance at `p` with normal `n`: Σ Φ / (π r²) over the photons
@@ -140,28 +145,27 @@ mod tests {
         Vpl { position: p, normal: [0.0, 0.0, 1.0], flux, incoming, ..Default::default() }
     }
 
-    /// Eq. 3 by hand. Three photons on the plane z = 0: at x = 0 (flux 1, straight down), x = 1
-    /// (flux 3, arriving at 60°) and x = 4 (flux 2, from below the surface). The centroid,
-    /// weighted by the channel sums 3, 9, 6, is at x = (0 + 9 + 24) / 18 = 1.833: nearest is the
-    /// photon at x = 1. The box's largest side is 4, so Ẽ = (1 · 1 + 0.5 · 3 + 0 · 2) / 16 =
-    /// 0.15625 per channel.
+    /// Eq. 3 by hand. Three photons on the plane z = 0: at x = 0 (flux 1, straight down), x = 1.5
+    /// (flux 3, arriving at 60°) and x = 4 (flux 2, from below the surface). The representative
+    /// is sought at x = 4 · 33 / 64 = 2.06: nearest is the photon at x = 1.5. The box's largest side is 4, so
+    /// Ẽ = (1 · 1 + 0.5 · 3 + 0 · 2) / 16 = 0.15625 per channel.
     #[test]
     fn eq3_by_hand() {
         let half = 3f32.sqrt() / 2.0;
         let members = [
             photon([0.0, 0.0, 0.0], [1.0; 3], [0.0, 0.0, 1.0]),
-            photon([1.0, 0.0, 0.0], [3.0; 3], [half, 0.0, 0.5]),
+            photon([1.5, 0.0, 0.0], [3.0; 3], [half, 0.0, 0.5]),
             photon([4.0, 0.0, 0.0], [2.0; 3], [0.0, 0.0, -1.0]),
         ];
-        let e = node_estimate(&members, 4.0, 1e-3);
-        assert_eq!(e.position, [1.0, 0.0, 0.0]);
+        let e = node_estimate(&members, Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0), 1e-3);
+        assert_eq!(e.position, [1.5, 0.0, 0.0]);
         assert_eq!(e.radius, 4.0);
         for c in e.irradiance {
             assert!((c - 2.5 / 16.0).abs() < 1e-6, "{:?}", e.irradiance);
         }
         // A node of one photon has a box of size 0: its radius is the floor.
-        assert_eq!(node_estimate(&members[..1], 0.0, 0.5).radius, 0.5);
-        assert_eq!(node_estimate(&[], 0.0, 0.5), CutNode { radius: 0.5, ..Default::default() });
+        assert_eq!(node_estimate(&members[..1], Vec3::ZERO, Vec3::ZERO, 0.5).radius, 0.5);
+        assert_eq!(node_estimate(&[], Vec3::ZERO, Vec3::ZERO, 0.5), CutNode { radius: 0.5, ..Default::default() });
     }
 
     /// Photons on a unit grid of the plane z = 0, each of flux 1: irradiance 1 per unit area.

@@ -29,6 +29,15 @@ pub struct ClusterCounts {
     pub fresh: u32,
 }
 
+/// What a final gather counted, beside its samples: gather hits on a non-specular surface that
+/// no cut node's kernel reached (lit by kernels twice as wide instead), and
+/// lookups stopped at the visit budget.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GatherCounts {
+    pub fallback: u64,
+    pub truncated: u64,
+}
+
 /// How `rsm_cluster` starts.
 #[derive(Clone, Copy)]
 pub struct RsmStart<'a, S> {

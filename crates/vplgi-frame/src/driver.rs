@@ -271,11 +271,11 @@ fn render_view<B: Backend>(
                     let samples = match &cut {
                         // The gather rays give both 1 / R_j and the irradiance.
                         Some(cut) => {
-                            let (samples, uncovered) =
-                                timed(b, &mut t, Stage::FinalGather, || {
-                                    b.final_gather(reps, cut, &cfg.gather_params())
-                                })?;
-                            stats.gather_uncovered = uncovered as u64;
+                            let (samples, counts) = timed(b, &mut t, Stage::FinalGather, || {
+                                b.final_gather(reps, cut, &cfg.gather_params())
+                            })?;
+                            (stats.gather_fallback, stats.gather_truncated) =
+                                (counts.fallback, counts.truncated);
                             samples
                         }
                         None => {

@@ -147,9 +147,12 @@ pub struct FrameStats {
     #[serde(default)]
     pub cut_truncated: u32,
     /// `--gi photon`: gather hits on a non-specular surface that no cut node's kernel reached
-    /// (they add no light).
+    /// (lit by kernels twice as wide instead), and lookups stopped at the visit
+    /// budget (`GATHER_VISITS`).
     #[serde(default)]
-    pub gather_uncovered: u64,
+    pub gather_fallback: u64,
+    #[serde(default)]
+    pub gather_truncated: u64,
 }
 
 /// A rendered frame: linear RGB, row-major, row 0 at the top.

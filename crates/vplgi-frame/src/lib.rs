@@ -18,7 +18,8 @@ mod report;
 pub mod stages;
 
 pub use backend::{
-    ClusterCounts, Counted, LightSet, RsmStart, SampleChunk, ShadeInput, ShadeVisibility, Storage,
+    ClusterCounts, Counted, GatherCounts, LightSet, RsmStart, SampleChunk, ShadeInput,
+    ShadeVisibility, Storage,
 };
 pub use driver::{render, render_from, render_rows, View, ROW_CHUNK_BITS};
 pub use frame::{Frame, FrameError, FrameStats, NoProgress, Progress, StageTimings};

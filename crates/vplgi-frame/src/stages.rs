@@ -13,7 +13,7 @@
 //! implements each in the stage's own module (`vplgi-cpu/src/<stage>.rs`,
 //! `vplgi-gpu/src/<stage>.rs`), on the storage its [`Storage`] names.
 
-use crate::backend::{ClusterCounts, RsmStart, ShadeInput, Storage};
+use crate::backend::{ClusterCounts, GatherCounts, RsmStart, ShadeInput, Storage};
 use crate::frame::Progress;
 use std::ops::Range;
 use vplgi_shared::illumination_cut::{Densities, GatherCut};
@@ -149,8 +149,8 @@ pub trait RsmVpls: Storage {
 /// 3.3). The backend does the per-node arithmetic; `vplgi_shared::illumination_cut` chooses the
 /// cut from it.
 pub trait IlluminationCut: Storage {
-    /// Every node of `map`'s tree: its representative (the member nearest the flux-weighted
-    /// centroid), radius r_p, and Eq. 3's estimate Ẽ_p, in tree order.
+    /// Every node of `map`'s tree: its representative (the member nearest its box's centre),
+    /// radius r_p, and Eq. 3's estimate Ẽ_p, in tree order.
     fn node_estimates(
         &self,
         map: &Self::PhotonMap,
@@ -275,14 +275,14 @@ pub trait GatherRadius: Storage {
 /// `--gi photon`: the final gather at the sample points.
 pub trait FinalGather: Storage {
     /// The irradiance at each of the sample points `points` from `params.rays` gather rays lit
-    /// by the cut (Eq. 4 and 5), kept with the points and the same rays' 1 / R_j; and how many
-    /// gather hits no cut node's kernel reached.
+    /// by the cut (Eq. 4 and 5), kept with the points and the same rays' 1 / R_j; and what the
+    /// lookups counted.
     fn final_gather(
         &self,
         points: Self::Points,
         cut: &Self::Cut,
         params: &GatherParams,
-    ) -> Result<(Self::IrradianceSamples, u32), Self::Error>;
+    ) -> Result<(Self::IrradianceSamples, GatherCounts), Self::Error>;
 }
 
 /// `--shade interpolate`: the irradiance at the sample points.

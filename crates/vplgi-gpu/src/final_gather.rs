@@ -11,6 +11,7 @@ use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
+use vplgi_frame::GatherCounts;
 use vplgi_types::interpolation::GatherParams;
 
 #[repr(C)]
@@ -37,7 +38,7 @@ pub struct FinalGatherKernel {
 }
 
 /// A final gather's results on the device: the irradiance samples, and each point's counts of
-/// uncovered gather hits and truncated lookups (`vec2<u32>`).
+/// gather hits no kernel reached and truncated lookups (`vec2<u32>`).
 pub struct Gathered {
     pub samples: GpuIrradianceSamples,
     pub counts: wgpu::Buffer,
@@ -73,11 +74,15 @@ impl FinalGatherKernel {
 }
 
 impl vplgi_frame::stages::FinalGather for GpuBackend<'_> {
-    fn final_gather(&self, points: GpuPoints, cut: &GpuCut, params: &GatherParams) -> Result<(GpuIrradianceSamples, u32), GpuError> {
+    fn final_gather(&self, points: GpuPoints, cut: &GpuCut, params: &GatherParams) -> Result<(GpuIrradianceSamples, GatherCounts), GpuError> {
         let n = points.count as usize;
         let g = self.kernels.final_gather.run(self.device, self.queue, &self.scene, points, cut, params)?;
         let counts = read_back::<[u32; 2]>(self.device, self.queue, &g.counts, n)?;
-        Ok((g.samples, counts.iter().map(|c| c[0]).sum()))
+        let counts = GatherCounts {
+            fallback: counts.iter().map(|c| c[0] as u64).sum(),
+            truncated: counts.iter().map(|c| c[1] as u64).sum(),
+        };
+        Ok((g.samples, counts))
     }
 }
 

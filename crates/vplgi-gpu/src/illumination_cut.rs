@@ -65,7 +65,7 @@ impl IlluminationCutKernel {
         let sums = storage_zeroed::<[f32; 4]>(device, "cut sums", nodes as usize);
         let out = storage_zeroed::<CutNode>(device, "cut node estimates", nodes as usize);
         validated(device, "illumination_cut estimates", || {
-            for phase in 0..3 {
+            for phase in 0..2 {
                 let mut first = 0;
                 loop {
                     let end = first + MEMBERS_PER_DISPATCH;

@@ -198,6 +198,8 @@ fn shared_constants() -> (Named<u32>, Named<f32>) {
         ("SEGMENT_TFAR", vplgi_types::params::SEGMENT_TFAR),
         ("FACING_COS", vplgi_types::params::FACING_COS),
         ("CAUSTIC_NORMAL_COS", vplgi_types::params::CAUSTIC_NORMAL_COS),
+        ("CUT_CENTRE_SKEW", vplgi_types::params::CUT_CENTRE_SKEW),
+        ("GATHER_FALLBACK_REACH", vplgi_types::params::GATHER_FALLBACK_REACH),
         ("MIN_INTERPOLATION_ERROR", vplgi_types::interpolation::MIN_ERROR),
         ("ANY_ORIENTATION", vplgi_types::light_groups::ANY_ORIENTATION),
         ("PUNCTUAL_POINT", vplgi_types::device::PUNCTUAL_POINT),

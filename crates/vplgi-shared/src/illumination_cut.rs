@@ -14,11 +14,12 @@
 //! whole box, and a large gap says its light is not spread evenly.
 //!
 //! Final gathering reads the cut through the tree above it: [`for_gathering`] gives each node
-//! at or above the cut the box around the kernels (Eq. 4's spheres of radius r_j about p_j) of
-//! the cut nodes below it, so a lookup walks down only where some kernel reaches.
+//! at or above the cut the box around the reach of the cut nodes below it (spheres about p_j of
+//! `GATHER_FALLBACK_REACH` times Eq. 4's radius r_j, the fallback's kernels), so a lookup walks
+//! down only where some node reaches.
 
 use crate::photon_tree::is_leaf;
-use vplgi_types::params::CUT_REFINE_RATIO;
+use vplgi_types::params::{CUT_REFINE_RATIO, GATHER_FALLBACK_REACH};
 use vplgi_types::pod::CUT_ABOVE;
 use vplgi_types::{CutBound, CutNode, CutParams, Endpoint};
 
@@ -211,7 +212,7 @@ pub fn for_gathering(
         let i = i as usize;
         let e = estimates[i];
         let node = CutNode { irradiance: irradiance[i].unwrap_or([0.0; 3]), ..e };
-        let (p, r) = (glam::Vec3::from(e.position), e.radius);
+        let (p, r) = (glam::Vec3::from(e.position), e.radius * GATHER_FALLBACK_REACH);
         bounds[i] =
             CutBound { lo: (p - r).to_array(), slot: slot as u32, hi: (p + r).to_array(), _pad: 0 };
         nodes.push(node);
@@ -332,8 +333,8 @@ mod tests {
         assert_eq!(refine(&[9], &e, &irradiance), vec![9]);
     }
 
-    /// The gathering bounds: a cut node's box is its kernel's, a node above the cut holds its
-    /// children's, and nodes below the cut are never marked above.
+    /// The gathering bounds: a cut node's box holds its fallback kernel (twice its radius), a
+    /// node above the cut holds its children's, and nodes below the cut are never marked above.
     #[test]
     fn gathering_bounds_hold_the_kernels_below() {
         let mut e = estimates(&[1.0; 7]);
@@ -347,9 +348,9 @@ mod tests {
         assert_eq!(g.bounds[1].slot, 0);
         assert_eq!((g.bounds[5].slot, g.bounds[6].slot), (1, 2));
         assert_eq!((g.bounds[0].slot, g.bounds[2].slot), (CUT_ABOVE, CUT_ABOVE));
-        assert_eq!(g.bounds[2].lo, [-2.0, -1.0, -2.0]);
-        assert_eq!(g.bounds[2].hi, [4.0, 7.0, 2.0]);
-        assert_eq!(g.bounds[0].lo, [-2.0, -1.0, -2.0]);
+        assert_eq!(g.bounds[2].lo, [-4.0, -2.0, -4.0]);
+        assert_eq!(g.bounds[2].hi, [5.0, 9.0, 4.0]);
+        assert_eq!(g.bounds[0].lo, [-4.0, -2.0, -4.0]);
         assert_eq!(g.bounds[3].slot, vplgi_types::MISS);
     }
 }

@@ -110,11 +110,26 @@ pub struct CutParams {
 /// The refinement's threshold: a node is split where |E_p − Ẽ_p| > 1.2 Ẽ_p (Wang et al.'s ΔE).
 pub const CUT_REFINE_RATIO: f32 = 1.2;
 
+/// Where in its box a node's representative is sought (the member nearest that point): at
+/// 0.5 + k / 64 of the box along axis k = 1, 2, 3, just off the centre. The two or three photons
+/// of a small leaf lie on its box's corners, at exactly the same distance from the centre: a tie
+/// that rounding (a fused multiply-add on a GPU) would settle either way. Off the centre, by a
+/// different fraction on each axis, no two corners tie.
+pub const CUT_CENTRE_SKEW: f32 = 1.0 / 64.0;
+
 /// Most refinement passes (`--cut-refinements`): each may double the cut.
 pub const MAX_CUT_REFINEMENTS: u32 = 8;
 
 /// [`CutParams::min_radius`] per scene bounding-box diagonal.
 pub const MIN_CUT_RADIUS_REL: f32 = 1e-3;
+
+/// How far, in node radii, a gather hit that no Eq. 4 kernel reaches looks for light: such a
+/// hit (in a gap between kernels, or at a corner where the near nodes lie on the other wall)
+/// takes Σ w′ E / Σ w′ with w′ = K(d / (2 r_j)) max(0, n_j · n_y), Eq. 4 over twice the reach.
+/// Continuous in the hit's position, as Eq. 4 is, so the twins' rounding cannot jump it; a hit
+/// beyond twice every radius (behind a light close to the ceiling, where no photon lands) stays
+/// dark.
+pub const GATHER_FALLBACK_REACH: f32 = 2.0;
 
 /// Cut-tree nodes one gather hit's lookup may visit, the same on both backends (a lookup that
 /// would need more keeps what it summed and is counted): kernels of a few cut nodes overlap at

@@ -92,7 +92,7 @@ pub struct PhotonNode {
 }
 
 /// A node of the illumination cut (`vplgi_shared::illumination_cut`): its representative
-/// photon's position and surface normal (the member nearest the flux-weighted centroid), its
+/// photon's position and surface normal (the member nearest the centre of its box), its
 /// radius r_p (the largest side of its box, at least `CutParams::min_radius`) and an irradiance:
 /// Eq. 3's Ẽ_p in a node's estimate, the density estimate E_p in the cut final gathering reads.
 /// The same bytes as `CutNode` in `types.wgsl`.
@@ -107,8 +107,8 @@ pub struct CutNode {
     pub _pad1: u32,
 }
 
-/// A node of the photon tree as final gathering walks it: the box around the kernels (spheres
-/// of radius r_j about p_j) of the cut nodes at or below it, and `slot`, the cut node's index in
+/// A node of the photon tree as final gathering walks it: the box around the reach (spheres of
+/// `GATHER_FALLBACK_REACH` r_j about p_j) of the cut nodes at or below it, and `slot`, the cut node's index in
 /// the cut, or [`CUT_ABOVE`] for a node above the cut (walk its children). The same bytes as
 /// `CutBound` in `types.wgsl`.
 #[repr(C)]

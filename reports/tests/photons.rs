@@ -1,0 +1,41 @@
+//! `photons --quick` runs end to end at small sizes and writes the ablation of both scenes: every
+//! variant's error and time at every cut size, and the pictures the document shows.
+
+use std::process::Command;
+
+#[test]
+fn quick_photons_ablate_both_scenes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("PHOTONS.md");
+    let o = Command::new(env!("CARGO_BIN_EXE_photons"))
+        .args(["--quick", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "photons failed: {}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(&out).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("photons/photons.json")).unwrap())
+            .unwrap();
+    for sc in json["scenes"].as_array().unwrap() {
+        let name = sc["scene"].as_str().unwrap();
+        assert!(md.contains(&format!("## {name}")), "{name} missing");
+        for picture in ["reference", "a", "c", "a-c"] {
+            assert!(
+                dir.path().join(format!("photons/{name}-{picture}.png")).is_file(),
+                "{name}-{picture}.png"
+            );
+        }
+        let cuts = sc["cuts"].as_array().unwrap();
+        assert_eq!(cuts.len(), 2, "two cut sizes");
+        let errors = [&sc["a"]["rel_mse"]]
+            .into_iter()
+            .chain(cuts.iter().flat_map(|c| [&c["c"]["rel_mse"], &c["a_c"]["rel_mse"]]));
+        for e in errors {
+            let e = e.as_f64().unwrap();
+            assert!(e > 0.0 && e < 1.0, "{name}: relMSE {e}");
+        }
+        assert!(cuts
+            .iter()
+            .all(|c| c["nodes"].as_u64().unwrap() >= c["target"].as_u64().unwrap() / 2));
+    }
+}
