@@ -27,6 +27,8 @@ struct Params {
 @group(0) @binding(8) var<storage, read_write> irradiance: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> cut_nodes: array<CutNode>;
 @group(0) @binding(10) var<storage, read> cut_bounds: array<CutBound>;
+// The same boxes around the fallback's kernels, GATHER_FALLBACK_REACH times as wide.
+@group(0) @binding(12) var<storage, read> wide_bounds: array<CutBound>;
 // Per point: gather hits no kernel reached (lit by the wider kernels), and lookups stopped
 // at the visit budget.
 @group(0) @binding(11) var<storage, read_write> counts: array<vec2<u32>>;
@@ -34,8 +36,6 @@ struct Params {
 struct CutLight {
     sum: vec3<f32>,
     total: f32,
-    wide_sum: vec3<f32>,   // the fallback's kernels, GATHER_FALLBACK_REACH times as wide
-    wide_total: f32,
     truncated: bool,
 }
 
@@ -47,9 +47,11 @@ fn kernel(u2: f32) -> f32 {
     return 0.0;
 }
 
-// final_gather::cut_irradiance before its division.
-fn cut_light(y: vec3<f32>, n: vec3<f32>) -> CutLight {
-    var out = CutLight(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, false);
+// final_gather::kernel_sum: Σ w E and Σ w over the cut nodes whose kernels, reach times their
+// radius wide, reach y: through cut_bounds (reach 1) or wide_bounds (the fallback's reach).
+fn kernel_sum(y: vec3<f32>, n: vec3<f32>, wide: bool) -> CutLight {
+    var out = CutLight(vec3<f32>(0.0), 0.0, false);
+    let reach = select(1.0, GATHER_FALLBACK_REACH, wide);
     let len = arrayLength(&cut_bounds);
     var stack: array<u32, PHOTON_STACK>;
     stack[0] = 0u;
@@ -63,7 +65,10 @@ fn cut_light(y: vec3<f32>, n: vec3<f32>) -> CutLight {
         top = top - 1u;
         let i = stack[top];
         visits = visits + 1u;
-        let b = cut_bounds[i];
+        var b = cut_bounds[i];
+        if (wide) {
+            b = wide_bounds[i];
+        }
         if (any(y < b.lo) || any(y > b.hi)) {
             continue;
         }
@@ -77,18 +82,11 @@ fn cut_light(y: vec3<f32>, n: vec3<f32>) -> CutLight {
         }
         let node = cut_nodes[b.slot];
         let d = node.position - y;
-        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        let u2 = d2 / (node.radius * node.radius);
-        let facing = max(dot(node.normal, n), 0.0);
-        let w = kernel(u2) * facing;
+        let r = node.radius * reach;
+        let w = kernel((d.x * d.x + d.y * d.y + d.z * d.z) / (r * r)) * max(dot(node.normal, n), 0.0);
         if (w > 0.0) {
             out.sum = out.sum + w * node.irradiance;
             out.total = out.total + w;
-        }
-        let wide = kernel(u2 / (GATHER_FALLBACK_REACH * GATHER_FALLBACK_REACH)) * facing;
-        if (wide > 0.0) {
-            out.wide_sum = out.wide_sum + wide * node.irradiance;
-            out.wide_total = out.wide_total + wide;
         }
     }
     return out;
@@ -123,16 +121,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         if (bsdf_is_specular(s.bsdf)) {
             continue;
         }
-        let l = cut_light(s.position, s.ns);
-        c.y = c.y + select(0u, 1u, l.truncated);
+        let l = kernel_sum(s.position, s.ns, false);
+        var truncated = l.truncated;
         if (l.total > 0.0) {
             sum = sum + s.albedo * (l.sum / l.total);
         } else {
             c.x = c.x + 1u;
-            if (l.wide_total > 0.0) {
-                sum = sum + s.albedo * (l.wide_sum / l.wide_total);
+            let f = kernel_sum(s.position, s.ns, true);
+            truncated = truncated || f.truncated;
+            if (f.total > 0.0) {
+                sum = sum + s.albedo * (f.sum / f.total);
             }
         }
+        c.y = c.y + select(0u, 1u, truncated);
     }
     if (params.ray_end == params.rays) {
         let rays = f32(max(params.rays, 1u));

@@ -137,6 +137,21 @@ pub struct Inputs {
 }
 
 impl Inputs {
+    /// The inputs of `size`'s frame with `--gi photon`'s global photon map (2,000 photons under
+    /// [`smoke`]), traced once by the CPU: the frame's inputs and the map.
+    pub fn with_global_map(size: &Size) -> (Inputs, vplgi_cpu::caustics::PhotonMap) {
+        let cfg = FrameConfig {
+            global_photons: if smoke() { 2_000 } else { size.cfg.global_photons },
+            ..size.cfg.clone()
+        };
+        let inputs = Inputs::new(&cfg);
+        let photons =
+            vplgi_cpu::trace_vpls::trace_vpls(&inputs.cs, &cfg.global_trace_params(), &NoProgress)
+                .vpls;
+        let map = vplgi_cpu::caustics::photon_map(&photons, cfg.photon_leaf);
+        (inputs, map)
+    }
+
     pub fn new(cfg: &FrameConfig) -> Inputs {
         let cs = cpu_scene();
         let vpls = vplgi_cpu::trace_vpls::trace_vpls(&cs, &cfg.trace_params(), &NoProgress).vpls;

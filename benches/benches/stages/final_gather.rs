@@ -5,7 +5,6 @@
 
 use criterion::{criterion_group, BenchmarkId, Criterion};
 use vplgi_benches::{configure, sizes, smoke, Gpu, Inputs};
-use vplgi_cpu::caustics::photon_map;
 use vplgi_gpu::final_gather::FinalGatherKernel;
 use vplgi_gpu::illumination_cut::IlluminationCutKernel;
 use vplgi_types::interpolation::GatherParams;
@@ -21,13 +20,9 @@ fn final_gather_stage(c: &mut Criterion) {
         )
     });
     for size in sizes() {
-        let cfg = vplgi_types::FrameConfig {
-            global_photons: if smoke() { 2_000 } else { size.cfg.global_photons },
-            ..size.cfg.clone()
-        };
-        let inputs = Inputs::new(&cfg);
-        let photons = vplgi_cpu::trace_vpls::trace_vpls(&inputs.cs, &cfg.global_trace_params(), &vplgi_cpu::NoProgress).vpls;
-        let cut = vplgi_cpu::illumination_cut::cut_of(&photon_map(&photons, cfg.photon_leaf), &cfg.cut_params(inputs.cs.extent));
+        let (inputs, map) = Inputs::with_global_map(&size);
+        let cfg = &inputs.cfg;
+        let cut = vplgi_cpu::illumination_cut::cut_of(&map, &cfg.cut_params(inputs.cs.extent));
         let params = GatherParams { seed: cfg.seed, rays: if smoke() { 4 } else { vplgi_types::FrameConfig::photon().gather_rays } };
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
             b.iter(|| vplgi_cpu::final_gather::final_gather(&inputs.cs, inputs.rows.clone(), &cut, &params).1)

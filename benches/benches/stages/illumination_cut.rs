@@ -4,8 +4,7 @@
 //! host's choices between them.
 
 use criterion::{criterion_group, BenchmarkId, Criterion};
-use vplgi_benches::{configure, sizes, smoke, Gpu, Inputs};
-use vplgi_cpu::caustics::photon_map;
+use vplgi_benches::{configure, sizes, Gpu, Inputs};
 use vplgi_gpu::caustics::CausticsKernel;
 use vplgi_gpu::illumination_cut::IlluminationCutKernel;
 use vplgi_shared::illumination_cut::select;
@@ -21,13 +20,8 @@ fn illumination_cut_stage(c: &mut Criterion) {
         )
     });
     for size in sizes() {
-        let cfg = vplgi_types::FrameConfig {
-            global_photons: if smoke() { 2_000 } else { size.cfg.global_photons },
-            ..size.cfg.clone()
-        };
-        let inputs = Inputs::new(&cfg);
-        let photons = vplgi_cpu::trace_vpls::trace_vpls(&inputs.cs, &cfg.global_trace_params(), &vplgi_cpu::NoProgress).vpls;
-        let map = photon_map(&photons, cfg.photon_leaf);
+        let (inputs, map) = Inputs::with_global_map(&size);
+        let cfg = &inputs.cfg;
         let params = cfg.cut_params(inputs.cs.extent);
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
             b.iter(|| {

@@ -31,7 +31,7 @@ use vplgi_shared::photon_tree::{is_leaf, STACK};
 use vplgi_types::interpolation::{inverse_radius, GatherParams};
 use vplgi_types::params::{GATHER_FALLBACK_REACH, GATHER_VISITS};
 use vplgi_types::pod::CUT_ABOVE;
-use vplgi_types::Endpoint;
+use vplgi_types::{CutBound, Endpoint};
 
 /// How a gather hit is lit: its irradiance, whether no Eq. 4 kernel reached it (so the wider
 /// fallback kernels lit it, or nothing did), and whether a walk stopped at the visit budget.
@@ -50,25 +50,35 @@ pub struct HitLight {
 /// nearest facing node, as NEXT-STAGES A.3 suggests, lit such places from far away, and jumped
 /// wherever the nearest changed (`make photons` and the property test measured both).
 pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> HitLight {
-    let len = cut.bounds.len();
-    if len == 0 {
-        return HitLight { fallback: true, ..Default::default() };
+    let (sum, total, truncated) = kernel_sum(cut, &cut.bounds, 1.0, y, n);
+    if total > 0.0 {
+        return HitLight { irradiance: sum / total, fallback: false, truncated };
     }
+    let (sum, total, cut_short) = kernel_sum(cut, &cut.wide_bounds, GATHER_FALLBACK_REACH, y, n);
+    let irradiance = if total > 0.0 { sum / total } else { Vec3::ZERO };
+    HitLight { irradiance, fallback: true, truncated: truncated || cut_short }
+}
+
+/// Σ w E and Σ w at `y` over the cut nodes whose kernels, `reach` times their radius wide, reach
+/// it (found through `bounds`, built for that reach), in the order the walk meets them; and
+/// whether the walk stopped at the visit budget.
+fn kernel_sum(cut: &GatherCut, bounds: &[CutBound], reach: f32, y: Vec3, n: Vec3) -> (Vec3, f32, bool) {
+    let len = bounds.len();
     let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
-    let (mut wide_sum, mut wide_total) = (Vec3::ZERO, 0.0f32);
+    if len == 0 {
+        return (sum, total, false);
+    }
     let mut stack = [0u32; STACK];
     let mut top = 1;
     let mut visits = 0;
-    let mut truncated = false;
     while top > 0 {
         if visits >= GATHER_VISITS {
-            truncated = true;
-            break;
+            return (sum, total, true);
         }
         top -= 1;
         let i = stack[top] as usize;
         visits += 1;
-        let b = &cut.bounds[i];
+        let b = &bounds[i];
         if y.cmplt(Vec3::from(b.lo)).any() || y.cmpgt(Vec3::from(b.hi)).any() {
             continue;
         }
@@ -82,25 +92,14 @@ pub fn cut_irradiance(cut: &GatherCut, y: Vec3, n: Vec3) -> HitLight {
         }
         let node = &cut.nodes[b.slot as usize];
         let d = Vec3::from(node.position) - y;
-        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        let facing = Vec3::from(node.normal).dot(n).max(0.0);
-        let u2 = d2 / (node.radius * node.radius);
-        let w = kernel(u2) * facing;
+        let r = node.radius * reach;
+        let w = kernel((d.x * d.x + d.y * d.y + d.z * d.z) / (r * r)) * Vec3::from(node.normal).dot(n).max(0.0);
         if w > 0.0 {
             sum += w * Vec3::from(node.irradiance);
             total += w;
         }
-        let wide = kernel(u2 / (GATHER_FALLBACK_REACH * GATHER_FALLBACK_REACH)) * facing;
-        if wide > 0.0 {
-            wide_sum += wide * Vec3::from(node.irradiance);
-            wide_total += wide;
-        }
     }
-    if total > 0.0 {
-        return HitLight { irradiance: sum / total, fallback: false, truncated };
-    }
-    let irradiance = if wide_total > 0.0 { wide_sum / wide_total } else { Vec3::ZERO };
-    HitLight { irradiance, fallback: true, truncated }
+    (sum, total, false)
 }
 
 /// What a point's hits counted: lit by the fallback's wider kernels (no Eq. 4 kernel reached

@@ -61,7 +61,7 @@ impl FinalGatherKernel {
                 let end = params.rays.min(first + RAYS_PER_DISPATCH);
                 let p = Params { count: n, seed: params.seed, rays: params.rays, ray_first: first, ray_end: end, eps: scene.eps, pad: [0; 2] };
                 let pb = kernel_params(device, "final_gather params", &p);
-                let own = [(0, &pb), (6, &points.buffer), (7, &inv_radius), (8, &irradiance), (9, &cut.nodes), (10, &cut.bounds), (11, &counts)];
+                let own = [(0, &pb), (6, &points.buffer), (7, &inv_radius), (8, &irradiance), (9, &cut.nodes), (10, &cut.bounds), (11, &counts), (12, &cut.wide_bounds)];
                 let mut bindings: Vec<(u32, wgpu::BufferBinding)> = own.iter().map(|(i, b)| (*i, b.as_entire_buffer_binding())).collect();
                 bindings.extend(self.pipeline.scene_bindings(scene));
                 dispatch_windows(device, queue, self.pipeline.get(device, scene), &bindings, n.div_ceil(64));

@@ -35,8 +35,10 @@ pub const MEMBERS_PER_DISPATCH: u32 = 16_384;
 pub struct GpuCut {
     /// [`CutNode`]s, one per cut node.
     pub nodes: wgpu::Buffer,
-    /// [`vplgi_types::CutBound`]s, one per tree node.
+    /// [`vplgi_types::CutBound`]s, one per tree node, around the kernels and around the
+    /// fallback's wider kernels.
     pub bounds: wgpu::Buffer,
+    pub wide_bounds: wgpu::Buffer,
     /// The cut's size.
     pub count: u32,
 }
@@ -103,7 +105,12 @@ impl IlluminationCutKernel {
 
     /// The cut, uploaded.
     pub fn upload(&self, device: &wgpu::Device, cut: &GatherCut) -> GpuCut {
-        GpuCut { nodes: storage(device, "cut nodes", &cut.nodes), bounds: storage(device, "cut bounds", &cut.bounds), count: cut.nodes.len() as u32 }
+        GpuCut {
+            nodes: storage(device, "cut nodes", &cut.nodes),
+            bounds: storage(device, "cut bounds", &cut.bounds),
+            wide_bounds: storage(device, "cut wide bounds", &cut.wide_bounds),
+            count: cut.nodes.len() as u32,
+        }
     }
 }
 

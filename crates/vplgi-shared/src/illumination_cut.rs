@@ -14,9 +14,9 @@
 //! whole box, and a large gap says its light is not spread evenly.
 //!
 //! Final gathering reads the cut through the tree above it: [`for_gathering`] gives each node
-//! at or above the cut the box around the reach of the cut nodes below it (spheres about p_j of
-//! `GATHER_FALLBACK_REACH` times Eq. 4's radius r_j, the fallback's kernels), so a lookup walks
-//! down only where some node reaches.
+//! at or above the cut the box around the kernels of the cut nodes below it (Eq. 4's spheres of
+//! radius r_j about p_j), so a lookup walks down only where some kernel reaches; and the same
+//! boxes around the fallback's kernels, `GATHER_FALLBACK_REACH` times as wide.
 
 use crate::photon_tree::is_leaf;
 use vplgi_types::params::{CUT_REFINE_RATIO, GATHER_FALLBACK_REACH};
@@ -137,9 +137,12 @@ pub struct GatherCut {
     pub tree_nodes: Vec<u32>,
     /// Per cut node: representative, radius, and E_p.
     pub nodes: Vec<CutNode>,
-    /// Per tree node: [`CutBound`] (nodes below the cut keep an empty box; the walk never
-    /// reaches them).
+    /// Per tree node: [`CutBound`] around the kernels (nodes below the cut keep an empty box;
+    /// the walk never reaches them).
     pub bounds: Vec<CutBound>,
+    /// The same around the fallback's kernels, `GATHER_FALLBACK_REACH` times as wide, walked
+    /// only for a hit the kernels miss.
+    pub wide_bounds: Vec<CutBound>,
     pub stats: CutStats,
 }
 
@@ -198,6 +201,25 @@ pub fn for_gathering(
     cut: &[u32],
     irradiance: &[Option<[f32; 3]>],
 ) -> GatherCut {
+    let nodes = cut
+        .iter()
+        .map(|&i| CutNode {
+            irradiance: irradiance[i as usize].unwrap_or([0.0; 3]),
+            ..estimates[i as usize]
+        })
+        .collect();
+    GatherCut {
+        tree_nodes: cut.to_vec(),
+        nodes,
+        bounds: bounds(estimates, cut, 1.0),
+        wide_bounds: bounds(estimates, cut, GATHER_FALLBACK_REACH),
+        stats: CutStats::default(),
+    }
+}
+
+/// Per tree node, the box around the spheres of `reach` times the radius about the cut nodes
+/// at or below it, with the cut slot or [`CUT_ABOVE`].
+fn bounds(estimates: &[CutNode], cut: &[u32], reach: f32) -> Vec<CutBound> {
     let len = estimates.len();
     let empty = CutBound {
         lo: [f32::INFINITY; 3],
@@ -206,16 +228,13 @@ pub fn for_gathering(
         _pad: 0,
     };
     let mut bounds = vec![empty; len];
-    let mut nodes = Vec::with_capacity(cut.len());
     let mut in_cut = vec![false; len];
     for (slot, &i) in cut.iter().enumerate() {
         let i = i as usize;
         let e = estimates[i];
-        let node = CutNode { irradiance: irradiance[i].unwrap_or([0.0; 3]), ..e };
-        let (p, r) = (glam::Vec3::from(e.position), e.radius * GATHER_FALLBACK_REACH);
+        let (p, r) = (glam::Vec3::from(e.position), e.radius * reach);
         bounds[i] =
             CutBound { lo: (p - r).to_array(), slot: slot as u32, hi: (p + r).to_array(), _pad: 0 };
-        nodes.push(node);
         in_cut[i] = true;
     }
     // Bottom-up: a node above the cut bounds its children's boxes.
@@ -236,7 +255,7 @@ pub fn for_gathering(
             };
         }
     }
-    GatherCut { tree_nodes: cut.to_vec(), nodes, bounds, stats: CutStats::default() }
+    bounds
 }
 
 /// Eq. 5's kernel: 1 − u² within the node's radius (u ≤ 1), 0 beyond.
@@ -333,8 +352,9 @@ mod tests {
         assert_eq!(refine(&[9], &e, &irradiance), vec![9]);
     }
 
-    /// The gathering bounds: a cut node's box holds its fallback kernel (twice its radius), a
-    /// node above the cut holds its children's, and nodes below the cut are never marked above.
+    /// The gathering bounds: a cut node's box holds its kernel (and in the wide bounds, twice its
+    /// radius), a node above the cut holds its children's, and nodes below the cut are never
+    /// marked above.
     #[test]
     fn gathering_bounds_hold_the_kernels_below() {
         let mut e = estimates(&[1.0; 7]);
@@ -348,9 +368,12 @@ mod tests {
         assert_eq!(g.bounds[1].slot, 0);
         assert_eq!((g.bounds[5].slot, g.bounds[6].slot), (1, 2));
         assert_eq!((g.bounds[0].slot, g.bounds[2].slot), (CUT_ABOVE, CUT_ABOVE));
-        assert_eq!(g.bounds[2].lo, [-4.0, -2.0, -4.0]);
-        assert_eq!(g.bounds[2].hi, [5.0, 9.0, 4.0]);
-        assert_eq!(g.bounds[0].lo, [-4.0, -2.0, -4.0]);
+        assert_eq!(g.bounds[2].lo, [-2.0, -1.0, -2.0]);
+        assert_eq!(g.bounds[2].hi, [4.0, 7.0, 2.0]);
+        assert_eq!(g.bounds[0].lo, [-2.0, -1.0, -2.0]);
+        assert_eq!(g.wide_bounds[2].lo, [-4.0, -2.0, -4.0]);
+        assert_eq!(g.wide_bounds[2].hi, [5.0, 9.0, 4.0]);
+        assert_eq!(g.wide_bounds[2].slot, CUT_ABOVE);
         assert_eq!(g.bounds[3].slot, vplgi_types::MISS);
     }
 }

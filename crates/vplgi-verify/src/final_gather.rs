@@ -2,7 +2,7 @@
 //! representatives of the CPU's shading-point clusters), lit by the cut the CPU chose from its
 //! own global photon map, against the CPU's: each point's irradiance and 1 / R_j.
 
-use crate::gather_radius::MAX_TIE_CHECKS;
+use crate::gather_radius::{ray_tie, MAX_TIE_CHECKS};
 use crate::illumination_cut::global_photons;
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::segment::TieOracle;
@@ -42,12 +42,7 @@ pub fn compare(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &Gat
     let ((c_inv, c_e, c_fallback), (g_inv, g_e, g_fallback)) = both(twins, points, cut, params)?;
     let extent = twins.cpu.extent as f64;
     let oracle = TieOracle::new(twins.scene);
-    let (eps, reach) = (twins.cpu.eps, 4.0 * extent);
-    let ties_at = |j: usize, e: &Endpoint| {
-        let (origin, mut dirs) = vplgi_cpu::gather_radius::rays(e.p(), e.n(), eps, j as u32, params);
-        let o = origin.as_dvec3();
-        dirs.any(|d| oracle.ray_is_tie(o, d.as_dvec3(), eps as f64, reach + o.length()))
-    };
+    let ties_at = |j: usize, e: &Endpoint| ray_tie(twins, &oracle, e, j, params);
     let (mut same, mut same_or_tie, mut ties, mut checked) = (0usize, 0usize, 0usize, 0usize);
     let (mut worst, mut worst_at, mut worst_real) = (0.0f64, None, None);
     for j in 0..points.len() {

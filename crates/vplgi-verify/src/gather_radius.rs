@@ -28,12 +28,7 @@ pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Res
     let (cpu, gpu) = both(twins, points, params)?;
     let extent = twins.cpu.extent as f64;
     let oracle = TieOracle::new(twins.scene);
-    let (eps, reach) = (twins.cpu.eps, 4.0 * extent);
-    let ties_at = |j: usize, e: &Endpoint| {
-        let (origin, mut dirs) = vplgi_cpu::gather_radius::rays(e.p(), e.n(), eps, j as u32, params);
-        let o = origin.as_dvec3();
-        dirs.any(|d| oracle.ray_is_tie(o, d.as_dvec3(), eps as f64, reach + o.length()))
-    };
+    let ties_at = |j: usize, e: &Endpoint| ray_tie(twins, &oracle, e, j, params);
     // Each point's difference as a share of its bound (NaN if either side is).
     let (mut same, mut same_or_tie, mut ties, mut checked, mut unexamined) = (0usize, 0usize, 0usize, 0usize, 0usize);
     let (mut worst, mut worst_at, mut worst_real) = (0.0f64, None, None);
@@ -76,6 +71,16 @@ pub fn compare(twins: &Twins, points: &[Endpoint], params: &GatherParams) -> Res
         .with_case(&case),
         Disagreement::info("gather_radius", "largest difference of 1/R as a share of its bound", worst).with_case(case),
     ])
+}
+
+/// Whether one of the gather rays of sample point `j` at `e` is a rounding tie for the f64
+/// `oracle` (a hit at t ≈ eps, a graze of an edge, a near miss). `final_gather` traces the same
+/// rays.
+pub fn ray_tie(twins: &Twins, oracle: &TieOracle, e: &Endpoint, j: usize, params: &GatherParams) -> bool {
+    let (eps, reach) = (twins.cpu.eps, 4.0 * twins.cpu.extent as f64);
+    let (origin, mut dirs) = vplgi_cpu::gather_radius::rays(e.p(), e.n(), eps, j as u32, params);
+    let o = origin.as_dvec3();
+    dirs.any(|d| oracle.ray_is_tie(o, d.as_dvec3(), eps as f64, reach + o.length()))
 }
 
 /// Sample points traced in f64 at most: each ray costs a pass over the triangles. Points that
