@@ -239,9 +239,10 @@ rsm: build
 # Wang et al.'s Figure 6 ablation on the generated cornell-glass and conference scenes (the
 # illumination cut and the interpolation each against a 1,024-ray gather from the full photon
 # map at every pixel, cuts of 1k to 16k nodes) and the cut's speed against a density estimate at
-# every gather hit, on the CPU: docs/PHOTONS.md. About ten minutes.
+# every gather hit, on the CPU; and Table 1's stand-ins per stage on the CPU and the GPU:
+# docs/PHOTONS.md. About ten minutes.
 photons: build
-	$(CARGO) run --release -p vplgi-reports --bin photons -- --out docs/PHOTONS.md
+	XDG_RUNTIME_DIR="$${XDG_RUNTIME_DIR:-$$(mktemp -d)}" $(CARGO) run --release -p vplgi-reports --bin photons -- --out docs/PHOTONS.md
 
 # vplgi's references against Mitsuba 3 (PyPI, scalar_rgb: CPU only, no LLVM or GPU), installed
 # under target/ with numpy (nothing system-wide): each scene exported with `vplgi scene export
