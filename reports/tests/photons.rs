@@ -39,4 +39,24 @@ fn quick_photons_ablate_both_scenes() {
             .iter()
             .all(|c| c["nodes"].as_u64().unwrap() >= c["target"].as_u64().unwrap() / 2));
     }
+    // Table 1's stand-ins, each timed per stage on the CPU (and the GPU where there is one).
+    let rows = json["table1"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    for row in rows {
+        let total = row["cpu"]["total"].as_f64().unwrap();
+        assert!(total > 0.0 && row["cpu"]["final_gather"].as_f64().unwrap() > 0.0, "{row}");
+        assert!(md.contains(&format!("| {} |", row["scene"].as_str().unwrap())));
+    }
+    // --markdown-only writes the same document from the numbers alone.
+    std::fs::remove_file(&out).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_photons"))
+        .args(["--markdown-only", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "photons --markdown-only failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), md);
 }
