@@ -64,6 +64,17 @@ pub struct Nearest {
     pub truncated: bool,
 }
 
+impl Nearest {
+    /// The estimate's radius²: the k-th nearest's distance², or `max_r2` where fewer than k were
+    /// found.
+    pub fn radius2(&self, k: u32, max_r2: f32) -> f32 {
+        match self.heap.first() {
+            Some(&(kth, _)) if self.heap.len() == k as usize => kth,
+            _ => max_r2,
+        }
+    }
+}
+
 /// The k nearest photons of `map` to `p` with normals within 60° of `n` and distance² below
 /// `max_r2`.
 pub fn nearest(map: &PhotonMap, p: Vec3, n: Vec3, k: u32, max_r2: f32) -> Nearest {
@@ -165,10 +176,7 @@ pub fn estimate(map: &PhotonMap, materials: &[Material], sp: &ShadingPoint, para
     let (p, n) = (Vec3::from(sp.position), Vec3::from(sp.normal));
     let max_r2 = params.max_radius * params.max_radius;
     let found = nearest(map, p, n, params.k, max_r2);
-    let r2 = match found.heap.first() {
-        Some(&(kth, _)) if found.heap.len() == params.k as usize => kth,
-        _ => max_r2,
-    };
+    let r2 = found.radius2(params.k, max_r2);
     let at = receiver(materials, sp);
     let mut sum = Vec3::ZERO;
     for &(d2, j) in &found.heap {

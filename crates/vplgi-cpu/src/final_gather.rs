@@ -102,20 +102,11 @@ fn kernel_sum(cut: &GatherCut, bounds: &[CutBound], reach: f32, y: Vec3, n: Vec3
     (sum, total, false)
 }
 
-/// What a point's hits counted: lit by the fallback's wider kernels (no Eq. 4 kernel reached
-/// them), or a lookup truncated.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct HitCounts {
-    pub fallback: u32,
-    pub truncated: u32,
-}
-
 /// One sample point's gather with each non-specular hit lit by `light` (at a point with a
-/// normal): 1 / R, the irradiance, and the counts. `light` is the cut's lookup in the frame;
-/// `make photons` also gathers with a density estimate at every hit, which the cut replaces.
-pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight) -> (f32, Vec3, HitCounts) {
+/// normal): 1 / R, the irradiance, and what the hits counted.
+pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight) -> (f32, Vec3, GatherCounts) {
     let (origin, dirs) = rays(e.p(), e.n(), cs.eps, index, params);
-    let (mut inv_sum, mut sum, mut counts) = (0.0f32, Vec3::ZERO, HitCounts::default());
+    let (mut inv_sum, mut sum, mut counts) = (0.0f32, Vec3::ZERO, GatherCounts::default());
     for dir in dirs {
         let Some(hit) = cs.trace_beyond(origin, dir, cs.eps) else {
             continue;
@@ -125,22 +116,23 @@ pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParam
             continue;
         }
         let l = light(hit.position, hit.ns);
-        counts.truncated += l.truncated as u32;
-        counts.fallback += l.fallback as u32;
+        counts.truncated += l.truncated as u64;
+        counts.fallback += l.fallback as u64;
         sum += hit.albedo * l.irradiance;
     }
     let n = params.rays.max(1) as f32;
     (inverse_radius(inv_sum, params.rays), sum / n, counts)
 }
 
-/// The final gather at every sample point of `points`, lit by `cut`: the irradiance samples, and
-/// what the lookups counted.
-pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> (IrradianceSamples, GatherCounts) {
-    let each: Vec<(f32, Vec3, HitCounts)> =
-        points.par_iter().enumerate().map(|(j, e)| gather_with(cs, e, j as u32, params, |y, n| cut_irradiance(cut, y, n))).collect();
+/// [`gather_with`] at every sample point of `points` (point j drawing stream (seed, Gather, j)):
+/// the irradiance samples, and what all their hits counted. `light` is the cut's lookup in the
+/// frame; `make photons` also gathers with a density estimate at every hit, which the cut
+/// replaces.
+pub fn gather_all(cs: &CpuScene, points: Vec<Endpoint>, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight + Sync) -> (IrradianceSamples, GatherCounts) {
+    let each: Vec<(f32, Vec3, GatherCounts)> = points.par_iter().enumerate().map(|(j, e)| gather_with(cs, e, j as u32, params, &light)).collect();
     let counts = GatherCounts {
-        fallback: each.iter().map(|g| g.2.fallback as u64).sum(),
-        truncated: each.iter().map(|g| g.2.truncated as u64).sum(),
+        fallback: each.iter().map(|g| g.2.fallback).sum(),
+        truncated: each.iter().map(|g| g.2.truncated).sum(),
     };
     let samples = IrradianceSamples {
         inv_radius: each.iter().map(|g| g.0).collect(),
@@ -148,6 +140,12 @@ pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, param
         points,
     };
     (samples, counts)
+}
+
+/// The final gather at every sample point of `points`, lit by `cut`: the irradiance samples, and
+/// what the lookups counted.
+pub fn final_gather(cs: &CpuScene, points: Vec<Endpoint>, cut: &GatherCut, params: &GatherParams) -> (IrradianceSamples, GatherCounts) {
+    gather_all(cs, points, params, |y, n| cut_irradiance(cut, y, n))
 }
 
 impl vplgi_frame::stages::FinalGather for CpuScene<'_> {

@@ -89,11 +89,7 @@ pub fn centre_fraction() -> Vec3 {
 pub fn density(map: &PhotonMap, p: Vec3, n: Vec3, params: &CutParams) -> (Vec3, bool) {
     let max_r2 = params.max_radius * params.max_radius;
     let found = nearest(map, p, n, params.k, max_r2);
-    let r2 = match found.heap.first() {
-        Some(&(kth, _)) if found.heap.len() == params.k as usize => kth,
-        _ => max_r2,
-    }
-    .max(params.min_radius * params.min_radius);
+    let r2 = found.radius2(params.k, max_r2).max(params.min_radius * params.min_radius);
     let mut sum = Vec3::ZERO;
     for &(d2, j) in &found.heap {
         if d2 < r2 {

@@ -5,26 +5,16 @@
 use crate::backend::{GpuBackend, GpuPoints};
 use crate::buffers::{dispatch_windows, kernel_params, read_back, storage_zeroed};
 use crate::context::validated;
+// The same parameters as gather_radius' rays: final_gather.wgsl declares them alike.
+use crate::gather_radius::Params;
 use crate::illumination_cut::GpuCut;
 use crate::interpolate::GpuIrradianceSamples;
 use crate::scene::GpuScene;
 use crate::shader::RayPipeline;
 use crate::GpuError;
-use bytemuck::{Pod, Zeroable};
 use vplgi_frame::GatherCounts;
 use vplgi_types::interpolation::GatherParams;
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(crate) struct Params {
-    pub(crate) count: u32,
-    pub(crate) seed: u32,
-    pub(crate) rays: u32,
-    pub(crate) ray_first: u32,
-    pub(crate) ray_end: u32,
-    pub(crate) eps: f32,
-    pub(crate) pad: [u32; 2],
-}
 
 /// Gather rays one dispatch traces per point: each ray's traversal and its cut lookup (at most
 /// `GATHER_VISITS` nodes) stay well inside lavapipe's 65,535 loop iterations per invocation.
@@ -92,7 +82,7 @@ mod layout_tests {
     #[test]
     fn records_match_their_wgsl_layouts() {
         crate::shader::layout::check(crate::layout_rows! {
-            [super::Params] "final_gather.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
+            [crate::gather_radius::Params] "final_gather.wgsl" "Params" { count, seed, rays, ray_first, ray_end, eps }
         });
     }
 }

@@ -12,7 +12,7 @@ use crate::shader::pipelines;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use vplgi_shared::illumination_cut::{Densities, GatherCut};
-use vplgi_types::{CutNode, CutParams, Endpoint, PhotonNode};
+use vplgi_types::{CutNode, CutParams, Endpoint};
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, Pod, Zeroable)]
@@ -63,7 +63,8 @@ impl IlluminationCutKernel {
 
     /// Every node's representative, radius and Eq. 3 estimate, read back.
     pub fn node_estimates(&self, device: &wgpu::Device, queue: &wgpu::Queue, map: &GpuPhotonMap, nodes: u32, params: &CutParams) -> Result<Vec<CutNode>, GpuError> {
-        let largest = read_back::<PhotonNode>(device, queue, &map.nodes, 1)?.first().map_or(0, |root| root.count);
+        // The root holds every photon: the most members any node has.
+        let largest = map.count;
         let sums = storage_zeroed::<[f32; 4]>(device, "cut sums", nodes as usize);
         let out = storage_zeroed::<CutNode>(device, "cut node estimates", nodes as usize);
         validated(device, "illumination_cut estimates", || {

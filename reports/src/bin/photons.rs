@@ -26,7 +26,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vplgi_cpu::caustics::photon_map;
-use vplgi_cpu::final_gather::{cut_irradiance, gather_with, HitLight};
+use vplgi_cpu::final_gather::{cut_irradiance, gather_all, HitLight};
 use vplgi_cpu::illumination_cut::{cut_of, density};
 use vplgi_cpu::interpolate::{interpolate, IrradianceSamples};
 use vplgi_image::Image;
@@ -179,24 +179,11 @@ fn gather(
     params: &GatherParams,
     light: &(dyn Fn(Vec3, Vec3) -> HitLight + Sync),
 ) -> Gathered {
-    use rayon::prelude::*;
     let clock = Instant::now();
-    let each: Vec<(f32, Vec3, u32)> = points
-        .par_iter()
-        .enumerate()
-        .map(|(j, e)| {
-            let g = gather_with(cs, e, j as u32, params, light);
-            (g.0, g.1, g.2.fallback)
-        })
-        .collect();
+    let (samples, counts) = gather_all(cs, points.to_vec(), params, light);
     let seconds = clock.elapsed().as_secs_f64();
-    let fallback = each.iter().map(|g| g.2 as f64).sum::<f64>()
-        / (points.len().max(1) as f64 * params.rays.max(1) as f64);
-    let samples = IrradianceSamples {
-        points: points.to_vec(),
-        inv_radius: each.iter().map(|g| g.0).collect(),
-        irradiance: each.iter().map(|g| g.1.to_array()).collect(),
-    };
+    let fallback =
+        counts.fallback as f64 / (points.len().max(1) as f64 * params.rays.max(1) as f64);
     Gathered { samples, seconds, fallback }
 }
 
