@@ -1,4 +1,4 @@
-// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/scene.wgsl common/sampling.wgsl common/bsdf.wgsl
+// include: common/types.wgsl common/rng.wgsl common/bvh.wgsl common/surface.wgsl common/scene.wgsl common/sampling.wgsl common/bsdf.wgsl common/sh.wgsl
 // Stage final_gather (vplgi-cpu/src/final_gather.rs): per sample point, gather_radius' rays
 // (stream STREAM_GATHER, point j, counter 2r for ray r), each lit where it lands on a
 // non-specular surface by the illumination cut: ρ_y Σ w_j E_j / Σ w_j over the cut nodes whose
@@ -8,7 +8,8 @@
 // sum over kernels GATHER_FALLBACK_REACH times as wide (none: nothing), and is counted.
 // A dispatch traces rays
 // ray_first .. ray_end of every point and carries the sums; the last divides by the ray count:
-// E = (1 / N) Σ ρ_y Ê(y), and 1 / R = (1 / N) Σ 1 / t.
+// E = (1 / N) Σ ρ_y Ê(y), 1 / R = (1 / N) Σ 1 / t, and the spherical harmonics of the
+// cosine-weighted incident light g = (1 / N) Σ ρ_y Ê(y) Y(ω) (vplgi-shared/src/sh.rs).
 
 struct Params {
     count: u32,
@@ -32,6 +33,8 @@ struct Params {
 // Per point: gather hits no kernel reached (lit by the wider kernels), and lookups stopped
 // at the visit budget.
 @group(0) @binding(11) var<storage, read_write> counts: array<vec2<u32>>;
+// Per point: SH_COEFFICIENTS RGB coefficients, coefficient k's channel c at 3 k + c.
+@group(0) @binding(13) var<storage, read_write> sh: array<f32>;
 
 struct CutLight {
     sum: vec3<f32>,
@@ -108,6 +111,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var inv_sum = select(inv_radius[j], 0.0, first);
     var sum = select(irradiance[j].xyz, vec3<f32>(0.0), first);
     var c = select(counts[j], vec2<u32>(0u), first);
+    var g: array<vec3<f32>, SH_COEFFICIENTS>;
+    let base = j * 3u * SH_COEFFICIENTS;
+    for (var k = 0u; k < SH_COEFFICIENTS; k = k + 1u) {
+        let at = base + 3u * k;
+        g[k] = select(vec3<f32>(sh[at], sh[at + 1u], sh[at + 2u]), vec3<f32>(0.0), first);
+    }
     for (var r = params.ray_first; r < params.ray_end; r = r + 1u) {
         let u1 = rng_next_f32(&rng);
         let u2 = rng_next_f32(&rng);
@@ -123,22 +132,38 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         }
         let l = kernel_sum(s.position, s.ns, false);
         var truncated = l.truncated;
+        var e = vec3<f32>(0.0);
         if (l.total > 0.0) {
-            sum = sum + s.albedo * (l.sum / l.total);
+            e = l.sum / l.total;
         } else {
             c.x = c.x + 1u;
             let f = kernel_sum(s.position, s.ns, true);
             truncated = truncated || f.truncated;
             if (f.total > 0.0) {
-                sum = sum + s.albedo * (f.sum / f.total);
+                e = f.sum / f.total;
             }
         }
         c.y = c.y + select(0u, 1u, truncated);
+        let light = s.albedo * e;
+        sum = sum + light;
+        let y = sh_basis(dir);
+        for (var k = 0u; k < SH_COEFFICIENTS; k = k + 1u) {
+            g[k] = g[k] + light * y[k];
+        }
     }
     if (params.ray_end == params.rays) {
         let rays = f32(max(params.rays, 1u));
         inv_sum = inv_sum / rays;
         sum = sum / rays;
+        for (var k = 0u; k < SH_COEFFICIENTS; k = k + 1u) {
+            g[k] = g[k] / rays;
+        }
+    }
+    for (var k = 0u; k < SH_COEFFICIENTS; k = k + 1u) {
+        let at = base + 3u * k;
+        sh[at] = g[k].x;
+        sh[at + 1u] = g[k].y;
+        sh[at + 2u] = g[k].z;
     }
     inv_radius[j] = inv_sum;
     irradiance[j] = vec4<f32>(sum, 0.0);

@@ -1,4 +1,4 @@
-// include: common/types.wgsl
+// include: common/types.wgsl common/sampling.wgsl common/bsdf.wgsl common/sh.wgsl
 // Stage interpolate (vplgi-cpu/src/interpolate.rs), --shade interpolate (Wang et al. 2009).
 //
 // `sample_points` turns the K sample points (the shading-point clusters' representatives) into
@@ -6,7 +6,9 @@
 // them, each with its own visibility row: the irradiance samples, bit for bit the sum a shading
 // point of its own would get. `interpolate` then gives every shading point of a pixel range the
 // irradiance-caching interpolation of its F clusters' samples, written where `shade_lights`
-// would have written its light sum, for `shade_finish` to add emission and direct light.
+// would have written its light sum, for `shade_finish` to add emission and direct light. Where
+// the samples carry spherical harmonics (--gi photon), a glossy shading point interpolates them
+// with the same weights and writes sh_glossy_irradiance instead: the glossy last bounce.
 
 struct Params {
     count: u32,         // sample_points: K; interpolate: shading points of the range
@@ -14,7 +16,7 @@ struct Params {
     sp_first: u32,      // first sample held by the bound `sps` chunk
     f: u32,
     first_row: u32,     // first hit of the bound window of labels
-    pad0: u32,
+    sh: u32,            // interpolate: 1 where the samples carry spherical harmonics
     pad1: u32,
     pad2: u32,
 }
@@ -29,6 +31,10 @@ struct Params {
 @group(0) @binding(12) var<storage, read> inv_radius: array<f32>;
 @group(0) @binding(13) var<storage, read> irradiance: array<vec4<f32>>;
 @group(0) @binding(14) var<storage, read_write> running: array<vec4<f32>>;
+// Per sample: SH_COEFFICIENTS RGB coefficients, coefficient k's channel c at 3 k + c.
+@group(0) @binding(15) var<storage, read> sh: array<f32>;
+// Each material's BSDF in white (shade.wgsl's lobes).
+@group(0) @binding(16) var<storage, read> lobes: array<BsdfRecord>;
 
 @compute @workgroup_size(64)
 fn sample_points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -66,8 +72,15 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         return;
     }
     let r = (row_of[i] - params.first_row) * params.f;
+    // A material past the table (an irradiance sample's MISS) is diffuse, as in shade.wgsl.
+    var receiver: BsdfRecord;
+    if (sp.material < arrayLength(&lobes)) {
+        receiver = lobes[sp.material];
+    }
+    let glossy = params.sh != 0u && sp.material < arrayLength(&lobes) && bsdf_is_glossy(receiver);
     var sum = vec3<f32>(0.0);
     var total = 0.0;
+    var g: array<vec3<f32>, SH_COEFFICIENTS>;
     for (var j = 0u; j < params.f; j = j + 1u) {
         let k = labels[r + j];
         if (k == MISS) {
@@ -78,6 +91,24 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         let w = interpolation_weight(dot(d, d), dot(sp.normal, s.normal.xyz), inv_radius[k]);
         sum = sum + irradiance[k].xyz * w;
         total = total + w;
+        if (glossy) {
+            let base = k * 3u * SH_COEFFICIENTS;
+            for (var c = 0u; c < SH_COEFFICIENTS; c = c + 1u) {
+                let at = base + 3u * c;
+                g[c] = g[c] + vec3<f32>(sh[at], sh[at + 1u], sh[at + 2u]) * w;
+            }
+        }
     }
-    running[local] = vec4<f32>(select(vec3<f32>(0.0), sum / total, total > 0.0), 0.0);
+    if (total <= 0.0) {
+        running[local] = vec4<f32>(0.0);
+        return;
+    }
+    var e = sum / total;
+    if (glossy) {
+        for (var c = 0u; c < SH_COEFFICIENTS; c = c + 1u) {
+            g[c] = g[c] / total;
+        }
+        e = sh_glossy_irradiance(&g, e, receiver, sp.normal, sp.view);
+    }
+    running[local] = vec4<f32>(e, 0.0);
 }

@@ -1,6 +1,6 @@
 //! `photons --quick` runs end to end at small sizes and writes the ablation of both scenes (every
 //! variant's error and time at every cut size, and the pictures the document shows) and the
-//! per-stage times of Table 1's stand-ins.
+//! per-stage times of Table 1's stand-ins, with the glossy last bounce on cornell-glossy.
 
 use std::process::Command;
 
@@ -39,9 +39,27 @@ fn quick_photons_ablate_both_scenes() {
             .iter()
             .all(|c| c["nodes"].as_u64().unwrap() >= c["target"].as_u64().unwrap() / 2));
     }
+    // The glossy last bounce: each of cornell-glossy's three rough metals judged three ways
+    // against the reference, and the five pictures.
+    let glossy = json["glossy"]["materials"].as_array().unwrap();
+    assert_eq!(glossy.len(), 3, "three rough metals");
+    for m in glossy {
+        for way in ["photon", "full_map", "per_pixel", "as_diffuse"] {
+            let (ratio, e) =
+                (m[way]["ratio"].as_f64().unwrap(), m[way]["rel_mse"].as_f64().unwrap());
+            assert!(ratio > 0.0 && e > 0.0 && e.is_finite(), "{m}");
+        }
+    }
+    assert!(md.contains("## The glossy last bounce"));
+    for picture in ["reference", "photon", "full-map", "per-pixel", "as-diffuse"] {
+        assert!(
+            dir.path().join(format!("photons/glossy-{picture}.png")).is_file(),
+            "glossy-{picture}.png"
+        );
+    }
     // Table 1's stand-ins, each timed per stage on the CPU (and the GPU where there is one).
     let rows = json["table1"]["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 3);
+    assert_eq!(rows.len(), 4);
     for row in rows {
         let total = row["cpu"]["total"].as_f64().unwrap();
         assert!(total > 0.0 && row["cpu"]["final_gather"].as_f64().unwrap() > 0.0, "{row}");

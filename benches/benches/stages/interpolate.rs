@@ -30,7 +30,7 @@ fn interpolate_stage(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("cpu", size.name), |b| {
             b.iter(|| {
                 let irr = sample_irradiance(&inputs.cs.scene.materials, &inputs.rows, &inputs.lights, &inputs.matrix, g_max);
-                let samples = IrradianceSamples { points: inputs.rows.clone(), inv_radius: inv_radius.clone(), irradiance: irr };
+                let samples = IrradianceSamples { points: inputs.rows.clone(), inv_radius: inv_radius.clone(), irradiance: irr, sh: Vec::new() };
                 let vis = VisibilitySource::Interpolated { row_of: &inputs.row_of, labels: &sc.labels, f: sc.f, samples: &samples };
                 let sps = &inputs.sps;
                 (0..sps.len())
@@ -56,7 +56,9 @@ fn interpolate_stage(c: &mut Criterion) {
             };
             let (sps, row_of, labels) = (storage(device, "sps", &inputs.sps), storage(device, "row_of", &inputs.row_of), storage(device, "labels", &sc.labels));
             let n_hits = inputs.sp_points.0.len() as u64;
-            let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: Window { first: 0, count: n_hits } };
+            // A diffuse scene: one white diffuse record stands for every material.
+            let lobes = vplgi_gpu::buffers::storage_zeroed::<vplgi_types::BsdfRecord>(device, "lobes", 1);
+            let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: Window { first: 0, count: n_hits }, lobes: &lobes };
             let run = || {
                 let points = (g.visibility_endpoints(&inputs.rows), inputs.rows.len() as u32);
                 let samples = k.sample_irradiance(device, queue, shade, points, storage(device, "inverse radii", &inv_radius), &lighting).expect("samples");

@@ -180,8 +180,9 @@ pub struct FrameArgs {
     /// every VPL light through its F clusters' visibility (the core paper, Eq. 8-10), or the
     /// lights are summed only at each cluster's representative (its sample point) and every
     /// shading point interpolates the samples of its F nearest clusters with irradiance-caching
-    /// weights (Wang et al. 2009); needs --cluster sp or both, and a scene without rough metal,
-    /// whose glossy light is not a multiple of the irradiance.
+    /// weights (Wang et al. 2009); needs --cluster sp or both. With --gi vpl the samples hold
+    /// irradiance alone, so a scene with rough metal, whose glossy light is not a multiple of
+    /// the irradiance, is refused; --gi photon's samples carry spherical harmonics for it.
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shade: Option<ShadeMode>,

@@ -16,7 +16,8 @@
 //! kernels twice as wide (`GATHER_FALLBACK_REACH`; none: nothing), and is counted.
 //!
 //! The rays are `gather_radius`' rays (stream `Gather`, point j), so the same pass also gives
-//! 1 / R_j for the interpolation. The lookup walks the tree above the cut
+//! 1 / R_j for the interpolation, and the spherical harmonics of each point's incident light
+//! (`vplgi_shared::sh`) for glossy receivers. The lookup walks the tree above the cut
 //! (`vplgi_shared::illumination_cut::for_gathering`) left child first, summing in the order it
 //! meets the cut nodes, and stops after `GATHER_VISITS` nodes, as the GPU does.
 
@@ -28,6 +29,7 @@ use rayon::prelude::*;
 use vplgi_frame::{FrameError, GatherCounts};
 use vplgi_shared::illumination_cut::{kernel, GatherCut};
 use vplgi_shared::photon_tree::{is_leaf, STACK};
+use vplgi_shared::sh::{self, ShRgb};
 use vplgi_types::interpolation::{inverse_radius, GatherParams};
 use vplgi_types::params::{GATHER_FALLBACK_REACH, GATHER_VISITS};
 use vplgi_types::pod::CUT_ABOVE;
@@ -102,11 +104,23 @@ fn kernel_sum(cut: &GatherCut, bounds: &[CutBound], reach: f32, y: Vec3, n: Vec3
     (sum, total, false)
 }
 
+/// One sample point's gather: 1 / R, the irradiance E, the spherical harmonics of its
+/// cosine-weighted incident light (`vplgi_shared::sh`), and what the hits counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointGather {
+    pub inv_radius: f32,
+    pub irradiance: Vec3,
+    pub sh: ShRgb,
+    pub counts: GatherCounts,
+}
+
 /// One sample point's gather with each non-specular hit lit by `light` (at a point with a
-/// normal): 1 / R, the irradiance, and what the hits counted.
-pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight) -> (f32, Vec3, GatherCounts) {
+/// normal). Ray k adds ρ_y Ê(y_k) to N E and ρ_y Ê(y_k) Y(ω_k) to N g: both are (π / N) Σ L
+/// times what cosine-distributed rays weigh by.
+pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight) -> PointGather {
     let (origin, dirs) = rays(e.p(), e.n(), cs.eps, index, params);
-    let (mut inv_sum, mut sum, mut counts) = (0.0f32, Vec3::ZERO, GatherCounts::default());
+    let mut g = PointGather::default();
+    let (mut inv_sum, mut sum) = (0.0f32, Vec3::ZERO);
     for dir in dirs {
         let Some(hit) = cs.trace_beyond(origin, dir, cs.eps) else {
             continue;
@@ -116,12 +130,19 @@ pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParam
             continue;
         }
         let l = light(hit.position, hit.ns);
-        counts.truncated += l.truncated as u64;
-        counts.fallback += l.fallback as u64;
-        sum += hit.albedo * l.irradiance;
+        g.counts.truncated += l.truncated as u64;
+        g.counts.fallback += l.fallback as u64;
+        let c = hit.albedo * l.irradiance;
+        sum += c;
+        sh::accumulate(&mut g.sh, dir, c);
     }
     let n = params.rays.max(1) as f32;
-    (inverse_radius(inv_sum, params.rays), sum / n, counts)
+    for k in g.sh.iter_mut() {
+        *k = (Vec3::from(*k) / n).to_array();
+    }
+    g.inv_radius = inverse_radius(inv_sum, params.rays);
+    g.irradiance = sum / n;
+    g
 }
 
 /// [`gather_with`] at every sample point of `points` (point j drawing stream (seed, Gather, j)):
@@ -129,14 +150,15 @@ pub fn gather_with(cs: &CpuScene, e: &Endpoint, index: u32, params: &GatherParam
 /// frame; `make photons` also gathers with a density estimate at every hit, which the cut
 /// replaces.
 pub fn gather_all(cs: &CpuScene, points: Vec<Endpoint>, params: &GatherParams, light: impl Fn(Vec3, Vec3) -> HitLight + Sync) -> (IrradianceSamples, GatherCounts) {
-    let each: Vec<(f32, Vec3, GatherCounts)> = points.par_iter().enumerate().map(|(j, e)| gather_with(cs, e, j as u32, params, &light)).collect();
+    let each: Vec<PointGather> = points.par_iter().enumerate().map(|(j, e)| gather_with(cs, e, j as u32, params, &light)).collect();
     let counts = GatherCounts {
-        fallback: each.iter().map(|g| g.2.fallback).sum(),
-        truncated: each.iter().map(|g| g.2.truncated).sum(),
+        fallback: each.iter().map(|g| g.counts.fallback).sum(),
+        truncated: each.iter().map(|g| g.counts.truncated).sum(),
     };
     let samples = IrradianceSamples {
-        inv_radius: each.iter().map(|g| g.0).collect(),
-        irradiance: each.iter().map(|g| g.1.to_array()).collect(),
+        inv_radius: each.iter().map(|g| g.inv_radius).collect(),
+        irradiance: each.iter().map(|g| g.irradiance.to_array()).collect(),
+        sh: each.iter().map(|g| g.sh).collect(),
         points,
     };
     (samples, counts)

@@ -160,8 +160,9 @@ pub fn indirect(materials: &[Material], sp: &ShadingPoint, i: usize, lights: &Li
 /// normal `n`, shading point `i` of `vis` (Φ_c a_c cos θ_c / π is the light's intensity towards
 /// p, and G's other factor cos θ_p / d² turns it into irradiance). At a glossy `receiver` it is
 /// weighted by the lobe a_p, so that ρ / π times it is still the reflected radiance. `vis` is
-/// never `Interpolated` at a glossy receiver: the frame refuses `--shade interpolate` on a scene
-/// with glossy surfaces, whose light is not a multiple of the irradiance.
+/// `Interpolated` at a glossy receiver only with samples that carry spherical harmonics (the
+/// frame refuses `--shade interpolate` on glossy scenes with `--gi vpl`), which
+/// `interpolate` integrates against the lobe.
 pub fn irradiance(p: Vec3, n: Vec3, receiver: Receiver, i: usize, lights: &LightArrays, vis: &VisibilitySource, g_max: f32) -> Vec3 {
     // The visibility source is resolved once per shading point, so the per-light loop is a
     // monomorphised closure over plain slices.
@@ -197,7 +198,7 @@ pub fn irradiance(p: Vec3, n: Vec3, receiver: Receiver, i: usize, lights: &Light
         }
         VisibilitySource::Interpolated { row_of, labels, f, samples } => {
             let r = row_of[i] as usize * f;
-            crate::interpolate::interpolate(p, n, &labels[r..r + f], samples)
+            crate::interpolate::interpolate(p, n, receiver, &labels[r..r + f], samples)
         }
     }
 }

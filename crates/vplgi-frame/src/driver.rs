@@ -12,8 +12,8 @@ use vplgi_shared::rsm_importance;
 use vplgi_types::clustering::Centre;
 use vplgi_types::clustering::ClusterStart;
 use vplgi_types::{
-    Camera, CausticParams, ClusterMode, FrameConfig, RsmSeeding, Seeding, ShadeMode, ShadeParams,
-    Temporal, VplClustering, VplSource,
+    Camera, CausticParams, ClusterMode, FrameConfig, Gi, RsmSeeding, Seeding, ShadeMode,
+    ShadeParams, Temporal, VplClustering, VplSource,
 };
 
 /// Bits of visibility matrix shaded at once when shading points are not clustered (each hit is
@@ -103,10 +103,17 @@ fn render_view<B: Backend>(
         )
         .into());
     }
-    if cfg.shade == ShadeMode::Interpolate && cfg.cluster != ClusterMode::None && b.has_glossy() {
+    // `--gi photon`'s samples carry spherical harmonics for glossy receivers (the glossy last
+    // bounce); the VPL lights' samples hold irradiance alone.
+    if cfg.shade == ShadeMode::Interpolate
+        && cfg.cluster != ClusterMode::None
+        && cfg.gi == Gi::Vpl
+        && b.has_glossy()
+    {
         return Err(FrameError::InvalidConfig(
-            "--shade interpolate interpolates irradiance, and rough metal does not reflect light as a multiple of \
-             its irradiance: render scenes with glossy surfaces with --shade fuzzy"
+            "--shade interpolate with --gi vpl interpolates irradiance, and rough metal does not reflect light as a \
+             multiple of its irradiance: render scenes with glossy surfaces with --shade fuzzy, or with --gi photon, \
+             whose samples carry spherical harmonics"
                 .into(),
         )
         .into());

@@ -11,6 +11,7 @@ use crate::timing::in_kernel;
 use crate::GpuError;
 use bytemuck::{Pod, Zeroable};
 use std::ops::Range;
+use vplgi_shared::sh::ShRgb;
 use vplgi_types::ShadingPoint;
 use crate::backend::{GpuBackend, GpuPoints};
 use crate::shade::VplLightSet;
@@ -24,16 +25,20 @@ pub(crate) struct Params {
     pub(crate) sp_first: u32,
     pub(crate) f: u32,
     pub(crate) first_row: u32,
-    pub(crate) pad: [u32; 3],
+    /// 1 where the samples carry spherical harmonics.
+    pub(crate) sh: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 /// The sample points of a frame on the device (the twin of
-/// `vplgi_cpu::interpolate::IrradianceSamples`): Endpoints, 1 / R_j (f32) and the irradiance
-/// (`vec4<f32>`, RGB and 0), `count` of each.
+/// `vplgi_cpu::interpolate::IrradianceSamples`): Endpoints, 1 / R_j (f32), the irradiance
+/// (`vec4<f32>`, RGB and 0) and, from `--gi photon`'s final gather, the spherical harmonics
+/// (`ShRgb`), `count` of each.
 pub struct GpuIrradianceSamples {
     pub points: wgpu::Buffer,
     pub inv_radius: wgpu::Buffer,
     pub irradiance: wgpu::Buffer,
+    pub sh: Option<wgpu::Buffer>,
     pub count: u32,
 }
 
@@ -63,6 +68,8 @@ pub struct InterpolateInputs<'a> {
     pub labels: &'a wgpu::Buffer,
     pub f: u32,
     pub window: Window,
+    /// Each material's BSDF in white (`GpuScene::lobes`), for glossy receivers.
+    pub lobes: &'a wgpu::Buffer,
 }
 
 /// The name `GpuKernels` knows this stage's kernel by (`vplgi_frame::stage_table!`).
@@ -116,7 +123,7 @@ impl InterpolateKernel {
             visibility: Visibility::Own { first_row: 0 },
         };
         let irradiance = shade.light_sums(device, queue, &inputs, 0..n, 1, lighting.g_max)?;
-        Ok(GpuIrradianceSamples { points, inv_radius, irradiance, count: n })
+        Ok(GpuIrradianceSamples { points, inv_radius, irradiance, sh: None, count: n })
     }
 
     /// The interpolated irradiance of camera samples `samples` (all in `inputs.sps`), one
@@ -130,9 +137,19 @@ impl InterpolateKernel {
         range: Range<u32>,
     ) -> Result<wgpu::Buffer, GpuError> {
         let count = range.end - range.start;
-        let params = Params { count, first_sample: range.start, sp_first: inputs.sp_first, f: inputs.f, first_row: inputs.window.first as u32, pad: [0; 3] };
+        let params = Params {
+            count,
+            first_sample: range.start,
+            sp_first: inputs.sp_first,
+            f: inputs.f,
+            first_row: inputs.window.first as u32,
+            sh: samples.sh.is_some() as u32,
+            pad: [0; 2],
+        };
         validated(device, "interpolate", || {
             let running = storage_zeroed::<[f32; 4]>(device, "interpolated irradiance", count as usize);
+            let no_sh = storage_zeroed::<ShRgb>(device, "no harmonics", 1);
+            let sh = samples.sh.as_ref().unwrap_or(&no_sh);
             let p = kernel_params(device, "interpolate params", &params);
             let b = vec![
                 (0, p.as_entire_buffer_binding()),
@@ -143,6 +160,8 @@ impl InterpolateKernel {
                 (12, samples.inv_radius.as_entire_buffer_binding()),
                 (13, samples.irradiance.as_entire_buffer_binding()),
                 (14, running.as_entire_buffer_binding()),
+                (15, sh.as_entire_buffer_binding()),
+                (16, inputs.lobes.as_entire_buffer_binding()),
             ];
             in_kernel("interpolate", || dispatch_windows(device, queue, &self.interpolate, &b, count.div_ceil(64).max(1)));
             running
@@ -180,7 +199,7 @@ mod layout_tests {
     #[test]
     fn records_match_their_wgsl_layouts() {
         crate::shader::layout::check(crate::layout_rows! {
-            [super::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row }
+            [super::Params] "interpolate.wgsl" "Params" { count, first_sample, sp_first, f, first_row, sh }
         });
     }
 }

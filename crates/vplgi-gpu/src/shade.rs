@@ -327,7 +327,7 @@ impl vplgi_frame::stages::Shade for GpuBackend<'_> {
             }
             ShadeVisibility::Interpolated { clustering: c, ref hits, samples } => {
                 let window = Window::covering(hits.start as u64, hits.end as u64);
-                let inputs = InterpolateInputs { sps, sp_first: input.chunk.first, row_of: &input.hits.row_of, labels: &c.labels, f: c.f, window };
+                let inputs = InterpolateInputs { sps, sp_first: input.chunk.first, row_of: &input.hits.row_of, labels: &c.labels, f: c.f, window, lobes: &self.scene.lobes };
                 k.interpolate.run(device, queue, samples, &inputs, pixels.start * params.spp..pixels.end * params.spp)?
             }
         };

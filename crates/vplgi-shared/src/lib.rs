@@ -15,6 +15,8 @@
 //! * [`rsm_importance`]: the bidirectional importance map and the warp of the RSM clustering's
 //!   seeds.
 //! * [`seeding`]: the adaptive quadtree seeding of the shading-point clustering (Wang et al.).
+//! * [`sh`]: spherical harmonics of the incident light at `--gi photon`'s sample points, and the
+//!   glossy last bounce that integrates them against a receiver's lobe.
 //!
 //! The records they read and write are `vplgi-types`'.
 
@@ -26,3 +28,4 @@ pub mod polygon;
 pub mod rsm;
 pub mod rsm_importance;
 pub mod seeding;
+pub mod sh;

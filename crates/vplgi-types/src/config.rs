@@ -229,7 +229,10 @@ pub enum Gi {
     /// Wang et al. 2009: a global photon map, its illumination cut, and final gathering at the
     /// shading-point clusters' representatives, interpolated to every shading point. Needs
     /// clustered shading points and `--shade interpolate`; add `--caustics photons` for the
-    /// light mirrors and glass throw.
+    /// light mirrors and glass throw. Rough metal takes the glossy last bounce: each
+    /// representative's incident light in order-4 spherical harmonics, integrated against the
+    /// receiver's lobe. Order 4 holds broad lobes only: glTF roughness 0.6 and above (GGX α
+    /// ≥ 0.36) keeps its reflection; below, highlights widen to the bands' blur.
     Photon,
 }
 

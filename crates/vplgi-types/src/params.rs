@@ -131,6 +131,17 @@ pub const MIN_CUT_RADIUS_REL: f32 = 1e-3;
 /// dark.
 pub const GATHER_FALLBACK_REACH: f32 = 2.0;
 
+/// Real spherical-harmonic coefficients per colour channel that a `--gi photon` sample point
+/// keeps of its incident light for glossy receivers: the bands l = 0..3, Wang et al.'s order 4.
+pub const SH_COEFFICIENTS: usize = 16;
+
+/// Directions of a glossy receiver's lobe over which the glossy last bounce integrates the
+/// interpolated spherical harmonics (`vplgi_shared::sh::glossy_irradiance`): a fixed
+/// Hammersley set, so both backends sum the same terms and a pixel's value has no noise of its
+/// own. An order-4 reconstruction varies slowly: 64 directions hold the integral within 2 % of
+/// a dense integration (`vplgi_shared::sh`'s tests).
+pub const GLOSSY_DIRECTIONS: u32 = 64;
+
 /// Cut-tree nodes one gather hit's lookup may visit, the same on both backends (a lookup that
 /// would need more keeps what it summed and is counted): kernels of a few cut nodes overlap at
 /// any point, so a lookup needs a few tree paths.

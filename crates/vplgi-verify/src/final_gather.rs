@@ -1,6 +1,7 @@
 //! `final_gather` (`--gi photon`): the GPU's gather at the CPU's sample points (the
 //! representatives of the CPU's shading-point clusters), lit by the cut the CPU chose from its
-//! own global photon map, against the CPU's: each point's irradiance and 1 / R_j.
+//! own global photon map, against the CPU's: each point's irradiance, spherical harmonics and
+//! 1 / R_j.
 
 use crate::gather_radius::{ray_tie, MAX_TIE_CHECKS};
 use crate::illumination_cut::global_photons;
@@ -13,13 +14,21 @@ use vplgi_cpu::caustics::photon_map;
 use vplgi_gpu::buffers::read_back;
 use vplgi_gpu::GpuPoints;
 use vplgi_shared::illumination_cut::GatherCut;
+use vplgi_shared::sh::ShRgb;
 use vplgi_types::interpolation::GatherParams;
 use vplgi_types::Endpoint;
 
-/// The gather at `points` on both backends: (1 / R_j, irradiance) per point, and the hits no
-/// kernel reached on each (lit by the fallback's wider kernels).
-#[allow(clippy::type_complexity)]
-pub fn both(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &GatherParams) -> Result<((Vec<f32>, Vec<[f32; 3]>, u64), (Vec<f32>, Vec<[f32; 3]>, u64)), VerifyError> {
+/// One backend's gather at every point: 1 / R_j, the irradiance and the spherical harmonics per
+/// point, and the hits no kernel reached (lit by the fallback's wider kernels).
+pub struct Gathered {
+    pub inv_radius: Vec<f32>,
+    pub irradiance: Vec<[f32; 3]>,
+    pub sh: Vec<ShRgb>,
+    pub fallback: u64,
+}
+
+/// The gather at `points` on both backends, CPU first.
+pub fn both(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &GatherParams) -> Result<(Gathered, Gathered), VerifyError> {
     let (cpu, cpu_counts) = vplgi_cpu::final_gather::final_gather(twins.cpu, points.to_vec(), cut, params);
     let (device, queue) = (twins.device(), twins.queue());
     let kernels = twins.gpu.kernels();
@@ -28,10 +37,33 @@ pub fn both(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &Gather
     let n = points.len();
     let inv = read_back::<f32>(device, queue, &g.samples.inv_radius, n)?;
     let e = read_back::<[f32; 4]>(device, queue, &g.samples.irradiance, n)?;
+    let sh = match &g.samples.sh {
+        Some(b) => read_back::<ShRgb>(device, queue, b, n)?,
+        None => Vec::new(),
+    };
     let counts = read_back::<[u32; 2]>(device, queue, &g.counts, n)?;
-    let gpu_e = e.iter().map(|v| [v[0], v[1], v[2]]).collect();
-    let gpu_fallback = counts.iter().map(|c| c[0] as u64).sum();
-    Ok(((cpu.inv_radius, cpu.irradiance, cpu_counts.fallback), (inv, gpu_e, gpu_fallback)))
+    let gpu = Gathered {
+        inv_radius: inv,
+        irradiance: e.iter().map(|v| [v[0], v[1], v[2]]).collect(),
+        sh,
+        fallback: counts.iter().map(|c| c[0] as u64).sum(),
+    };
+    let cpu = Gathered { inv_radius: cpu.inv_radius, irradiance: cpu.irradiance, sh: cpu.sh, fallback: cpu_counts.fallback };
+    Ok((cpu, gpu))
+}
+
+/// The largest difference of two points' coefficients as a share of the largest coefficient of
+/// either (0 when all are 0).
+fn sh_difference(c: &ShRgb, g: &ShRgb) -> f64 {
+    let flat = |s: &ShRgb| s.iter().flatten().copied().collect::<Vec<f32>>();
+    let (c, g) = (flat(c), flat(g));
+    let scale = c.iter().chain(&g).fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+    let diff = c.iter().zip(&g).fold(0.0f32, |m, (a, b)| m.max((a - b).abs())) as f64;
+    if scale == 0.0 {
+        0.0
+    } else {
+        diff / scale
+    }
 }
 
 /// Compares the gather at `points` lit by `cut`: the share of points whose 1 / R_j is within
@@ -39,7 +71,9 @@ pub fn both(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &Gather
 /// `gather_radius`' share (a ray that meets another surface moves its point by a whole term),
 /// and the same share with points one of whose rays the f64 oracle finds ambiguous set aside.
 pub fn compare(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &GatherParams) -> Result<Vec<Disagreement>, VerifyError> {
-    let ((c_inv, c_e, c_fallback), (g_inv, g_e, g_fallback)) = both(twins, points, cut, params)?;
+    let (cpu, gpu) = both(twins, points, cut, params)?;
+    let (c_inv, c_e, c_fallback) = (&cpu.inv_radius, &cpu.irradiance, cpu.fallback);
+    let (g_inv, g_e, g_fallback) = (&gpu.inv_radius, &gpu.irradiance, gpu.fallback);
     let extent = twins.cpu.extent as f64;
     let oracle = TieOracle::new(twins.scene);
     let ties_at = |j: usize, e: &Endpoint| ray_tie(twins, &oracle, e, j, params);
@@ -51,7 +85,11 @@ pub fn compare(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &Gat
         let e_share = if scale == 0.0 { 0.0 } else { (ce - ge).abs().max_element() as f64 / scale / FINAL_GATHER_REL };
         let (c, g) = (c_inv[j], g_inv[j]);
         let inv_share = if c == g { 0.0 } else { (c - g).abs() as f64 / gather_radius_bound(c as f64, extent).max(f64::MIN_POSITIVE) };
-        let share = e_share.max(inv_share);
+        let sh_share = match (cpu.sh.get(j), gpu.sh.get(j)) {
+            (Some(c), Some(g)) => sh_difference(c, g) / FINAL_GATHER_REL,
+            _ => f64::INFINITY,
+        };
+        let share = e_share.max(inv_share).max(sh_share);
         let agrees = share <= 1.0;
         let tie = !agrees && checked < MAX_TIE_CHECKS && {
             checked += 1;
@@ -72,7 +110,7 @@ pub fn compare(twins: &Twins, points: &[Endpoint], cut: &GatherCut, params: &Gat
     let n = points.len();
     let case = format!("{} sample points, {} gather rays each, a cut of {} nodes", count(n), params.rays, count(cut.nodes.len()));
     let share = |k: usize| if n == 0 { 1.0 } else { k as f64 / n as f64 };
-    let what = format!("share of sample points with irradiance within {FINAL_GATHER_REL:e} relative and 1/R within gather_radius' bound");
+    let what = format!("share of sample points with irradiance and harmonics within {FINAL_GATHER_REL:e} relative and 1/R within gather_radius' bound");
     let bound = gather_radius_same_share(params.rays);
     Ok(vec![
         Disagreement::at_least("final_gather", &what, share(same), bound).with_case(&case).with_worst(worst_at),

@@ -1,15 +1,17 @@
 //! `interpolate` (`--shade interpolate`): the GPU's irradiance samples at the CPU's sample points
 //! (from the CPU's radii, lights and visibility rows) against the CPU's, and the interpolated
-//! final image of each mode that clusters shading points (SPEC: the shade row, relMSE ≤ 1e-4).
+//! final image of each mode that clusters shading points (SPEC: the shade row, relMSE ≤ 1e-4);
+//! with `--gi photon` on a glossy scene, the glossy last bounce from the same samples.
 
 use crate::inputs::{CpuClusters, CpuFrame};
 use crate::shade::{compare_on, rel_mse, worst_item, Pixels};
 use crate::tolerance::{Disagreement, SHADE_REL_MSE};
 use crate::{count, interpolating, result, v3, Mode, Plan, StageResult, Twins, VerifyError, VerifyStage};
-use vplgi_gpu::buffers::{read_back, storage};
-use vplgi_gpu::interpolate::SampleLighting;
+use vplgi_cpu::shade::{irradiance, receiver, LightArrays, VisibilitySource};
+use vplgi_gpu::buffers::{read_back, storage, Window};
+use vplgi_gpu::interpolate::{GpuIrradianceSamples, InterpolateInputs, SampleLighting};
 use vplgi_gpu::visibility::words_per_row;
-use vplgi_types::FrameConfig;
+use vplgi_types::{FrameConfig, Gi, MISS};
 
 /// The irradiance samples of `clusters`' sample points on both backends.
 pub fn both(twins: &Twins, cfg: &FrameConfig, clusters: &CpuClusters) -> Result<(Pixels, Pixels), VerifyError> {
@@ -57,6 +59,62 @@ pub fn compare_samples(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Re
     ])
 }
 
+/// `--gi photon` on a scene with glossy surfaces: the CPU's final-gather samples (spherical
+/// harmonics included, lit by the cut the CPU chose) interpolated at every shading point by both
+/// backends, glossy receivers integrating the harmonics against their lobes (the glossy last
+/// bounce). Judged as the shade row, relMSE ≤ `SHADE_REL_MSE`, over the glossy shading points.
+pub fn compare_glossy(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame) -> Result<Vec<Disagreement>, VerifyError> {
+    let cs = twins.cpu;
+    let clusters = CpuClusters::new(cs, frame, cfg);
+    // `interpolating` clusters shading points in every mode it returns.
+    let Some(sc) = clusters.sp_clusters.as_ref() else { return Ok(Vec::new()) };
+    let photons = crate::illumination_cut::global_photons(twins, cfg);
+    let cut = vplgi_cpu::illumination_cut::cut_of(&vplgi_cpu::caustics::photon_map(&photons, cfg.photon_leaf), &cfg.cut_params(cs.extent));
+    let (samples, _) = vplgi_cpu::final_gather::final_gather(cs, clusters.rows.clone(), &cut, &cfg.gather_params());
+    let vis = VisibilitySource::Interpolated { row_of: &frame.row_of, labels: &sc.labels, f: sc.f, samples: &samples };
+    let none = LightArrays::new(&Default::default(), &[]);
+    let materials = &cs.scene.materials;
+    let glossy: Vec<usize> = (0..frame.sps.len()).filter(|&i| frame.row_of[i] != MISS && receiver(materials, &frame.sps[i]).is_some()).collect();
+    let cpu: Vec<[f32; 3]> = glossy
+        .iter()
+        .map(|&i| {
+            let sp = &frame.sps[i];
+            irradiance(sp.position.into(), sp.normal.into(), receiver(materials, sp), i, &none, &vis, f32::INFINITY).to_array()
+        })
+        .collect();
+    let (device, queue) = (twins.device(), twins.queue());
+    let e: Vec<[f32; 4]> = samples.irradiance.iter().map(|e| [e[0], e[1], e[2], 0.0]).collect();
+    let gpu_samples = GpuIrradianceSamples {
+        points: storage(device, "sample points", &samples.points),
+        inv_radius: storage(device, "inverse radii", &samples.inv_radius),
+        irradiance: storage(device, "irradiance", &e),
+        sh: Some(storage(device, "harmonics", &samples.sh)),
+        count: samples.points.len() as u32,
+    };
+    let (sps, row_of, labels) = (storage(device, "sps", &frame.sps), storage(device, "row_of", &frame.row_of), storage(device, "labels", &sc.labels));
+    let inputs = InterpolateInputs {
+        sps: &sps,
+        sp_first: 0,
+        row_of: &row_of,
+        labels: &labels,
+        f: sc.f as u32,
+        window: Window { first: 0, count: frame.hits.len() as u64 },
+        lobes: &twins.gpu.scene().lobes,
+    };
+    let k = twins.gpu.kernels();
+    let running = k.interpolate.run(device, queue, &gpu_samples, &inputs, 0..frame.sps.len() as u32)?;
+    let all: Vec<[f32; 4]> = read_back(device, queue, &running, frame.sps.len())?;
+    let gpu: Vec<[f32; 3]> = glossy.iter().map(|&i| [all[i][0], all[i][1], all[i][2]]).collect();
+    let (worst, at) = worst_item(&cpu, &gpu, |_| true, |j| format!("shading point {}", glossy[j]));
+    let case = format!("{} glossy shading points of {}, {} sample points", count(glossy.len()), count(frame.sps.len()), count(samples.points.len()));
+    Ok(vec![
+        Disagreement::at_most("interpolate / glossy", "relMSE(GPU, CPU) of the glossy last bounce on the same samples", rel_mse(&cpu, &gpu), SHADE_REL_MSE)
+            .with_case(&case)
+            .with_worst(at),
+        Disagreement::info("interpolate / glossy", "largest relative difference at a glossy shading point", worst as f64).with_case(case),
+    ])
+}
+
 /// The samples of the plan's frame, interpolating, and the interpolated image of each mode of
 /// `modes` that clusters shading points (of none does, `both/weighted`).
 pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
@@ -65,6 +123,9 @@ pub fn verify(twins: &Twins, plan: &Plan) -> Result<StageResult, VerifyError> {
     let cfg = interpolating(cfg);
     let frame = CpuFrame::new(twins.cpu, &cfg);
     r.checks.extend(compare_samples(twins, &cfg, &frame)?);
+    if cfg.gi == Gi::Photon && twins.cpu.scene.materials.iter().any(|m| m.surface.is_glossy()) {
+        r.checks.extend(compare_glossy(twins, &cfg, &frame)?);
+    }
     let mut clustered: Vec<Mode> = modes.iter().copied().filter(|m| m.cluster.clusters_sps()).collect();
     if clustered.is_empty() {
         clustered.push(Mode::of(&cfg));

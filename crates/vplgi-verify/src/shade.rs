@@ -83,7 +83,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
         Some(_) if cfg.shade == ShadeMode::Interpolate => {
             let inv_radius = clusters.inv_radius(cs, cfg);
             let irradiance = sample_irradiance(&cs.scene.materials, &clusters.rows, &clusters.lights, &matrix, params.g_max);
-            Some(IrradianceSamples { points: clusters.rows.clone(), inv_radius, irradiance })
+            Some(IrradianceSamples { points: clusters.rows.clone(), inv_radius, irradiance, sh: Vec::new() })
         }
         _ => None,
     };
@@ -127,7 +127,7 @@ pub fn shade_both(twins: &Twins, cfg: &FrameConfig, frame: &CpuFrame, clusters: 
                 storage(device, "inverse radii", &samples.inv_radius),
                 &lighting,
             )?;
-            let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: all_hits };
+            let at = InterpolateInputs { sps: &sps, sp_first: 0, row_of: &row_of, labels: &labels, f: sc.f as u32, window: all_hits, lobes: &twins.gpu.scene().lobes };
             let running = kernels.interpolate.run(device, queue, &gpu_samples, &at, 0..frame.sps.len() as u32)?;
             kernels.shade.finish(device, queue, twins.gpu.scene(), &FinishInput { sps: &sps, sp_first: 0, running: &running, pixels: 0..n_pixels as u32 }, &params)?
         }
