@@ -558,7 +558,7 @@ fn markdown(r: &Value, s: &Sizes) -> String {
     );
     let _ = writeln!(
         md,
-        "{} Every number is the CPU reference's (rayon and Embree) on {} with {} threads; nothing here ran on a GPU.\n",
+        "{} Every number is the CPU reference's (rayon and Embree) on {} with {} threads, but for the GPU rows of Table 1 (last section), which name their adapter.\n",
         vplgi_reports::generated_by("photons", r, "measurement"),
         r["cpu"].as_str().unwrap_or("?"),
         r["threads"]
@@ -701,10 +701,15 @@ fn markdown(r: &Value, s: &Sizes) -> String {
     );
     let t = &r["table1"];
     let adapter = t["adapter"].as_str().unwrap_or("no GPU adapter");
+    let software = if adapter.contains("llvmpipe") {
+        " (lavapipe: Mesa's software Vulkan, on the same CPU cores)"
+    } else {
+        ""
+    };
     let _ = writeln!(
         md,
         "## The paper's Table 1, per stage\n\nOne `--preset photon` frame of each stand-in at Table 1's sizes (512², one sample per pixel where the \
-         paper supersamples 1024²; its photon counts, shading-point clusters and cut target), on the CPU and on the GPU: **{adapter}**. \
+         paper supersamples 1024²; its photon counts, shading-point clusters and cut target), on the CPU and on the GPU: **{adapter}**{software}. \
          Milliseconds per stage (tracing counts both maps' photons; `illumination_cut` the tree and the cut); the paper's frame \
          rates (GTX 280) are context, not a target for a software rasteriser.\n"
     );
