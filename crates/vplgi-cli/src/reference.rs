@@ -125,6 +125,7 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         bail!("--tile {index}/{count}: more tiles than the {} rows", base.height);
     }
     let (scene, source) = load_scene(args.scene.as_deref())?;
+    crate::shared::warn_without_caustics(&scene, &source, &base);
     let rows = tile_rows(index, count, base.height);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;

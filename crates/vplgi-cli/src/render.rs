@@ -89,6 +89,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     install_interrupt_cleanup(args.out.clone());
 
+    crate::shared::warn_without_caustics(&scene, &source, &cfg);
     let light_sampler = vplgi_scene::lights::LightSampler::new(&scene);
     if !light_sampler.has_lights() {
         eprintln!("warning: {source} has no light (no emissive triangle, no punctual light): the image will be black");

@@ -28,6 +28,27 @@ pub fn load_scene(path: Option<&Path>) -> Result<(vplgi_scene::Scene, String)> {
     }
 }
 
+/// Warns, once per material, where `scene` has mirrors or glass and the frame leaves out the
+/// caustic map: camera rays and light particles go on from such a surface, but the light that
+/// reaches a diffuse surface through it is in the image only with `--caustics photons`.
+pub fn warn_without_caustics(
+    scene: &vplgi_scene::Scene,
+    source: &str,
+    cfg: &vplgi_types::FrameConfig,
+) {
+    if cfg.has_caustics() {
+        return;
+    }
+    for m in scene.materials.iter().filter(|m| m.surface.is_specular()) {
+        eprintln!(
+            "warning: {source}: material '{}' is {}: camera rays and light particles go on from it, reflected or refracted, but light that \
+             reaches a diffuse surface through it (caustics, and direct light through glass) is in the image only with --caustics photons",
+            m.name,
+            m.surface.describe()
+        );
+    }
+}
+
 /// Writes pretty JSON atomically.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
     let text = serde_json::to_string_pretty(value).context("serialising JSON")?;

@@ -1499,3 +1499,40 @@ fn light_orbits_render_as_frame_sequences_with_warm_rsm_clusters() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// A scene with a mirror warns that light through it is missing only where the frame leaves out
+/// the caustic map: `--caustics photons` (as `--preset photon` sets) says nothing of it.
+#[test]
+fn mirrors_warn_only_without_the_caustic_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("mirror.glb");
+    let o = vplgi(&["scene", "generate", "cornell-mirror", "--out", glb.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let warned = |caustics: &str| {
+        let out = dir.path().join(caustics);
+        let o = vplgi(&[
+            "render",
+            glb.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--vpls",
+            "200",
+            "--k-sp",
+            "50",
+            "--k-vpl",
+            "20",
+            "--caustics",
+            caustics,
+            "--caustic-photons",
+            "2000",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).contains("is in the image only with --caustics photons")
+    };
+    assert!(warned("off"), "no warning without the caustic map");
+    assert!(!warned("photons"), "a warning with the caustic map");
+}

@@ -339,13 +339,6 @@ impl<'a> Loader<'a> {
         for w in warnings {
             self.warn(format!("material '{name}': {w}"));
         }
-        if surface.is_specular() {
-            self.warn(format!(
-                "material '{name}' is {}: camera rays and light particles go on from it, reflected or refracted, but light that reaches a diffuse surface \
-                 through it (caustics, and direct light through glass) is in the image only with --caustics photons",
-                surface.describe()
-            ));
-        }
         let converted = Material {
             name,
             base_color: Vec3::new(r, g, b),
