@@ -412,7 +412,7 @@ fn main() -> Result<()> {
             .iter()
             .filter(|(v, _, caustics)| match (*v, caustics) {
                 ("compensated", _) => true,
-                ("photon", _) => PHOTON_SCENES.contains(&name),
+                ("photon", _) => PHOTON_SCENES.contains(name),
                 (_, true) => has_caustics(name),
                 _ => clamped_too(name),
             })
