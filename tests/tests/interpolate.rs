@@ -252,11 +252,7 @@ fn interpolation_weights_on_hand_checked_points() {
 fn a_white_furnace_interpolates_to_its_irradiance_everywhere() {
     let mut rng = vplgi_types::Rng::new(11, vplgi_types::Stream::Oracle, 0);
     let mut u = || rng.next_f32();
-    let unit = |a: f32, b: f32| {
-        let (z, phi) = (2.0 * a - 1.0, 2.0 * std::f32::consts::PI * b);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    };
+    let unit = vplgi_types::sampling::uniform_sphere;
     let e = [0.37f32, 1.25, 3.5];
     let n_samples = 40;
     let samples = IrradianceSamples {
@@ -340,11 +336,7 @@ fn glossy_receivers_integrate_the_interpolated_harmonics() {
     use vplgi_shared::sh::{accumulate, glossy_irradiance, ShRgb};
     let mut rng = vplgi_types::Rng::new(12, vplgi_types::Stream::Oracle, 0);
     let mut u = || rng.next_f32();
-    let unit = |a: f32, b: f32| {
-        let (z, phi) = (2.0 * a - 1.0, 2.0 * std::f32::consts::PI * b);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    };
+    let unit = vplgi_types::sampling::uniform_sphere;
     let mut scene = vplgi_scene::cornell::plane_with_point_light(4.0, 1.0, 0.5, 1.0);
     scene.lights.clear();
     let metal = scene.materials[0].clone();

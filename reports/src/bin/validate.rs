@@ -430,12 +430,28 @@ fn main() -> Result<()> {
                 let run_dir = dir.join(format!("vplgi-{variant}")).join(format!("run-{run}"));
                 let first_seed = (1 + run * o.seeds).to_string();
                 let out = run_dir.to_string_lossy();
+                let mut args: Vec<&str> = vec![
+                    "reference",
+                    &scene_arg,
+                    "--width",
+                    &ws,
+                    "--height",
+                    &hs,
+                    "--spp",
+                    &spp,
+                    "--seeds",
+                    &seeds,
+                    "--seed",
+                    &first_seed,
+                    "--bounces",
+                    &bounces,
+                    "--out",
+                    &out,
+                ];
                 if variant == "photon" {
                     // `--preset photon`, which is the reference preset with these changes (a
                     // reference takes no preset): the mean of its clustered frames.
-                    vplgi(&[
-                        "reference",
-                        &scene_arg,
+                    args.extend([
                         "--gi",
                         "photon",
                         "--cluster",
@@ -454,47 +470,18 @@ fn main() -> Result<()> {
                         "256",
                         "--caustics",
                         "photons",
-                        "--width",
-                        &ws,
-                        "--height",
-                        &hs,
-                        "--spp",
-                        &spp,
-                        "--seeds",
-                        &seeds,
-                        "--seed",
-                        &first_seed,
-                        "--bounces",
-                        &bounces,
-                        "--out",
-                        &out,
-                    ])?;
+                    ]);
                 } else {
-                    vplgi(&[
-                        "reference",
-                        &scene_arg,
-                        "--width",
-                        &ws,
-                        "--height",
-                        &hs,
-                        "--spp",
-                        &spp,
-                        "--seeds",
-                        &seeds,
-                        "--seed",
-                        &first_seed,
+                    args.extend([
                         "--vpls",
                         &vpls,
-                        "--bounces",
-                        &bounces,
                         "--bias-compensation",
                         if compensated { "true" } else { "false" },
                         "--caustics",
                         if caustics { "photons" } else { "off" },
-                        "--out",
-                        &out,
-                    ])?;
+                    ]);
                 }
+                vplgi(&args)?;
                 means.push(vplgi_image::read_exr(&run_dir.join("mean.exr"))?);
                 let sidecar = run_dir.join("reference.json");
                 sidecars.push(serde_json::from_str::<Value>(
