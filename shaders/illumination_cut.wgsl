@@ -103,7 +103,8 @@ fn densities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let r2 = max(nearest_r2(found, params.k, params.max_r2), params.min_radius * params.min_radius);
     var sum = vec3<f32>(0.0);
     for (var q = 0u; q < found.found; q = q + 1u) {
-        if (heap_d2[q] < r2) {
+        // density: a photon at the point itself (the representative) is left out.
+        if (heap_d2[q] < r2 && heap_d2[q] > 0.0) {
             sum = sum + photons[heap_i[q]].flux;
         }
     }
