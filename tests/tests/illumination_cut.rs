@@ -177,13 +177,6 @@ fn the_density_of_a_uniformly_lit_plane_is_its_irradiance_on_both_backends() {
             )
         })
         .collect();
-    let judge = |backend: &str, got: &[([f32; 3], bool)]| {
-        let mean = got.iter().map(|d| d.0[0] as f64).sum::<f64>() / got.len() as f64;
-        println!("{backend}: mean density estimate {mean:.4} of the irradiance 1");
-        assert!(got.iter().all(|d| !d.1), "{backend}: a search stopped at the budget");
-        assert!((mean - 1.0).abs() < 0.03, "{backend}: the plane's density estimate is {mean:.4}");
-    };
-    judge("CPU", &vplgi_cpu::illumination_cut::densities(&map, &points, &params));
     // The cut asks at photons (its nodes' representatives). A second map holds, beside the
     // random photons, 1,024 more on a grid 0.25 apart over the plane's middle, farther apart
     // than the estimate's radius (about 0.13), and the estimate is asked at each. The photon
@@ -196,32 +189,34 @@ fn the_density_of_a_uniformly_lit_plane_is_its_irradiance_on_both_backends() {
     with_grid.extend(grid.iter().map(|p| Vpl { position: p.to_array(), ..photons[0] }));
     let at_photons = photon_map(&with_grid, 8);
     let asked: Vec<Endpoint> = grid.iter().map(|&p| Endpoint::new(p, Vec3::Y)).collect();
-    let judge_at_photons = |backend: &str, got: &[([f32; 3], bool)]| {
+    // (where, map, points, bound on the mean's distance from 1)
+    let cases =
+        [("between photons", &map, &points, 0.03), ("at photons", &at_photons, &asked, 0.013)];
+    let judge = |backend: &str, at: &str, bound: f64, got: &[([f32; 3], bool)]| {
         let mean = got.iter().map(|d| d.0[0] as f64).sum::<f64>() / got.len() as f64;
-        println!("{backend}: mean density estimate at photons {mean:.4} of the irradiance 1");
-        assert!((mean - 1.0).abs() < 0.013, "{backend}: the estimate at photons is {mean:.4}");
+        println!("{backend}: mean density estimate {at} {mean:.4} of the irradiance 1");
+        assert!(got.iter().all(|d| !d.1), "{backend}: a search stopped at the budget");
+        assert!(
+            (mean - 1.0).abs() < bound,
+            "{backend}: the plane's density estimate {at} is {mean:.4}"
+        );
     };
-    judge_at_photons("CPU", &vplgi_cpu::illumination_cut::densities(&at_photons, &asked, &params));
+    for &(at, map, points, bound) in &cases {
+        judge("CPU", at, bound, &vplgi_cpu::illumination_cut::densities(map, points, &params));
+    }
     let Some(gpu) = vplgi_tests::shared_gpu(
         "the_density_of_a_uniformly_lit_plane_is_its_irradiance_on_both_backends",
     ) else {
         return;
     };
     let (device, queue) = (&gpu.ctx.device, &gpu.ctx.queue);
-    let on_device = gpu.kernels.caustics.upload(device, &map.photons, &map.nodes);
-    judge(
-        "GPU",
-        &gpu.kernels
+    for &(at, map, points, bound) in &cases {
+        let on_device = gpu.kernels.caustics.upload(device, &map.photons, &map.nodes);
+        let got = gpu
+            .kernels
             .illumination_cut
-            .densities(device, queue, &on_device, &points, &params)
-            .expect("densities"),
-    );
-    let on_device = gpu.kernels.caustics.upload(device, &at_photons.photons, &at_photons.nodes);
-    judge_at_photons(
-        "GPU",
-        &gpu.kernels
-            .illumination_cut
-            .densities(device, queue, &on_device, &asked, &params)
-            .expect("densities"),
-    );
+            .densities(device, queue, &on_device, points, &params)
+            .expect("densities");
+        judge("GPU", at, bound, &got);
+    }
 }

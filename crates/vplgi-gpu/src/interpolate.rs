@@ -148,8 +148,15 @@ impl InterpolateKernel {
         };
         validated(device, "interpolate", || {
             let running = storage_zeroed::<[f32; 4]>(device, "interpolated irradiance", count as usize);
-            let no_sh = storage_zeroed::<ShRgb>(device, "no harmonics", 1);
-            let sh = samples.sh.as_ref().unwrap_or(&no_sh);
+            // The VPL lights' samples carry none, and the kernel reads none (Params::sh is 0).
+            let no_sh;
+            let sh = match &samples.sh {
+                Some(b) => b,
+                None => {
+                    no_sh = storage_zeroed::<ShRgb>(device, "no harmonics", 1);
+                    &no_sh
+                }
+            };
             let p = kernel_params(device, "interpolate params", &params);
             let b = vec![
                 (0, p.as_entire_buffer_binding()),
